@@ -1,0 +1,162 @@
+"""Ray generators: a pinhole camera, orbit viewpoints and random rays.
+
+Imports only numpy.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["pinhole", "orbit_views", "random_rays"]
+
+
+def _unit(v, name):
+    v = np.asarray(v, dtype=np.float64)
+    norm = np.linalg.norm(v)
+    if not np.isfinite(norm) or norm == 0.0:
+        raise ValueError(f"{name} must be a finite nonzero vector, got {v}")
+    return v / norm
+
+
+def pinhole(eye, target, up=(0, 1, 0), fov_deg=45.0, width=1024, height=1024, dtype=np.float32):
+    """Primary rays of a pinhole camera, one per pixel centre.
+
+    Parameters
+    ----------
+    eye : array_like
+        ``(3,)`` camera position.
+    target : array_like
+        ``(3,)`` point the camera looks at; it projects to the image centre.
+    up : array_like, optional
+        ``(3,)`` approximate up direction; must not be parallel to
+        ``target - eye``.
+    fov_deg : float, optional
+        Vertical field of view in degrees. The horizontal one follows from
+        ``width / height`` (square pixels).
+    width, height : int, optional
+        Image size in pixels.
+    dtype : numpy dtype, optional
+        Float type of the returned arrays.
+
+    Returns
+    -------
+    origins : numpy.ndarray
+        ``(height * width, 3)``, every row equal to ``eye``.
+    directions : numpy.ndarray
+        ``(height * width, 3)`` unit directions, pixels in row-major order:
+        ray ``i * width + j`` goes through row ``i`` (row 0 is the top of the
+        image) and column ``j`` (column 0 is the left).
+    """
+    if width < 1 or height < 1:
+        raise ValueError(f"width and height must be positive, got {width} x {height}")
+    if not 0.0 < fov_deg < 180.0:
+        raise ValueError(f"fov_deg must be in (0, 180), got {fov_deg}")
+    eye = np.asarray(eye, dtype=np.float64)
+    forward = _unit(np.asarray(target, dtype=np.float64) - eye, "target - eye")
+    right = np.cross(forward, _unit(up, "up"))
+    if np.linalg.norm(right) < 1e-9:
+        raise ValueError("up is parallel to the viewing direction")
+    right /= np.linalg.norm(right)
+    true_up = np.cross(right, forward)
+
+    half_h = np.tan(np.radians(fov_deg) / 2.0)
+    half_w = half_h * width / height
+    x = ((np.arange(width) + 0.5) / width * 2.0 - 1.0) * half_w
+    y = (1.0 - (np.arange(height) + 0.5) / height * 2.0) * half_h
+    dirs = (
+        forward[None, None, :]
+        + x[None, :, None] * right[None, None, :]
+        + y[:, None, None] * true_up[None, None, :]
+    ).reshape(-1, 3)
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    origins = np.tile(eye.astype(dtype), (width * height, 1))
+    return origins, dirs.astype(dtype)
+
+
+def orbit_views(bounds, n=3, distance=2.0):
+    """Viewpoints around a bounding box, all looking at its centre.
+
+    The eyes sit at ``distance`` times the bounding radius (half the box
+    diagonal) from the centre, at azimuths ``30 + 360 k / n`` degrees about
+    the +y axis and alternating elevations of +25 and -15 degrees, so no view
+    is axis-aligned and the ``n`` directions are distinct.
+
+    Parameters
+    ----------
+    bounds : array_like
+        ``(2, 3)`` ``[min, max]`` corners (as ``trimesh.Trimesh.bounds``).
+    n : int, optional
+        Number of views.
+    distance : float, optional
+        Eye distance from the centre, in bounding radii.
+
+    Returns
+    -------
+    list of tuple
+        ``n`` tuples ``(eye, target, up)`` of ``(3,)`` float64 arrays, ready
+        for ``pinhole(*view, ...)``. ``up`` is +y.
+    """
+    bounds = np.asarray(bounds, dtype=np.float64)
+    if bounds.shape != (2, 3):
+        raise ValueError(f"bounds must have shape (2, 3), got {bounds.shape}")
+    if n < 1:
+        raise ValueError(f"n must be at least 1, got {n}")
+    centre = bounds.mean(axis=0)
+    radius = 0.5 * np.linalg.norm(bounds[1] - bounds[0])
+    if not radius > 0.0:
+        radius = 1.0
+    up = np.array([0.0, 1.0, 0.0])
+    views = []
+    for k in range(n):
+        azimuth = np.radians(30.0 + 360.0 * k / n)
+        elevation = np.radians(25.0 if k % 2 == 0 else -15.0)
+        direction = np.array(
+            [
+                np.cos(elevation) * np.sin(azimuth),
+                np.sin(elevation),
+                np.cos(elevation) * np.cos(azimuth),
+            ]
+        )
+        views.append((centre + distance * radius * direction, centre.copy(), up.copy()))
+    return views
+
+
+def random_rays(bounds, n, seed, grow=0.25, dtype=np.float64):
+    """Random rays in and around a bounding box.
+
+    Parameters
+    ----------
+    bounds : array_like
+        ``(2, 3)`` ``[min, max]`` corners.
+    n : int
+        Number of rays.
+    seed : int or numpy.random.SeedSequence
+        Seed for ``numpy.random.default_rng``; the same seed gives the same rays.
+    grow : float, optional
+        The box is grown by ``grow`` times its size on each side before sampling
+        origins, so some rays start outside the mesh's box.
+    dtype : numpy dtype, optional
+        Float type of the returned arrays.
+
+    Returns
+    -------
+    origins : numpy.ndarray
+        ``(n, 3)``, uniform in the grown box.
+    directions : numpy.ndarray
+        ``(n, 3)`` unit vectors, uniform on the sphere.
+    """
+    bounds = np.asarray(bounds, dtype=np.float64)
+    if bounds.shape != (2, 3):
+        raise ValueError(f"bounds must have shape (2, 3), got {bounds.shape}")
+    rng = np.random.default_rng(seed)
+    size = bounds[1] - bounds[0]
+    lo = bounds[0] - grow * size
+    hi = bounds[1] + grow * size
+    origins = lo + rng.random((n, 3)) * (hi - lo)
+    directions = rng.standard_normal((n, 3))
+    norms = np.linalg.norm(directions, axis=1, keepdims=True)
+    bad = norms[:, 0] == 0.0  # probability zero, but keep the output unit length
+    directions[bad] = (1.0, 0.0, 0.0)
+    norms[bad] = 1.0
+    directions /= norms
+    return origins.astype(dtype), directions.astype(dtype)

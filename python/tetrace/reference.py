@@ -1,0 +1,351 @@
+"""Reference hits from Intel Embree (through the ``embreex`` binding).
+
+Embree is the ground truth that tests and benchmarks compare the tet-mesh caster
+against. It takes the triangles exactly as given: no cleaning, merging or
+removal of degenerate triangles (zero-area triangles are harmless to it), so the
+triangle ids it reports are the caller's face indices.
+
+This module imports only numpy (trimesh and embreex are imported when needed),
+so it loads without the compiled extension.
+
+Notes
+-----
+Things about ``embreex`` 4.4 that shape this module:
+
+* Embree works in float32. Vertices, origins and directions are rounded to
+  float32 before casting, and ``t``, ``u`` and ``v`` carry float32 precision,
+  whatever the dtype of the arrays returned.
+* ``EmbreeScene.run`` takes a per-ray ``tfar`` (its ``dists`` argument, which it
+  overwrites in place) but no ``tnear``: every ray starts at ``tnear = 0``. A
+  ``tmin`` other than zero is emulated by moving the origin to
+  ``origin + tmin * direction`` and adding ``tmin`` back to ``t``.
+* ``EmbreeScene(robust=True)`` sets ``RTC_SCENE_FLAG_ROBUST`` (Embree avoids
+  optimisations that lose accuracy, so rays do not slip through shared edges).
+* ``run`` casts one ray at a time on one thread, but releases the GIL, so
+  :meth:`EmbreeReference.cast` splits large batches across threads.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+from .hits import HIT, MISS, Hits
+
+__all__ = ["embree_available", "embree_scene", "embree_cast", "EmbreeReference", "load_triangles"]
+
+# Below this many rays a batch is cast on the calling thread only.
+_MIN_RAYS_PER_THREAD = 16384
+
+
+def embree_available() -> bool:
+    """Return whether the ``embreex`` binding can be imported.
+
+    Returns
+    -------
+    bool
+        ``True`` if :func:`embree_cast` and :func:`embree_scene` can run.
+    """
+    try:
+        from embreex import rtcore_scene  # noqa: F401
+        from embreex.mesh_construction import TriangleMesh  # noqa: F401
+    except Exception:
+        return False
+    return True
+
+
+def load_triangles(mesh) -> tuple[np.ndarray, np.ndarray]:
+    """Return ``(vertices, faces)`` of a mesh given in any accepted form.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh or str or os.PathLike or tuple
+        A ``trimesh.Trimesh`` (anything with ``vertices`` and ``faces``), a path
+        loaded with ``trimesh.load(path, force="mesh")``, or a
+        ``(vertices (V, 3), faces (F, 3))`` tuple.
+
+    Returns
+    -------
+    vertices : numpy.ndarray
+        ``(V, 3)`` float64.
+    faces : numpy.ndarray
+        ``(F, 3)`` int64, in the caller's order; nothing is removed.
+    """
+    if isinstance(mesh, (str, os.PathLike)):
+        import trimesh
+
+        path = Path(mesh)
+        if not path.exists():
+            raise FileNotFoundError(f"mesh file not found: {path}")
+        mesh = trimesh.load(path, force="mesh")
+    if hasattr(mesh, "vertices") and hasattr(mesh, "faces"):
+        vertices, faces = mesh.vertices, mesh.faces
+    elif isinstance(mesh, (tuple, list)) and len(mesh) == 2:
+        vertices, faces = mesh
+    else:
+        raise TypeError(
+            "mesh must be a trimesh.Trimesh, a path or a (vertices, faces) tuple, "
+            f"got {type(mesh).__name__}"
+        )
+    vertices = np.asarray(vertices, dtype=np.float64)
+    faces = np.asarray(faces)
+    if vertices.ndim != 2 or vertices.shape[1] != 3:
+        raise ValueError(f"vertices must have shape (V, 3), got {vertices.shape}")
+    if faces.ndim != 2 or faces.shape[1] != 3:
+        raise ValueError(f"faces must have shape (F, 3), got {faces.shape}")
+    if not np.issubdtype(faces.dtype, np.integer):
+        raise TypeError(f"faces must be integers, got {faces.dtype}")
+    faces = faces.astype(np.int64, copy=False)
+    if faces.size and (faces.min() < 0 or faces.max() >= len(vertices)):
+        raise ValueError("faces index outside the vertex array")
+    return vertices, faces
+
+
+def _split_rays(origins, directions):
+    """Normalise the ray arguments to float arrays ``(N, 3), (N, 3)``."""
+    origins = np.asarray(origins)
+    if directions is None:
+        rays = np.atleast_2d(origins)
+        if rays.ndim != 2 or rays.shape[1] != 6:
+            raise ValueError(
+                f"with directions=None, origins must be (N, 6) rays, got shape {origins.shape}"
+            )
+        origins, directions = rays[:, :3], rays[:, 3:]
+    else:
+        origins = np.atleast_2d(origins)
+        directions = np.atleast_2d(np.asarray(directions))
+        if origins.ndim != 2 or origins.shape[1] != 3:
+            raise ValueError(f"origins must have shape (N, 3), got {origins.shape}")
+        if directions.ndim != 2 or directions.shape[1] != 3:
+            raise ValueError(f"directions must have shape (N, 3) or (3,), got {directions.shape}")
+        if len(directions) == 1 and len(origins) != 1:
+            directions = np.broadcast_to(directions, origins.shape)
+        elif len(origins) == 1 and len(directions) != 1:
+            origins = np.broadcast_to(origins, directions.shape)
+        if origins.shape != directions.shape:
+            raise ValueError(
+                f"origins {origins.shape} and directions {directions.shape} differ in length"
+            )
+    dtype = np.result_type(origins.dtype, directions.dtype, np.float32)
+    if not np.issubdtype(dtype, np.floating):
+        dtype = np.float64
+    return origins.astype(dtype, copy=False), directions.astype(dtype, copy=False)
+
+
+class EmbreeReference:
+    """An Embree scene built once and cast many times.
+
+    Build it with :func:`embree_scene`. The BVH is built (committed) in the
+    constructor, so :meth:`cast` times casting only.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh or str or os.PathLike or tuple
+        See :func:`load_triangles`.
+    robust : bool, optional
+        Build with ``RTC_SCENE_FLAG_ROBUST`` (default ``True``).
+
+    Attributes
+    ----------
+    vertices : numpy.ndarray
+        ``(V, 3)`` float32 vertices as Embree sees them.
+    faces : numpy.ndarray
+        ``(F, 3)`` int32 faces, the caller's order.
+    robust : bool
+        Whether the robust flag was set.
+    build_seconds : float
+        Wall time of building and committing the scene.
+    """
+
+    def __init__(self, mesh, *, robust: bool = True):
+        from embreex import rtcore_scene as rtcs
+        from embreex.mesh_construction import TriangleMesh
+
+        vertices, faces = load_triangles(mesh)
+        # Keep the arrays alive as long as the scene: embreex may share their memory.
+        self.vertices = np.ascontiguousarray(vertices, dtype=np.float32)
+        self.faces = np.ascontiguousarray(faces, dtype=np.int32)
+        self.robust = bool(robust)
+        start = time.perf_counter()
+        self._scene = rtcs.EmbreeScene(robust=self.robust)
+        self._geometry = None
+        if len(self.faces):
+            self._geometry = TriangleMesh(self._scene, self.vertices, self.faces)
+        # run() commits (builds the BVH) on first use; pay for it here.
+        probe = np.zeros((1, 3), dtype=np.float32)
+        self._scene.run(probe, probe + np.float32(1.0), dists=np.zeros(1, np.float32), output=1)
+        self.build_seconds = time.perf_counter() - start
+
+    @property
+    def n_triangles(self) -> int:
+        """int : Number of triangles in the scene."""
+        return len(self.faces)
+
+    def __repr__(self) -> str:
+        return (
+            f"EmbreeReference(triangles={self.n_triangles}, robust={self.robust}, "
+            f"build_seconds={self.build_seconds:.3f})"
+        )
+
+    def _run(self, origins32, directions32, tfar32):
+        out = self._scene.run(origins32, directions32, dists=tfar32, output=1)
+        return out["primID"], out["tfar"], out["u"], out["v"]
+
+    def cast(self, origins, directions=None, tmin=0.0, tmax=np.inf, *, threads=None) -> Hits:
+        """Cast rays and return the first hit of each.
+
+        Parameters
+        ----------
+        origins : array_like
+            ``(N, 3)`` ray origins, or ``(N, 6)`` rays ``[ox, oy, oz, dx, dy, dz]``
+            when ``directions`` is ``None``.
+        directions : array_like, optional
+            ``(N, 3)`` directions, or one ``(3,)`` direction for all rays. They
+            need not be unit length: ``t`` is measured in units of their length.
+        tmin, tmax : float or array_like, optional
+            Only hits with ``tmin <= t <= tmax`` count. Scalars or ``(N,)`` arrays.
+        threads : int, optional
+            Worker threads for large batches (default: every CPU this process
+            may use). The results do not depend on it.
+
+        Returns
+        -------
+        Hits
+            Float fields have the floating dtype of the inputs (float64 for
+            float64 or integer input, float32 for float32 input), with float32
+            precision in ``t``, ``u`` and ``v``. ``point = origin + t * direction``
+            in that dtype. ``tet`` is ``-1`` and ``steps`` ``0`` for every ray;
+            ``status`` is only ``HIT`` or ``MISS``.
+        """
+        origins, directions = _split_rays(origins, directions)
+        dtype = origins.dtype
+        n = len(origins)
+        tmin = np.broadcast_to(np.asarray(tmin, dtype=np.float64), (n,))
+        tmax = np.broadcast_to(np.asarray(tmax, dtype=np.float64), (n,))
+        if not np.all(np.isfinite(tmin)):
+            raise ValueError("tmin must be finite")
+        if n == 0 or self.n_triangles == 0:
+            return Hits.misses(n, dtype=dtype)
+
+        shifted = np.any(tmin != 0.0)
+        if shifted:
+            start = origins.astype(np.float64) + tmin[:, None] * directions.astype(np.float64)
+        else:
+            start = origins
+        o32 = np.ascontiguousarray(start, dtype=np.float32)
+        d32 = np.ascontiguousarray(directions, dtype=np.float32)
+        # embreex writes the hit distances into this array, so it must be a fresh copy.
+        # A negative tfar (tmax < tmin) makes Embree skip the ray.
+        with np.errstate(invalid="ignore"):
+            span = tmax - tmin
+        tfar = np.where(span >= 0.0, span, -1.0).astype(np.float32)
+
+        if threads is None:
+            threads = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+        threads = max(1, min(int(threads or 1), n // _MIN_RAYS_PER_THREAD))
+        if threads == 1:
+            prim, t32, u32, v32 = self._run(o32, d32, tfar)
+        else:
+            bounds = np.linspace(0, n, threads + 1).astype(np.int64)
+            slices = [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:])]
+            with ThreadPoolExecutor(threads) as pool:
+                parts = list(pool.map(lambda s: self._run(o32[s], d32[s], tfar[s]), slices))
+            prim, t32, u32, v32 = (np.concatenate(p) for p in zip(*parts))
+
+        hit = prim >= 0
+        t = np.full(n, np.inf, dtype=dtype)
+        t[hit] = t32[hit].astype(np.float64) + (tmin[hit] if shifted else 0.0)
+        u = np.full(n, np.nan, dtype=dtype)
+        v = np.full(n, np.nan, dtype=dtype)
+        u[hit] = u32[hit]
+        v[hit] = v32[hit]
+        point = np.full((n, 3), np.nan, dtype=dtype)
+        point[hit] = origins[hit] + t[hit, None] * directions[hit]
+        return Hits(
+            t=t,
+            triangle=np.where(hit, prim, -1).astype(np.int32),
+            u=u,
+            v=v,
+            point=point,
+            tet=np.full(n, -1, dtype=np.int32),
+            steps=np.zeros(n, dtype=np.uint32),
+            status=np.where(hit, HIT, MISS).astype(np.uint8),
+        )
+
+
+def embree_scene(mesh, *, robust: bool = True) -> EmbreeReference:
+    """Build a reusable Embree scene.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh or str or os.PathLike or tuple
+        A ``trimesh.Trimesh``, a mesh file path, or ``(vertices, faces)``.
+        Triangles are used as given (see :func:`load_triangles`).
+    robust : bool, optional
+        Set Embree's ``RTC_SCENE_FLAG_ROBUST`` (default ``True``).
+
+    Returns
+    -------
+    EmbreeReference
+        Call ``.cast(origins, directions, tmin, tmax)`` on it; the BVH build is
+        already done (``.build_seconds``).
+
+    Notes
+    -----
+    Embree works in float32: vertices are rounded to float32.
+
+    Examples
+    --------
+    >>> scene = embree_scene("bunny.obj")  # doctest: +SKIP
+    >>> hits = scene.cast(origins, directions)  # doctest: +SKIP
+    """
+    return EmbreeReference(mesh, robust=robust)
+
+
+def embree_cast(mesh, origins, directions=None, *, tmin=0.0, tmax=np.inf, robust=True, threads=None) -> Hits:
+    """Cast rays against a triangle mesh with Embree and return the first hits.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh or str or os.PathLike or tuple
+        A ``trimesh.Trimesh``, a path (loaded with
+        ``trimesh.load(path, force="mesh")``) or ``(vertices (V, 3), faces (F, 3))``.
+        Embree takes the triangles as given, so ``Hits.triangle`` indexes the
+        caller's faces; degenerate triangles are harmless.
+    origins : array_like
+        ``(N, 3)`` origins, or ``(N, 6)`` rays ``[ox, oy, oz, dx, dy, dz]`` when
+        ``directions`` is ``None``.
+    directions : array_like, optional
+        ``(N, 3)`` directions or one ``(3,)`` direction for every ray. Not
+        normalised: ``t`` is in units of their length.
+    tmin, tmax : float or array_like, optional
+        Only hits with ``tmin <= t <= tmax`` count.
+    robust : bool, optional
+        Set Embree's ``RTC_SCENE_FLAG_ROBUST`` (default ``True``).
+    threads : int, optional
+        Worker threads (default: all available); results do not depend on it.
+
+    Returns
+    -------
+    Hits
+        ``t``, ``triangle``, ``u``, ``v`` (``point = (1-u-v)*p0 + u*p1 + v*p2``),
+        ``point = origin + t * direction``; ``tet = -1``, ``steps = 0``,
+        ``status`` ``HIT`` or ``MISS``.
+
+    Notes
+    -----
+    Embree computes in float32: vertices, origins and directions are rounded to
+    float32 and ``t``, ``u``, ``v`` have float32 precision (about 1e-7 relative),
+    even when the returned arrays are float64. Compare against it with
+    tolerances, and expect rays that graze an edge or a vertex to pick either
+    neighbouring triangle. ``embreex`` has no ``tnear``, so a nonzero ``tmin``
+    moves the origin to ``origin + tmin * direction`` before casting.
+
+    The scene is built for this call only; use :func:`embree_scene` to build
+    once and time casting alone.
+    """
+    return embree_scene(mesh, robust=robust).cast(origins, directions, tmin, tmax, threads=threads)

@@ -1,0 +1,31 @@
+//! The one error type of the core. `src/py/` maps each variant to a Python exception once.
+
+use std::fmt;
+
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Error {
+    /// Arrays with wrong shapes, non-finite values, indices out of range.
+    InvalidInput(String),
+    /// The tetrahedralization itself is broken: inverted or flat tets, non-manifold faces,
+    /// constrained faces that are not faces of any tet.
+    InvalidMesh(String),
+    /// A size limit of a layout (e.g. 31-bit tet ids) would be exceeded.
+    TooLarge(String),
+    /// An option that does not exist or does not fit the others.
+    InvalidOption(String),
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Error::InvalidInput(m) => write!(f, "invalid input: {m}"),
+            Error::InvalidMesh(m) => write!(f, "invalid tetrahedralization: {m}"),
+            Error::TooLarge(m) => write!(f, "too large: {m}"),
+            Error::InvalidOption(m) => write!(f, "invalid option: {m}"),
+        }
+    }
+}
+
+impl std::error::Error for Error {}
+
+pub type Result<T> = std::result::Result<T, Error>;

@@ -1,0 +1,65 @@
+//! Aman, Demirci & Güdükbay 2022, Tet20: 20 bytes per tet.
+//!
+//! The four vertex ids are stored as their xor: entering through a face whose three ids the
+//! walk already holds, the fourth is `xor ^ a ^ b ^ c`, so one vertex is fetched per step.
+//! The four links are stored in the order of the ids of the vertices opposite them, so the
+//! slot of the face opposite vertex x is the rank of x among the tet's four ids.
+
+use super::Layout;
+use crate::error::Result;
+use crate::mesh::{Link, TetMesh};
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Tet20Record {
+    pub vertex_xor: u32,
+    /// `links[k]`: across the face opposite the vertex of rank k (smallest id first).
+    pub links: [Link; 4],
+}
+
+const _: () = assert!(std::mem::size_of::<Tet20Record>() == 20);
+
+pub struct Tet20 {
+    pub records: Vec<Tet20Record>,
+}
+
+#[inline(always)]
+fn rank(x: u32, others: [u32; 3]) -> usize {
+    (others[0] < x) as usize + (others[1] < x) as usize + (others[2] < x) as usize
+}
+
+impl Layout for Tet20 {
+    const NAME: &'static str = "tet20";
+    const BYTES_PER_TET: usize = 20;
+
+    fn build(mesh: &TetMesh) -> Result<Self> {
+        let records = mesh
+            .tets
+            .iter()
+            .zip(&mesh.links)
+            .map(|(tet, links)| {
+                let mut r = Tet20Record { vertex_xor: tet[0] ^ tet[1] ^ tet[2] ^ tet[3], links: [0; 4] };
+                for i in 0..4 {
+                    let others = [tet[(i + 1) % 4], tet[(i + 2) % 4], tet[(i + 3) % 4]];
+                    r.links[rank(tet[i], others)] = links[i];
+                }
+                r
+            })
+            .collect();
+        Ok(Tet20 { records })
+    }
+
+    #[inline(always)]
+    fn new_vertex(&self, t: u32, a: u32, b: u32, c: u32) -> u32 {
+        self.records[t as usize].vertex_xor ^ a ^ b ^ c
+    }
+
+    #[inline(always)]
+    fn link_opposite(&self, t: u32, opposite: u32, others: [u32; 3]) -> Link {
+        self.records[t as usize].links[rank(opposite, others)]
+    }
+
+    fn bytes(&self) -> usize {
+        self.records.len() * Self::BYTES_PER_TET
+    }
+}

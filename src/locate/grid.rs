@@ -1,0 +1,136 @@
+//! A coarse uniform grid of seed tets plus a stochastic visibility walk with exact predicates.
+//!
+//! The grid brings the walk within a few tets of the point; the walk (Devillers et al.'s
+//! "remembering stochastic walk": start each test at a random face) terminates with
+//! probability one even in non-Delaunay meshes. A hint tet (the previous ray's) replaces the
+//! grid seed for coherent rays. A step guard falls back to a scan so that location always ends.
+
+use crate::mesh::build::{orient, OUTWARD_FACES};
+use crate::mesh::{TetMesh, BOUNDARY};
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Located {
+    Inside(u32),
+    Outside,
+}
+
+pub struct GridLocator {
+    lo: [f64; 3],
+    inv_cell: [f64; 3],
+    dims: [usize; 3],
+    seeds: Vec<u32>,
+}
+
+/// Walks before the guard falls back to a linear scan.
+const WALK_GUARD: u32 = 1 << 16;
+
+impl GridLocator {
+    pub fn build(mesh: &TetMesh) -> GridLocator {
+        let [lo, hi] = mesh.bounds;
+        let ext = [0, 1, 2].map(|a| (hi[a] - lo[a]).max(f64::MIN_POSITIVE));
+        // About two tets per cell, at most 128 cells per axis, cells roughly cubic.
+        let target = (mesh.len() as f64 / 2.0).max(1.0);
+        let vol = ext[0] * ext[1] * ext[2];
+        let side = (vol / target).cbrt();
+        let dims = ext.map(|e| ((e / side).ceil() as usize).clamp(1, 128));
+        let inv_cell = [0, 1, 2].map(|a| dims[a] as f64 / ext[a]);
+        let n = dims[0] * dims[1] * dims[2];
+        let mut seeds = vec![BOUNDARY; n];
+        let mut g = GridLocator { lo, inv_cell, dims, seeds: Vec::new() };
+        for (t, tet) in mesh.tets.iter().enumerate() {
+            let mut c = [0.0; 3];
+            for &v in tet {
+                for a in 0..3 {
+                    c[a] += 0.25 * mesh.points[v as usize][a];
+                }
+            }
+            seeds[g.cell(c)] = t as u32;
+        }
+        // Fill empty cells from filled neighbours, layer by layer.
+        let mut frontier: Vec<usize> = (0..n).filter(|&i| seeds[i] != BOUNDARY).collect();
+        while !frontier.is_empty() {
+            let mut next = Vec::new();
+            for &i in &frontier {
+                let (x, y, z) = (i % dims[0], (i / dims[0]) % dims[1], i / (dims[0] * dims[1]));
+                let mut visit = |xx: usize, yy: usize, zz: usize| {
+                    let j = xx + dims[0] * (yy + dims[1] * zz);
+                    if seeds[j] == BOUNDARY {
+                        seeds[j] = seeds[i];
+                        next.push(j);
+                    }
+                };
+                if x > 0 { visit(x - 1, y, z) }
+                if x + 1 < dims[0] { visit(x + 1, y, z) }
+                if y > 0 { visit(x, y - 1, z) }
+                if y + 1 < dims[1] { visit(x, y + 1, z) }
+                if z > 0 { visit(x, y, z - 1) }
+                if z + 1 < dims[2] { visit(x, y, z + 1) }
+            }
+            frontier = next;
+        }
+        g.seeds = seeds;
+        g
+    }
+
+    #[inline]
+    fn cell(&self, p: [f64; 3]) -> usize {
+        let i = [0, 1, 2].map(|a| {
+            let x = ((p[a] - self.lo[a]) * self.inv_cell[a]).floor();
+            (x.max(0.0) as usize).min(self.dims[a] - 1)
+        });
+        i[0] + self.dims[0] * (i[1] + self.dims[1] * i[2])
+    }
+
+    pub fn bytes(&self) -> usize {
+        self.seeds.len() * 4
+    }
+
+    /// The tet holding `p` (on its boundary counts), or Outside when p is outside the domain.
+    /// `hint` is a tet near p, e.g. the previous ray's start tet.
+    pub fn locate(&self, mesh: &TetMesh, p: [f64; 3], hint: Option<u32>, rng: &mut u32) -> Located {
+        let [lo, hi] = mesh.bounds;
+        if mesh.domain_is_box && (0..3).any(|a| !(p[a] >= lo[a] && p[a] <= hi[a])) {
+            return Located::Outside;
+        }
+        let mut t = hint.unwrap_or_else(|| self.seeds[self.cell(p)]);
+        let mut prev = BOUNDARY;
+        for _ in 0..WALK_GUARD {
+            let v = mesh.tet_points(t);
+            *rng ^= *rng << 13;
+            *rng ^= *rng >> 17;
+            *rng ^= *rng << 5;
+            let first = (*rng % 4) as usize;
+            let mut moved = false;
+            for k in 0..4 {
+                let i = (first + k) % 4;
+                let n = mesh.neighbor(t, i);
+                if n == prev && n != BOUNDARY {
+                    continue; // we came from there: p is not behind that face
+                }
+                let f = OUTWARD_FACES[i];
+                if orient(v[f[0]], v[f[1]], v[f[2]], p) > 0.0 {
+                    if n == BOUNDARY {
+                        return Located::Outside;
+                    }
+                    prev = t;
+                    t = n;
+                    moved = true;
+                    break;
+                }
+            }
+            if !moved {
+                return Located::Inside(t);
+            }
+        }
+        self.scan(mesh, p)
+    }
+
+    fn scan(&self, mesh: &TetMesh, p: [f64; 3]) -> Located {
+        (0..mesh.len() as u32)
+            .find(|&t| {
+                let v = mesh.tet_points(t);
+                OUTWARD_FACES.iter().all(|f| orient(v[f[0]], v[f[1]], v[f[2]], p) <= 0.0)
+            })
+            .map_or(Located::Outside, Located::Inside)
+    }
+}

@@ -1,0 +1,337 @@
+//! Construction of the topology from what a mesher gives: points, tets and constrained faces.
+//!
+//! Tets are re-oriented positively, faces are matched by sorting their vertex triples (no hash
+//! map: a sort of 4T keys is cache-friendly and parallel), constrained faces are attached to
+//! both tets that share them, and the result is validated so that the walk can trust it.
+
+use crate::error::{Error, Result};
+use rayon::prelude::*;
+
+/// Marks a face on the domain boundary: nothing lies beyond it.
+pub const BOUNDARY: u32 = u32::MAX;
+/// Bit set in a [`Link`] when the face is a scene triangle (a constrained face).
+pub const CONSTRAINED_BIT: u32 = 1 << 31;
+/// Largest tet count a 31-bit link can address (u32::MAX itself is BOUNDARY).
+pub const MAX_TETS: usize = (CONSTRAINED_BIT - 1) as usize;
+
+/// What lies across one face of a tet, packed into 32 bits so layouts can store it as is:
+/// `BOUNDARY`, a neighbour tet id, or `CONSTRAINED_BIT | index` into [`TetMesh::constrained`].
+pub type Link = u32;
+
+/// One side of a constrained face: the scene triangle it lies on and the tet beyond it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ConstrainedSide {
+    pub triangle: u32,
+    /// The tet on the other side, or BOUNDARY when the triangle lies on the domain boundary.
+    pub beyond: u32,
+}
+
+/// Local vertex indices of the face opposite vertex i, ordered so that its normal points out of
+/// a positively oriented tet (det(v1-v0, v2-v0, v3-v0) > 0).
+pub const OUTWARD_FACES: [[usize; 3]; 4] = [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]];
+
+#[derive(Clone, Debug)]
+pub struct TetMesh {
+    pub points: Vec<[f64; 3]>,
+    /// Positively oriented tets.
+    pub tets: Vec<[u32; 4]>,
+    /// `links[t][i]`: what lies across the face of tet t opposite its vertex i.
+    pub links: Vec<[Link; 4]>,
+    pub constrained: Vec<ConstrainedSide>,
+    /// Axis-aligned bounds of all points.
+    pub bounds: [[f64; 3]; 2],
+    /// True when every boundary face lies on a side of `bounds`, so the domain is that box and
+    /// rays from outside can enter by clipping against it.
+    pub domain_is_box: bool,
+    pub boundary_faces: usize,
+}
+
+/// Exact orientation with the sign convention used everywhere in tetrace:
+/// positive when d lies on the side of plane (a,b,c) that det(b-a, c-a, d-a) > 0 points to.
+#[inline]
+pub fn orient(a: [f64; 3], b: [f64; 3], c: [f64; 3], d: [f64; 3]) -> f64 {
+    let p = |v: [f64; 3]| robust::Coord3D { x: v[0], y: v[1], z: v[2] };
+    // robust::orient3d is positive when d is *below* (a,b,c); ours is the opposite sign.
+    -robust::orient3d(p(a), p(b), p(c), p(d))
+}
+
+#[inline]
+fn sorted3(mut k: [u32; 3]) -> [u32; 3] {
+    if k[0] > k[1] {
+        k.swap(0, 1);
+    }
+    if k[1] > k[2] {
+        k.swap(1, 2);
+    }
+    if k[0] > k[1] {
+        k.swap(0, 1);
+    }
+    k
+}
+
+impl TetMesh {
+    /// Builds and validates the topology.
+    ///
+    /// `faces[k]` is a constrained face (three point ids) lying on scene triangle
+    /// `face_triangle[k]`. A face listed twice keeps the first triangle id.
+    pub fn build(
+        points: Vec<[f64; 3]>,
+        tets: &[[u32; 4]],
+        faces: &[[u32; 3]],
+        face_triangle: &[u32],
+    ) -> Result<TetMesh> {
+        if tets.is_empty() {
+            return Err(Error::InvalidInput("no tetrahedra".into()));
+        }
+        if tets.len() > MAX_TETS {
+            return Err(Error::TooLarge(format!(
+                "{} tets; links address at most {MAX_TETS}",
+                tets.len()
+            )));
+        }
+        if faces.len() != face_triangle.len() {
+            return Err(Error::InvalidInput(format!(
+                "{} constrained faces but {} triangle ids",
+                faces.len(),
+                face_triangle.len()
+            )));
+        }
+        if points.len() >= u32::MAX as usize {
+            return Err(Error::TooLarge(format!("{} points", points.len())));
+        }
+        if let Some(i) = points.iter().position(|p| !p.iter().all(|x| x.is_finite())) {
+            return Err(Error::InvalidInput(format!("point {i} is not finite: {:?}", points[i])));
+        }
+        let np = points.len() as u32;
+        if let Some(t) = tets.iter().position(|t| t.iter().any(|&v| v >= np)) {
+            return Err(Error::InvalidInput(format!(
+                "tet {t} {:?} refers to a point beyond the {np} given",
+                tets[t]
+            )));
+        }
+        if let Some(f) = faces.iter().position(|f| f.iter().any(|&v| v >= np)) {
+            return Err(Error::InvalidInput(format!(
+                "constrained face {f} {:?} refers to a point beyond the {np} given",
+                faces[f]
+            )));
+        }
+
+        // Orient positively with exact predicates; a flat tet cannot be walked through.
+        let oriented: Vec<[u32; 4]> = tets
+            .par_iter()
+            .enumerate()
+            .map(|(i, t)| {
+                let [a, b, c, d] = t.map(|v| points[v as usize]);
+                let o = orient(a, b, c, d);
+                if o > 0.0 {
+                    Ok(*t)
+                } else if o < 0.0 {
+                    Ok([t[0], t[1], t[3], t[2]])
+                } else {
+                    Err(Error::InvalidMesh(format!("tet {i} {t:?} has zero volume")))
+                }
+            })
+            .collect::<Result<_>>()?;
+
+        // Match faces: sort (sorted vertex triple, tet*4+local) and pair equal neighbours.
+        let mut keys: Vec<([u32; 3], u32)> = Vec::with_capacity(oriented.len() * 4);
+        for (t, tet) in oriented.iter().enumerate() {
+            for (i, f) in OUTWARD_FACES.iter().enumerate() {
+                keys.push((sorted3([tet[f[0]], tet[f[1]], tet[f[2]]]), (t as u32) * 4 + i as u32));
+            }
+        }
+        keys.par_sort_unstable();
+        let mut links = vec![[BOUNDARY; 4]; oriented.len()];
+        let mut boundary_faces = 0usize;
+        let mut j = 0;
+        while j < keys.len() {
+            let mut k = j + 1;
+            while k < keys.len() && keys[k].0 == keys[j].0 {
+                k += 1;
+            }
+            match k - j {
+                1 => boundary_faces += 1,
+                2 => {
+                    let (x, y) = (keys[j].1, keys[j + 1].1);
+                    links[(x / 4) as usize][(x % 4) as usize] = y / 4;
+                    links[(y / 4) as usize][(y % 4) as usize] = x / 4;
+                }
+                n => {
+                    return Err(Error::InvalidMesh(format!(
+                        "face {:?} is shared by {n} tets (at most 2 allowed)",
+                        keys[j].0
+                    )))
+                }
+            }
+            j = k;
+        }
+
+        // Attach constrained faces to both sides.
+        let mut constrained: Vec<ConstrainedSide> = Vec::with_capacity(faces.len() * 2);
+        for (f, (&face, &tri)) in faces.iter().zip(face_triangle).enumerate() {
+            let key = sorted3(face);
+            let lo = keys.partition_point(|e| e.0 < key);
+            let sides: Vec<u32> =
+                keys[lo..].iter().take_while(|e| e.0 == key).map(|e| e.1).collect();
+            if sides.is_empty() {
+                return Err(Error::InvalidMesh(format!(
+                    "constrained face {f} {face:?} is not a face of any tet"
+                )));
+            }
+            for &s in &sides {
+                let (t, i) = ((s / 4) as usize, (s % 4) as usize);
+                if links[t][i] & CONSTRAINED_BIT != 0 && links[t][i] != BOUNDARY {
+                    continue; // listed twice: keep the first triangle id
+                }
+                let beyond = links[t][i];
+                if constrained.len() >= MAX_TETS {
+                    return Err(Error::TooLarge("too many constrained faces".into()));
+                }
+                links[t][i] = CONSTRAINED_BIT | constrained.len() as u32;
+                constrained.push(ConstrainedSide { triangle: tri, beyond });
+            }
+        }
+
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for p in &points {
+            for a in 0..3 {
+                lo[a] = lo[a].min(p[a]);
+                hi[a] = hi[a].max(p[a]);
+            }
+        }
+        let on_box_side = |f: [u32; 3]| {
+            (0..3).any(|a| {
+                f.iter().all(|&v| points[v as usize][a] == lo[a])
+                    || f.iter().all(|&v| points[v as usize][a] == hi[a])
+            })
+        };
+        let domain_is_box = links.iter().zip(&oriented).all(|(l, tet)| {
+            (0..4).all(|i| {
+                l[i] != BOUNDARY || on_box_side(OUTWARD_FACES[i].map(|k| tet[k]))
+            })
+        });
+
+        Ok(TetMesh {
+            points,
+            tets: oriented,
+            links,
+            constrained,
+            bounds: [lo, hi],
+            domain_is_box,
+            boundary_faces,
+        })
+    }
+
+    pub fn len(&self) -> usize {
+        self.tets.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.tets.is_empty()
+    }
+
+    /// The neighbour across face i for point location and construction, which cross
+    /// constrained faces freely.
+    #[inline]
+    pub fn neighbor(&self, t: u32, i: usize) -> u32 {
+        let l = self.links[t as usize][i];
+        if l == BOUNDARY {
+            BOUNDARY
+        } else if l & CONSTRAINED_BIT != 0 {
+            self.constrained[(l & !CONSTRAINED_BIT) as usize].beyond
+        } else {
+            l
+        }
+    }
+
+    #[inline]
+    pub fn tet_points(&self, t: u32) -> [[f64; 3]; 4] {
+        self.tets[t as usize].map(|v| self.points[v as usize])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A unit cube split into 5 tets (one central, four corners), both windings mixed.
+    pub(crate) fn cube5() -> (Vec<[f64; 3]>, Vec<[u32; 4]>) {
+        let p = (0..8)
+            .map(|i| [(i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64])
+            .collect();
+        let t = vec![[0, 1, 2, 4], [3, 1, 2, 7], [5, 1, 4, 7], [6, 2, 7, 4], [1, 2, 4, 7]];
+        (p, t)
+    }
+
+    #[test]
+    fn cube_topology() {
+        let (p, t) = cube5();
+        let m = TetMesh::build(p, &t, &[], &[]).unwrap();
+        assert_eq!(m.boundary_faces, 12);
+        assert!(m.domain_is_box);
+        for (ti, tet) in m.tets.iter().enumerate() {
+            let [a, b, c, d] = tet.map(|v| m.points[v as usize]);
+            assert!(orient(a, b, c, d) > 0.0, "tet {ti} not positive");
+        }
+        // The central tet touches the other four, each once.
+        let mut n = m.links[4];
+        n.sort();
+        assert_eq!(n, [0, 1, 2, 3]);
+        // Links are symmetric.
+        for t in 0..5u32 {
+            for i in 0..4 {
+                let u = m.neighbor(t, i);
+                if u != BOUNDARY {
+                    assert!((0..4).any(|j| m.neighbor(u, j) == t));
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn outward_faces_point_away() {
+        let (p, t) = cube5();
+        let m = TetMesh::build(p, &t, &[], &[]).unwrap();
+        for tet in &m.tets {
+            let v = tet.map(|i| m.points[i as usize]);
+            for (i, f) in OUTWARD_FACES.iter().enumerate() {
+                // The opposite vertex is behind an outward face.
+                assert!(orient(v[f[0]], v[f[1]], v[f[2]], v[i]) < 0.0);
+            }
+        }
+    }
+
+    #[test]
+    fn constrained_faces_attach_to_both_sides() {
+        let (p, t) = cube5();
+        // The face (1,2,4) is shared by the central tet and the corner tet at 0.
+        let m = TetMesh::build(p, &t, &[[4, 2, 1], [0, 1, 2]], &[7, 9]).unwrap();
+        let cs: Vec<_> = m.constrained.iter().map(|c| (c.triangle, c.beyond)).collect();
+        assert_eq!(cs.len(), 3);
+        assert!(cs.contains(&(7, 0)) && cs.contains(&(7, 4)) && cs.contains(&(9, BOUNDARY)));
+        // Location crosses constrained faces.
+        assert!((0..4).any(|i| m.neighbor(0, i) == 4));
+    }
+
+    #[test]
+    fn errors_not_panics() {
+        let (p, t) = cube5();
+        let flat = vec![[0u32, 1, 2, 3]]; // four points of one cube face
+        assert!(matches!(TetMesh::build(p.clone(), &flat, &[], &[]), Err(Error::InvalidMesh(_))));
+        let bad = vec![[0u32, 1, 2, 99]];
+        assert!(matches!(TetMesh::build(p.clone(), &bad, &[], &[]), Err(Error::InvalidInput(_))));
+        let mut dup = t.clone();
+        dup.push(t[4]);
+        dup.push(t[4]);
+        assert!(matches!(TetMesh::build(p.clone(), &dup, &[], &[]), Err(Error::InvalidMesh(_))));
+        assert!(matches!(
+            TetMesh::build(p.clone(), &t, &[[0, 3, 5]], &[0]),
+            Err(Error::InvalidMesh(_))
+        ));
+        let mut nan = p.clone();
+        nan[0][1] = f64::NAN;
+        assert!(matches!(TetMesh::build(nan, &t, &[], &[]), Err(Error::InvalidInput(_))));
+        assert!(matches!(TetMesh::build(p, &[], &[], &[]), Err(Error::InvalidInput(_))));
+    }
+}

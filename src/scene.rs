@@ -1,0 +1,345 @@
+//! A scene ready to cast: topology, locator, traversal layout, and the caller's triangles for
+//! evaluating hits. Casting is a pure function over slices so the bindings stay thin.
+
+use crate::error::{Error, Result};
+use crate::layout::{Layout, Tet20};
+use crate::locate::{GridLocator, Located};
+use crate::mesh::TetMesh;
+use crate::real::Real;
+use crate::traverse::{walk, Aman2022, ExitMethod, WalkEnd};
+use rayon::prelude::*;
+
+/// Per-ray status codes, shared with Python.
+pub const MISS: u8 = 0;
+pub const HIT: u8 = 1;
+/// The walk could not finish (step guard, or no tet found for the start point).
+pub const FAILED: u8 = 2;
+/// The ray itself is unusable: a non-finite component or a zero-length direction.
+pub const INVALID: u8 = 3;
+
+pub struct Scene {
+    pub mesh: TetMesh,
+    pub locator: GridLocator,
+    pub tet20: Tet20,
+    pub points_f32: Vec<[f32; 3]>,
+    /// The caller's triangles (three corners each), indexed by the ids constrained faces carry.
+    pub triangles: Vec<[[f64; 3]; 3]>,
+}
+
+/// Rays as flat slices of length 3N (origins, directions) in the walk's precision.
+pub struct Rays<'a, R> {
+    pub origins: &'a [R],
+    pub directions: &'a [R],
+    /// One value for all rays, or one per ray.
+    pub tmin: &'a [f64],
+    pub tmax: &'a [f64],
+}
+
+/// Output slices, one entry per ray (`point` has 3 per ray).
+pub struct HitsOut<'a, R> {
+    pub t: &'a mut [R],
+    pub u: &'a mut [R],
+    pub v: &'a mut [R],
+    pub point: &'a mut [R],
+    pub triangle: &'a mut [i32],
+    pub tet: &'a mut [i32],
+    pub steps: &'a mut [u32],
+    pub status: &'a mut [u8],
+}
+
+impl<'a, R> HitsOut<'a, R> {
+    pub fn len(&self) -> usize {
+        self.t.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.t.is_empty()
+    }
+
+    fn split_at(self, n: usize) -> (Self, Self) {
+        let (t0, t1) = self.t.split_at_mut(n);
+        let (u0, u1) = self.u.split_at_mut(n);
+        let (v0, v1) = self.v.split_at_mut(n);
+        let (p0, p1) = self.point.split_at_mut(3 * n);
+        let (tr0, tr1) = self.triangle.split_at_mut(n);
+        let (te0, te1) = self.tet.split_at_mut(n);
+        let (s0, s1) = self.steps.split_at_mut(n);
+        let (st0, st1) = self.status.split_at_mut(n);
+        (
+            HitsOut { t: t0, u: u0, v: v0, point: p0, triangle: tr0, tet: te0, steps: s0, status: st0 },
+            HitsOut { t: t1, u: u1, v: v1, point: p1, triangle: tr1, tet: te1, steps: s1, status: st1 },
+        )
+    }
+
+    fn chunks(self, size: usize) -> Vec<Self> {
+        let mut out = Vec::with_capacity(self.len().div_ceil(size.max(1)));
+        let mut rest = self;
+        while rest.len() > size {
+            let (a, b) = rest.split_at(size);
+            out.push(a);
+            rest = b;
+        }
+        out.push(rest);
+        out
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+pub struct CastOptions {
+    /// None: all cores (rayon's global pool); Some(1): this thread only.
+    pub threads: Option<usize>,
+    pub max_steps: u32,
+}
+
+/// One ray's result before it is written out.
+#[derive(Clone, Copy, Debug)]
+struct RayHit {
+    status: u8,
+    t: f64,
+    u: f64,
+    v: f64,
+    triangle: i32,
+    tet: i32,
+    steps: u32,
+}
+
+impl RayHit {
+    fn nothing(status: u8) -> RayHit {
+        RayHit { status, t: f64::INFINITY, u: f64::NAN, v: f64::NAN, triangle: -1, tet: -1, steps: 0 }
+    }
+}
+
+/// Rays per parallel task: large enough to amortize, small enough to balance, and contiguous
+/// so coherent rays (a camera's) share their start-tet hints.
+const CHUNK: usize = 4096;
+
+impl Scene {
+    pub fn build(
+        points: Vec<[f64; 3]>,
+        tets: &[[u32; 4]],
+        faces: &[[u32; 3]],
+        face_triangle: &[u32],
+        triangles: Vec<[[f64; 3]; 3]>,
+    ) -> Result<Scene> {
+        if let Some(k) = face_triangle.iter().position(|&t| t as usize >= triangles.len()) {
+            return Err(Error::InvalidInput(format!(
+                "constrained face {k} names triangle {} but only {} triangles were given",
+                face_triangle[k],
+                triangles.len()
+            )));
+        }
+        if let Some(k) = triangles.iter().position(|t| !t.iter().flatten().all(|x| x.is_finite())) {
+            return Err(Error::InvalidInput(format!("triangle {k} has a non-finite corner")));
+        }
+        let mesh = TetMesh::build(points, tets, faces, face_triangle)?;
+        if !mesh.domain_is_box {
+            return Err(Error::InvalidMesh(
+                "the domain boundary is not its bounding box; wrap the scene in a box".into(),
+            ));
+        }
+        let locator = GridLocator::build(&mesh);
+        let tet20 = Tet20::build(&mesh)?;
+        let points_f32 = mesh.points.iter().map(|p| p.map(|x| x as f32)).collect();
+        Ok(Scene { mesh, locator, tet20, points_f32, triangles })
+    }
+
+    /// Bytes of each part: (points, tets of the traversal layout, constrained table, locator).
+    pub fn memory(&self) -> [(&'static str, usize); 5] {
+        [
+            ("points_f64", self.mesh.points.len() * 24),
+            ("points_f32", self.points_f32.len() * 12),
+            ("tets", self.tet20.bytes()),
+            ("constrained", self.mesh.constrained.len() * 8),
+            ("locator", self.locator.bytes() + self.mesh.tets.len() * 32),
+        ]
+    }
+
+    pub fn cast_f32(&self, rays: &Rays<f32>, out: HitsOut<f32>, opts: &CastOptions) -> Result<()> {
+        self.cast_generic::<f32, Tet20, Aman2022>(&self.points_f32, &self.tet20, rays, out, opts)
+    }
+
+    pub fn cast_f64(&self, rays: &Rays<f64>, out: HitsOut<f64>, opts: &CastOptions) -> Result<()> {
+        self.cast_generic::<f64, Tet20, Aman2022>(&self.mesh.points, &self.tet20, rays, out, opts)
+    }
+
+    fn cast_generic<R: Real, L: Layout, M: ExitMethod<R>>(
+        &self,
+        points: &[[R; 3]],
+        layout: &L,
+        rays: &Rays<R>,
+        out: HitsOut<R>,
+        opts: &CastOptions,
+    ) -> Result<()> {
+        let n = out.len();
+        if rays.origins.len() != 3 * n || rays.directions.len() != 3 * n || out.point.len() != 3 * n {
+            return Err(Error::InvalidInput(format!(
+                "{} rays expected 3N origin and direction values, got {} and {}",
+                n,
+                rays.origins.len(),
+                rays.directions.len()
+            )));
+        }
+        for (name, b) in [("tmin", rays.tmin), ("tmax", rays.tmax)] {
+            if b.len() != 1 && b.len() != n {
+                return Err(Error::InvalidInput(format!("{name} needs 1 or {n} values, got {}", b.len())));
+            }
+        }
+        let run_chunk = |(k, chunk): (usize, HitsOut<R>)| {
+            let mut hint = None;
+            let mut rng = 0x9E37_79B9u32 ^ (k as u32).wrapping_mul(0x85EB_CA6B) | 1;
+            let mut camera: Option<([f64; 3], f64, u32)> = None;
+            let base = k * CHUNK;
+            let HitsOut { t, u, v, point, triangle, tet, steps, status } = chunk;
+            for j in 0..t.len() {
+                let i = base + j;
+                let r = self.cast_one::<R, L, M>(points, layout, rays, i, opts, &mut hint, &mut camera, &mut rng);
+                t[j] = R::from_f64(r.t);
+                u[j] = R::from_f64(r.u);
+                v[j] = R::from_f64(r.v);
+                let o = [0, 1, 2].map(|a| rays.origins[3 * i + a].to_f64());
+                let d = [0, 1, 2].map(|a| rays.directions[3 * i + a].to_f64());
+                for a in 0..3 {
+                    point[3 * j + a] =
+                        R::from_f64(if r.status == HIT { o[a] + r.t * d[a] } else { f64::NAN });
+                }
+                triangle[j] = r.triangle;
+                tet[j] = r.tet;
+                steps[j] = r.steps;
+                status[j] = r.status;
+            }
+        };
+        let chunks: Vec<_> = out.chunks(CHUNK).into_iter().enumerate().collect();
+        match opts.threads {
+            Some(1) => chunks.into_iter().for_each(run_chunk),
+            None => chunks.into_par_iter().for_each(run_chunk),
+            Some(k) => rayon::ThreadPoolBuilder::new()
+                .num_threads(k)
+                .build()
+                .map_err(|e| Error::InvalidOption(format!("cannot start {k} threads: {e}")))?
+                .install(|| chunks.into_par_iter().for_each(run_chunk)),
+        }
+        Ok(())
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn cast_one<R: Real, L: Layout, M: ExitMethod<R>>(
+        &self,
+        points: &[[R; 3]],
+        layout: &L,
+        rays: &Rays<R>,
+        i: usize,
+        opts: &CastOptions,
+        hint: &mut Option<u32>,
+        camera: &mut Option<([f64; 3], f64, u32)>,
+        rng: &mut u32,
+    ) -> RayHit {
+        let o = [0, 1, 2].map(|a| rays.origins[3 * i + a].to_f64());
+        let d = [0, 1, 2].map(|a| rays.directions[3 * i + a].to_f64());
+        let tmin = rays.tmin[if rays.tmin.len() == 1 { 0 } else { i }];
+        let tmax = rays.tmax[if rays.tmax.len() == 1 { 0 } else { i }];
+        let finite = o.iter().chain(&d).all(|x| x.is_finite());
+        if !finite || d == [0.0; 3] || tmin.is_nan() || tmax.is_nan() {
+            return RayHit::nothing(INVALID);
+        }
+        let tmin = tmin.max(0.0);
+        if tmax < tmin {
+            return RayHit::nothing(MISS);
+        }
+        let mesh = &self.mesh;
+        // Where the walk starts: o + tmin d if that is inside, else where the ray enters the box.
+        let at = |s: f64| [0, 1, 2].map(|a| o[a] + s * d[a]);
+        let mut start_point = at(tmin);
+        let [lo, hi] = mesh.bounds;
+        let inside = (0..3).all(|a| start_point[a] >= lo[a] && start_point[a] <= hi[a]);
+        let start = if inside {
+            match camera {
+                Some((co, ct, t)) if *co == o && *ct == tmin => Located::Inside(*t),
+                _ => {
+                    let l = self.locator.locate(mesh, start_point, *hint, rng);
+                    if let Located::Inside(t) = l {
+                        *camera = Some((o, tmin, t));
+                    }
+                    l
+                }
+            }
+        } else {
+            let Some((t0, _)) = clip_box(o, d, lo, hi, tmin, tmax) else {
+                return RayHit::nothing(MISS);
+            };
+            // Clamp: rounding may leave the entry point a hair outside the box.
+            start_point = at(t0);
+            for a in 0..3 {
+                start_point[a] = start_point[a].clamp(lo[a], hi[a]);
+            }
+            self.locator.locate(mesh, start_point, *hint, rng)
+        };
+        let Located::Inside(start) = start else {
+            // Inside the box but no tet holds the point: only a broken mesh can do this.
+            return RayHit::nothing(if inside { FAILED } else { MISS });
+        };
+        *hint = Some(start);
+        let ray = M::prepare(start_point, d);
+        let w = walk::<R, L, M>(layout, points, &ray, start, mesh.tets[start as usize], opts.max_steps);
+        let mut r = RayHit { tet: w.tet as i32, steps: w.steps, ..RayHit::nothing(MISS) };
+        match w.end {
+            WalkEnd::Boundary => {}
+            WalkEnd::StepLimit => r.status = FAILED,
+            WalkEnd::Hit { constrained } => {
+                let tri = mesh.constrained[constrained as usize].triangle;
+                let face = w.face.map(|v| mesh.points[v as usize]);
+                let (t, u, v) = intersect_triangle(o, d, &self.triangles[tri as usize], &face);
+                if t <= tmax {
+                    r = RayHit { status: HIT, t: t.max(tmin), u, v, triangle: tri as i32, ..r };
+                }
+            }
+        }
+        r
+    }
+}
+
+/// The parameter range where the ray o + t d is inside the box, within [tmin, tmax].
+pub fn clip_box(o: [f64; 3], d: [f64; 3], lo: [f64; 3], hi: [f64; 3], tmin: f64, tmax: f64) -> Option<(f64, f64)> {
+    let (mut t0, mut t1) = (tmin, tmax);
+    for a in 0..3 {
+        let inv = 1.0 / d[a];
+        let (mut n, mut f) = ((lo[a] - o[a]) * inv, (hi[a] - o[a]) * inv);
+        if n > f {
+            std::mem::swap(&mut n, &mut f);
+        }
+        // 0 * inf is NaN when the ray is parallel and on a slab plane: treat as inside.
+        if !n.is_nan() {
+            t0 = t0.max(n);
+        }
+        if !f.is_nan() {
+            t1 = t1.min(f);
+        }
+    }
+    (t0 <= t1).then_some((t0, t1))
+}
+
+/// t and barycentrics (u, v) of the ray on the caller's triangle (Möller–Trumbore in f64, no
+/// culling). The walk already decided that the ray crosses `face`, a piece of that triangle; if
+/// the ray lies in the triangle's plane, the face's centroid gives t instead.
+pub fn intersect_triangle(o: [f64; 3], d: [f64; 3], tri: &[[f64; 3]; 3], face: &[[f64; 3]; 3]) -> (f64, f64, f64) {
+    use glam::DVec3;
+    let (o, d) = (DVec3::from(o), DVec3::from(d));
+    let [p0, p1, p2] = tri.map(DVec3::from);
+    let (e1, e2) = (p1 - p0, p2 - p0);
+    let pv = d.cross(e2);
+    let det = e1.dot(pv);
+    let scale = e1.length() * e2.length() * d.length();
+    if det.abs() > 1e-14 * scale {
+        let inv = 1.0 / det;
+        let tv = o - p0;
+        let u = tv.dot(pv) * inv;
+        let qv = tv.cross(e1);
+        let v = d.dot(qv) * inv;
+        let t = e2.dot(qv) * inv;
+        (t, u, v)
+    } else {
+        let c = (DVec3::from(face[0]) + DVec3::from(face[1]) + DVec3::from(face[2])) / 3.0;
+        let t = (c - o).dot(d) / d.length_squared();
+        (t, 1.0 / 3.0, 1.0 / 3.0)
+    }
+}

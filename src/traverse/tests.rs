@@ -1,0 +1,244 @@
+//! Walk tests on synthetic tetrahedralizations, against brute-force ray/triangle intersection.
+
+use super::*;
+use crate::mesh::build::orient;
+use crate::scene::{clip_box, CastOptions, HitsOut, Rays, Scene, HIT, MISS};
+
+/// Deterministic xorshift so tests need no rand crate.
+pub(crate) struct Rng(u64);
+impl Rng {
+    pub fn f(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+/// An n³ grid of cubes over [0,1]³, each cut into 6 Kuhn tets (conforming across cubes),
+/// interior points jittered so no two faces are coplanar by accident.
+pub(crate) fn kuhn_grid(n: usize, jitter: f64, rng: &mut Rng) -> (Vec<[f64; 3]>, Vec<[u32; 4]>) {
+    let m = n + 1;
+    let id = |x: usize, y: usize, z: usize| (x + m * (y + m * z)) as u32;
+    let mut pts = Vec::new();
+    for z in 0..m {
+        for y in 0..m {
+            for x in 0..m {
+                let mut p = [x, y, z].map(|c| c as f64 / n as f64);
+                for (a, c) in [x, y, z].into_iter().enumerate() {
+                    if c > 0 && c < n {
+                        p[a] += (rng.f() - 0.5) * jitter / n as f64;
+                    }
+                }
+                pts.push(p);
+            }
+        }
+    }
+    let mut tets = Vec::new();
+    let perms = [[0, 1, 2], [0, 2, 1], [1, 0, 2], [1, 2, 0], [2, 0, 1], [2, 1, 0]];
+    for z in 0..n {
+        for y in 0..n {
+            for x in 0..n {
+                for p in perms {
+                    let mut c = [x, y, z];
+                    let mut t = [id(c[0], c[1], c[2]), 0, 0, 0];
+                    for (k, &a) in p.iter().enumerate() {
+                        c[a] += 1;
+                        t[k + 1] = id(c[0], c[1], c[2]);
+                    }
+                    tets.push(t);
+                }
+            }
+        }
+    }
+    (pts, tets)
+}
+
+/// The interior faces of the tets (sorted triples).
+fn all_faces(tets: &[[u32; 4]]) -> Vec<[u32; 3]> {
+    let mut f: Vec<[u32; 3]> = tets
+        .iter()
+        .flat_map(|t| {
+            [[t[1], t[2], t[3]], [t[0], t[2], t[3]], [t[0], t[1], t[3]], [t[0], t[1], t[2]]].map(|mut k| {
+                k.sort();
+                k
+            })
+        })
+        .collect();
+    // Interior faces only (listed twice): scene triangles never lie on the domain boundary.
+    f.sort();
+    f.chunk_by(|a, b| a == b).filter(|g| g.len() == 2).map(|g| g[0]).collect()
+}
+
+fn brute(o: [f64; 3], d: [f64; 3], tris: &[[[f64; 3]; 3]], tmin: f64) -> Option<(f64, usize)> {
+    let mut best: Option<(f64, usize)> = None;
+    for (k, tri) in tris.iter().enumerate() {
+        let (t, u, v) = crate::scene::intersect_triangle(o, d, tri, tri);
+        if u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t >= tmin && best.is_none_or(|b| t < b.0) {
+            best = Some((t, k));
+        }
+    }
+    best
+}
+
+struct Cast<R> {
+    t: Vec<R>,
+    tri: Vec<i32>,
+    status: Vec<u8>,
+    steps: Vec<u32>,
+}
+
+fn cast<R: Real>(scene: &Scene, o: &[R], d: &[R], f: impl Fn(&Scene, &Rays<R>, HitsOut<R>) -> crate::Result<()>) -> Cast<R> {
+    let n = o.len() / 3;
+    let (mut t, mut u, mut v, mut p) = (vec![R::ZERO; n], vec![R::ZERO; n], vec![R::ZERO; n], vec![R::ZERO; 3 * n]);
+    let (mut tri, mut tet, mut steps, mut status) = (vec![0; n], vec![0; n], vec![0; n], vec![0; n]);
+    let rays = Rays { origins: o, directions: d, tmin: &[0.0], tmax: &[f64::INFINITY] };
+    let out = HitsOut { t: &mut t, u: &mut u, v: &mut v, point: &mut p, triangle: &mut tri, tet: &mut tet, steps: &mut steps, status: &mut status };
+    f(scene, &rays, out).unwrap();
+    Cast { t, tri, status, steps }
+}
+
+fn random_scene(rng: &mut Rng, n: usize, frac: f64) -> (Scene, Vec<[[f64; 3]; 3]>) {
+    let (pts, tets) = kuhn_grid(n, 0.3, rng);
+    let faces: Vec<[u32; 3]> = all_faces(&tets).into_iter().filter(|_| rng.f() < frac).collect();
+    let tris: Vec<[[f64; 3]; 3]> = faces.iter().map(|f| f.map(|v| pts[v as usize])).collect();
+    let ids: Vec<u32> = (0..faces.len() as u32).collect();
+    (Scene::build(pts, &tets, &faces, &ids, tris.clone()).unwrap(), tris)
+}
+
+#[test]
+fn kuhn_grid_is_valid() {
+    let mut rng = Rng(7);
+    let (pts, tets) = kuhn_grid(4, 0.3, &mut rng);
+    let m = crate::mesh::TetMesh::build(pts, &tets, &[], &[]).unwrap();
+    let vol: f64 = m
+        .tets
+        .iter()
+        .map(|t| {
+            let [a, b, c, d] = t.map(|v| glam::DVec3::from(m.points[v as usize]));
+            (b - a).cross(c - a).dot(d - a) / 6.0
+        })
+        .sum();
+    assert!((vol - 1.0).abs() < 1e-12, "volume {vol}");
+    assert!(m.domain_is_box);
+    assert_eq!(m.boundary_faces, 6 * 4 * 4 * 2);
+}
+
+#[test]
+fn onb_is_right_handed() {
+    let mut rng = Rng(3);
+    for _ in 0..1000 {
+        let mut n = [rng.f() - 0.5, rng.f() - 0.5, rng.f() - 0.5];
+        if rng.f() < 0.1 {
+            n = [0.0, 0.0, if rng.f() < 0.5 { -1.0 } else { 1.0 }];
+        }
+        let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        let n = n.map(|x| x / l);
+        let (u, w) = aman2022::onb(n);
+        let (u, w, n) = (glam::DVec3::from(u), glam::DVec3::from(w), glam::DVec3::from(n));
+        assert!((u.cross(w) - n).length() < 1e-12);
+        assert!(u.dot(n).abs() < 1e-12 && w.dot(n).abs() < 1e-12);
+    }
+}
+
+/// For single tets and rays through chosen faces, the method names that face.
+#[test]
+fn exact_exit_faces() {
+    let v = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    assert!(orient(v[0], v[1], v[2], v[3]) > 0.0);
+    let centroid = |f: [usize; 3]| [0, 1, 2].map(|a| (v[f[0]][a] + v[f[1]][a] + v[f[2]][a]) / 3.0);
+    let inside = [0.1, 0.2, 0.15];
+    for (i, f) in OUTWARD_FACES.iter().enumerate() {
+        let c = centroid(*f);
+        let d = [0, 1, 2].map(|a| c[a] - inside[a]);
+        let ray = <Aman2022 as ExitMethod<f64>>::prepare(inside, d);
+        let vs = v.map(|p| <Aman2022 as ExitMethod<f64>>::vertex(&ray, p));
+        assert_eq!(<Aman2022 as ExitMethod<f64>>::start_exit(&ray, &vs), i);
+        let ray32 = <Aman2022 as ExitMethod<f32>>::prepare(inside, d);
+        let vs32 = v.map(|p| <Aman2022 as ExitMethod<f32>>::vertex(&ray32, p.map(|x| x as f32)));
+        assert_eq!(<Aman2022 as ExitMethod<f32>>::start_exit(&ray32, &vs32), i);
+    }
+    // Entering through (a,b,c) = face opposite vertex 3 seen from below, leaving by each of the
+    // three faces through d = v3.
+    let (a, b, c, d) = (v[0], v[1], v[2], v[3]); // counter-clockwise seen along +z
+    let entry = [0.2, 0.2, 0.0];
+    for (target, want) in [([a, b, d], Exit::Abd), ([b, c, d], Exit::Bcd), ([c, a, d], Exit::Cad)] {
+        let g = [0, 1, 2].map(|k| (target[0][k] + target[1][k] + target[2][k]) / 3.0);
+        let dir = [0, 1, 2].map(|k| g[k] - entry[k]);
+        let o = [0, 1, 2].map(|k| entry[k] - 0.5 * dir[k]);
+        let ray = <Aman2022 as ExitMethod<f64>>::prepare(o, dir);
+        let p = [a, b, c, d].map(|q| <Aman2022 as ExitMethod<f64>>::vertex(&ray, q));
+        assert_eq!(<Aman2022 as ExitMethod<f64>>::step(&ray, &p[0], &p[1], &p[2], &p[3]), want);
+    }
+}
+
+fn agreement<R: Real>(seed: u64, f: impl Fn(&Scene, &Rays<R>, HitsOut<R>) -> crate::Result<()> + Copy) {
+    let mut rng = Rng(seed);
+    let (scene, tris) = random_scene(&mut rng, 5, 0.08);
+    let n = 3000;
+    let mut o = Vec::new();
+    let mut d = Vec::new();
+    for k in 0..n {
+        // Half the rays start inside, half outside the unit box.
+        let g = if k % 2 == 0 { 0.0 } else { 1.0 };
+        for _ in 0..3 {
+            o.push(rng.f() * (1.0 + 2.0 * g) - g);
+        }
+        for _ in 0..3 {
+            d.push(rng.f() - 0.5);
+        }
+    }
+    let to_r = |x: &Vec<f64>| x.iter().map(|&x| R::from_f64(x)).collect::<Vec<R>>();
+    let (or, dr) = (to_r(&o), to_r(&d));
+    let res = cast(&scene, &or, &dr, f);
+    let mut bad = 0;
+    for k in 0..n {
+        // Compare against the rounded ray the walk saw.
+        let ok = [0, 1, 2].map(|a| or[3 * k + a].to_f64());
+        let dk = [0, 1, 2].map(|a| dr[3 * k + a].to_f64());
+        let want = clip_box(ok, dk, [0.0; 3], [1.0; 3], 0.0, f64::INFINITY).and_then(|_| brute(ok, dk, &tris, 0.0));
+        assert!(res.status[k] == HIT || res.status[k] == MISS, "ray {k}: status {}", res.status[k]);
+        match want {
+            Some((t, tri)) => {
+                if res.status[k] != HIT || res.tri[k] as usize != tri {
+                    bad += 1;
+                    eprintln!("ray {k} o={ok:?} d={dk:?}: want tri {tri} t {t}, got status {} tri {} t {:?} steps {}", res.status[k], res.tri[k], res.t[k], res.steps[k]);
+                } else {
+                    assert!((res.t[k].to_f64() - t).abs() < 1e-5, "ray {k}: t {:?} vs {t}", res.t[k]);
+                }
+            }
+            None => {
+                if res.status[k] != MISS {
+                    bad += 1;
+                    eprintln!("ray {k} o={ok:?} d={dk:?}: want miss, got status {} tri {} t {:?}", res.status[k], res.tri[k], res.t[k]);
+                }
+            }
+        }
+        assert!(res.steps[k] < 1000);
+    }
+    // Random rays in generic position: exact agreement but for hits grazing an edge.
+    assert!(bad <= 3, "{bad} of {n} rays disagree with brute force");
+}
+
+#[test]
+fn agrees_with_brute_force_f64() {
+    agreement::<f64>(11, |s, r, o| s.cast_f64(r, o, &CastOptions { threads: Some(1), max_steps: 100_000 }));
+}
+
+#[test]
+fn agrees_with_brute_force_f32() {
+    agreement::<f32>(12, |s, r, o| s.cast_f32(r, o, &CastOptions { threads: None, max_steps: 100_000 }));
+}
+
+#[test]
+fn empty_scene_misses_and_counts_steps() {
+    let mut rng = Rng(5);
+    let (scene, _) = random_scene(&mut rng, 3, 0.0);
+    let o = [-1.0, 0.5, 0.5, 0.5, 0.5, 0.5, 2.0, 2.0, 2.0];
+    let d = [1.0, 0.01, 0.02, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0];
+    let res = cast::<f64>(&scene, &o, &d, |s, r, o| s.cast_f64(r, o, &CastOptions { threads: Some(1), max_steps: 1000 }));
+    assert_eq!(res.status, vec![MISS, MISS, MISS]);
+    assert!(res.steps[0] >= 3 && res.steps[1] >= 1);
+    assert_eq!(res.steps[2], 0); // misses the domain
+    assert!(res.t.iter().all(|t| t.is_infinite()));
+}
