@@ -8,6 +8,7 @@ pub mod locate;
 pub mod mesh;
 pub mod real;
 pub mod scene;
+pub mod sort;
 pub mod traverse;
 
 #[cfg(feature = "python")]

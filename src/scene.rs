@@ -3,7 +3,7 @@
 
 use crate::error::{Error, Result};
 use crate::layout::{Layout, Tet20};
-use crate::locate::{GridLocator, Located};
+use crate::locate::{BoundaryLocator, GridLocator, Located};
 use crate::mesh::TetMesh;
 use crate::real::Real;
 use crate::traverse::{walk, Aman2022, ExitMethod, WalkEnd};
@@ -20,6 +20,7 @@ pub const INVALID: u8 = 3;
 pub struct Scene {
     pub mesh: TetMesh,
     pub locator: GridLocator,
+    pub entry: BoundaryLocator,
     pub tet20: Tet20,
     pub points_f32: Vec<[f32; 3]>,
     /// The caller's triangles (three corners each), indexed by the ids constrained faces carry.
@@ -114,12 +115,26 @@ impl RayHit {
 const CHUNK: usize = 4096;
 
 impl Scene {
+    /// Builds with points and tets in Hilbert order (see [`Scene::build_with`]).
     pub fn build(
         points: Vec<[f64; 3]>,
         tets: &[[u32; 4]],
         faces: &[[u32; 3]],
         face_triangle: &[u32],
         triangles: Vec<[[f64; 3]; 3]>,
+    ) -> Result<Scene> {
+        Scene::build_with(points, tets, faces, face_triangle, triangles, true)
+    }
+
+    /// `hilbert`: renumber points and tets along a Hilbert curve first, so that the walk's
+    /// memory accesses are local. Point and tet ids of the scene are then the new ones.
+    pub fn build_with(
+        points: Vec<[f64; 3]>,
+        tets: &[[u32; 4]],
+        faces: &[[u32; 3]],
+        face_triangle: &[u32],
+        triangles: Vec<[[f64; 3]; 3]>,
+        hilbert: bool,
     ) -> Result<Scene> {
         if let Some(k) = face_triangle.iter().position(|&t| t as usize >= triangles.len()) {
             return Err(Error::InvalidInput(format!(
@@ -131,16 +146,33 @@ impl Scene {
         if let Some(k) = triangles.iter().position(|t| !t.iter().flatten().all(|x| x.is_finite())) {
             return Err(Error::InvalidInput(format!("triangle {k} has a non-finite corner")));
         }
-        let mesh = TetMesh::build(points, tets, faces, face_triangle)?;
+        let np = points.len() as u64;
+        let in_range = tets.iter().flatten().chain(faces.iter().flatten()).all(|&v| (v as u64) < np);
+        let mesh = if hilbert && in_range && points.iter().flatten().all(|x| x.is_finite()) {
+            let mut lo = [f64::INFINITY; 3];
+            let mut hi = [f64::NEG_INFINITY; 3];
+            for p in &points {
+                for a in 0..3 {
+                    lo[a] = lo[a].min(p[a]);
+                    hi[a] = hi[a].max(p[a]);
+                }
+            }
+            let (p, t, f, _) = crate::sort::hilbert::reorder(&points, tets, faces, [lo, hi]);
+            TetMesh::build(p, &t, &f, face_triangle)?
+        } else {
+            // Out-of-range or non-finite input: let build() name the problem.
+            TetMesh::build(points, tets, faces, face_triangle)?
+        };
         if !mesh.domain_is_box {
             return Err(Error::InvalidMesh(
                 "the domain boundary is not its bounding box; wrap the scene in a box".into(),
             ));
         }
         let locator = GridLocator::build(&mesh);
+        let entry = BoundaryLocator::build(&mesh);
         let tet20 = Tet20::build(&mesh)?;
         let points_f32 = mesh.points.iter().map(|p| p.map(|x| x as f32)).collect();
-        Ok(Scene { mesh, locator, tet20, points_f32, triangles })
+        Ok(Scene { mesh, locator, entry, tet20, points_f32, triangles })
     }
 
     /// Bytes of each part: (points, tets of the traversal layout, constrained table, locator).
@@ -150,7 +182,7 @@ impl Scene {
             ("points_f32", self.points_f32.len() * 12),
             ("tets", self.tet20.bytes()),
             ("constrained", self.mesh.constrained.len() * 8),
-            ("locator", self.locator.bytes() + self.mesh.tets.len() * 32),
+            ("locator", self.locator.bytes() + self.entry.bytes() + self.mesh.tets.len() * 32),
         ]
     }
 
@@ -264,15 +296,24 @@ impl Scene {
                 }
             }
         } else {
-            let Some((t0, _)) = clip_box(o, d, lo, hi, tmin, tmax) else {
+            let Some(entry) = clip_box(o, d, lo, hi, tmin, tmax) else {
                 return RayHit::nothing(MISS);
             };
-            // Clamp: rounding may leave the entry point a hair outside the box.
-            start_point = at(t0);
+            // Clamp: rounding may leave the entry point a hair off the box side.
+            start_point = at(entry.t0);
             for a in 0..3 {
                 start_point[a] = start_point[a].clamp(lo[a], hi[a]);
             }
-            self.locator.locate(mesh, start_point, *hint, rng)
+            match entry.side {
+                Some((axis, high)) => {
+                    start_point[axis] = if high { hi[axis] } else { lo[axis] };
+                    match self.entry.locate(start_point, axis, high) {
+                        Some(t) => Located::Inside(t),
+                        None => self.locator.locate(mesh, start_point, *hint, rng),
+                    }
+                }
+                None => self.locator.locate(mesh, start_point, *hint, rng),
+            }
         };
         let Located::Inside(start) = start else {
             // Inside the box but no tet holds the point: only a broken mesh can do this.
@@ -298,9 +339,19 @@ impl Scene {
     }
 }
 
+/// Where a ray meets the domain box.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BoxSpan {
+    pub t0: f64,
+    pub t1: f64,
+    /// The side it enters by (axis, high side), or None when it starts inside.
+    pub side: Option<(usize, bool)>,
+}
+
 /// The parameter range where the ray o + t d is inside the box, within [tmin, tmax].
-pub fn clip_box(o: [f64; 3], d: [f64; 3], lo: [f64; 3], hi: [f64; 3], tmin: f64, tmax: f64) -> Option<(f64, f64)> {
+pub fn clip_box(o: [f64; 3], d: [f64; 3], lo: [f64; 3], hi: [f64; 3], tmin: f64, tmax: f64) -> Option<BoxSpan> {
     let (mut t0, mut t1) = (tmin, tmax);
+    let mut side = None;
     for a in 0..3 {
         let inv = 1.0 / d[a];
         let (mut n, mut f) = ((lo[a] - o[a]) * inv, (hi[a] - o[a]) * inv);
@@ -308,14 +359,15 @@ pub fn clip_box(o: [f64; 3], d: [f64; 3], lo: [f64; 3], hi: [f64; 3], tmin: f64,
             std::mem::swap(&mut n, &mut f);
         }
         // 0 * inf is NaN when the ray is parallel and on a slab plane: treat as inside.
-        if !n.is_nan() {
-            t0 = t0.max(n);
+        if !n.is_nan() && n > t0 {
+            t0 = n;
+            side = Some((a, d[a] < 0.0));
         }
         if !f.is_nan() {
             t1 = t1.min(f);
         }
     }
-    (t0 <= t1).then_some((t0, t1))
+    (t0 <= t1).then_some(BoxSpan { t0, t1, side })
 }
 
 /// t and barycentrics (u, v) of the ray on the caller's triangle (Möller–Trumbore in f64, no

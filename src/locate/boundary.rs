@@ -1,0 +1,116 @@
+//! Where a ray from outside enters the domain box: a 2D grid of boundary faces on each of the
+//! six sides. Cheaper than a 3D walk for camera rays, which all start outside and enter at
+//! different points.
+
+use crate::mesh::build::OUTWARD_FACES;
+use crate::mesh::{TetMesh, BOUNDARY};
+
+struct Side {
+    /// The two in-plane axes.
+    axes: [usize; 2],
+    lo: [f64; 2],
+    inv_cell: [f64; 2],
+    dims: [usize; 2],
+    /// CSR: faces of cell c are entries[start[c]..start[c+1]].
+    start: Vec<u32>,
+    entries: Vec<(u32, [[f64; 2]; 3])>,
+}
+
+pub struct BoundaryLocator {
+    /// Index 2*axis + (0 for the low side, 1 for the high side).
+    sides: Vec<Side>,
+}
+
+impl BoundaryLocator {
+    pub fn build(mesh: &TetMesh) -> BoundaryLocator {
+        let [lo, hi] = mesh.bounds;
+        let mut per_side: Vec<Vec<(u32, [[f64; 3]; 3])>> = vec![Vec::new(); 6];
+        for (t, tet) in mesh.tets.iter().enumerate() {
+            for (i, f) in OUTWARD_FACES.iter().enumerate() {
+                if mesh.links[t][i] != BOUNDARY {
+                    continue;
+                }
+                let p = f.map(|k| mesh.points[tet[k] as usize]);
+                for a in 0..3 {
+                    for (s, bound) in [lo[a], hi[a]].into_iter().enumerate() {
+                        if p.iter().all(|q| q[a] == bound) {
+                            per_side[2 * a + s].push((t as u32, p));
+                        }
+                    }
+                }
+            }
+        }
+        let sides = per_side
+            .into_iter()
+            .enumerate()
+            .map(|(k, faces)| {
+                let a = k / 2;
+                let axes = [(a + 1) % 3, (a + 2) % 3];
+                let slo = axes.map(|x| lo[x]);
+                let ext = axes.map(|x| (hi[x] - lo[x]).max(f64::MIN_POSITIVE));
+                let n = ((faces.len() as f64).sqrt().ceil() as usize).clamp(1, 256);
+                let dims = [n, n];
+                let inv_cell = [dims[0] as f64 / ext[0], dims[1] as f64 / ext[1]];
+                let cell = |x: f64, d: usize| -> usize {
+                    let c = ((x - slo[d]) * inv_cell[d]).floor();
+                    (c.max(0.0) as usize).min(dims[d] - 1)
+                };
+                let mut buckets: Vec<Vec<(u32, [[f64; 2]; 3])>> = vec![Vec::new(); n * n];
+                for (t, p) in faces {
+                    let q = p.map(|v| [v[axes[0]], v[axes[1]]]);
+                    let (mut x0, mut x1, mut y0, mut y1) = (usize::MAX, 0, usize::MAX, 0);
+                    for v in &q {
+                        let (cx, cy) = (cell(v[0], 0), cell(v[1], 1));
+                        x0 = x0.min(cx);
+                        x1 = x1.max(cx);
+                        y0 = y0.min(cy);
+                        y1 = y1.max(cy);
+                    }
+                    for y in y0..=y1 {
+                        for x in x0..=x1 {
+                            buckets[x + dims[0] * y].push((t, q));
+                        }
+                    }
+                }
+                let mut start = Vec::with_capacity(n * n + 1);
+                let mut entries = Vec::new();
+                start.push(0);
+                for b in buckets {
+                    entries.extend(b);
+                    start.push(entries.len() as u32);
+                }
+                Side { axes, lo: slo, inv_cell, dims, start, entries }
+            })
+            .collect();
+        BoundaryLocator { sides }
+    }
+
+    pub fn bytes(&self) -> usize {
+        self.sides.iter().map(|s| s.start.len() * 4 + s.entries.len() * 52).sum()
+    }
+
+    /// The boundary tet whose face on side (`axis`, `high`) holds point p (on that side).
+    pub fn locate(&self, p: [f64; 3], axis: usize, high: bool) -> Option<u32> {
+        let s = &self.sides[2 * axis + high as usize];
+        let q = [p[s.axes[0]], p[s.axes[1]]];
+        let c = [0, 1].map(|d| {
+            let x = ((q[d] - s.lo[d]) * s.inv_cell[d]).floor();
+            (x.max(0.0) as usize).min(s.dims[d] - 1)
+        });
+        let cell = c[0] + s.dims[0] * c[1];
+        let pt = robust::Coord { x: q[0], y: q[1] };
+        for (t, tri) in &s.entries[s.start[cell] as usize..s.start[cell + 1] as usize] {
+            let v = tri.map(|v| robust::Coord { x: v[0], y: v[1] });
+            let o = [
+                robust::orient2d(v[0], v[1], pt),
+                robust::orient2d(v[1], v[2], pt),
+                robust::orient2d(v[2], v[0], pt),
+            ];
+            // Either winding: the side's faces are seen from outside or inside depending on it.
+            if o.iter().all(|&x| x >= 0.0) || o.iter().all(|&x| x <= 0.0) {
+                return Some(*t);
+            }
+        }
+        None
+    }
+}

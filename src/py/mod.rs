@@ -1,0 +1,237 @@
+//! Python bindings: validate, release the GIL, call the core over slices, hand the result
+//! vectors to numpy without copying. Nothing else lives here.
+
+use crate::error::Error;
+use crate::real::Real;
+use crate::scene::{CastOptions, HitsOut, Rays, Scene};
+use numpy::{Element, IntoPyArray, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods};
+use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+pyo3::create_exception!(_native, MeshError, PyValueError, "The tetrahedralization is unusable (flat tets, non-manifold faces, ...).");
+pyo3::create_exception!(_native, TooLargeError, PyValueError, "A size limit of a layout would be exceeded.");
+
+/// The one mapping from core errors to Python exceptions.
+impl From<Error> for PyErr {
+    fn from(e: Error) -> PyErr {
+        let msg = e.to_string();
+        match e {
+            Error::InvalidInput(_) | Error::InvalidOption(_) => PyValueError::new_err(msg),
+            Error::InvalidMesh(_) => MeshError::new_err(msg),
+            Error::TooLarge(_) => TooLargeError::new_err(msg),
+        }
+    }
+}
+
+/// Runs core code with a net under it: a panic would be a bug, and it must reach Python as an
+/// exception that says so rather than abort the interpreter.
+fn guarded<T>(f: impl FnOnce() -> crate::Result<T>) -> PyResult<T> {
+    match catch_unwind(AssertUnwindSafe(f)) {
+        Ok(r) => r.map_err(PyErr::from),
+        Err(p) => {
+            let what = p
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_default();
+            Err(PyRuntimeError::new_err(format!("internal error in tetrace (please report): {what}")))
+        }
+    }
+}
+
+fn slice<'a, T: Element, D: numpy::ndarray::Dimension>(
+    a: &'a numpy::PyReadonlyArray<'_, T, D>,
+    name: &str,
+) -> PyResult<&'a [T]> {
+    a.as_slice().map_err(|_| PyValueError::new_err(format!("{name} must be C-contiguous")))
+}
+
+fn check_cols<T: Element>(a: &PyReadonlyArray2<'_, T>, cols: usize, name: &str) -> PyResult<usize> {
+    let s = a.shape();
+    if s[1] != cols {
+        return Err(PyValueError::new_err(format!("{name} must have shape (N, {cols}), got {s:?}")));
+    }
+    Ok(s[0])
+}
+
+/// Reinterprets a flat slice of 3k (or 4k, 9k) values as k fixed-size rows.
+fn rows<T: Copy, const K: usize>(flat: &[T]) -> Vec<[T; K]> {
+    flat.chunks_exact(K).map(|c| std::array::from_fn(|i| c[i])).collect()
+}
+
+#[pyclass(frozen, name = "NativeScene", module = "tetrace._native")]
+pub struct PyScene {
+    inner: Scene,
+}
+
+
+#[pymethods]
+impl PyScene {
+    /// Builds the traversal structures from a tetrahedralization (see tetrace.meshing).
+    #[new]
+    fn new(
+        py: Python<'_>,
+        points: PyReadonlyArray2<'_, f64>,
+        tets: PyReadonlyArray2<'_, u32>,
+        faces: PyReadonlyArray2<'_, u32>,
+        face_triangle: PyReadonlyArray1<'_, u32>,
+        triangles: PyReadonlyArray3<'_, f64>,
+    ) -> PyResult<Self> {
+        check_cols(&points, 3, "points")?;
+        check_cols(&tets, 4, "tets")?;
+        check_cols(&faces, 3, "faces")?;
+        let ts = triangles.shape();
+        if ts[1] != 3 || ts[2] != 3 {
+            return Err(PyValueError::new_err(format!("triangles must have shape (F, 3, 3), got {ts:?}")));
+        }
+        let p: Vec<[f64; 3]> = rows(slice(&points, "points")?);
+        let t: Vec<[u32; 4]> = rows(slice(&tets, "tets")?);
+        let f: Vec<[u32; 3]> = rows(slice(&faces, "faces")?);
+        let ft = slice(&face_triangle, "face_triangle")?;
+        let tri: Vec<[[f64; 3]; 3]> = rows::<f64, 9>(slice(&triangles, "triangles")?)
+            .into_iter()
+            .map(|r| [[r[0], r[1], r[2]], [r[3], r[4], r[5]], [r[6], r[7], r[8]]])
+            .collect();
+        let inner = py.detach(|| guarded(|| Scene::build(p, &t, &f, ft, tri)))?;
+        Ok(PyScene { inner })
+    }
+
+    /// Casts float32 rays; returns (t, u, v, point, triangle, tet, steps, status).
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None))]
+    fn cast_f32<'py>(
+        &self,
+        py: Python<'py>,
+        origins: PyReadonlyArray2<'py, f32>,
+        directions: PyReadonlyArray2<'py, f32>,
+        tmin: PyReadonlyArray1<'py, f64>,
+        tmax: PyReadonlyArray1<'py, f64>,
+        threads: Option<usize>,
+        max_steps: Option<u32>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        cast_any(py, &self.inner, origins, directions, tmin, tmax, threads, max_steps, Scene::cast_f32)
+    }
+
+    /// Casts float64 rays; returns the same fields in float64.
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None))]
+    fn cast_f64<'py>(
+        &self,
+        py: Python<'py>,
+        origins: PyReadonlyArray2<'py, f64>,
+        directions: PyReadonlyArray2<'py, f64>,
+        tmin: PyReadonlyArray1<'py, f64>,
+        tmax: PyReadonlyArray1<'py, f64>,
+        threads: Option<usize>,
+        max_steps: Option<u32>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        cast_any(py, &self.inner, origins, directions, tmin, tmax, threads, max_steps, Scene::cast_f64)
+    }
+
+    /// Bytes used by each part of the structure.
+    fn memory<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for (k, v) in self.inner.memory() {
+            d.set_item(k, v)?;
+        }
+        Ok(d)
+    }
+
+    #[getter]
+    fn n_tets(&self) -> usize {
+        self.inner.mesh.len()
+    }
+    #[getter]
+    fn n_points(&self) -> usize {
+        self.inner.mesh.points.len()
+    }
+    #[getter]
+    fn n_constrained(&self) -> usize {
+        self.inner.mesh.constrained.len()
+    }
+    #[getter]
+    fn bytes_per_tet(&self) -> usize {
+        <crate::layout::Tet20 as crate::layout::Layout>::BYTES_PER_TET
+    }
+    #[getter]
+    fn bounds(&self) -> [[f64; 3]; 2] {
+        self.inner.mesh.bounds
+    }
+    /// The positively oriented tets (T, 4), for inspection and plotting.
+    fn tets<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, numpy::PyArray2<u32>>> {
+        let flat: Vec<u32> = self.inner.mesh.tets.iter().flatten().copied().collect();
+        Ok(flat.into_pyarray(py).reshape([self.inner.mesh.len(), 4])?)
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn cast_any<'py, R: Real + Element>(
+    py: Python<'py>,
+    scene: &Scene,
+    origins: PyReadonlyArray2<'py, R>,
+    directions: PyReadonlyArray2<'py, R>,
+    tmin: PyReadonlyArray1<'py, f64>,
+    tmax: PyReadonlyArray1<'py, f64>,
+    threads: Option<usize>,
+    max_steps: Option<u32>,
+    cast: fn(&Scene, &Rays<R>, HitsOut<R>, &CastOptions) -> crate::Result<()>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let n = check_cols(&origins, 3, "origins")?;
+    if check_cols(&directions, 3, "directions")? != n {
+        return Err(PyValueError::new_err("origins and directions must have the same number of rows"));
+    }
+    if threads == Some(0) {
+        return Err(PyValueError::new_err("threads must be at least 1 (or None for all cores)"));
+    }
+    let (o, d) = (slice(&origins, "origins")?, slice(&directions, "directions")?);
+    let (lo, hi) = (slice(&tmin, "tmin")?, slice(&tmax, "tmax")?);
+    let max_steps = max_steps.unwrap_or_else(|| default_max_steps(scene.mesh.len()));
+    let opts = CastOptions { threads, max_steps };
+    let (mut t, mut u, mut v, mut p) = (vec![R::ZERO; n], vec![R::ZERO; n], vec![R::ZERO; n], vec![R::ZERO; 3 * n]);
+    let (mut tri, mut tet, mut steps, mut status) = (vec![0i32; n], vec![0i32; n], vec![0u32; n], vec![0u8; n]);
+    py.detach(|| {
+        guarded(|| {
+            let rays = Rays { origins: o, directions: d, tmin: lo, tmax: hi };
+            let out = HitsOut {
+                t: &mut t,
+                u: &mut u,
+                v: &mut v,
+                point: &mut p,
+                triangle: &mut tri,
+                tet: &mut tet,
+                steps: &mut steps,
+                status: &mut status,
+            };
+            cast(scene, &rays, out, &opts)
+        })
+    })?;
+    let out = PyDict::new(py);
+    out.set_item("t", t.into_pyarray(py))?;
+    out.set_item("u", u.into_pyarray(py))?;
+    out.set_item("v", v.into_pyarray(py))?;
+    out.set_item("point", p.into_pyarray(py).reshape([n, 3])?)?;
+    out.set_item("triangle", tri.into_pyarray(py))?;
+    out.set_item("tet", tet.into_pyarray(py))?;
+    out.set_item("steps", steps.into_pyarray(py))?;
+    out.set_item("status", status.into_pyarray(py))?;
+    Ok(out)
+}
+
+/// A valid walk visits each tet at most once, so the tet count bounds it; the cap keeps a
+/// cycling ray in a huge mesh from costing seconds.
+pub fn default_max_steps(n_tets: usize) -> u32 {
+    (n_tets as u64 + 1).min(1 << 20) as u32
+}
+
+#[pymodule]
+fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyScene>()?;
+    m.add("MeshError", m.py().get_type::<MeshError>())?;
+    m.add("TooLargeError", m.py().get_type::<TooLargeError>())?;
+    m.add("MISS", crate::MISS)?;
+    m.add("HIT", crate::HIT)?;
+    m.add("FAILED", crate::FAILED)?;
+    m.add("INVALID", crate::INVALID)?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}
