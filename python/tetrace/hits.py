@@ -9,7 +9,7 @@ import dataclasses
 
 import numpy as np
 
-__all__ = ["MISS", "HIT", "FAILED", "STATUS_NAMES", "Hits"]
+__all__ = ["MISS", "HIT", "FAILED", "INVALID", "STATUS_NAMES", "Hits"]
 
 #: ``status`` code: the ray left the scene (or reached ``tmax``) without hitting a triangle.
 MISS = 0
@@ -18,9 +18,12 @@ HIT = 1
 #: ``status`` code: the caster gave up on this ray (for example a walk that could not
 #: leave a degenerate configuration, or ran past its step limit). Treat as unknown.
 FAILED = 2
+#: ``status`` code: the ray itself is unusable (a NaN or infinite component, a zero-length
+#: direction, or NaN bounds); only produced by ``cast(..., invalid="mark")``.
+INVALID = 3
 
 #: Names of the status codes, indexed by code.
-STATUS_NAMES = ("miss", "hit", "failed")
+STATUS_NAMES = ("miss", "hit", "failed", "invalid")
 
 
 @dataclasses.dataclass(frozen=True, eq=False, repr=False)
@@ -51,7 +54,7 @@ class Hits:
     steps : numpy.ndarray
         ``(N,)`` uint32. Number of tetrahedra visited (``0`` for Embree).
     status : numpy.ndarray
-        ``(N,)`` uint8. One of :data:`MISS`, :data:`HIT`, :data:`FAILED`.
+        ``(N,)`` uint8. One of :data:`MISS`, :data:`HIT`, :data:`FAILED`, :data:`INVALID`.
 
     Notes
     -----
@@ -125,16 +128,17 @@ class Hits:
         Returns
         -------
         dict
-            ``{"rays": N, "hit": int, "miss": int, "failed": int,
+            ``{"rays": N, "hit": int, "miss": int, "failed": int, "invalid": int,
             "mean_steps": float}``. ``mean_steps`` is the mean of ``steps`` over
             all rays (``0.0`` when ``N == 0``).
         """
-        counts = np.bincount(self.status, minlength=3)
+        counts = np.bincount(self.status, minlength=4)
         return {
             "rays": len(self),
             "hit": int(counts[HIT]),
             "miss": int(counts[MISS]),
             "failed": int(counts[FAILED]),
+            "invalid": int(counts[INVALID]),
             "mean_steps": float(self.steps.mean()) if len(self) else 0.0,
         }
 

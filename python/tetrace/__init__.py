@@ -1,0 +1,23 @@
+"""tetrace: cast rays through constrained tetrahedralizations of triangle scenes.
+
+>>> import tetrace
+>>> scene = tetrace.Scene.from_mesh("bunny.obj")            # doctest: +SKIP
+>>> hits = scene.cast(origins, directions)                   # doctest: +SKIP
+>>> hits.t, hits.triangle, hits.status                       # doctest: +SKIP
+"""
+
+from . import _native
+from .hits import FAILED, HIT, INVALID, MISS, STATUS_NAMES, Hits
+from .meshing import MeshingError
+from .scene import Scene, cast, default_scene, default_scene_path
+from . import reference  # noqa: F401  (tetrace.reference.embree_cast is part of the API)
+
+MeshError = _native.MeshError
+TooLargeError = _native.TooLargeError
+__version__ = _native.__version__
+
+__all__ = [
+    "Scene", "Hits", "cast", "default_scene", "default_scene_path", "reference",
+    "MISS", "HIT", "FAILED", "INVALID", "STATUS_NAMES",
+    "MeshingError", "MeshError", "TooLargeError",
+]

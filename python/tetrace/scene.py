@@ -1,0 +1,218 @@
+"""The user-facing scene: a constrained tetrahedralization ready to cast rays through."""
+
+from __future__ import annotations
+
+import time
+from functools import lru_cache
+from importlib import resources
+
+import numpy as np
+
+from . import _native
+from .hits import Hits
+from .rays import prepare_bounds, prepare_rays
+
+__all__ = ["Scene", "cast", "default_scene", "default_scene_path"]
+
+
+class Scene:
+    """A triangle scene tetrahedralized for ray casting.
+
+    Build one with :meth:`Scene.from_mesh`; cast with :meth:`Scene.cast`.
+
+    Attributes
+    ----------
+    tetrahedralization : tetrace.meshing.Tetrahedralization
+        What the mesher produced (points, tets, constrained faces, timings).
+    vertices, faces : numpy.ndarray
+        The caller's mesh, as given: hit ``triangle`` ids index ``faces``.
+    build_times : dict
+        Seconds spent in each build stage: ``clean``, ``repair``, ``tetgen`` (the mesher),
+        ``rust`` (topology, locator and layout construction), ``total``.
+    """
+
+    def __init__(self, tetrahedralization, vertices, faces):
+        self.tetrahedralization = tet = tetrahedralization
+        self.vertices = vertices
+        self.faces = faces
+        triangles = np.ascontiguousarray(vertices[faces], dtype=np.float64)
+        t0 = time.perf_counter()
+        self._native = _native.NativeScene(
+            np.ascontiguousarray(tet.points, dtype=np.float64),
+            np.ascontiguousarray(tet.tets, dtype=np.uint32),
+            np.ascontiguousarray(tet.faces, dtype=np.uint32).reshape(-1, 3),
+            np.ascontiguousarray(tet.face_triangle, dtype=np.uint32),
+            triangles,
+        )
+        rust = time.perf_counter() - t0
+        self.build_times = dict(tet.timings)
+        self.build_times["rust"] = rust
+        self.build_times["total"] = tet.timings.get("total", 0.0) + rust
+
+    @classmethod
+    def from_mesh(cls, mesh, preset="quality", *, margin=0.02, contain=None, minratio=None,
+                  maxvolume=None, repair="auto"):
+        """Tetrahedralize a triangle scene.
+
+        Parameters
+        ----------
+        mesh : trimesh.Trimesh or str or os.PathLike or tuple
+            A mesh, a file trimesh can load, or ``(vertices (V, 3), faces (F, 3))``.
+            Non-watertight, multi-component and self-intersecting scenes are accepted.
+        preset : {"quality", "constrained"}
+            ``"quality"``: TetGen quality Delaunay (radius-edge bound), fewer tets per ray;
+            ``"constrained"``: constrained Delaunay without refinement, fewest tets.
+        margin : float
+            Domain box margin as a fraction of the scene's bounding-box diagonal.
+        contain : array_like, optional
+            ``(N, 3)`` points (e.g. ray origins or a camera position) the domain must contain.
+            Rays may start anywhere regardless; starting inside avoids locating the entry.
+        minratio, maxvolume : float, optional
+            Override the preset's TetGen radius-edge bound and maximum tet volume.
+        repair : {"auto", True, False}
+            Resolve self-intersections exactly (libigl/CGAL) when TetGen cannot mesh the scene.
+
+        Returns
+        -------
+        Scene
+
+        Raises
+        ------
+        tetrace.MeshingError
+            The scene cannot be meshed; the message names the cause.
+        """
+        from .meshing import load_triangles, tetrahedralize
+
+        vertices, faces = load_triangles(mesh)
+        tet = tetrahedralize((vertices, faces), preset, margin=margin, contain=contain,
+                             minratio=minratio, maxvolume=maxvolume, repair=repair)
+        return cls(tet, vertices, faces)
+
+    def cast(self, origins, directions=None, *, tmin=0.0, tmax=np.inf, threads=None,
+             max_steps=None, invalid="raise"):
+        """Cast rays and return their closest hits.
+
+        Parameters
+        ----------
+        origins : array_like
+            ``(N, 3)`` ray origins (or one ``(3,)`` origin shared by all rays), or ``(N, 6)``
+            rays when ``directions`` is None. Origins may lie anywhere, inside or outside
+            the domain.
+        directions : array_like, optional
+            ``(N, 3)`` directions, not necessarily unit length; ``t`` is in their units.
+        tmin, tmax : float or array_like
+            Only hits with ``tmin <= t <= tmax`` count (scalars or one value per ray).
+        threads : int, optional
+            Worker threads; None uses all cores. The GIL is released while casting.
+        max_steps : int, optional
+            Guard on tets visited per ray; a ray that reaches it is reported FAILED.
+        invalid : {"raise", "mark"}
+            Rays with NaN/inf components or zero directions raise ``ValueError``, or with
+            ``"mark"`` come back with status ``INVALID``.
+
+        Returns
+        -------
+        Hits
+            float32 fields for float32 rays, float64 otherwise (the walk runs in that
+            precision; hit ``t``, ``u``, ``v`` are evaluated in float64 on the caller's
+            triangle and rounded).
+        """
+        o, d = prepare_rays(origins, directions, invalid=invalid)
+        n = len(o)
+        lo = prepare_bounds(tmin, n, "tmin")
+        hi = prepare_bounds(tmax, n, "tmax")
+        if threads is not None and (not isinstance(threads, (int, np.integer)) or threads < 1):
+            raise ValueError(f"threads must be a positive int or None, got {threads!r}")
+        if max_steps is not None and (not isinstance(max_steps, (int, np.integer)) or not 0 < max_steps < 2**32):
+            raise ValueError(f"max_steps must be a positive int below 2**32, got {max_steps!r}")
+        native = self._native.cast_f32 if o.dtype == np.float32 else self._native.cast_f64
+        r = native(o, d, lo, hi, threads, max_steps)
+        return Hits(**r)
+
+    @property
+    def n_tets(self):
+        """int : Tetrahedra in the tetrahedralization."""
+        return self._native.n_tets
+
+    @property
+    def n_points(self):
+        """int : Points of the tetrahedralization (scene vertices, box corners, Steiner points)."""
+        return self._native.n_points
+
+    @property
+    def n_triangles(self):
+        """int : Triangles of the caller's mesh."""
+        return len(self.faces)
+
+    @property
+    def domain(self):
+        """numpy.ndarray : ``(2, 3)`` lower and upper corners of the domain box."""
+        return np.array(self._native.bounds)
+
+    @property
+    def bytes_per_tet(self):
+        """int : Bytes per tet of the traversal layout (points excluded)."""
+        return self._native.bytes_per_tet
+
+    def memory(self):
+        """Bytes used by each part of the traversal structure.
+
+        Returns
+        -------
+        dict
+            ``points_f64``, ``points_f32``, ``tets`` (layout records), ``constrained``
+            (constrained-face table), ``locator`` (seed grid and location topology).
+        """
+        return dict(self._native.memory())
+
+    def tets(self):
+        """Return the positively oriented tets, ``(T, 4)`` uint32 indices into ``points``."""
+        return self._native.tets()
+
+    @property
+    def points(self):
+        """numpy.ndarray : ``(P, 3)`` float64 points of the tetrahedralization."""
+        return self.tetrahedralization.points
+
+    def __repr__(self):
+        return (f"Scene({self.n_triangles} triangles, {self.n_tets} tets, {self.n_points} points, "
+                f"preset={self.tetrahedralization.preset!r})")
+
+
+def default_scene_path():
+    """Return the path of the bundled default scene (Keenan Crane's Spot, CC0)."""
+    return resources.files("tetrace").joinpath("data", "spot.obj")
+
+
+@lru_cache(maxsize=1)
+def default_scene():
+    """Return the bundled default scene, built once per process with the default preset."""
+    return Scene.from_mesh(str(default_scene_path()))
+
+
+def cast(rays, scene=None, **kwargs):
+    """Cast rays through a scene.
+
+    Parameters
+    ----------
+    rays : array_like or tuple
+        ``(N, 6)`` rays ``[ox, oy, oz, dx, dy, dz]`` or an ``(origins, directions)`` tuple.
+    scene : Scene or mesh or path, optional
+        A built :class:`Scene`, or anything :meth:`Scene.from_mesh` takes; None casts into
+        the bundled default scene.
+    **kwargs
+        Passed to :meth:`Scene.cast` (``tmin``, ``tmax``, ``threads``, ...).
+
+    Returns
+    -------
+    Hits
+    """
+    if scene is None:
+        scene = default_scene()
+    elif not isinstance(scene, Scene):
+        scene = Scene.from_mesh(scene)
+    if isinstance(rays, tuple):
+        if len(rays) != 2:
+            raise ValueError("rays given as a tuple must be (origins, directions)")
+        return scene.cast(rays[0], rays[1], **kwargs)
+    return scene.cast(rays, **kwargs)
