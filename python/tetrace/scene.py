@@ -166,13 +166,16 @@ class Scene:
         return dict(self._native.memory())
 
     def tets(self):
-        """Return the positively oriented tets, ``(T, 4)`` uint32 indices into ``points``."""
+        """Return the positively oriented tets, ``(T, 4)`` uint32 indices into ``points()``.
+
+        ``Hits.tet`` indexes these rows. Points and tets are renumbered along a Hilbert
+        curve at build time, so they differ in order from ``tetrahedralization``.
+        """
         return self._native.tets()
 
-    @property
     def points(self):
-        """numpy.ndarray : ``(P, 3)`` float64 points of the tetrahedralization."""
-        return self.tetrahedralization.points
+        """Return the ``(P, 3)`` float64 points, in the order ``tets()`` indexes."""
+        return self._native.points()
 
     def __repr__(self):
         return (f"Scene({self.n_triangles} triangles, {self.n_tets} tets, {self.n_points} points, "

@@ -71,6 +71,7 @@ pub struct PyScene {
 impl PyScene {
     /// Builds the traversal structures from a tetrahedralization (see tetrace.meshing).
     #[new]
+    #[pyo3(signature = (points, tets, faces, face_triangle, triangles, hilbert=true))]
     fn new(
         py: Python<'_>,
         points: PyReadonlyArray2<'_, f64>,
@@ -78,6 +79,7 @@ impl PyScene {
         faces: PyReadonlyArray2<'_, u32>,
         face_triangle: PyReadonlyArray1<'_, u32>,
         triangles: PyReadonlyArray3<'_, f64>,
+        hilbert: bool,
     ) -> PyResult<Self> {
         check_cols(&points, 3, "points")?;
         check_cols(&tets, 4, "tets")?;
@@ -94,7 +96,7 @@ impl PyScene {
             .into_iter()
             .map(|r| [[r[0], r[1], r[2]], [r[3], r[4], r[5]], [r[6], r[7], r[8]]])
             .collect();
-        let inner = py.detach(|| guarded(|| Scene::build(p, &t, &f, ft, tri)))?;
+        let inner = py.detach(|| guarded(|| Scene::build_with(p, &t, &f, ft, tri, hilbert)))?;
         Ok(PyScene { inner })
     }
 
@@ -157,6 +159,12 @@ impl PyScene {
     fn bounds(&self) -> [[f64; 3]; 2] {
         self.inner.mesh.bounds
     }
+    /// The points (P, 3) in the scene's order (Hilbert order unless disabled).
+    fn points<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, numpy::PyArray2<f64>>> {
+        let flat: Vec<f64> = self.inner.mesh.points.iter().flatten().copied().collect();
+        Ok(flat.into_pyarray(py).reshape([self.inner.mesh.points.len(), 3])?)
+    }
+
     /// The positively oriented tets (T, 4), for inspection and plotting.
     fn tets<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, numpy::PyArray2<u32>>> {
         let flat: Vec<u32> = self.inner.mesh.tets.iter().flatten().copied().collect();

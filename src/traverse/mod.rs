@@ -98,7 +98,10 @@ pub fn walk<R: Real, L: Layout, M: ExitMethod<R>>(
         t = link;
         steps += 1;
         let d = layout.new_vertex(t, a, b, c);
-        let pd = M::vertex(ray, points[d as usize]);
+        debug_assert!((d as usize) < points.len());
+        // SAFETY: d is a vertex id of a validated tet (xor of ids checked against the point
+        // count at build), so it indexes `points`.
+        let pd = M::vertex(ray, unsafe { *points.get_unchecked(d as usize) });
         let opposite = match M::step(ray, &pa, &pb, &pc, &pd) {
             Exit::Abd => {
                 let o = c;

@@ -1,0 +1,57 @@
+"""Type stubs for the compiled core (hand-written; keep in step with src/py/mod.rs)."""
+
+from typing import Optional
+
+import numpy as np
+import numpy.typing as npt
+
+MISS: int
+HIT: int
+FAILED: int
+INVALID: int
+__version__: str
+
+class MeshError(ValueError): ...
+class TooLargeError(ValueError): ...
+
+class NativeScene:
+    def __init__(
+        self,
+        points: npt.NDArray[np.float64],
+        tets: npt.NDArray[np.uint32],
+        faces: npt.NDArray[np.uint32],
+        face_triangle: npt.NDArray[np.uint32],
+        triangles: npt.NDArray[np.float64],
+        hilbert: bool = True,
+    ) -> None: ...
+    def cast_f32(
+        self,
+        origins: npt.NDArray[np.float32],
+        directions: npt.NDArray[np.float32],
+        tmin: npt.NDArray[np.float64],
+        tmax: npt.NDArray[np.float64],
+        threads: Optional[int] = None,
+        max_steps: Optional[int] = None,
+    ) -> dict[str, np.ndarray]: ...
+    def cast_f64(
+        self,
+        origins: npt.NDArray[np.float64],
+        directions: npt.NDArray[np.float64],
+        tmin: npt.NDArray[np.float64],
+        tmax: npt.NDArray[np.float64],
+        threads: Optional[int] = None,
+        max_steps: Optional[int] = None,
+    ) -> dict[str, np.ndarray]: ...
+    def memory(self) -> dict[str, int]: ...
+    def points(self) -> npt.NDArray[np.float64]: ...
+    def tets(self) -> npt.NDArray[np.uint32]: ...
+    @property
+    def n_tets(self) -> int: ...
+    @property
+    def n_points(self) -> int: ...
+    @property
+    def n_constrained(self) -> int: ...
+    @property
+    def bytes_per_tet(self) -> int: ...
+    @property
+    def bounds(self) -> list[list[float]]: ...
