@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .hits import HIT, MISS, Hits
+from .hits import HIT, INVALID, MISS, Hits
 
 __all__ = ["embree_available", "embree_scene", "embree_cast", "EmbreeReference", "load_triangles"]
 
@@ -140,7 +140,9 @@ class EmbreeReference:
     """An Embree scene built once and cast many times.
 
     Build it with :func:`embree_scene`. The BVH is built (committed) in the
-    constructor, so :meth:`cast` times casting only.
+    constructor, so :meth:`cast` times casting only: Embree plus the numpy work
+    of filling a :class:`~tetrace.hits.Hits`. :meth:`intersect` is the Embree
+    call alone, on float32 arrays, for kernel-only timings.
 
     Parameters
     ----------
@@ -218,8 +220,10 @@ class EmbreeReference:
             Float fields have the floating dtype of the inputs (float64 for
             float64 or integer input, float32 for float32 input), with float32
             precision in ``t``, ``u`` and ``v``. ``point = origin + t * direction``
-            in that dtype. ``tet`` is ``-1`` and ``steps`` ``0`` for every ray;
-            ``status`` is only ``HIT`` or ``MISS``.
+            in that dtype. ``tet`` is ``-1`` and ``steps`` ``0`` for every ray.
+            ``status`` is ``HIT`` or ``MISS``, or ``INVALID`` for a ray with a
+            NaN or infinite component or a zero-length direction (miss
+            sentinels in the other fields); nothing is raised for those.
         """
         origins, directions = _split_rays(origins, directions)
         dtype = origins.dtype
@@ -228,8 +232,15 @@ class EmbreeReference:
         tmax = np.broadcast_to(np.asarray(tmax, dtype=np.float64), (n,))
         if not np.all(np.isfinite(tmin)):
             raise ValueError("tmin must be finite")
-        if n == 0 or self.n_triangles == 0:
-            return Hits.misses(n, dtype=dtype)
+        if n == 0:
+            return Hits.misses(0, dtype=dtype)
+
+        # Rays Embree cannot take (NaN/inf components, zero-length direction) are
+        # reported INVALID, as the tet-mesh caster does with invalid="mark".
+        with np.errstate(invalid="ignore", over="ignore"):
+            # a row sum is finite exactly when its entries are (barring overflow)
+            invalid = ~np.isfinite(origins.sum(axis=1) + directions.sum(axis=1))
+        invalid |= ~directions.any(axis=1)
 
         shifted = np.any(tmin != 0.0)
         if shifted:
@@ -239,42 +250,71 @@ class EmbreeReference:
         o32 = np.ascontiguousarray(start, dtype=np.float32)
         d32 = np.ascontiguousarray(directions, dtype=np.float32)
         # embreex writes the hit distances into this array, so it must be a fresh copy.
-        # A negative tfar (tmax < tmin) makes Embree skip the ray.
+        # A negative tfar (tmax < tmin, or an invalid ray) makes Embree skip the ray.
         with np.errstate(invalid="ignore"):
             span = tmax - tmin
-        tfar = np.where(span >= 0.0, span, -1.0).astype(np.float32)
+        tfar = np.where((span >= 0.0) & ~invalid, span, -1.0).astype(np.float32)
+        if invalid.any():  # new arrays: o32 and d32 may be the caller's own
+            o32 = np.where(invalid[:, None], np.float32(0.0), o32)
+            d32 = np.where(invalid[:, None], np.float32(1.0), d32)
 
+        prim, t32, u32, v32 = self.intersect(o32, d32, tfar, threads=threads)
+
+        hit = prim >= 0  # invalid rays had tfar = -1, so they cannot hit
+        with np.errstate(invalid="ignore", over="ignore"):
+            t = t32.astype(dtype)
+            if shifted:
+                t += tmin.astype(dtype)
+            t = np.where(hit, t, np.inf).astype(dtype, copy=False)
+            point = origins + t[:, None] * directions
+        point[~hit] = np.nan
+        return Hits(
+            t=t,
+            triangle=prim.astype(np.int32, copy=False),  # -1 on miss, as Embree reports it
+            u=np.where(hit, u32, np.nan).astype(dtype, copy=False),
+            v=np.where(hit, v32, np.nan).astype(dtype, copy=False),
+            point=point,
+            tet=np.full(n, -1, dtype=np.int32),
+            steps=np.zeros(n, dtype=np.uint32),
+            status=np.where(hit, np.uint8(HIT), np.where(invalid, np.uint8(INVALID), np.uint8(MISS))),
+        )
+
+    def intersect(self, origins32, directions32, tfar32=None, *, threads=None):
+        """The bare Embree call, for timing: float32 rays in, raw results out.
+
+        Parameters
+        ----------
+        origins32, directions32 : numpy.ndarray
+            ``(N, 3)`` C-contiguous float32 arrays (not checked or converted).
+        tfar32 : numpy.ndarray, optional
+            ``(N,)`` float32 upper limits of ``t``. Embree overwrites it with the
+            hit distances. Default: ``inf`` for every ray.
+        threads : int, optional
+            Worker threads (default: every CPU this process may use). Batches
+            under 16384 rays per thread use fewer threads.
+
+        Returns
+        -------
+        triangle : numpy.ndarray
+            ``(N,)`` int32 hit triangle, ``-1`` on miss.
+        t : numpy.ndarray
+            ``(N,)`` float32, the hit distance (``tfar32`` unchanged on miss).
+        u, v : numpy.ndarray
+            ``(N,)`` float32 barycentrics (undefined on miss).
+        """
+        n = len(origins32)
+        if tfar32 is None:
+            tfar32 = np.full(n, np.inf, dtype=np.float32)
         if threads is None:
             threads = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
         threads = max(1, min(int(threads or 1), n // _MIN_RAYS_PER_THREAD))
         if threads == 1:
-            prim, t32, u32, v32 = self._run(o32, d32, tfar)
-        else:
-            bounds = np.linspace(0, n, threads + 1).astype(np.int64)
-            slices = [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:])]
-            with ThreadPoolExecutor(threads) as pool:
-                parts = list(pool.map(lambda s: self._run(o32[s], d32[s], tfar[s]), slices))
-            prim, t32, u32, v32 = (np.concatenate(p) for p in zip(*parts))
-
-        hit = prim >= 0
-        t = np.full(n, np.inf, dtype=dtype)
-        t[hit] = t32[hit].astype(np.float64) + (tmin[hit] if shifted else 0.0)
-        u = np.full(n, np.nan, dtype=dtype)
-        v = np.full(n, np.nan, dtype=dtype)
-        u[hit] = u32[hit]
-        v[hit] = v32[hit]
-        point = np.full((n, 3), np.nan, dtype=dtype)
-        point[hit] = origins[hit] + t[hit, None] * directions[hit]
-        return Hits(
-            t=t,
-            triangle=np.where(hit, prim, -1).astype(np.int32),
-            u=u,
-            v=v,
-            point=point,
-            tet=np.full(n, -1, dtype=np.int32),
-            steps=np.zeros(n, dtype=np.uint32),
-            status=np.where(hit, HIT, MISS).astype(np.uint8),
-        )
+            return self._run(origins32, directions32, tfar32)
+        bounds = np.linspace(0, n, threads + 1).astype(np.int64)
+        slices = [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:])]
+        with ThreadPoolExecutor(threads) as pool:
+            parts = list(pool.map(lambda s: self._run(origins32[s], directions32[s], tfar32[s]), slices))
+        return tuple(np.concatenate(p) for p in zip(*parts))
 
 
 def embree_scene(mesh, *, robust: bool = True) -> EmbreeReference:
@@ -334,7 +374,8 @@ def embree_cast(mesh, origins, directions=None, *, tmin=0.0, tmax=np.inf, robust
     Hits
         ``t``, ``triangle``, ``u``, ``v`` (``point = (1-u-v)*p0 + u*p1 + v*p2``),
         ``point = origin + t * direction``; ``tet = -1``, ``steps = 0``,
-        ``status`` ``HIT`` or ``MISS``.
+        ``status`` ``HIT`` or ``MISS`` (``INVALID`` for rays with a NaN or
+        infinite component or a zero-length direction).
 
     Notes
     -----
