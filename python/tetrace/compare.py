@@ -1,0 +1,141 @@
+"""Comparing two casts of the same rays (tetrace against the Embree reference).
+
+Used by the tests (which assert on it) and the benchmark (which reports it).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from .hits import FAILED, HIT
+
+__all__ = ["Agreement", "compare", "edge_distance"]
+
+
+@dataclasses.dataclass
+class Agreement:
+    """How two casts of the same rays agree.
+
+    Attributes
+    ----------
+    rays : int
+    agree : int
+        Rays with the same hit/miss outcome and the same triangle id.
+    failed : int
+        Rays the first cast reported FAILED.
+    far_from_edges : int
+        Disagreements whose nearer hit is farther than ``edge_tol`` from every edge of the
+        triangle it hit: disagreements that rounding at shared edges cannot explain.
+    max_dt, p50_dt, p99_dt : float
+        ``|t - t_ref|`` over rays that agree on a hit, relative to the scene diagonal.
+    worst : list of int
+        Up to ten ray indices of unexplained disagreements, for debugging.
+    """
+
+    rays: int
+    agree: int
+    failed: int
+    far_from_edges: int
+    max_dt: float
+    p50_dt: float
+    p99_dt: float
+    worst: list
+
+    @property
+    def fraction(self):
+        """float : Share of rays that agree."""
+        return self.agree / self.rays if self.rays else 1.0
+
+    def __str__(self):
+        return (f"{self.fraction * 100:.4f}% agree ({self.rays - self.agree} differ, "
+                f"{self.far_from_edges} away from edges, {self.failed} failed), "
+                f"|dt|/diag max {self.max_dt:.2e} p99 {self.p99_dt:.2e}")
+
+
+def edge_distance(vertices, faces, triangle, u, v):
+    """Distance from the points with barycentrics (u, v) on the given triangles to their edges.
+
+    Parameters
+    ----------
+    vertices, faces : numpy.ndarray
+        The mesh the triangle ids index.
+    triangle : numpy.ndarray
+        ``(K,)`` triangle ids.
+    u, v : numpy.ndarray
+        ``(K,)`` barycentrics (point = (1-u-v) p0 + u p1 + v p2).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(K,)`` distances to the nearest of the three edges' lines, measured in the plane.
+    """
+    p = vertices[faces[triangle]].astype(np.float64)
+    u = np.asarray(u, np.float64)
+    v = np.asarray(v, np.float64)
+    w = 1.0 - u - v
+    area2 = np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+    out = np.full(len(triangle), np.inf)
+    # The barycentric opposite an edge, times twice the area over that edge's length, is the
+    # distance to the edge's line (negative barycentrics: outside, still a distance).
+    for bary, (i, j) in ((w, (1, 2)), (u, (2, 0)), (v, (0, 1))):
+        length = np.linalg.norm(p[:, j] - p[:, i], axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            d = np.abs(bary) * area2 / length
+        out = np.minimum(out, np.where(length > 0, d, 0.0))
+    return out
+
+
+def compare(hits, ref, vertices, faces, *, edge_tol=1e-5, diagonal=None):
+    """Compare a cast against a reference cast of the same rays.
+
+    Parameters
+    ----------
+    hits, ref : Hits
+        The cast under test and the reference (e.g. ``tetrace.reference.embree_cast``).
+    vertices, faces : numpy.ndarray
+        The caller's mesh (triangle ids index ``faces``).
+    edge_tol : float
+        Distance to a triangle edge, as a fraction of the scene diagonal, within which a
+        disagreement counts as explained by rounding at a shared edge.
+    diagonal : float, optional
+        Scene diagonal; defaults to that of ``vertices``' bounding box.
+
+    Returns
+    -------
+    Agreement
+    """
+    vertices = np.asarray(vertices, np.float64)
+    faces = np.asarray(faces)
+    if diagonal is None:
+        diagonal = float(np.linalg.norm(vertices.max(0) - vertices.min(0)))
+    a_hit = hits.status == HIT
+    b_hit = ref.status == HIT
+    same = (a_hit == b_hit) & (~a_hit | (hits.triangle == ref.triangle))
+    differ = np.flatnonzero(~same)
+    far = 0
+    worst = []
+    if len(differ):
+        ta = np.where(a_hit[differ], hits.t[differ].astype(np.float64), np.inf)
+        tb = np.where(b_hit[differ], ref.t[differ].astype(np.float64), np.inf)
+        use_a = ta <= tb  # the nearer hit is the one whose existence is in question
+        tri = np.where(use_a, hits.triangle[differ], ref.triangle[differ])
+        u = np.where(use_a, hits.u[differ], ref.u[differ])
+        v = np.where(use_a, hits.v[differ], ref.v[differ])
+        dist = edge_distance(vertices, faces, tri, u, v) / diagonal
+        bad = differ[dist > edge_tol]
+        far = len(bad)
+        worst = bad[:10].tolist()
+    both = a_hit & b_hit & same
+    dt = np.abs(hits.t[both].astype(np.float64) - ref.t[both].astype(np.float64)) / diagonal
+    return Agreement(
+        rays=len(hits.status),
+        agree=int(same.sum()),
+        failed=int((hits.status == FAILED).sum()),
+        far_from_edges=far,
+        max_dt=float(dt.max()) if len(dt) else 0.0,
+        p50_dt=float(np.median(dt)) if len(dt) else 0.0,
+        p99_dt=float(np.quantile(dt, 0.99)) if len(dt) else 0.0,
+        worst=worst,
+    )

@@ -1,0 +1,206 @@
+"""The Scene/cast API on the bundled and synthetic scenes: fields, options, bad input."""
+
+import numpy as np
+import pytest
+
+import tetrace
+from tetrace import synthetic
+from tetrace.camera import pinhole, random_rays
+from tetrace.compare import compare
+from tetrace.reference import embree_cast
+
+
+@pytest.fixture(scope="module")
+def spot():
+    return tetrace.default_scene()
+
+
+def _camera(scene, res=128, dtype=np.float32, distance=1.5):
+    lo, hi = scene.vertices.min(0), scene.vertices.max(0)
+    c = (lo + hi) / 2
+    eye = c + np.array([0.3, 0.2, 1.0]) * distance * np.linalg.norm(hi - lo)
+    return pinhole(eye, c, width=res, height=res, dtype=dtype)
+
+
+def test_hits_fields(spot):
+    o, d = _camera(spot)
+    for dtype in (np.float32, np.float64):
+        h = spot.cast(o.astype(dtype), d.astype(dtype))
+        n = len(o)
+        assert len(h) == n
+        for f in ("t", "u", "v"):
+            assert getattr(h, f).dtype == dtype and getattr(h, f).shape == (n,)
+        assert h.point.shape == (n, 3) and h.point.dtype == dtype
+        assert h.triangle.dtype == np.int32 and h.tet.dtype == np.int32
+        assert h.steps.dtype == np.uint32 and h.status.dtype == np.uint8
+        hit = h.status == tetrace.HIT
+        assert 0 < hit.sum() < n
+        assert np.all(np.isinf(h.t[~hit])) and np.all(h.triangle[~hit] == -1)
+        assert np.all(np.isnan(h.point[~hit]))
+        assert np.all((h.triangle[hit] >= 0) & (h.triangle[hit] < len(spot.faces)))
+        # point, t and barycentrics describe the same place on the caller's triangle
+        np.testing.assert_allclose(h.point[hit], o[hit] + h.t[hit, None] * d[hit], atol=1e-5)
+        p = spot.vertices[spot.faces[h.triangle[hit]]]
+        u, v = h.u[hit, None], h.v[hit, None]
+        np.testing.assert_allclose((1 - u - v) * p[:, 0] + u * p[:, 1] + v * p[:, 2], h.point[hit], atol=1e-5)
+        assert np.all((h.tet[hit] >= 0) & (h.tet[hit] < spot.n_tets))
+        assert np.all(h.steps[hit] >= 1)
+
+
+def test_ray_forms_are_equivalent(spot):
+    o, d = _camera(spot, 32, np.float64)
+    a = spot.cast(o, d)
+    b = tetrace.cast(np.hstack([o, d]), spot)
+    c = tetrace.cast((o, d), spot)
+    e = spot.cast(o[0], d)  # one shared origin
+    f = spot.cast(np.asfortranarray(o), np.asfortranarray(d))  # not C-contiguous
+    g = spot.cast(np.repeat(o, 2, 0)[::2], np.repeat(d, 2, 0)[::2])  # strided
+    for h in (b, c, e, f, g):
+        np.testing.assert_array_equal(a.triangle, h.triangle)
+        np.testing.assert_array_equal(a.t, h.t)
+    dflt = tetrace.cast((o, d))  # the bundled scene by default
+    np.testing.assert_array_equal(dflt.triangle, a.triangle)
+
+
+def test_threads_do_not_change_results(spot):
+    o, d = random_rays(spot.domain, 20_000, seed=3)
+    a = spot.cast(o, d, threads=1)
+    b = spot.cast(o, d, threads=None)
+    c = spot.cast(o, d, threads=2)
+    for h in (b, c):
+        np.testing.assert_array_equal(a.triangle, h.triangle)
+        np.testing.assert_array_equal(a.steps, h.steps)
+
+
+def test_tmin_tmax(spot):
+    o, d = _camera(spot, 64, np.float64)
+    full = spot.cast(o, d)
+    hit = full.status == tetrace.HIT
+    # tmax just short of the hit: a miss
+    short = spot.cast(o, d, tmax=np.where(hit, full.t * 0.999, np.inf))
+    assert np.all(short.status[hit] == tetrace.MISS)
+    # tmin past the first hit: the next surface (spot is closed, so the back side)
+    past = spot.cast(o, d, tmin=np.where(hit, full.t * 1.0001, 0.0))
+    assert np.all(past.status[hit] == tetrace.HIT)
+    assert np.all(past.t[hit] > full.t[hit])
+    ref = embree_cast((spot.vertices, spot.faces), o, d, tmin=np.where(hit, full.t * 1.0001, 0.0))
+    assert compare(past, ref, spot.vertices, spot.faces).fraction > 0.999
+    # tmax below tmin: nothing
+    none = spot.cast(o, d, tmin=2.0, tmax=1.0)
+    assert np.all(none.status == tetrace.MISS)
+
+
+def test_rays_from_inside_a_closed_surface_always_hit(spot):
+    # Spot is watertight: rays from its centre must hit (a miss would be a leak).
+    c = spot.vertices.mean(0)
+    rng = np.random.default_rng(0)
+    d = rng.standard_normal((20_000, 3))
+    for dtype in (np.float32, np.float64):
+        h = spot.cast(c.astype(dtype), d.astype(dtype))
+        assert np.all(h.status == tetrace.HIT)
+
+
+def test_bad_rays_raise_clear_errors(spot):
+    o, d = _camera(spot, 8, np.float64)
+    bad = o.copy()
+    bad[3, 1] = np.nan
+    with pytest.raises(ValueError, match="NaN/inf"):
+        spot.cast(bad, d)
+    zero = d.copy()
+    zero[5] = 0
+    with pytest.raises(ValueError, match="zero-length"):
+        spot.cast(o, zero)
+    with pytest.raises(ValueError, match=r"\(N, 3\)"):
+        spot.cast(o[:, :2], d[:, :2])
+    with pytest.raises(ValueError, match="same length"):
+        spot.cast(o[:5], d[:6])
+    with pytest.raises(ValueError, match=r"\(N, 6\)"):
+        spot.cast(o)
+    with pytest.raises(TypeError, match="float"):
+        spot.cast(o.astype(complex), d)
+    with pytest.raises(TypeError, match="float"):
+        spot.cast(np.array([["a", "b", "c"]]), d[:1])
+    with pytest.raises(ValueError, match="tmin must be >= 0"):
+        spot.cast(o, d, tmin=-1.0)
+    with pytest.raises(ValueError, match="tmax"):
+        spot.cast(o, d, tmax=np.ones(3))
+    with pytest.raises(ValueError, match="NaN"):
+        spot.cast(o, d, tmax=np.nan)
+    with pytest.raises(ValueError, match="threads"):
+        spot.cast(o, d, threads=0)
+    with pytest.raises(ValueError, match="invalid"):
+        spot.cast(o, d, invalid="ignore")
+
+
+def test_invalid_rays_can_be_marked(spot):
+    o, d = _camera(spot, 8, np.float32)
+    o[1] = np.inf
+    d[2] = 0
+    h = spot.cast(o, d, invalid="mark")
+    assert h.status[1] == tetrace.INVALID and h.status[2] == tetrace.INVALID
+    good = np.ones(len(o), bool)
+    good[[1, 2]] = False
+    assert np.all(h.status[good] != tetrace.INVALID)
+    assert h.summary()["invalid"] == 2
+
+
+def test_integer_and_empty_rays(spot):
+    h = spot.cast(np.zeros((0, 3)), np.zeros((0, 3)))
+    assert len(h) == 0 and h.t.dtype == np.float64
+    c = np.round(spot.vertices.mean(0) * 0).astype(int)
+    h = spot.cast(np.array([[5, 0, 0]]), np.array([[-1, 0, 0]]))  # ints become float64
+    assert h.t.dtype == np.float64 and h.status[0] == tetrace.HIT
+    assert c.dtype.kind == "i"
+
+
+def test_memory_and_sizes(spot):
+    m = spot.memory()
+    assert set(m) == {"points_f64", "points_f32", "tets", "constrained", "locator"}
+    assert m["tets"] == spot.n_tets * spot.bytes_per_tet == spot.n_tets * 20
+    assert spot.tets().shape == (spot.n_tets, 4) and spot.points().shape == (spot.n_points, 3)
+    assert spot.build_times["rust"] > 0 and spot.build_times["tetgen"] > 0
+    assert "tets" in repr(spot)
+
+
+def test_hilbert_order_is_a_renumbering(spot):
+    # Without reordering the same rays hit the same triangles.
+    tet = spot.tetrahedralization
+    plain = tetrace.Scene.__new__(tetrace.Scene)
+    plain.__init__(tet, spot.vertices, spot.faces)
+    o, d = random_rays(spot.domain, 5000, seed=9)
+    a = spot.cast(o, d)
+    from tetrace import _native
+    raw = _native.NativeScene(tet.points, tet.tets, tet.faces.reshape(-1, 3), tet.face_triangle,
+                              np.ascontiguousarray(spot.vertices[spot.faces]), hilbert=False)
+    b = raw.cast_f64(o, d, np.zeros(1), np.full(1, np.inf))
+    np.testing.assert_array_equal(a.triangle, b["triangle"])
+    np.testing.assert_allclose(a.t, b["t"])
+
+
+SYNTHETIC = ["cube", "nested_spheres", "thin_plate", "torus_knot", "touching_boxes"]
+
+
+@pytest.mark.parametrize("name", SYNTHETIC)
+@pytest.mark.parametrize("preset", ["quality", "constrained"])
+def test_synthetic_scenes_agree_with_embree(name, preset, embree):
+    v, f = getattr(synthetic, name)()
+    scene = tetrace.Scene.from_mesh((v, f), preset)
+    bounds = np.array([v.min(0), v.max(0)])
+    o, d = random_rays(bounds, 20_000, seed=5, grow=0.3)
+    for dtype in (np.float32, np.float64):
+        h = scene.cast(o.astype(dtype), d.astype(dtype))
+        ref = embree_cast((v, f), o.astype(np.float32), d.astype(np.float32))
+        a = compare(h, ref, v, f)
+        assert a.failed == 0, f"{name}: {a}"
+        assert a.fraction >= 0.999 and a.far_from_edges == 0, f"{name} {preset}: {a} {a.worst}"
+        assert a.max_dt <= 1e-5, f"{name}: {a}"
+
+
+def test_closed_synthetic_scenes_do_not_leak():
+    v, f = synthetic.nested_spheres()
+    scene = tetrace.Scene.from_mesh((v, f))
+    rng = np.random.default_rng(1)
+    d = rng.standard_normal((10_000, 3))
+    c = v.mean(0)
+    h = scene.cast(c, d)
+    assert np.all(h.status == tetrace.HIT)
