@@ -149,14 +149,7 @@ impl Scene {
         let np = points.len() as u64;
         let in_range = tets.iter().flatten().chain(faces.iter().flatten()).all(|&v| (v as u64) < np);
         let mesh = if hilbert && in_range && points.iter().flatten().all(|x| x.is_finite()) {
-            let mut lo = [f64::INFINITY; 3];
-            let mut hi = [f64::NEG_INFINITY; 3];
-            for p in &points {
-                for a in 0..3 {
-                    lo[a] = lo[a].min(p[a]);
-                    hi[a] = hi[a].max(p[a]);
-                }
-            }
+            let (lo, hi) = crate::mesh::build::bounds_of(&points);
             let (p, t, f, _) = crate::sort::hilbert::reorder(&points, tets, faces, [lo, hi]);
             TetMesh::build(p, &t, &f, face_triangle)?
         } else {
@@ -165,7 +158,8 @@ impl Scene {
         };
         if !mesh.domain_is_box {
             return Err(Error::InvalidMesh(
-                "the domain boundary is not its bounding box; wrap the scene in a box".into(),
+                "some boundary faces do not lie on the bounding box: the domain must be a box \
+                 (tetrace.meshing wraps scenes in one)".into(),
             ));
         }
         let locator = GridLocator::build(&mesh);

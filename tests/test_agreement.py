@@ -3,7 +3,9 @@
 For each scene: 1024x1024 camera rays from three views and 10^5 random rays (origins in and
 around the domain, uniform directions), in float32 and float64. At least 99.9% of rays agree
 on hit/miss and triangle id; every disagreement lies within 1e-5 x diagonal of an edge of the
-triangle the nearer cast hit; t agrees within 1e-5 x diagonal; no ray FAILED.
+triangle the nearer cast hit; t agrees within 1e-5 x diagonal, except where Embree's own
+float32 t is off (grazing rays): there tetrace's t must match the exact float64 intersection
+within 1e-6 x diagonal; no ray FAILED.
 """
 
 import numpy as np
@@ -35,12 +37,12 @@ def _check(scene, name):
             hits = scene.cast(o2, d2)
             assert hits.t.dtype == dtype
             ref = ref_scene.cast(o2.astype(np.float32), d2.astype(np.float32))
-            a = compare(hits, ref, scene.vertices, scene.faces)
+            a = compare(hits, ref, scene.vertices, scene.faces, origins=o2, directions=d2)
             msg = f"{name} {kind} {np.dtype(dtype).name}: {a}; rays {a.worst}"
             assert a.failed == 0, msg
             assert a.fraction >= 0.999, msg
             assert a.far_from_edges == 0, msg
-            assert a.max_dt <= 1e-5, msg
+            assert a.dt_over_unexplained == 0, msg
             assert (hits.status == tetrace.HIT).any(), msg
 
 

@@ -55,6 +55,18 @@ pub fn orient(a: [f64; 3], b: [f64; 3], c: [f64; 3], d: [f64; 3]) -> f64 {
     -robust::orient3d(p(a), p(b), p(c), p(d))
 }
 
+pub fn bounds_of(points: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in points {
+        for a in 0..3 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    (lo, hi)
+}
+
 #[inline]
 fn sorted3(mut k: [u32; 3]) -> [u32; 3] {
     if k[0] > k[1] {
@@ -75,7 +87,7 @@ impl TetMesh {
     /// `faces[k]` is a constrained face (three point ids) lying on scene triangle
     /// `face_triangle[k]`. A face listed twice keeps the first triangle id.
     pub fn build(
-        points: Vec<[f64; 3]>,
+        mut points: Vec<[f64; 3]>,
         tets: &[[u32; 4]],
         faces: &[[u32; 3]],
         face_triangle: &[u32],
@@ -114,6 +126,21 @@ impl TetMesh {
                 "constrained face {f} {:?} refers to a point beyond the {np} given",
                 faces[f]
             )));
+        }
+
+        // Steiner points a mesher puts on the domain box's sides can be off their plane by an
+        // ulp or two; snap them so that the domain is exactly the box (rays from outside are
+        // clipped against it). Orientation is checked after, exactly, on the snapped points.
+        let (lo, hi) = bounds_of(&points);
+        let tol = 1e-10 * (0..3).map(|a| hi[a] - lo[a]).fold(0.0, f64::max);
+        for p in points.iter_mut() {
+            for a in 0..3 {
+                if (p[a] - lo[a]).abs() <= tol {
+                    p[a] = lo[a];
+                } else if (hi[a] - p[a]).abs() <= tol {
+                    p[a] = hi[a];
+                }
+            }
         }
 
         // Orient positively with exact predicates; a flat tet cannot be walked through.
@@ -192,14 +219,6 @@ impl TetMesh {
             }
         }
 
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
-        for p in &points {
-            for a in 0..3 {
-                lo[a] = lo[a].min(p[a]);
-                hi[a] = hi[a].max(p[a]);
-            }
-        }
         let on_box_side = |f: [u32; 3]| {
             (0..3).any(|a| {
                 f.iter().all(|&v| points[v as usize][a] == lo[a])
