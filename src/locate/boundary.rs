@@ -51,10 +51,7 @@ impl BoundaryLocator {
                 let n = ((faces.len() as f64).sqrt().ceil() as usize).clamp(1, 256);
                 let dims = [n, n];
                 let inv_cell = [dims[0] as f64 / ext[0], dims[1] as f64 / ext[1]];
-                let cell = |x: f64, d: usize| -> usize {
-                    let c = ((x - slo[d]) * inv_cell[d]).floor();
-                    (c.max(0.0) as usize).min(dims[d] - 1)
-                };
+                let cell = |x: f64, d: usize| -> usize { (((x - slo[d]) * inv_cell[d]) as usize).min(dims[d] - 1) };
                 let mut buckets: Vec<Vec<(u32, [[f64; 2]; 3])>> = vec![Vec::new(); n * n];
                 for (t, p) in faces {
                     let q = p.map(|v| [v[axes[0]], v[axes[1]]]);
@@ -93,19 +90,14 @@ impl BoundaryLocator {
     pub fn locate(&self, p: [f64; 3], axis: usize, high: bool) -> Option<u32> {
         let s = &self.sides[2 * axis + high as usize];
         let q = [p[s.axes[0]], p[s.axes[1]]];
-        let c = [0, 1].map(|d| {
-            let x = ((q[d] - s.lo[d]) * s.inv_cell[d]).floor();
-            (x.max(0.0) as usize).min(s.dims[d] - 1)
-        });
+        // `as usize` truncates toward zero and saturates negatives and NaN to 0: floor for
+        // the in-range values that matter, without a libm call.
+        let c = [0, 1].map(|d| (((q[d] - s.lo[d]) * s.inv_cell[d]) as usize).min(s.dims[d] - 1));
         let cell = c[0] + s.dims[0] * c[1];
-        let pt = robust::Coord { x: q[0], y: q[1] };
         for (t, tri) in &s.entries[s.start[cell] as usize..s.start[cell + 1] as usize] {
-            let v = tri.map(|v| robust::Coord { x: v[0], y: v[1] });
-            let o = [
-                robust::orient2d(v[0], v[1], pt),
-                robust::orient2d(v[1], v[2], pt),
-                robust::orient2d(v[2], v[0], pt),
-            ];
+            let p = |v: [f64; 2]| robust::Coord { x: v[0], y: v[1] };
+            let (a, b, c, x) = (p(tri[0]), p(tri[1]), p(tri[2]), p(q));
+            let o = [robust::orient2d(a, b, x), robust::orient2d(b, c, x), robust::orient2d(c, a, x)];
             // Either winding: the side's faces are seen from outside or inside depending on it.
             if o.iter().all(|&x| x >= 0.0) || o.iter().all(|&x| x <= 0.0) {
                 return Some(*t);

@@ -74,10 +74,8 @@ impl GridLocator {
 
     #[inline]
     fn cell(&self, p: [f64; 3]) -> usize {
-        let i = [0, 1, 2].map(|a| {
-            let x = ((p[a] - self.lo[a]) * self.inv_cell[a]).floor();
-            (x.max(0.0) as usize).min(self.dims[a] - 1)
-        });
+        // `as usize` saturates negatives and NaN to 0 and truncates: floor without libm.
+        let i = [0, 1, 2].map(|a| (((p[a] - self.lo[a]) * self.inv_cell[a]) as usize).min(self.dims[a] - 1));
         i[0] + self.dims[0] * (i[1] + self.dims[1] * i[2])
     }
 
