@@ -214,11 +214,12 @@ impl Scene {
             let mut hint = None;
             let mut rng = 0x9E37_79B9u32 ^ (k as u32).wrapping_mul(0x85EB_CA6B) | 1;
             let mut camera: Option<([f64; 3], f64, u32)> = None;
+            let mut entry_hint = None;
             let base = k * CHUNK;
             let HitsOut { t, u, v, point, triangle, tet, steps, status } = chunk;
             for j in 0..t.len() {
                 let i = base + j;
-                let r = self.cast_one::<R, L, M>(points, layout, rays, i, opts, &mut hint, &mut camera, &mut rng);
+                let r = self.cast_one::<R, L, M>(points, layout, rays, i, opts, &mut hint, &mut camera, &mut entry_hint, &mut rng);
                 t[j] = R::from_f64(r.t);
                 u[j] = R::from_f64(r.u);
                 v[j] = R::from_f64(r.v);
@@ -258,6 +259,7 @@ impl Scene {
         opts: &CastOptions,
         hint: &mut Option<u32>,
         camera: &mut Option<([f64; 3], f64, u32)>,
+        entry_hint: &mut Option<(usize, usize)>,
         rng: &mut u32,
     ) -> RayHit {
         let o = [0, 1, 2].map(|a| rays.origins[3 * i + a].to_f64());
@@ -301,7 +303,7 @@ impl Scene {
             match entry.side {
                 Some((axis, high)) => {
                     start_point[axis] = if high { hi[axis] } else { lo[axis] };
-                    match self.entry.locate(start_point, axis, high) {
+                    match self.entry.locate(start_point, axis, high, entry_hint) {
                         Some(t) => Located::Inside(t),
                         None => self.locator.locate(mesh, start_point, *hint, rng),
                     }

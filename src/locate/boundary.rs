@@ -16,6 +16,16 @@ struct Side {
     entries: Vec<(u32, [[f64; 2]; 3])>,
 }
 
+/// Whether the 2D triangle holds q (its boundary included), exactly.
+#[inline]
+fn contains(tri: &[[f64; 2]; 3], q: [f64; 2]) -> bool {
+    let p = |v: [f64; 2]| robust::Coord { x: v[0], y: v[1] };
+    let (a, b, c, x) = (p(tri[0]), p(tri[1]), p(tri[2]), p(q));
+    let o = [robust::orient2d(a, b, x), robust::orient2d(b, c, x), robust::orient2d(c, a, x)];
+    // Either winding: a side's faces are seen from outside or inside depending on the side.
+    o.iter().all(|&x| x >= 0.0) || o.iter().all(|&x| x <= 0.0)
+}
+
 pub struct BoundaryLocator {
     /// Index 2*axis + (0 for the low side, 1 for the high side).
     sides: Vec<Side>,
@@ -87,20 +97,24 @@ impl BoundaryLocator {
     }
 
     /// The boundary tet whose face on side (`axis`, `high`) holds point p (on that side).
-    pub fn locate(&self, p: [f64; 3], axis: usize, high: bool) -> Option<u32> {
-        let s = &self.sides[2 * axis + high as usize];
+    /// `hint` remembers the last face found: a camera's neighbouring rays mostly enter by it.
+    pub fn locate(&self, p: [f64; 3], axis: usize, high: bool, hint: &mut Option<(usize, usize)>) -> Option<u32> {
+        let side = 2 * axis + high as usize;
+        let s = &self.sides[side];
         let q = [p[s.axes[0]], p[s.axes[1]]];
+        if let Some((hs, he)) = *hint {
+            if hs == side && contains(&s.entries[he].1, q) {
+                return Some(s.entries[he].0);
+            }
+        }
         // `as usize` truncates toward zero and saturates negatives and NaN to 0: floor for
         // the in-range values that matter, without a libm call.
         let c = [0, 1].map(|d| (((q[d] - s.lo[d]) * s.inv_cell[d]) as usize).min(s.dims[d] - 1));
         let cell = c[0] + s.dims[0] * c[1];
-        for (t, tri) in &s.entries[s.start[cell] as usize..s.start[cell + 1] as usize] {
-            let p = |v: [f64; 2]| robust::Coord { x: v[0], y: v[1] };
-            let (a, b, c, x) = (p(tri[0]), p(tri[1]), p(tri[2]), p(q));
-            let o = [robust::orient2d(a, b, x), robust::orient2d(b, c, x), robust::orient2d(c, a, x)];
-            // Either winding: the side's faces are seen from outside or inside depending on it.
-            if o.iter().all(|&x| x >= 0.0) || o.iter().all(|&x| x <= 0.0) {
-                return Some(*t);
+        for e in s.start[cell] as usize..s.start[cell + 1] as usize {
+            if contains(&s.entries[e].1, q) {
+                *hint = Some((side, e));
+                return Some(s.entries[e].0);
             }
         }
         None
