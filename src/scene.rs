@@ -376,8 +376,9 @@ pub fn intersect_triangle(o: [f64; 3], d: [f64; 3], tri: &[[f64; 3]; 3], face: &
     let (e1, e2) = (p1 - p0, p2 - p0);
     let pv = d.cross(e2);
     let det = e1.dot(pv);
-    let scale = e1.length() * e2.length() * d.length();
-    if det.abs() > 1e-14 * scale {
+    // |det| > 1e-14 |e1| |e2| |d|, squared to avoid three square roots per hit.
+    let scale2 = e1.length_squared() * e2.length_squared() * d.length_squared();
+    if det * det > 1e-28 * scale2 {
         let inv = 1.0 / det;
         let tv = o - p0;
         let u = tv.dot(pv) * inv;

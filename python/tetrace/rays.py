@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["prepare_rays", "prepare_bounds"]
+__all__ = ["prepare_rays", "prepare_bounds", "raise_invalid"]
 
 
 def prepare_rays(origins, directions=None, *, invalid="raise"):
@@ -19,9 +19,10 @@ def prepare_rays(origins, directions=None, *, invalid="raise"):
         ``(N, 3)`` directions (need not be unit length), or one ``(3,)`` direction
         shared by all origins.
     invalid : {"raise", "mark"}
-        What to do with rays that have a NaN or infinite component or a zero-length
-        direction: raise ``ValueError`` naming how many and the first one, or let them
-        through to be reported with status ``INVALID``.
+        Checked here for its value only: the core marks rays that have a NaN or infinite
+        component or a zero-length direction with status ``INVALID`` as it casts, and
+        :func:`raise_invalid` turns those marks into an error (cheaper than checking the
+        arrays in numpy first).
 
     Returns
     -------
@@ -56,16 +57,21 @@ def prepare_rays(origins, directions=None, *, invalid="raise"):
     dtype = np.float32 if (o.dtype == np.float32 and d.dtype == np.float32) else np.float64
     o = np.ascontiguousarray(o, dtype=dtype)
     d = np.ascontiguousarray(d, dtype=dtype)
-    if invalid == "raise" and len(o):
-        bad = ~(np.isfinite(o).all(axis=1) & np.isfinite(d).all(axis=1)) | ~d.any(axis=1)
-        if bad.any():
-            k = int(np.flatnonzero(bad)[0])
-            raise ValueError(
-                f"{int(bad.sum())} of {len(o)} rays have a NaN/inf component or a zero-length "
-                f"direction (first: ray {k}, origin {o[k].tolist()}, direction {d[k].tolist()}); "
-                f'pass invalid="mark" to get status INVALID for them instead'
-            )
     return o, d
+
+
+def raise_invalid(status, origins, directions):
+    """Raise ``ValueError`` naming the rays the core marked ``INVALID``, if any."""
+    from .hits import INVALID
+
+    bad = status == INVALID
+    if bad.any():
+        k = int(np.flatnonzero(bad)[0])
+        raise ValueError(
+            f"{int(bad.sum())} of {len(status)} rays have a NaN/inf component or a zero-length "
+            f"direction (first: ray {k}, origin {origins[k].tolist()}, direction "
+            f"{directions[k].tolist()}); pass invalid=\"mark\" to get status INVALID for them instead"
+        )
 
 
 def prepare_bounds(value, n, name):

@@ -10,7 +10,7 @@ import numpy as np
 
 from . import _native
 from .hits import Hits
-from .rays import prepare_bounds, prepare_rays
+from .rays import prepare_bounds, prepare_rays, raise_invalid
 
 __all__ = ["Scene", "cast", "default_scene", "default_scene_path"]
 
@@ -127,6 +127,8 @@ class Scene:
             raise ValueError(f"max_steps must be a positive int below 2**32, got {max_steps!r}")
         native = self._native.cast_f32 if o.dtype == np.float32 else self._native.cast_f64
         r = native(o, d, lo, hi, threads, max_steps)
+        if invalid == "raise":
+            raise_invalid(r["status"], o, d)
         return Hits(**r)
 
     @property

@@ -44,8 +44,8 @@ impl<R: Real> ExitMethod<R> for Aman2022 {
     type Vert = [R; 2];
 
     fn prepare(origin: V3<f64>, dir: V3<f64>) -> Self::Ray {
-        let len = (dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]).sqrt();
-        let n = dir.map(|x| x / len);
+        let inv_len = 1.0 / (dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]).sqrt();
+        let n = dir.map(|x| x * inv_len);
         let (u, w) = onb(n);
         BasisRay {
             origin: origin.map(R::from_f64),
