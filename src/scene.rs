@@ -324,8 +324,8 @@ impl Scene {
             WalkEnd::StepLimit => r.status = FAILED,
             WalkEnd::Hit { constrained } => {
                 let tri = mesh.constrained[constrained as usize].triangle;
-                let face = w.face.map(|v| mesh.points[v as usize]);
-                let (t, u, v) = intersect_triangle(o, d, &self.triangles[tri as usize], &face);
+                let face = || w.face.map(|v| mesh.points[v as usize]);
+                let (t, u, v) = intersect_triangle(o, d, &self.triangles[tri as usize], face);
                 if t <= tmax {
                     r = RayHit { status: HIT, t: t.max(tmin), u, v, triangle: tri as i32, ..r };
                 }
@@ -368,8 +368,14 @@ pub fn clip_box(o: [f64; 3], d: [f64; 3], lo: [f64; 3], hi: [f64; 3], tmin: f64,
 
 /// t and barycentrics (u, v) of the ray on the caller's triangle (Möller–Trumbore in f64, no
 /// culling). The walk already decided that the ray crosses `face`, a piece of that triangle; if
-/// the ray lies in the triangle's plane, the face's centroid gives t instead.
-pub fn intersect_triangle(o: [f64; 3], d: [f64; 3], tri: &[[f64; 3]; 3], face: &[[f64; 3]; 3]) -> (f64, f64, f64) {
+/// the ray lies in the triangle's plane, the face's centroid gives t instead (fetched only
+/// then: three point loads per hit are not free).
+pub fn intersect_triangle(
+    o: [f64; 3],
+    d: [f64; 3],
+    tri: &[[f64; 3]; 3],
+    face: impl FnOnce() -> [[f64; 3]; 3],
+) -> (f64, f64, f64) {
     use glam::DVec3;
     let (o, d) = (DVec3::from(o), DVec3::from(d));
     let [p0, p1, p2] = tri.map(DVec3::from);
@@ -387,6 +393,7 @@ pub fn intersect_triangle(o: [f64; 3], d: [f64; 3], tri: &[[f64; 3]; 3], face: &
         let t = e2.dot(qv) * inv;
         (t, u, v)
     } else {
+        let face = face();
         let c = (DVec3::from(face[0]) + DVec3::from(face[1]) + DVec3::from(face[2])) / 3.0;
         let t = (c - o).dot(d) / d.length_squared();
         (t, 1.0 / 3.0, 1.0 / 3.0)

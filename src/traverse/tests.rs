@@ -73,7 +73,7 @@ fn all_faces(tets: &[[u32; 4]]) -> Vec<[u32; 3]> {
 fn brute(o: [f64; 3], d: [f64; 3], tris: &[[[f64; 3]; 3]], tmin: f64) -> Option<(f64, usize)> {
     let mut best: Option<(f64, usize)> = None;
     for (k, tri) in tris.iter().enumerate() {
-        let (t, u, v) = crate::scene::intersect_triangle(o, d, tri, tri);
+        let (t, u, v) = crate::scene::intersect_triangle(o, d, tri, || *tri);
         if u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t >= tmin && best.is_none_or(|b| t < b.0) {
             best = Some((t, k));
         }
