@@ -280,6 +280,7 @@ impl Scene {
         let mut start_point = at(tmin);
         let [lo, hi] = mesh.bounds;
         let inside = (0..3).all(|a| start_point[a] >= lo[a] && start_point[a] <= hi[a]);
+        let mut entry_face = None;
         let start = if inside {
             match camera {
                 Some((co, ct, t)) if *co == o && *ct == tmin => Located::Inside(*t),
@@ -304,7 +305,10 @@ impl Scene {
                 Some((axis, high)) => {
                     start_point[axis] = if high { hi[axis] } else { lo[axis] };
                     match self.entry.locate(start_point, axis, high, entry_hint) {
-                        Some(t) => Located::Inside(t),
+                        Some((t, i)) => {
+                            entry_face = Some(i);
+                            Located::Inside(t)
+                        }
                         None => self.locator.locate(mesh, start_point, *hint, rng),
                     }
                 }
@@ -317,7 +321,7 @@ impl Scene {
         };
         *hint = Some(start);
         let ray = M::prepare(start_point, d);
-        let w = walk::<R, L, M>(layout, points, &ray, start, mesh.tets[start as usize], opts.max_steps);
+        let w = walk::<R, L, M>(layout, points, &ray, start, mesh.tets[start as usize], entry_face, opts.max_steps);
         let mut r = RayHit { tet: w.tet as i32, steps: w.steps, ..RayHit::nothing(MISS) };
         match w.end {
             WalkEnd::Boundary => {}

@@ -13,7 +13,8 @@ struct Side {
     dims: [usize; 2],
     /// CSR: faces of cell c are entries[start[c]..start[c+1]].
     start: Vec<u32>,
-    entries: Vec<(u32, [[f64; 2]; 3])>,
+    /// (tet, its local face on the side, the face's corners in the side's 2D coordinates)
+    entries: Vec<(u32, u8, [[f64; 2]; 3])>,
 }
 
 /// Whether the 2D triangle holds q (its boundary included), exactly.
@@ -34,7 +35,7 @@ pub struct BoundaryLocator {
 impl BoundaryLocator {
     pub fn build(mesh: &TetMesh) -> BoundaryLocator {
         let [lo, hi] = mesh.bounds;
-        let mut per_side: Vec<Vec<(u32, [[f64; 3]; 3])>> = vec![Vec::new(); 6];
+        let mut per_side: Vec<Vec<(u32, u8, [[f64; 3]; 3])>> = vec![Vec::new(); 6];
         for (t, tet) in mesh.tets.iter().enumerate() {
             for (i, f) in OUTWARD_FACES.iter().enumerate() {
                 if mesh.links[t][i] != BOUNDARY {
@@ -44,7 +45,7 @@ impl BoundaryLocator {
                 for a in 0..3 {
                     for (s, bound) in [lo[a], hi[a]].into_iter().enumerate() {
                         if p.iter().all(|q| q[a] == bound) {
-                            per_side[2 * a + s].push((t as u32, p));
+                            per_side[2 * a + s].push((t as u32, i as u8, p));
                         }
                     }
                 }
@@ -62,8 +63,8 @@ impl BoundaryLocator {
                 let dims = [n, n];
                 let inv_cell = [dims[0] as f64 / ext[0], dims[1] as f64 / ext[1]];
                 let cell = |x: f64, d: usize| -> usize { (((x - slo[d]) * inv_cell[d]) as usize).min(dims[d] - 1) };
-                let mut buckets: Vec<Vec<(u32, [[f64; 2]; 3])>> = vec![Vec::new(); n * n];
-                for (t, p) in faces {
+                let mut buckets: Vec<Vec<(u32, u8, [[f64; 2]; 3])>> = vec![Vec::new(); n * n];
+                for (t, i, p) in faces {
                     let q = p.map(|v| [v[axes[0]], v[axes[1]]]);
                     let (mut x0, mut x1, mut y0, mut y1) = (usize::MAX, 0, usize::MAX, 0);
                     for v in &q {
@@ -75,7 +76,7 @@ impl BoundaryLocator {
                     }
                     for y in y0..=y1 {
                         for x in x0..=x1 {
-                            buckets[x + dims[0] * y].push((t, q));
+                            buckets[x + dims[0] * y].push((t, i, q));
                         }
                     }
                 }
@@ -93,18 +94,22 @@ impl BoundaryLocator {
     }
 
     pub fn bytes(&self) -> usize {
-        self.sides.iter().map(|s| s.start.len() * 4 + s.entries.len() * 52).sum()
+        self.sides.iter().map(|s| s.start.len() * 4 + s.entries.len() * std::mem::size_of::<(u32, u8, [[f64; 2]; 3])>()).sum()
     }
 
-    /// The boundary tet whose face on side (`axis`, `high`) holds point p (on that side).
-    /// `hint` remembers the last face found: a camera's neighbouring rays mostly enter by it.
-    pub fn locate(&self, p: [f64; 3], axis: usize, high: bool, hint: &mut Option<(usize, usize)>) -> Option<u32> {
+    /// The boundary tet, and its local face, on side (`axis`, `high`) that holds point p (on
+    /// that side). `hint` remembers the last face found: a camera's neighbouring rays mostly
+    /// enter by it.
+    pub fn locate(&self, p: [f64; 3], axis: usize, high: bool, hint: &mut Option<(usize, usize)>) -> Option<(u32, usize)> {
         let side = 2 * axis + high as usize;
         let s = &self.sides[side];
         let q = [p[s.axes[0]], p[s.axes[1]]];
         if let Some((hs, he)) = *hint {
-            if hs == side && contains(&s.entries[he].1, q) {
-                return Some(s.entries[he].0);
+            if hs == side {
+                let (t, i, tri) = &s.entries[he];
+                if contains(tri, q) {
+                    return Some((*t, *i as usize));
+                }
             }
         }
         // `as usize` truncates toward zero and saturates negatives and NaN to 0: floor for
@@ -112,9 +117,10 @@ impl BoundaryLocator {
         let c = [0, 1].map(|d| (((q[d] - s.lo[d]) * s.inv_cell[d]) as usize).min(s.dims[d] - 1));
         let cell = c[0] + s.dims[0] * c[1];
         for e in s.start[cell] as usize..s.start[cell + 1] as usize {
-            if contains(&s.entries[e].1, q) {
+            let (t, i, tri) = &s.entries[e];
+            if contains(tri, q) {
                 *hint = Some((side, e));
-                return Some(s.entries[e].0);
+                return Some((*t, *i as usize));
             }
         }
         None

@@ -65,7 +65,8 @@ pub struct Walk {
 }
 
 /// Walks from `start` (whose vertex ids are `start_tet`, positively oriented) until a
-/// constrained face, the domain boundary or `max_steps`.
+/// constrained face, the domain boundary or `max_steps`. With `entry = Some(i)` the ray comes
+/// from outside through the tet's face i (opposite vertex i), which saves finding it.
 #[inline]
 pub fn walk<R: Real, L: Layout, M: ExitMethod<R>>(
     layout: &L,
@@ -73,16 +74,26 @@ pub fn walk<R: Real, L: Layout, M: ExitMethod<R>>(
     ray: &M::Ray,
     start: u32,
     start_tet: [u32; 4],
+    entry: Option<usize>,
     max_steps: u32,
 ) -> Walk {
-    let vs = start_tet.map(|v| M::vertex(ray, points[v as usize]));
-    let i = M::start_exit(ray, &vs);
-    let f = OUTWARD_FACES[i];
-    let (mut a, mut b, mut c) = (start_tet[f[0]], start_tet[f[1]], start_tet[f[2]]);
-    let (mut pa, mut pb, mut pc) = (vs[f[0]], vs[f[1]], vs[f[2]]);
-    let mut link: Link = layout.link_opposite(start, start_tet[i], [a, b, c]);
-    let mut t = start;
-    let mut steps = 1u32;
+    let (mut a, mut b, mut c, mut pa, mut pb, mut pc, mut link, mut t, mut steps);
+    if let Some(i) = entry {
+        // Entering through face i: reversed from its outward order it turns counter-clockwise
+        // around the ray, as the loop expects of an entry face.
+        let f = OUTWARD_FACES[i];
+        (a, b, c) = (start_tet[f[0]], start_tet[f[2]], start_tet[f[1]]);
+        (pa, pb, pc) = (M::vertex(ray, points[a as usize]), M::vertex(ray, points[b as usize]), M::vertex(ray, points[c as usize]));
+        (link, t, steps) = (start, start, 0u32);
+    } else {
+        let vs = start_tet.map(|v| M::vertex(ray, points[v as usize]));
+        let i = M::start_exit(ray, &vs);
+        let f = OUTWARD_FACES[i];
+        (a, b, c) = (start_tet[f[0]], start_tet[f[1]], start_tet[f[2]]);
+        (pa, pb, pc) = (vs[f[0]], vs[f[1]], vs[f[2]]);
+        link = layout.link_opposite(start, start_tet[i], [a, b, c]);
+        (t, steps) = (start, 1u32);
+    }
     loop {
         if link & CONSTRAINED_BIT != 0 {
             let end = if link == BOUNDARY {
