@@ -191,6 +191,8 @@ def compare(hits, ref, vertices, faces, *, edge_tol=1e-5, t_tol=1e-5, diagonal=N
                 _on_triangle(ref.point[differ[k]], vertices, faces, hits.triangle[differ[k]], tol)
                 & _on_triangle(hits.point[differ[k]], vertices, faces, ref.triangle[differ[k]], tol)
             )
+        # Near an edge explains a disagreement first; coincident triangles only the rest.
+        coincident &= dist > edge_tol
         n_coincident = int(coincident.sum())
         bad = differ[(dist > edge_tol) & ~coincident]
         far = len(bad)
