@@ -188,7 +188,9 @@ impl Scene {
         self.cast_generic::<f64, Tet20, Aman2022>(&self.mesh.points, &self.tet20, rays, out, opts)
     }
 
-    fn cast_generic<R: Real, L: Layout, M: ExitMethod<R>>(
+    /// Casts with an explicit precision, layout and exit method (the dispatch of the public
+    /// entry points, and what tests of each method call).
+    pub fn cast_generic<R: Real, L: Layout, M: ExitMethod<R>>(
         &self,
         points: &[[R; 3]],
         layout: &L,

@@ -8,7 +8,7 @@ pub mod aman2022;
 
 use crate::layout::Layout;
 use crate::mesh::build::{CONSTRAINED_BIT, OUTWARD_FACES};
-use crate::mesh::{Link, BOUNDARY};
+use crate::mesh::BOUNDARY;
 use crate::real::{Real, V3};
 
 pub use aman2022::Aman2022;

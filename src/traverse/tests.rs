@@ -141,38 +141,48 @@ fn onb_is_right_handed() {
     }
 }
 
-/// For single tets and rays through chosen faces, the method names that face.
-#[test]
-fn exact_exit_faces() {
-    let v = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+/// For a single tet and rays through chosen faces, method M names that face: from inside
+/// (the start tet) and entering through each face and leaving by each of the three others.
+pub(crate) fn check_exact_exit_faces<R: Real, M: ExitMethod<R>>() {
+    // A generic tet, positively oriented, with no face parallel to an axis.
+    let v = [[0.1, 0.05, 0.0], [1.2, 0.1, 0.15], [0.2, 1.1, -0.1], [0.3, 0.2, 0.9]];
     assert!(orient(v[0], v[1], v[2], v[3]) > 0.0);
     let centroid = |f: [usize; 3]| [0, 1, 2].map(|a| (v[f[0]][a] + v[f[1]][a] + v[f[2]][a]) / 3.0);
-    let inside = [0.1, 0.2, 0.15];
+    let to_r = |p: [f64; 3]| p.map(R::from_f64);
+    let inside = [0.0, 1.0, 2.0].map(|k| (0..4).map(|i| v[i][k as usize]).sum::<f64>() / 4.0);
     for (i, f) in OUTWARD_FACES.iter().enumerate() {
         let c = centroid(*f);
         let d = [0, 1, 2].map(|a| c[a] - inside[a]);
-        let ray = <Aman2022 as ExitMethod<f64>>::prepare(inside, d);
-        let vs = v.map(|p| <Aman2022 as ExitMethod<f64>>::vertex(&ray, p));
-        assert_eq!(<Aman2022 as ExitMethod<f64>>::start_exit(&ray, &vs), i);
-        let ray32 = <Aman2022 as ExitMethod<f32>>::prepare(inside, d);
-        let vs32 = v.map(|p| <Aman2022 as ExitMethod<f32>>::vertex(&ray32, p.map(|x| x as f32)));
-        assert_eq!(<Aman2022 as ExitMethod<f32>>::start_exit(&ray32, &vs32), i);
+        let ray = M::prepare(inside, d);
+        let vs = v.map(|p| M::vertex(&ray, to_r(p)));
+        assert_eq!(M::start_exit(&ray, &vs), i, "{} {}: start tet, ray to face {i}", M::NAME, R::NAME);
     }
-    // Entering through (a,b,c) = face opposite vertex 3 seen from below, leaving by each of the
-    // three faces through d = v3.
-    let (a, b, c, d) = (v[0], v[1], v[2], v[3]); // counter-clockwise seen along +z
-    let entry = [0.2, 0.2, 0.0];
-    for (target, want) in [([a, b, d], Exit::Abd), ([b, c, d], Exit::Bcd), ([c, a, d], Exit::Cad)] {
-        let g = [0, 1, 2].map(|k| (target[0][k] + target[1][k] + target[2][k]) / 3.0);
-        let dir = [0, 1, 2].map(|k| g[k] - entry[k]);
-        let o = [0, 1, 2].map(|k| entry[k] - 0.5 * dir[k]);
-        let ray = <Aman2022 as ExitMethod<f64>>::prepare(o, dir);
-        let p = [a, b, c, d].map(|q| <Aman2022 as ExitMethod<f64>>::vertex(&ray, q));
-        assert_eq!(<Aman2022 as ExitMethod<f64>>::step(&ray, &p[0], &p[1], &p[2], &p[3]), want);
+    // Enter through face e (its outward order reversed is counter-clockwise around the ray),
+    // leave through each other face x.
+    for e in 0..4 {
+        let f = OUTWARD_FACES[e];
+        let (a, b, c, d) = (f[0], f[2], f[1], e);
+        let entry = centroid(f);
+        for (target, want) in [([a, b, d], Exit::Abd), ([b, c, d], Exit::Bcd), ([c, a, d], Exit::Cad)] {
+            // Aim from a point near the entry face's centroid to a point near the target's.
+            let g = centroid(target);
+            let en = [0, 1, 2].map(|k| 0.9 * entry[k] + 0.1 * inside[k]);
+            let dir = [0, 1, 2].map(|k| g[k] - en[k]);
+            let o = [0, 1, 2].map(|k| en[k] - 0.5 * dir[k]);
+            let ray = M::prepare(o, dir);
+            let p = [a, b, c, d].map(|q| M::vertex(&ray, to_r(v[q])));
+            assert_eq!(M::step(&ray, &p[0], &p[1], &p[2], &p[3]), want, "{} {}: entering by face {e}", M::NAME, R::NAME);
+        }
     }
 }
 
-fn agreement<R: Real>(seed: u64, f: impl Fn(&Scene, &Rays<R>, HitsOut<R>) -> crate::Result<()> + Copy) {
+#[test]
+fn exact_exit_faces_aman2022() {
+    check_exact_exit_faces::<f32, Aman2022>();
+    check_exact_exit_faces::<f64, Aman2022>();
+}
+
+pub(crate) fn agreement<R: Real>(seed: u64, f: impl Fn(&Scene, &Rays<R>, HitsOut<R>) -> crate::Result<()> + Copy) {
     let mut rng = Rng(seed);
     let (scene, tris) = random_scene(&mut rng, 5, 0.08);
     let n = 3000;
@@ -218,6 +228,20 @@ fn agreement<R: Real>(seed: u64, f: impl Fn(&Scene, &Rays<R>, HitsOut<R>) -> cra
     }
     // Random rays in generic position: exact agreement but for hits grazing an edge.
     assert!(bad <= 3, "{bad} of {n} rays disagree with brute force");
+}
+
+/// Method M on the Tet20 layout, both precisions, against brute force on random scenes.
+pub(crate) fn check_agreement<M: ExitMethod<f32> + ExitMethod<f64>>(seed: u64) {
+    use crate::layout::Layout;
+    let opts = CastOptions { threads: None, max_steps: 100_000 };
+    agreement::<f64>(seed, |s, r, o| s.cast_generic::<f64, crate::layout::Tet20, M>(&s.mesh.points, &s.tet20, r, o, &opts));
+    agreement::<f32>(seed + 1, |s, r, o| s.cast_generic::<f32, crate::layout::Tet20, M>(&s.points_f32, &s.tet20, r, o, &opts));
+    let _ = crate::layout::Tet20::NAME;
+}
+
+#[test]
+fn aman2022_agrees_with_brute_force() {
+    check_agreement::<Aman2022>(21);
 }
 
 #[test]
