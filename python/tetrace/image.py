@@ -12,7 +12,7 @@ import numpy as np
 
 from .hits import HIT
 
-__all__ = ["depth_image", "shade", "save_png"]
+__all__ = ["depth_image", "shade", "lambert", "save_png"]
 
 
 def _check_size(hits, width, height):
@@ -71,6 +71,40 @@ def shade(hits, directions, width, height):
         near, far = np.nanmin(dist), np.nanmax(dist)
         span = far - near if far > near else 1.0
         out[hit] = 1.0 - 0.8 * (dist[hit] - near) / span
+    return out.reshape(height, width)
+
+
+def lambert(hits, directions, vertices, faces, width, height):
+    """Headlight shading: brightness |cos| between each ray and the normal of the triangle it hit.
+
+    Parameters
+    ----------
+    hits : Hits
+        Results of casting ``width * height`` camera rays.
+    directions : array_like
+        ``(width * height, 3)`` ray directions.
+    vertices, faces : numpy.ndarray
+        The mesh the hit triangle ids index.
+    width, height : int
+        Image size.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(height, width)`` float64 in ``[0, 1]``, 0 where the ray did not hit; save with
+        ``cmap="gray", vmin=0, vmax=1``.
+    """
+    _check_size(hits, width, height)
+    d = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
+    hit = hits.status == HIT
+    out = np.zeros(len(hits), dtype=np.float64)
+    if hit.any():
+        p = np.asarray(vertices, np.float64)[np.asarray(faces)[hits.triangle[hit]]]
+        n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            cos = np.abs(np.einsum("ij,ij->i", n, d[hit])) / (
+                np.linalg.norm(n, axis=1) * np.linalg.norm(d[hit], axis=1))
+        out[hit] = 0.15 + 0.85 * np.nan_to_num(cos)
     return out.reshape(height, width)
 
 

@@ -115,8 +115,8 @@ def run_scene_bench(path=None, *, preset="quality", width=1024, height=1024, rep
     out(_table(rows, ["caster", "precision", "threads", "Mrays/s", "x embreex", "tets/ray",
                       "agree w/ embreex"]))
     if image:
-        from ..image import save_png, shade
-        save_png(image, shade(last32, d32, width, height), cmap="gray", vmin=0, vmax=1)
+        from ..image import lambert, save_png
+        save_png(image, lambert(last32, d32, v, f, width, height), cmap="gray", vmin=0, vmax=1)
         out(f"image: {image}")
     if json_path:
         with open(json_path, "w") as fh:
