@@ -20,6 +20,7 @@ pub trait Real:
     const ZERO: Self;
     const NAME: &'static str;
     fn from_f64(x: f64) -> Self;
+    fn from_f32(x: f32) -> Self;
     fn to_f64(self) -> f64;
 }
 
@@ -29,6 +30,10 @@ impl Real for f32 {
     #[inline(always)]
     fn from_f64(x: f64) -> Self {
         x as f32
+    }
+    #[inline(always)]
+    fn from_f32(x: f32) -> Self {
+        x
     }
     #[inline(always)]
     fn to_f64(self) -> f64 {
@@ -42,6 +47,10 @@ impl Real for f64 {
     #[inline(always)]
     fn from_f64(x: f64) -> Self {
         x
+    }
+    #[inline(always)]
+    fn from_f32(x: f32) -> Self {
+        x as f64
     }
     #[inline(always)]
     fn to_f64(self) -> f64 {

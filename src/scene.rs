@@ -2,11 +2,11 @@
 //! evaluating hits. Casting is a pure function over slices so the bindings stay thin.
 
 use crate::error::{Error, Result};
-use crate::layout::{Layout, Tet20};
+use crate::layout::Layout;
 use crate::locate::{BoundaryLocator, GridLocator, Located};
 use crate::mesh::TetMesh;
 use crate::real::Real;
-use crate::traverse::{walk, Aman2022, ExitMethod, WalkEnd};
+use crate::traverse::{walk, ExitMethod, WalkEnd};
 use rayon::prelude::*;
 
 /// Per-ray status codes, shared with Python.
@@ -21,7 +21,8 @@ pub struct Scene {
     pub mesh: TetMesh,
     pub locator: GridLocator,
     pub entry: BoundaryLocator,
-    pub tet20: Tet20,
+    /// Traversal layouts, built on first use (see dispatch.rs).
+    pub layouts: crate::dispatch::Layouts,
     pub points_f32: Vec<[f32; 3]>,
     /// The caller's triangles (three corners each), indexed by the ids constrained faces carry.
     pub triangles: Vec<[[f64; 3]; 3]>,
@@ -164,28 +165,33 @@ impl Scene {
         }
         let locator = GridLocator::build(&mesh);
         let entry = BoundaryLocator::build(&mesh);
-        let tet20 = Tet20::build(&mesh)?;
         let points_f32 = mesh.points.iter().map(|p| p.map(|x| x as f32)).collect();
-        Ok(Scene { mesh, locator, entry, tet20, points_f32, triangles })
+        let scene = Scene { mesh, locator, entry, layouts: Default::default(), points_f32, triangles };
+        scene.layouts.prepare(crate::dispatch::DEFAULT_LAYOUT, &scene.mesh)?;
+        Ok(scene)
     }
 
     /// Bytes of each part: (points, tets of the traversal layout, constrained table, locator).
-    pub fn memory(&self) -> [(&'static str, usize); 5] {
-        [
-            ("points_f64", self.mesh.points.len() * 24),
-            ("points_f32", self.points_f32.len() * 12),
-            ("tets", self.tet20.bytes()),
-            ("constrained", self.mesh.constrained.len() * 8),
-            ("locator", self.locator.bytes() + self.entry.bytes() + self.mesh.tets.len() * 32),
-        ]
+    /// Bytes of each part: points (both precisions), the constrained-side table, the locator
+    /// (seed grid, boundary grid and the topology location walks on), and the records of each
+    /// traversal layout built so far (as `tets_<name>`).
+    pub fn memory(&self) -> Vec<(String, usize)> {
+        let mut m = vec![
+            ("points_f64".to_string(), self.mesh.points.len() * 24),
+            ("points_f32".to_string(), self.points_f32.len() * 12),
+            ("constrained".to_string(), self.mesh.constrained.len() * 8),
+            ("locator".to_string(), self.locator.bytes() + self.entry.bytes() + self.mesh.tets.len() * 32),
+        ];
+        m.extend(self.layouts.built().into_iter().map(|(n, b)| (format!("tets_{n}"), b)));
+        m
     }
 
     pub fn cast_f32(&self, rays: &Rays<f32>, out: HitsOut<f32>, opts: &CastOptions) -> Result<()> {
-        self.cast_generic::<f32, Tet20, Aman2022>(&self.points_f32, &self.tet20, rays, out, opts)
+        self.cast_named(crate::dispatch::DEFAULT_METHOD, crate::dispatch::DEFAULT_LAYOUT, rays, out, opts)
     }
 
     pub fn cast_f64(&self, rays: &Rays<f64>, out: HitsOut<f64>, opts: &CastOptions) -> Result<()> {
-        self.cast_generic::<f64, Tet20, Aman2022>(&self.mesh.points, &self.tet20, rays, out, opts)
+        self.cast_named(crate::dispatch::DEFAULT_METHOD, crate::dispatch::DEFAULT_LAYOUT, rays, out, opts)
     }
 
     /// Casts with an explicit precision, layout and exit method (the dispatch of the public
@@ -330,7 +336,8 @@ impl Scene {
             WalkEnd::StepLimit => r.status = FAILED,
             WalkEnd::Hit { constrained } => {
                 let tri = mesh.constrained[constrained as usize].triangle;
-                let face = || w.face.map(|v| mesh.points[v as usize]);
+                let ids = if w.slots { w.face.map(|k| mesh.tets[w.tet as usize][k as usize]) } else { w.face };
+                let face = || ids.map(|v| mesh.points[v as usize]);
                 let (t, u, v) = intersect_triangle(o, d, &self.triangles[tri as usize], face);
                 if t <= tmax {
                     r = RayHit { status: HIT, t: t.max(tmin), u, v, triangle: tri as i32, ..r };

@@ -154,8 +154,8 @@ def test_integer_and_empty_rays(spot):
 
 def test_memory_and_sizes(spot):
     m = spot.memory()
-    assert set(m) == {"points_f64", "points_f32", "tets", "constrained", "locator"}
-    assert m["tets"] == spot.n_tets * spot.bytes_per_tet == spot.n_tets * 20
+    assert {"points_f64", "points_f32", "constrained", "locator", "tets_tet20"} <= set(m)
+    assert m["tets_tet20"] == spot.n_tets * spot.bytes_per_tet == spot.n_tets * 20
     assert spot.tets().shape == (spot.n_tets, 4) and spot.points().shape == (spot.n_points, 3)
     assert spot.build_times["rust"] > 0 and spot.build_times["tetgen"] > 0
     assert "tets" in repr(spot)
@@ -207,3 +207,29 @@ def test_closed_synthetic_scenes_do_not_leak():
     c = v.mean(0)
     h = scene.cast(c, d)
     assert np.all(h.status == tetrace.HIT)
+
+
+def test_methods_layouts_and_precisions_are_selectable(spot):
+    assert "aman2022" in tetrace.methods()
+    assert tetrace.layouts() == ["plain", "tet80", "tet32", "tet20", "tet16"]
+    assert tetrace.LAYOUT_BYTES == {"plain": 32, "tet80": 80, "tet32": 32, "tet20": 20, "tet16": 16}
+    o, d = random_rays(spot.domain, 5000, seed=11)
+    base = spot.cast(o, d)
+    for layout in tetrace.layouts():
+        for precision in ("f32", "f64"):
+            if layout == "tet80" and precision == "f64":
+                with pytest.raises(ValueError, match="tet80.*f32"):
+                    spot.cast(o, d, layout=layout, precision=precision)
+                continue
+            h = spot.cast(o, d, layout=layout, precision=precision)
+            assert h.t.dtype == (np.float32 if precision == "f32" else np.float64)
+            assert np.mean(h.triangle == base.triangle) > 0.999, (layout, precision)
+        assert spot.memory()[f"tets_{layout}"] == spot.n_tets * tetrace.LAYOUT_BYTES[layout]
+    with pytest.raises(ValueError, match="unknown layout.*known: plain"):
+        spot.cast(o, d, layout="tet64")
+    with pytest.raises(ValueError, match="unknown method.*known: "):
+        spot.cast(o, d, method="fastest")
+    with pytest.raises(ValueError, match="precision"):
+        spot.cast(o, d, precision="f16")
+    with pytest.raises(TypeError, match="method must be a name"):
+        spot.cast(o, d, method=3)

@@ -9,7 +9,7 @@
 from . import _native
 from .hits import FAILED, HIT, INVALID, MISS, STATUS_NAMES, Hits
 from .meshing import MeshingError
-from .scene import Scene, cast, default_scene, default_scene_path
+from .scene import LAYOUT_BYTES, Scene, cast, default_scene, default_scene_path, layouts, methods
 from . import reference  # noqa: F401  (tetrace.reference.embree_cast is part of the API)
 
 MeshError = _native.MeshError
@@ -18,6 +18,7 @@ __version__ = _native.__version__
 
 __all__ = [
     "Scene", "Hits", "cast", "default_scene", "default_scene_path", "reference",
+    "methods", "layouts", "LAYOUT_BYTES",
     "MISS", "HIT", "FAILED", "INVALID", "STATUS_NAMES",
     "MeshingError", "MeshError", "TooLargeError",
 ]

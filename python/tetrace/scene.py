@@ -12,7 +12,31 @@ from . import _native
 from .hits import Hits
 from .rays import prepare_bounds, prepare_rays, raise_invalid
 
-__all__ = ["Scene", "cast", "default_scene", "default_scene_path"]
+__all__ = ["Scene", "cast", "default_scene", "default_scene_path", "methods", "layouts",
+           "LAYOUT_BYTES"]
+
+#: Bytes per tet of each layout's record.
+LAYOUT_BYTES = dict(_native.layouts())
+
+
+def methods():
+    """Return the names of the exit-face methods, in the order of the papers.
+
+    Returns
+    -------
+    list of str
+    """
+    return list(_native.methods())
+
+
+def layouts():
+    """Return the names of the tet layouts (bytes per tet in :data:`LAYOUT_BYTES`).
+
+    Returns
+    -------
+    list of str
+    """
+    return list(LAYOUT_BYTES)
 
 
 class Scene:
@@ -89,7 +113,7 @@ class Scene:
         return cls(tet, vertices, faces)
 
     def cast(self, origins, directions=None, *, tmin=0.0, tmax=np.inf, threads=None,
-             max_steps=None, invalid="raise"):
+             max_steps=None, invalid="raise", method=None, layout=None, precision=None):
         """Cast rays and return their closest hits.
 
         Parameters
@@ -109,15 +133,31 @@ class Scene:
         invalid : {"raise", "mark"}
             Rays with NaN/inf components or zero directions raise ``ValueError``, or with
             ``"mark"`` come back with status ``INVALID``.
+        method : str, optional
+            Exit-face method, one of :func:`tetrace.methods` (default: the fastest robust one).
+        layout : str, optional
+            Tet layout, one of :func:`tetrace.layouts`; built on first use.
+        precision : {"f32", "f64"}, optional
+            Precision of the walk; default: float32 for float32 rays, float64 otherwise.
+            Rays are converted when it differs.
 
         Returns
         -------
         Hits
-            float32 fields for float32 rays, float64 otherwise (the walk runs in that
-            precision; hit ``t``, ``u``, ``v`` are evaluated in float64 on the caller's
-            triangle and rounded).
+            Fields in the walk's precision (hit ``t``, ``u``, ``v`` are evaluated in float64
+            on the caller's triangle, then rounded).
         """
         o, d = prepare_rays(origins, directions, invalid=invalid)
+        if precision is not None:
+            if precision not in ("f32", "f64"):
+                raise ValueError(f'precision must be "f32" or "f64", got {precision!r}')
+            want = np.float32 if precision == "f32" else np.float64
+            o, d = o.astype(want, copy=False), d.astype(want, copy=False)
+        method = _native.DEFAULT_METHOD if method is None else method
+        layout = _native.DEFAULT_LAYOUT if layout is None else layout
+        for what, value in (("method", method), ("layout", layout)):
+            if not isinstance(value, str):
+                raise TypeError(f"{what} must be a name (str), got {type(value).__name__}")
         n = len(o)
         lo = prepare_bounds(tmin, n, "tmin")
         hi = prepare_bounds(tmax, n, "tmax")
@@ -126,7 +166,7 @@ class Scene:
         if max_steps is not None and (not isinstance(max_steps, (int, np.integer)) or not 0 < max_steps < 2**32):
             raise ValueError(f"max_steps must be a positive int below 2**32, got {max_steps!r}")
         native = self._native.cast_f32 if o.dtype == np.float32 else self._native.cast_f64
-        r = native(o, d, lo, hi, threads, max_steps)
+        r = native(o, d, lo, hi, threads, max_steps, method, layout)
         if invalid == "raise":
             raise_invalid(r["status"], o, d)
         return Hits(**r)
@@ -153,8 +193,23 @@ class Scene:
 
     @property
     def bytes_per_tet(self):
-        """int : Bytes per tet of the traversal layout (points excluded)."""
-        return self._native.bytes_per_tet
+        """int : Bytes per tet of the default traversal layout (points excluded)."""
+        return LAYOUT_BYTES[_native.DEFAULT_LAYOUT]
+
+    def prepare_layout(self, layout):
+        """Build a traversal layout now rather than at its first cast.
+
+        Returns
+        -------
+        int
+            Bytes of its records.
+
+        Raises
+        ------
+        tetrace.TooLargeError
+            The mesh exceeds the layout's limits (e.g. tet16's 24-bit links).
+        """
+        return self._native.prepare_layout(layout)
 
     def memory(self):
         """Bytes used by each part of the traversal structure.
@@ -162,8 +217,9 @@ class Scene:
         Returns
         -------
         dict
-            ``points_f64``, ``points_f32``, ``tets`` (layout records), ``constrained``
-            (constrained-face table), ``locator`` (seed grid and location topology).
+            ``points_f64``, ``points_f32``, ``constrained`` (constrained-side table),
+            ``locator`` (seed grid, boundary grid, location topology), and
+            ``tets_<layout>`` for each layout built so far.
         """
         return dict(self._native.memory())
 

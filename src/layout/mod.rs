@@ -1,17 +1,43 @@
 //! How tets are stored for the walk. The walk loop is written once against [`Layout`]; each
 //! layout decides how a step finds the new vertex and the link across the exit face.
+//!
+//! | layout | bytes/tet | record | limit |
+//! |---|---|---|---|
+//! | plain (Lagae & Dutré 2008) | 32 | 4 vertex ids, 4 links | 2^31 - 2 tets |
+//! | tet80 (Maria et al. 2017) | 80 | 4 float32 vertices inline, 4 faces (constrained id, neighbour 30 bits + face 2 bits) | 2^30 tets, float32 only |
+//! | tet32 (Aman et al. 2022) | 32 | 3 vertex ids, xor of all 4, 4 links | 2^31 - 2 tets |
+//! | tet20 (Aman et al. 2022) | 20 | xor of the 4 vertex ids, 4 links ordered by the opposite vertex's id | 2^31 - 2 tets |
+//! | tet16 (ours, after Aman et al.) | 16 | xor, 4 links of 24 bits ordered as in tet20 | 2^23 - 2 tets and constrained sides |
+//!
+//! Links use one encoding everywhere (see [`crate::mesh::Link`]): a neighbour tet id, the
+//! domain BOUNDARY, or CONSTRAINED_BIT | index into the mesh's constrained-side table.
 
+pub mod plain;
+pub mod tet16;
 pub mod tet20;
+pub mod tet32;
+pub mod tet80;
 
 use crate::error::Result;
 use crate::mesh::{Link, TetMesh};
 
+pub use plain::Plain;
+pub use tet16::Tet16;
 pub use tet20::Tet20;
+pub use tet32::Tet32;
+pub use tet80::Tet80;
+
+/// The names `tetrace.layouts()` lists, in the order of the table above.
+pub const LAYOUTS: [&str; 5] = [Plain::NAME, Tet80::NAME, Tet32::NAME, Tet20::NAME, Tet16::NAME];
 
 pub trait Layout: Sized + Sync + Send {
     const NAME: &'static str;
     /// Bytes per tet of the traversal record (points and the constrained table excluded).
     const BYTES_PER_TET: usize;
+    /// Vertex positions live in the records (Maria's Tet80) and the walk names the entry face
+    /// by its local index in the tet, not by vertex ids: it uses [`Layout::inline_vertices`] and
+    /// [`Layout::inline_face`] instead of the id-based pair.
+    const INLINE: bool = false;
 
     fn build(mesh: &TetMesh) -> Result<Self>;
 
@@ -22,5 +48,97 @@ pub trait Layout: Sized + Sync + Send {
     /// tet's other three vertices (in any order).
     fn link_opposite(&self, t: u32, opposite: u32, others: [u32; 3]) -> Link;
 
+    /// INLINE layouts: the four vertices of tet t, in the order of `TetMesh::tets`.
+    fn inline_vertices(&self, _t: u32) -> [[f32; 3]; 4] {
+        [[0.0; 3]; 4]
+    }
+
+    /// INLINE layouts: what lies across face `i` (opposite vertex i) of tet t, and the index
+    /// of the same face in the neighbour.
+    fn inline_face(&self, _t: u32, _i: usize) -> (Link, usize) {
+        (crate::mesh::BOUNDARY, 0)
+    }
+
     fn bytes(&self) -> usize;
+}
+
+/// The slot (0..4) of each tet's vertex `v`: used by layouts that store per-slot data.
+#[inline(always)]
+pub(crate) fn rank(x: u32, others: [u32; 3]) -> usize {
+    (others[0] < x) as usize + (others[1] < x) as usize + (others[2] < x) as usize
+}
+
+/// Links of a tet reordered by the rank of the opposite vertex's id (Tet20, Tet16).
+pub(crate) fn links_by_rank(tet: &[u32; 4], links: &[Link; 4]) -> [Link; 4] {
+    let mut out = [0; 4];
+    for i in 0..4 {
+        let others = [tet[(i + 1) % 4], tet[(i + 2) % 4], tet[(i + 3) % 4]];
+        out[rank(tet[i], others)] = links[i];
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::mem::size_of;
+
+    #[test]
+    fn record_sizes_are_as_designed() {
+        assert_eq!((Plain::BYTES_PER_TET, size_of::<plain::PlainRecord>()), (32, 32));
+        assert_eq!((Tet80::BYTES_PER_TET, size_of::<tet80::Tet80Record>()), (80, 80));
+        assert_eq!((Tet32::BYTES_PER_TET, size_of::<tet32::Tet32Record>()), (32, 32));
+        assert_eq!((Tet20::BYTES_PER_TET, size_of::<tet20::Tet20Record>()), (20, 20));
+        assert_eq!((Tet16::BYTES_PER_TET, size_of::<tet16::Tet16Record>()), (16, 16));
+        assert_eq!(LAYOUTS, ["plain", "tet80", "tet32", "tet20", "tet16"]);
+    }
+
+    /// Every layout answers the same questions the same way on a real mesh.
+    #[test]
+    fn layouts_agree_with_the_topology() {
+        let mut rng = crate::traverse::tests::Rng(17);
+        let (p, t) = crate::traverse::tests::kuhn_grid(3, 0.3, &mut rng);
+        let m = TetMesh::build(p, &t, &[], &[]).unwrap();
+        let (plain, t32, t20, t16, t80) = (
+            Plain::build(&m).unwrap(),
+            Tet32::build(&m).unwrap(),
+            Tet20::build(&m).unwrap(),
+            Tet16::build(&m).unwrap(),
+            Tet80::build(&m).unwrap(),
+        );
+        for (ti, tet) in m.tets.iter().enumerate() {
+            let ti = ti as u32;
+            for i in 0..4 {
+                let others = [tet[(i + 1) % 4], tet[(i + 2) % 4], tet[(i + 3) % 4]];
+                let want = m.links[ti as usize][i];
+                for (name, got) in [
+                    ("plain", plain.link_opposite(ti, tet[i], others)),
+                    ("tet32", t32.link_opposite(ti, tet[i], others)),
+                    ("tet20", t20.link_opposite(ti, tet[i], others)),
+                    ("tet16", t16.link_opposite(ti, tet[i], others)),
+                    ("tet80", t80.inline_face(ti, i).0),
+                ] {
+                    assert_eq!(got, want, "{name}: tet {ti} face {i}");
+                }
+                for (name, got) in [
+                    ("plain", plain.new_vertex(ti, others[0], others[1], others[2])),
+                    ("tet32", t32.new_vertex(ti, others[0], others[1], others[2])),
+                    ("tet20", t20.new_vertex(ti, others[0], others[1], others[2])),
+                    ("tet16", t16.new_vertex(ti, others[0], others[1], others[2])),
+                ] {
+                    assert_eq!(got, tet[i], "{name}: new vertex of tet {ti}");
+                }
+                // Tet80: the neighbour's face index names the same three vertices.
+                let (n, j) = t80.inline_face(ti, i);
+                if n != crate::mesh::BOUNDARY {
+                    let back = m.tets[n as usize];
+                    let mut a: Vec<u32> = (0..4).filter(|&k| k != j).map(|k| back[k]).collect();
+                    let mut b = others.to_vec();
+                    a.sort();
+                    b.sort();
+                    assert_eq!(a, b, "tet80: tet {ti} face {i} -> tet {n} face {j}");
+                }
+            }
+        }
+    }
 }

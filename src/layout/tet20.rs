@@ -5,7 +5,7 @@
 //! The four links are stored in the order of the ids of the vertices opposite them, so the
 //! slot of the face opposite vertex x is the rank of x among the tet's four ids.
 
-use super::Layout;
+use super::{links_by_rank, rank, Layout};
 use crate::error::Result;
 use crate::mesh::{Link, TetMesh};
 
@@ -34,11 +34,6 @@ impl Tet20 {
     }
 }
 
-#[inline(always)]
-fn rank(x: u32, others: [u32; 3]) -> usize {
-    (others[0] < x) as usize + (others[1] < x) as usize + (others[2] < x) as usize
-}
-
 impl Layout for Tet20 {
     const NAME: &'static str = "tet20";
     const BYTES_PER_TET: usize = 20;
@@ -48,13 +43,9 @@ impl Layout for Tet20 {
             .tets
             .iter()
             .zip(&mesh.links)
-            .map(|(tet, links)| {
-                let mut r = Tet20Record { vertex_xor: tet[0] ^ tet[1] ^ tet[2] ^ tet[3], links: [0; 4] };
-                for i in 0..4 {
-                    let others = [tet[(i + 1) % 4], tet[(i + 2) % 4], tet[(i + 3) % 4]];
-                    r.links[rank(tet[i], others)] = links[i];
-                }
-                r
+            .map(|(tet, links)| Tet20Record {
+                vertex_xor: tet[0] ^ tet[1] ^ tet[2] ^ tet[3],
+                links: links_by_rank(tet, links),
             })
             .collect();
         Ok(Tet20 { records })

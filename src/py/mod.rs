@@ -2,7 +2,7 @@
 //! vectors to numpy without copying. Nothing else lives here.
 
 use crate::error::Error;
-use crate::real::Real;
+use crate::dispatch::Precision;
 use crate::scene::{CastOptions, HitsOut, Rays, Scene};
 use numpy::{Element, IntoPyArray, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
@@ -101,7 +101,8 @@ impl PyScene {
     }
 
     /// Casts float32 rays; returns (t, u, v, point, triangle, tet, steps, status).
-    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None))]
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method="aman2022", layout="tet20"))]
+    #[allow(clippy::too_many_arguments)]
     fn cast_f32<'py>(
         &self,
         py: Python<'py>,
@@ -111,12 +112,15 @@ impl PyScene {
         tmax: PyReadonlyArray1<'py, f64>,
         threads: Option<usize>,
         max_steps: Option<u32>,
+        method: &str,
+        layout: &str,
     ) -> PyResult<Bound<'py, PyDict>> {
-        cast_any(py, &self.inner, origins, directions, tmin, tmax, threads, max_steps, Scene::cast_f32)
+        cast_any(py, &self.inner, origins, directions, tmin, tmax, threads, max_steps, method, layout)
     }
 
     /// Casts float64 rays; returns the same fields in float64.
-    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None))]
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method="aman2022", layout="tet20"))]
+    #[allow(clippy::too_many_arguments)]
     fn cast_f64<'py>(
         &self,
         py: Python<'py>,
@@ -126,8 +130,10 @@ impl PyScene {
         tmax: PyReadonlyArray1<'py, f64>,
         threads: Option<usize>,
         max_steps: Option<u32>,
+        method: &str,
+        layout: &str,
     ) -> PyResult<Bound<'py, PyDict>> {
-        cast_any(py, &self.inner, origins, directions, tmin, tmax, threads, max_steps, Scene::cast_f64)
+        cast_any(py, &self.inner, origins, directions, tmin, tmax, threads, max_steps, method, layout)
     }
 
     /// Bytes used by each part of the structure.
@@ -151,9 +157,9 @@ impl PyScene {
     fn n_constrained(&self) -> usize {
         self.inner.mesh.constrained.len()
     }
-    #[getter]
-    fn bytes_per_tet(&self) -> usize {
-        <crate::layout::Tet20 as crate::layout::Layout>::BYTES_PER_TET
+    /// Builds a traversal layout now instead of at its first cast; returns its bytes.
+    fn prepare_layout(&self, py: Python<'_>, layout: &str) -> PyResult<usize> {
+        py.detach(|| guarded(|| self.inner.layouts.prepare(layout, &self.inner.mesh)))
     }
     #[getter]
     fn bounds(&self) -> [[f64; 3]; 2] {
@@ -173,7 +179,7 @@ impl PyScene {
 }
 
 #[allow(clippy::too_many_arguments)]
-fn cast_any<'py, R: Real + Element>(
+fn cast_any<'py, R: Precision + Element>(
     py: Python<'py>,
     scene: &Scene,
     origins: PyReadonlyArray2<'py, R>,
@@ -182,7 +188,8 @@ fn cast_any<'py, R: Real + Element>(
     tmax: PyReadonlyArray1<'py, f64>,
     threads: Option<usize>,
     max_steps: Option<u32>,
-    cast: fn(&Scene, &Rays<R>, HitsOut<R>, &CastOptions) -> crate::Result<()>,
+    method: &str,
+    layout: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
     let n = check_cols(&origins, 3, "origins")?;
     if check_cols(&directions, 3, "directions")? != n {
@@ -210,7 +217,7 @@ fn cast_any<'py, R: Real + Element>(
                 steps: &mut steps,
                 status: &mut status,
             };
-            cast(scene, &rays, out, &opts)
+            scene.cast_named(method, layout, &rays, out, &opts)
         })
     })?;
     let out = PyDict::new(py);
@@ -231,9 +238,32 @@ pub fn default_max_steps(n_tets: usize) -> u32 {
     (n_tets as u64 + 1).min(1 << 20) as u32
 }
 
+/// Exit-face methods, in the order of the papers.
+#[pyfunction]
+fn methods() -> Vec<&'static str> {
+    crate::dispatch::METHODS.to_vec()
+}
+
+/// Traversal layouts, with their bytes per tet.
+#[pyfunction]
+fn layouts() -> Vec<(&'static str, usize)> {
+    use crate::layout::*;
+    vec![
+        (Plain::NAME, Plain::BYTES_PER_TET),
+        (Tet80::NAME, Tet80::BYTES_PER_TET),
+        (Tet32::NAME, Tet32::BYTES_PER_TET),
+        (Tet20::NAME, Tet20::BYTES_PER_TET),
+        (Tet16::NAME, Tet16::BYTES_PER_TET),
+    ]
+}
+
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyScene>()?;
+    m.add_function(wrap_pyfunction!(methods, m)?)?;
+    m.add_function(wrap_pyfunction!(layouts, m)?)?;
+    m.add("DEFAULT_METHOD", crate::dispatch::DEFAULT_METHOD)?;
+    m.add("DEFAULT_LAYOUT", crate::dispatch::DEFAULT_LAYOUT)?;
     m.add("MeshError", m.py().get_type::<MeshError>())?;
     m.add("TooLargeError", m.py().get_type::<TooLargeError>())?;
     m.add("MISS", crate::MISS)?;

@@ -58,8 +58,10 @@ pub struct Walk {
     pub end: WalkEnd,
     /// The tet the walk was in when it ended.
     pub tet: u32,
-    /// The face it left by (point ids, ordered counter-clockwise around the ray).
+    /// The face it left by, ordered counter-clockwise around the ray: point ids, or with
+    /// `slots` the vertices' local indices in the tet (INLINE layouts know no ids).
     pub face: [u32; 3],
+    pub slots: bool,
     /// Tets visited, the start tet included.
     pub steps: u32,
 }
@@ -67,6 +69,11 @@ pub struct Walk {
 /// Walks from `start` (whose vertex ids are `start_tet`, positively oriented) until a
 /// constrained face, the domain boundary or `max_steps`. With `entry = Some(i)` the ray comes
 /// from outside through the tet's face i (opposite vertex i), which saves finding it.
+///
+/// Id layouts carry the entry face's vertex ids and their per-vertex data from tet to tet,
+/// fetching one new vertex per step; INLINE layouts (Tet80) carry the entry face's local index
+/// and read all four vertices from the record, as Maria et al. do. `a`, `b`, `c`, `d` hold
+/// ids in the first case and local slots in the second.
 #[inline]
 pub fn walk<R: Real, L: Layout, M: ExitMethod<R>>(
     layout: &L,
@@ -77,21 +84,39 @@ pub fn walk<R: Real, L: Layout, M: ExitMethod<R>>(
     entry: Option<usize>,
     max_steps: u32,
 ) -> Walk {
+    let position = |t: u32, v: u32| -> V3<R> {
+        if L::INLINE {
+            layout.inline_vertices(t)[v as usize].map(R::from_f32)
+        } else {
+            debug_assert!((v as usize) < points.len());
+            // SAFETY: v is a vertex id of a validated tet (ids, and xors of ids, were checked
+            // against the point count at build), so it indexes `points`.
+            unsafe { *points.get_unchecked(v as usize) }
+        }
+    };
+    // Vertex names in the start tet: ids, or slots 0..4 for INLINE layouts.
+    let names = if L::INLINE { [0, 1, 2, 3] } else { start_tet };
     let (mut a, mut b, mut c, mut pa, mut pb, mut pc, mut link, mut t, mut steps);
+    // INLINE layouts: the entered tet's face by which the walk came in.
+    let mut entry_face = 0usize;
     if let Some(i) = entry {
         // Entering through face i: reversed from its outward order it turns counter-clockwise
         // around the ray, as the loop expects of an entry face.
         let f = OUTWARD_FACES[i];
-        (a, b, c) = (start_tet[f[0]], start_tet[f[2]], start_tet[f[1]]);
-        (pa, pb, pc) = (M::vertex(ray, points[a as usize]), M::vertex(ray, points[b as usize]), M::vertex(ray, points[c as usize]));
-        (link, t, steps) = (start, start, 0u32);
+        (a, b, c) = (names[f[0]], names[f[2]], names[f[1]]);
+        (pa, pb, pc) = (M::vertex(ray, position(start, a)), M::vertex(ray, position(start, b)), M::vertex(ray, position(start, c)));
+        (link, t, steps, entry_face) = (start, start, 0u32, i);
     } else {
-        let vs = start_tet.map(|v| M::vertex(ray, points[v as usize]));
+        let vs = names.map(|v| M::vertex(ray, position(start, v)));
         let i = M::start_exit(ray, &vs);
         let f = OUTWARD_FACES[i];
-        (a, b, c) = (start_tet[f[0]], start_tet[f[1]], start_tet[f[2]]);
+        (a, b, c) = (names[f[0]], names[f[1]], names[f[2]]);
         (pa, pb, pc) = (vs[f[0]], vs[f[1]], vs[f[2]]);
-        link = layout.link_opposite(start, start_tet[i], [a, b, c]);
+        if L::INLINE {
+            (link, entry_face) = layout.inline_face(start, i);
+        } else {
+            link = layout.link_opposite(start, start_tet[i], [a, b, c]);
+        }
         (t, steps) = (start, 1u32);
     }
     loop {
@@ -101,18 +126,29 @@ pub fn walk<R: Real, L: Layout, M: ExitMethod<R>>(
             } else {
                 WalkEnd::Hit { constrained: link & !CONSTRAINED_BIT }
             };
-            return Walk { end, tet: t, face: [a, b, c], steps };
+            return Walk { end, tet: t, face: [a, b, c], slots: L::INLINE, steps };
         }
         if steps >= max_steps {
-            return Walk { end: WalkEnd::StepLimit, tet: t, face: [a, b, c], steps };
+            return Walk { end: WalkEnd::StepLimit, tet: t, face: [a, b, c], slots: L::INLINE, steps };
         }
         t = link;
         steps += 1;
-        let d = layout.new_vertex(t, a, b, c);
-        debug_assert!((d as usize) < points.len());
-        // SAFETY: d is a vertex id of a validated tet (xor of ids checked against the point
-        // count at build), so it indexes `points`.
-        let pd = M::vertex(ray, unsafe { *points.get_unchecked(d as usize) });
+        let d = if L::INLINE {
+            // Names are local to each tet: rename the entry face in this one and recompute
+            // its vertices' data from the record.
+            let f = OUTWARD_FACES[entry_face];
+            (a, b, c) = (f[0] as u32, f[2] as u32, f[1] as u32);
+            let v = layout.inline_vertices(t);
+            (pa, pb, pc) = (
+                M::vertex(ray, v[f[0]].map(R::from_f32)),
+                M::vertex(ray, v[f[2]].map(R::from_f32)),
+                M::vertex(ray, v[f[1]].map(R::from_f32)),
+            );
+            entry_face as u32
+        } else {
+            layout.new_vertex(t, a, b, c)
+        };
+        let pd = M::vertex(ray, position(t, d));
         let opposite = match M::step(ray, &pa, &pb, &pc, &pd) {
             Exit::Abd => {
                 let o = c;
@@ -130,9 +166,13 @@ pub fn walk<R: Real, L: Layout, M: ExitMethod<R>>(
                 o
             }
         };
-        link = layout.link_opposite(t, opposite, [a, b, c]);
+        if L::INLINE {
+            (link, entry_face) = layout.inline_face(t, opposite as usize);
+        } else {
+            link = layout.link_opposite(t, opposite, [a, b, c]);
+        }
     }
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

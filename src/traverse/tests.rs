@@ -5,7 +5,7 @@ use crate::mesh::build::orient;
 use crate::scene::{clip_box, CastOptions, HitsOut, Rays, Scene, HIT, MISS};
 
 /// Deterministic xorshift so tests need no rand crate.
-pub(crate) struct Rng(u64);
+pub(crate) struct Rng(pub u64);
 impl Rng {
     pub fn f(&mut self) -> f64 {
         self.0 ^= self.0 << 13;
@@ -230,13 +230,23 @@ pub(crate) fn agreement<R: Real>(seed: u64, f: impl Fn(&Scene, &Rays<R>, HitsOut
     assert!(bad <= 3, "{bad} of {n} rays disagree with brute force");
 }
 
-/// Method M on the Tet20 layout, both precisions, against brute force on random scenes.
+/// Method M on every layout (Tet80 in f32 only), both precisions, against brute force on
+/// random scenes.
 pub(crate) fn check_agreement<M: ExitMethod<f32> + ExitMethod<f64>>(seed: u64) {
-    use crate::layout::Layout;
-    let opts = CastOptions { threads: None, max_steps: 100_000 };
-    agreement::<f64>(seed, |s, r, o| s.cast_generic::<f64, crate::layout::Tet20, M>(&s.mesh.points, &s.tet20, r, o, &opts));
-    agreement::<f32>(seed + 1, |s, r, o| s.cast_generic::<f32, crate::layout::Tet20, M>(&s.points_f32, &s.tet20, r, o, &opts));
-    let _ = crate::layout::Tet20::NAME;
+    use crate::layout::{Layout, Plain, Tet16, Tet20, Tet32, Tet80};
+    fn on<L: Layout, M: ExitMethod<f32> + ExitMethod<f64>>(seed: u64, f64_too: bool) {
+        let opts = CastOptions { threads: None, max_steps: 100_000 };
+        // agreement() casts once per scene: the layout is built there, for that scene.
+        if f64_too {
+            agreement::<f64>(seed, |s, r, o| s.cast_generic::<f64, L, M>(&s.mesh.points, &L::build(&s.mesh)?, r, o, &opts));
+        }
+        agreement::<f32>(seed + 1, |s, r, o| s.cast_generic::<f32, L, M>(&s.points_f32, &L::build(&s.mesh)?, r, o, &opts));
+    }
+    on::<Plain, M>(seed, true);
+    on::<Tet80, M>(seed + 10, false);
+    on::<Tet32, M>(seed + 20, true);
+    on::<Tet20, M>(seed + 30, true);
+    on::<Tet16, M>(seed + 40, true);
 }
 
 #[test]
