@@ -6,11 +6,25 @@ use crate::layout::{Layout, Plain, Tet16, Tet20, Tet32, Tet80, LAYOUTS};
 use crate::mesh::TetMesh;
 use crate::real::Real;
 use crate::scene::{CastOptions, HitsOut, Rays, Scene};
-use crate::traverse::Aman2022;
 use std::sync::OnceLock;
 
 /// The exit methods `tetrace.methods()` lists (each is its type's `ExitMethod::NAME`).
 pub const METHODS: [&str; 1] = ["aman2022"];
+
+/// Runs `$body` with the type alias `$m` bound to the method named `$name`, or evaluates to
+/// an unknown-method error: the one place that maps method names to types.
+macro_rules! with_method {
+    ($name:expr, $m:ident => $body:expr) => {
+        match $name {
+            "aman2022" => {
+                type $m = $crate::traverse::Aman2022;
+                $body
+            }
+            other => Err($crate::dispatch::unknown("method", other, &$crate::dispatch::METHODS)),
+        }
+    };
+}
+pub(crate) use with_method;
 
 /// The default: the fastest robust combination measured (see the bench).
 pub const DEFAULT_METHOD: &str = "aman2022";
@@ -62,7 +76,7 @@ impl Layouts {
     }
 }
 
-fn unknown(what: &str, name: &str, known: &[&str]) -> Error {
+pub(crate) fn unknown(what: &str, name: &str, known: &[&str]) -> Error {
     Error::InvalidOption(format!("unknown {what} {name:?}; known: {}", known.join(", ")))
 }
 
@@ -116,9 +130,6 @@ impl Scene {
                 }
             };
         }
-        match method {
-            "aman2022" => with_layout!(Aman2022),
-            other => Err(unknown("method", other, &METHODS)),
-        }
+        with_method!(method, M => with_layout!(M))
     }
 }

@@ -2,6 +2,7 @@
 //!
 //! The core is plain Rust over slices; the Python bindings live in `py` only.
 
+pub mod bench;
 pub mod dispatch;
 pub mod error;
 pub mod layout;

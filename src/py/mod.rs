@@ -238,6 +238,29 @@ pub fn default_max_steps(n_tets: usize) -> u32 {
     (n_tets as u64 + 1).min(1 << 20) as u32
 }
 
+/// The exit-face micro-benchmark: (method, precision, ns per decision, decisions that differ
+/// from the float64 reference) for every method and precision, one thread.
+#[pyfunction]
+#[pyo3(signature = (n_tets=10_000, rays_per_tet=16, seed=1, repeat=5))]
+fn exitface_bench(py: Python<'_>, n_tets: usize, rays_per_tet: usize, seed: u64, repeat: usize) -> PyResult<Vec<(&'static str, &'static str, f64, usize)>> {
+    if n_tets == 0 || rays_per_tet == 0 {
+        return Err(PyValueError::new_err("n_tets and rays_per_tet must be positive"));
+    }
+    py.detach(|| {
+        guarded(|| {
+            let cases = crate::bench::cases(n_tets, rays_per_tet, seed);
+            let mut out = Vec::new();
+            for m in crate::dispatch::METHODS {
+                for p in ["f32", "f64"] {
+                    let (ns, wrong) = crate::bench::exitface(m, p, &cases, repeat)?;
+                    out.push((m, p, ns, wrong));
+                }
+            }
+            Ok(out)
+        })
+    })
+}
+
 /// Exit-face methods, in the order of the papers.
 #[pyfunction]
 fn methods() -> Vec<&'static str> {
@@ -262,6 +285,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyScene>()?;
     m.add_function(wrap_pyfunction!(methods, m)?)?;
     m.add_function(wrap_pyfunction!(layouts, m)?)?;
+    m.add_function(wrap_pyfunction!(exitface_bench, m)?)?;
     m.add("DEFAULT_METHOD", crate::dispatch::DEFAULT_METHOD)?;
     m.add("DEFAULT_LAYOUT", crate::dispatch::DEFAULT_LAYOUT)?;
     m.add("MeshError", m.py().get_type::<MeshError>())?;

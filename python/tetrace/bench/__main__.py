@@ -19,10 +19,34 @@ def agreement_main(argv):
     return 0
 
 
+def exitface_main(argv):
+    from .. import _native
+    from .scene_bench import _table
+
+    p = argparse.ArgumentParser(
+        prog="python -m tetrace.bench exitface",
+        description="Exit-face micro-benchmark (after Maria et al. 2017, Table 5): random tets, "
+                    "random rays stabbing them, ns per exit-face decision, one thread.")
+    p.add_argument("--tets", type=int, default=10_000)
+    p.add_argument("--rays-per-tet", type=int, default=16)
+    p.add_argument("--repeat", type=int, default=5, help="passes; the best is kept")
+    p.add_argument("--seed", type=int, default=1)
+    args = p.parse_args(argv)
+    rows = _native.exitface_bench(args.tets, args.rays_per_tet, args.seed, args.repeat)
+    n = args.tets * args.rays_per_tet
+    print(f"exit-face decisions: {args.tets:,} random tets x {args.rays_per_tet} rays = {n:,} "
+          f"decisions per method, best of {args.repeat}, one thread")
+    print(_table([[m, p, f"{ns:.2f}", f"{wrong}"] for m, p, ns, wrong in rows],
+                 ["method", "precision", "ns/decision", "differ from f64 ref"]))
+    return 0
+
+
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
     if argv[:1] == ["agreement"]:
         return agreement_main(argv[1:])
+    if argv[:1] == ["exitface"]:
+        return exitface_main(argv[1:])
     p = argparse.ArgumentParser(
         prog="python -m tetrace.bench",
         description="Full-scene benchmark: a pinhole camera cast by tetrace and by embreex on "
