@@ -55,7 +55,7 @@ class Scene:
         ``rust`` (topology, locator and layout construction), ``total``.
     """
 
-    def __init__(self, tetrahedralization, vertices, faces):
+    def __init__(self, tetrahedralization, vertices, faces, *, hilbert=True):
         self.tetrahedralization = tet = tetrahedralization
         self.vertices = vertices
         self.faces = faces
@@ -67,7 +67,9 @@ class Scene:
             np.ascontiguousarray(tet.faces, dtype=np.uint32).reshape(-1, 3),
             np.ascontiguousarray(tet.face_triangle, dtype=np.uint32),
             triangles,
+            hilbert=bool(hilbert),
         )
+        self.hilbert = bool(hilbert)
         rust = time.perf_counter() - t0
         self.build_times = dict(tet.timings)
         self.build_times["rust"] = rust
@@ -75,7 +77,7 @@ class Scene:
 
     @classmethod
     def from_mesh(cls, mesh, preset="quality", *, margin=0.02, contain=None, minratio=None,
-                  maxvolume=None, repair="auto"):
+                  maxvolume=None, repair="auto", hilbert=True):
         """Tetrahedralize a triangle scene.
 
         Parameters
@@ -95,6 +97,10 @@ class Scene:
             Override the preset's TetGen radius-edge bound and maximum tet volume.
         repair : {"auto", True, False}
             Resolve self-intersections exactly (libigl/CGAL) when TetGen cannot mesh the scene.
+        hilbert : bool
+            Renumber points along a Hilbert curve and tets by region, then along the curve
+            (Aman et al. 2022), for memory locality; False keeps the mesher's order (to measure
+            the effect).
 
         Returns
         -------
@@ -110,7 +116,7 @@ class Scene:
         vertices, faces = load_triangles(mesh)
         tet = tetrahedralize((vertices, faces), preset, margin=margin, contain=contain,
                              minratio=minratio, maxvolume=maxvolume, repair=repair)
-        return cls(tet, vertices, faces)
+        return cls(tet, vertices, faces, hilbert=hilbert)
 
     def cast(self, origins, directions=None, *, tmin=0.0, tmax=np.inf, threads=None,
              max_steps=None, invalid="raise", method=None, layout=None, precision=None):

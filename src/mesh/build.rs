@@ -246,6 +246,43 @@ impl TetMesh {
         self.tets.len()
     }
 
+    /// Regions: sets of tets connected across faces that are not scene triangles, numbered
+    /// so that region ids follow the order of their first tet. A ray walks within one region
+    /// between hits, so tets grouped by region sit together in memory.
+    pub fn regions(&self) -> Vec<u32> {
+        // Union-find with path halving over free interior faces.
+        let mut parent: Vec<u32> = (0..self.len() as u32).collect();
+        fn find(p: &mut [u32], mut x: u32) -> u32 {
+            while p[x as usize] != x {
+                p[x as usize] = p[p[x as usize] as usize];
+                x = p[x as usize];
+            }
+            x
+        }
+        for (t, links) in self.links.iter().enumerate() {
+            for &l in links {
+                if l & CONSTRAINED_BIT == 0 {
+                    let (a, b) = (find(&mut parent, t as u32), find(&mut parent, l));
+                    if a != b {
+                        parent[a.max(b) as usize] = a.min(b);
+                    }
+                }
+            }
+        }
+        let mut id = vec![u32::MAX; self.len()];
+        let mut next = 0;
+        (0..self.len() as u32)
+            .map(|t| {
+                let r = find(&mut parent, t) as usize;
+                if id[r] == u32::MAX {
+                    id[r] = next;
+                    next += 1;
+                }
+                id[r]
+            })
+            .collect()
+    }
+
     pub fn is_empty(&self) -> bool {
         self.tets.is_empty()
     }
@@ -331,6 +368,19 @@ mod tests {
         assert!(cs.contains(&(7, 0)) && cs.contains(&(7, 4)) && cs.contains(&(9, BOUNDARY)));
         // Location crosses constrained faces.
         assert!((0..4).any(|i| m.neighbor(0, i) == 4));
+    }
+
+    #[test]
+    fn regions_split_at_constrained_faces() {
+        let (p, t) = cube5();
+        // Constrain the central tet's four faces: it becomes a region of its own.
+        let m0 = TetMesh::build(p.clone(), &t, &[], &[]).unwrap();
+        assert_eq!(m0.regions(), vec![0; 5]);
+        let c = m0.tets[4];
+        let faces: Vec<[u32; 3]> = OUTWARD_FACES.iter().map(|f| f.map(|k| c[k])).collect();
+        let m = TetMesh::build(p, &t, &faces, &[0, 1, 2, 3]).unwrap();
+        let r = m.regions();
+        assert_eq!(r, vec![0, 1, 2, 3, 4], "corners are cut off from each other by the centre");
     }
 
     #[test]

@@ -53,27 +53,32 @@ fn quantize(p: [f64; 3], lo: [f64; 3], scale: [f64; 3]) -> [u32; 3] {
     [0, 1, 2].map(|a| ((p[a] - lo[a]) * scale[a]).clamp(0.0, max) as u32)
 }
 
-/// The permutation that sorts `items` (by their representative point) along the curve:
-/// `order[new] = old`.
-pub fn order(points: &[[f64; 3]], bounds: [[f64; 3]; 2]) -> Vec<u32> {
+/// The permutation that sorts items (by their representative point) along the curve, within
+/// groups when `groups` gives each item's group: `order[new] = old`.
+pub fn order(points: &[[f64; 3]], bounds: [[f64; 3]; 2], groups: Option<&[u32]>) -> Vec<u32> {
     let [lo, hi] = bounds;
     let max = ((1u32 << BITS) - 1) as f64;
     let scale = [0, 1, 2].map(|a| if hi[a] > lo[a] { max / (hi[a] - lo[a]) } else { 0.0 });
-    let mut keyed: Vec<(u64, u32)> =
-        points.par_iter().enumerate().map(|(i, &p)| (hilbert_key(quantize(p, lo, scale)), i as u32)).collect();
+    let mut keyed: Vec<(u32, u64, u32)> = points
+        .par_iter()
+        .enumerate()
+        .map(|(i, &p)| (groups.map_or(0, |g| g[i]), hilbert_key(quantize(p, lo, scale)), i as u32))
+        .collect();
     keyed.par_sort_unstable();
-    keyed.into_iter().map(|(_, i)| i).collect()
+    keyed.into_iter().map(|(_, _, i)| i).collect()
 }
 
-/// Reorders points, then tets by centroid, rewriting every index; returns
-/// (points, tets, faces) and the permutation of tets (`tet_order[new] = old`).
+/// Reorders points, then tets by centroid (grouped by `regions` first when given: a ray stays
+/// in one region between two scene triangles, so its tets then sit together), rewriting every
+/// index; returns (points, tets, faces) and the permutation of tets (`tet_order[new] = old`).
 pub fn reorder(
     points: &[[f64; 3]],
     tets: &[[u32; 4]],
     faces: &[[u32; 3]],
     bounds: [[f64; 3]; 2],
+    regions: Option<&[u32]>,
 ) -> (Vec<[f64; 3]>, Vec<[u32; 4]>, Vec<[u32; 3]>, Vec<u32>) {
-    let point_order = order(points, bounds);
+    let point_order = order(points, bounds, None);
     let mut new_id = vec![0u32; points.len()];
     for (new, &old) in point_order.iter().enumerate() {
         new_id[old as usize] = new as u32;
@@ -91,7 +96,7 @@ pub fn reorder(
             c
         })
         .collect();
-    let tet_order = order(&centroids, bounds);
+    let tet_order = order(&centroids, bounds, regions);
     let new_tets = tet_order.iter().map(|&o| tets[o as usize].map(|v| new_id[v as usize])).collect();
     let new_faces = faces.iter().map(|f| f.map(|v| new_id[v as usize])).collect();
     (new_points, new_tets, new_faces, tet_order)
@@ -128,7 +133,8 @@ mod tests {
     fn reorder_keeps_the_mesh() {
         let pts = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 1.0, 1.0]];
         let tets = vec![[0, 1, 2, 3], [1, 2, 3, 4]];
-        let (p, t, f, order) = reorder(&pts, &tets, &[[1, 2, 3]], [[0.0; 3], [1.0; 3]]);
+        let (p, t, f, order) = reorder(&pts, &tets, &[[1, 2, 3]], [[0.0; 3], [1.0; 3]], Some(&[1, 0]));
+        assert_eq!(order, vec![1, 0], "region 0 first");
         for (new, &old) in order.iter().enumerate() {
             let a: Vec<_> = t[new].iter().map(|&v| p[v as usize]).collect();
             let b: Vec<_> = tets[old as usize].iter().map(|&v| pts[v as usize]).collect();
