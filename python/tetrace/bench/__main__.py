@@ -64,10 +64,22 @@ def main(argv=None):
                    help="camera distance from the scene centre, in bounding radii")
     p.add_argument("--image", default=None, help="write a shaded PNG of the camera's hits here")
     p.add_argument("--json", default=None, help="also write the results as JSON here")
+    p.add_argument("--method", action="append", default=None,
+                   help="exit method (repeatable, or 'all'; default: the default method)")
+    p.add_argument("--layout", action="append", default=None,
+                   help="tet layout (repeatable, or 'all'; default: tet20)")
+    p.add_argument("--precision", choices=["f32", "f64", "both"], default="both")
+    p.add_argument("--order", choices=["hilbert", "mesher", "both"], default="hilbert",
+                   help="point/tet order: Hilbert within regions, TetGen's, or both")
+    p.add_argument("--threads", choices=["1", "all", "both"], default="both")
     args = p.parse_args(argv)
+    both = lambda x, pair: pair if x == "both" else (x,)
     run_scene_bench(args.scene, preset=args.preset, width=args.width, height=args.height,
                     repeat=args.repeat, distance=args.distance, image=args.image,
-                    json_path=args.json)
+                    json_path=args.json, methods=args.method, layouts=args.layout,
+                    precisions=both(args.precision, ("f32", "f64")),
+                    orders=both(args.order, ("hilbert", "mesher")),
+                    threads=both(args.threads, ("1", "all")))
     return 0
 
 

@@ -11,7 +11,7 @@ import numpy as np
 from ..camera import orbit_views, pinhole
 from ..compare import compare
 from ..hits import HIT
-from ..scene import Scene, default_scene_path
+from ..scene import LAYOUT_BYTES, Scene, default_scene_path
 
 
 def _best(fn, repeat):
@@ -32,7 +32,9 @@ def _table(rows, header):
 
 
 def run_scene_bench(path=None, *, preset="quality", width=1024, height=1024, repeat=3,
-                    distance=1.6, image=None, json_path=None, out=print):
+                    distance=1.6, image=None, json_path=None, methods=None, layouts=None,
+                    precisions=("f32", "f64"), orders=("hilbert",), threads=("1", "all"),
+                    out=print):
     """Build a scene, cast a pinhole camera with tetrace and embreex, print one report.
 
     Parameters
@@ -51,6 +53,13 @@ def run_scene_bench(path=None, *, preset="quality", width=1024, height=1024, rep
         Write a shaded PNG of tetrace's float32 hits there.
     json_path : str, optional
         Write the results as JSON there.
+    methods, layouts : list of str, optional
+        Exit methods and layouts to run (default: the defaults; ``["all"]``: every one).
+        Pairs that cannot run (tet80 in float64) are skipped.
+    precisions : sequence of {"f32", "f64"}
+    orders : sequence of {"hilbert", "mesher"}
+        Point/tet order: Hilbert within regions (default) or TetGen's own.
+    threads : sequence of {"1", "all"}
     out : callable
         Where lines go (print by default).
 
@@ -59,11 +68,18 @@ def run_scene_bench(path=None, *, preset="quality", width=1024, height=1024, rep
     dict
         Everything printed, as numbers.
     """
+    from .. import _native
     from ..reference import embree_scene
+    from ..scene import layouts as all_layouts, methods as all_methods
 
+    methods = all_methods() if methods in (["all"], "all") else (methods or [_native.DEFAULT_METHOD])
+    layouts = all_layouts() if layouts in (["all"], "all") else (layouts or [_native.DEFAULT_LAYOUT])
     path = str(path) if path is not None else str(default_scene_path())
     name = os.path.basename(path)
     scene = Scene.from_mesh(path, preset)
+    scenes = {"hilbert": scene}
+    if "mesher" in orders:
+        scenes["mesher"] = Scene(scene.tetrahedralization, scene.vertices, scene.faces, hilbert=False)
     bt = scene.build_times
     v, f = scene.vertices, scene.faces
     bounds = np.array([v.min(0), v.max(0)])
@@ -73,35 +89,53 @@ def run_scene_bench(path=None, *, preset="quality", width=1024, height=1024, rep
     ref_scene = embree_scene((v, f))
     o32, d32 = o64.astype(np.float32), d64.astype(np.float32)
     ncpu = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    thread_counts = {"1": 1, "all": None}
 
     results = {"scene": name, "preset": preset, "rays": n, "triangles": int(len(f)),
                "tets": scene.n_tets, "points": scene.n_points,
-               "bytes_per_tet": scene.bytes_per_tet, "memory": scene.memory(),
                "build_seconds": {k: float(x) for k, x in bt.items()},
                "embree_build_seconds": float(ref_scene.build_seconds), "runs": []}
     rows = []
     embree_rate = {}
-    for threads, label in ((1, "1"), (None, f"all ({ncpu})")):
-        te, _ = _best(lambda: ref_scene.intersect(o32, d32, threads=threads or ncpu), repeat)
-        embree_rate[threads] = n / te / 1e6
-        rows.append(["embreex", "f32", label, f"{embree_rate[threads]:.2f}", "1.00", "-", "-"])
-        results["runs"].append({"caster": "embreex", "precision": "f32", "threads": threads or ncpu,
-                                "mrays_per_s": embree_rate[threads]})
+    for label in threads:
+        k = thread_counts[label]
+        te, _ = _best(lambda: ref_scene.intersect(o32, d32, threads=k or ncpu), repeat)
+        embree_rate[label] = n / te / 1e6
+        shown = "1" if k == 1 else f"all ({ncpu})"
+        rows.append(["embreex", "bvh", "-", "f32", "-", shown, f"{embree_rate[label]:.2f}", "1.00",
+                     "-", "-", "-"])
+        results["runs"].append({"caster": "embreex", "precision": "f32", "threads": k or ncpu,
+                                "mrays_per_s": embree_rate[label]})
     ref = ref_scene.cast(o32, d32)
-    for prec, (o, d) in (("f32", (o32, d32)), ("f64", (o64, d64))):
-        for threads, label in ((1, "1"), (None, f"all ({ncpu})")):
-            tt, hits = _best(lambda: scene.cast(o, d, threads=threads), repeat)
-            rate = n / tt / 1e6
-            a = compare(hits, ref, v, f)
-            rows.append([f"tetrace", prec, label, f"{rate:.2f}", f"{rate / embree_rate[threads]:.2f}",
-                         f"{hits.steps.mean():.1f}", f"{a.fraction * 100:.3f}%"])
-            results["runs"].append({"caster": "tetrace", "precision": prec, "threads": threads or ncpu,
-                                    "mrays_per_s": rate, "ratio_to_embree": rate / embree_rate[threads],
-                                    "tets_per_ray": float(hits.steps.mean()),
-                                    "agreement": a.fraction, "failed": a.failed,
-                                    "unexplained": a.far_from_edges, "max_dt": a.max_dt})
-            if prec == "f32" and threads is None:
-                last32 = hits
+    last32 = None
+    for order in orders:
+        sc = scenes[order]
+        for method in methods:
+            for layout in layouts:
+                for prec in precisions:
+                    if layout == "tet80" and prec == "f64":
+                        continue
+                    o, d = (o32, d32) if prec == "f32" else (o64, d64)
+                    for label in threads:
+                        k = thread_counts[label]
+                        tt, hits = _best(lambda: sc.cast(o, d, threads=k, method=method,
+                                                         layout=layout, precision=prec), repeat)
+                        rate = n / tt / 1e6
+                        a = compare(hits, ref, v, f)
+                        shown = "1" if k == 1 else f"all ({ncpu})"
+                        rows.append(["tetrace", method, layout, prec, order, shown, f"{rate:.2f}",
+                                     f"{rate / embree_rate[label]:.2f}", f"{hits.steps.mean():.1f}",
+                                     LAYOUT_BYTES[layout], f"{a.fraction * 100:.3f}%"])
+                        results["runs"].append({
+                            "caster": "tetrace", "method": method, "layout": layout,
+                            "precision": prec, "order": order, "threads": k or ncpu,
+                            "mrays_per_s": rate, "ratio_to_embree": rate / embree_rate[label],
+                            "tets_per_ray": float(hits.steps.mean()),
+                            "bytes_per_tet": LAYOUT_BYTES[layout], "agreement": a.fraction,
+                            "failed": a.failed, "unexplained": a.far_from_edges,
+                            "max_dt": a.max_dt})
+                        if prec == "f32" and last32 is None:
+                            last32 = hits
 
     hit_frac = float((ref.status == HIT).mean())
     out(f"tetrace bench: {name} ({len(f):,} triangles), preset {preset!r}, "
@@ -110,11 +144,12 @@ def run_scene_bench(path=None, *, preset="quality", width=1024, height=1024, rep
         f"repair {bt.get('repair', 0):.2f} s), rust construction {bt['rust']:.2f} s; "
         f"embreex BVH {ref_scene.build_seconds:.2f} s")
     mem = scene.memory()
-    out(f"structure: {scene.n_tets:,} tets, {scene.n_points:,} points, {scene.bytes_per_tet} bytes/tet "
-        f"(tet20 layout); memory MB: " + ", ".join(f"{k} {b / 1e6:.1f}" for k, b in mem.items()))
-    out(_table(rows, ["caster", "precision", "threads", "Mrays/s", "x embreex", "tets/ray",
-                      "agree w/ embreex"]))
-    if image:
+    results["memory"] = mem
+    out(f"structure: {scene.n_tets:,} tets, {scene.n_points:,} points; memory MB: "
+        + ", ".join(f"{k} {b / 1e6:.1f}" for k, b in mem.items()))
+    out(_table(rows, ["caster", "method", "layout", "precision", "order", "threads", "Mrays/s",
+                      "x embreex", "tets/ray", "bytes/tet", "agree w/ embreex"]))
+    if image and last32 is not None:
         from ..image import lambert, save_png
         save_png(image, lambert(last32, d32, v, f, width, height), cmap="gray", vmin=0, vmax=1)
         out(f"image: {image}")
