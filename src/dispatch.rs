@@ -9,13 +9,45 @@ use crate::scene::{CastOptions, HitsOut, Rays, Scene};
 use std::sync::OnceLock;
 
 /// The exit methods `tetrace.methods()` lists (each is its type's `ExitMethod::NAME`).
-pub const METHODS: [&str; 1] = ["aman2022"];
+pub const METHODS: [&str; 7] = [
+    "lagae2008_plane",
+    "lagae2008_halfspace",
+    "lagae2008_plucker",
+    "lagae2008_stp",
+    "ms06",
+    "maria2017",
+    "aman2022",
+];
 
 /// Runs `$body` with the type alias `$m` bound to the method named `$name`, or evaluates to
 /// an unknown-method error: the one place that maps method names to types.
 macro_rules! with_method {
     ($name:expr, $m:ident => $body:expr) => {
         match $name {
+            "lagae2008_plane" => {
+                type $m = $crate::traverse::Lagae2008Plane;
+                $body
+            }
+            "lagae2008_halfspace" => {
+                type $m = $crate::traverse::Lagae2008Halfspace;
+                $body
+            }
+            "lagae2008_plucker" => {
+                type $m = $crate::traverse::Lagae2008Plucker;
+                $body
+            }
+            "lagae2008_stp" => {
+                type $m = $crate::traverse::Lagae2008Stp;
+                $body
+            }
+            "ms06" => {
+                type $m = $crate::traverse::Ms06;
+                $body
+            }
+            "maria2017" => {
+                type $m = $crate::traverse::Maria2017;
+                $body
+            }
             "aman2022" => {
                 type $m = $crate::traverse::Aman2022;
                 $body
@@ -78,6 +110,22 @@ impl Layouts {
 
 pub(crate) fn unknown(what: &str, name: &str, known: &[&str]) -> Error {
     Error::InvalidOption(format!("unknown {what} {name:?}; known: {}", known.join(", ")))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::traverse::ExitMethod;
+
+    #[test]
+    fn method_names_are_the_types_names() {
+        for name in METHODS {
+            let got: Result<&str> = with_method!(name, M => Ok(<M as ExitMethod<f32>>::NAME));
+            assert_eq!(got.unwrap(), name);
+        }
+        let r: Result<&str> = with_method!("nope", M => Ok(<M as ExitMethod<f64>>::NAME));
+        assert!(matches!(r, Err(Error::InvalidOption(m)) if m.contains("aman2022")));
+    }
 }
 
 /// Scalars the scene keeps points for.

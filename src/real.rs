@@ -2,7 +2,7 @@
 //! trait; it holds only what the walk needs, so no numeric crate is pulled in for it.
 
 use std::fmt::Debug;
-use std::ops::{Add, Mul, Neg, Sub};
+use std::ops::{Add, Div, Mul, Neg, Sub};
 
 pub trait Real:
     Copy
@@ -14,6 +14,7 @@ pub trait Real:
     + Add<Output = Self>
     + Sub<Output = Self>
     + Mul<Output = Self>
+    + Div<Output = Self>
     + Neg<Output = Self>
     + 'static
 {

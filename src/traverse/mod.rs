@@ -5,6 +5,12 @@
 //! candidate exit faces (a,b,d), (b,c,d), (c,a,d), each already in that order for the next tet.
 
 pub mod aman2022;
+pub mod lagae2008_halfspace;
+pub mod lagae2008_plane;
+pub mod lagae2008_plucker;
+pub mod lagae2008_stp;
+pub mod maria2017;
+pub mod ms06;
 
 use crate::layout::Layout;
 use crate::mesh::build::{CONSTRAINED_BIT, OUTWARD_FACES};
@@ -12,6 +18,12 @@ use crate::mesh::BOUNDARY;
 use crate::real::{Real, V3};
 
 pub use aman2022::Aman2022;
+pub use lagae2008_halfspace::Lagae2008Halfspace;
+pub use lagae2008_plane::Lagae2008Plane;
+pub use lagae2008_plucker::Lagae2008Plucker;
+pub use lagae2008_stp::Lagae2008Stp;
+pub use maria2017::Maria2017;
+pub use ms06::Ms06;
 
 /// Which of the three candidate faces a ray leaves by (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

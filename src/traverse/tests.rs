@@ -276,3 +276,87 @@ fn empty_scene_misses_and_counts_steps() {
     assert_eq!(res.steps[2], 0); // misses the domain
     assert!(res.t.iter().all(|t| t.is_infinite()));
 }
+
+#[test]
+fn lagae2008_plane_exit_faces_and_agreement() {
+    check_exact_exit_faces::<f32, Lagae2008Plane>();
+    check_exact_exit_faces::<f64, Lagae2008Plane>();
+    check_agreement::<Lagae2008Plane>(100);
+}
+
+#[test]
+fn lagae2008_halfspace_exit_faces_and_agreement() {
+    check_exact_exit_faces::<f32, Lagae2008Halfspace>();
+    check_exact_exit_faces::<f64, Lagae2008Halfspace>();
+    check_agreement::<Lagae2008Halfspace>(200);
+}
+
+#[test]
+fn lagae2008_plucker_exit_faces_and_agreement() {
+    check_exact_exit_faces::<f32, Lagae2008Plucker>();
+    check_exact_exit_faces::<f64, Lagae2008Plucker>();
+    check_agreement::<Lagae2008Plucker>(300);
+}
+
+#[test]
+fn lagae2008_stp_exit_faces_and_agreement() {
+    check_exact_exit_faces::<f32, Lagae2008Stp>();
+    check_exact_exit_faces::<f64, Lagae2008Stp>();
+    check_agreement::<Lagae2008Stp>(400);
+}
+
+#[test]
+fn ms06_exit_faces_and_agreement() {
+    check_exact_exit_faces::<f32, Ms06>();
+    check_exact_exit_faces::<f64, Ms06>();
+    check_agreement::<Ms06>(500);
+}
+
+#[test]
+fn maria2017_exit_faces_and_agreement() {
+    check_exact_exit_faces::<f32, Maria2017>();
+    check_exact_exit_faces::<f64, Maria2017>();
+    check_agreement::<Maria2017>(600);
+}
+
+/// Exact ties and junk (rays through a vertex or along an edge, a flat tet, NaN) still name a
+/// face, and the same one every time, for every method added with the Lagae/MS06/Maria set.
+fn check_degenerate_inputs<R: Real, M: ExitMethod<R>>() {
+    // Integer tet: rays along the axes through its vertices give exact zero side products.
+    let v = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    let flat = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0]];
+    let rays = [
+        ([0.0, 0.0, -1.0], [0.0, 0.0, 1.0]),
+        ([0.25, 0.25, 0.25], [0.0, 0.0, 1.0]),
+        ([0.0, 0.0, 0.0], [1.0, 1.0, 1.0]),
+        ([0.5, 0.0, -1.0], [0.0, 0.0, 1.0]),
+        ([0.25, 0.25, 0.25], [1.0, 0.0, 0.0]),
+        ([f64::NAN, 0.0, 0.0], [1.0, 0.0, 0.0]),
+    ];
+    for (o, d) in rays {
+        let ray = M::prepare(o, d);
+        for tet in [v, flat] {
+            let p = tet.map(|q| M::vertex(&ray, q.map(R::from_f64)));
+            let i = M::start_exit(&ray, &p);
+            assert!(i < 4 && i == M::start_exit(&ray, &p), "{} {}", M::NAME, R::NAME);
+            for e in [[0, 1, 2, 3], [1, 0, 3, 2], [3, 2, 1, 0], [0, 0, 0, 0]] {
+                let x = M::step(&ray, &p[e[0]], &p[e[1]], &p[e[2]], &p[e[3]]);
+                assert_eq!(x, M::step(&ray, &p[e[0]], &p[e[1]], &p[e[2]], &p[e[3]]), "{} {}", M::NAME, R::NAME);
+            }
+        }
+    }
+}
+
+#[test]
+fn paper_methods_survive_degenerate_inputs() {
+    fn both<M: ExitMethod<f32> + ExitMethod<f64>>() {
+        check_degenerate_inputs::<f32, M>();
+        check_degenerate_inputs::<f64, M>();
+    }
+    both::<Lagae2008Plane>();
+    both::<Lagae2008Halfspace>();
+    both::<Lagae2008Plucker>();
+    both::<Lagae2008Stp>();
+    both::<Ms06>();
+    both::<Maria2017>();
+}
