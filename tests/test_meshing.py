@@ -25,6 +25,7 @@ from tetrace.meshing import (
     _call_forked,
     _TetGenCrashed,
     _TetGenFailed,
+    _TetGenTimeout,
     clean,
     count_intersecting_pairs,
     domain_box,
@@ -416,6 +417,13 @@ def test_forked_call():
         _call_forked(fail)
     with pytest.raises(_TetGenFailed, match="ZeroDivisionError"):
         _call_forked(lambda: 1 / 0)
+    t0 = time.perf_counter()
+    with pytest.raises(_TetGenTimeout, match="stopped after 0.5 s"):
+        _call_forked(time.sleep, 30, timeout=0.5)
+    assert time.perf_counter() - t0 < 10
+    # large results come back whole
+    big = _call_forked(np.arange, 5_000_000, timeout=60)
+    assert len(big) == 5_000_000 and big[-1] == 4_999_999
 
 
 # --------------------------------------------------------------------------- real scenes
@@ -424,7 +432,8 @@ def test_forked_call():
 def test_cornell_box_is_repaired(scene_path):
     path = scene_path("cornell_box.obj")
     vertices, faces = load_triangles(path)
-    assert count_intersecting_pairs(*(lambda c: (c.vertices, c.faces))(clean(vertices, faces))) > 0
+    cm = clean(vertices, faces)
+    assert count_intersecting_pairs(cm.vertices, cm.faces) > 0
     with pytest.raises(MeshingError, match="intersect"):
         tetrahedralize(path, repair=False)
     for preset in sorted(PRESETS):

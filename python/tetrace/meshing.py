@@ -231,7 +231,8 @@ def load_triangles(mesh) -> tuple[np.ndarray, np.ndarray]:
         try:
             mesh = trimesh.load(path, force="mesh")
         except Exception as exc:  # trimesh raises many types for bad files
-            raise MeshingError(f"could not load mesh file {path}: {type(exc).__name__}: {exc}") from exc
+            raise MeshingError(f"could not load mesh file {path}: "
+                               f"{type(exc).__name__}: {exc}") from exc
         if not hasattr(mesh, "faces"):
             raise MeshingError(f"could not load mesh file {path}: trimesh returned "
                                f"{type(mesh).__name__}, not a triangle mesh")
@@ -414,8 +415,8 @@ def _box_mesh(box):
     """The 12 outward triangles of an axis-aligned box ``(2, 3)``."""
     lo, hi = box
     # Vertex i has x from bit 2, y from bit 1, z from bit 0 (trimesh.creation.box order).
-    corners = np.array([[(hi if i & 4 else lo)[0], (hi if i & 2 else lo)[1], (hi if i & 1 else lo)[2]]
-                        for i in range(8)], dtype=np.float64)
+    bits = np.array([[i >> 2 & 1, i >> 1 & 1, i & 1] for i in range(8)], dtype=bool)
+    corners = np.where(bits, hi, lo).astype(np.float64)
     faces = np.array([[1, 3, 0], [4, 1, 0], [0, 3, 2], [2, 4, 0], [1, 7, 3], [5, 1, 4],
                       [5, 7, 1], [3, 7, 2], [6, 4, 2], [2, 7, 6], [6, 5, 4], [7, 5, 6]],
                      dtype=np.int64)
@@ -532,6 +533,10 @@ class _TetGenCrashed(Exception):
     """The process running TetGen died; ``str`` says how."""
 
 
+class _TetGenTimeout(_TetGenCrashed):
+    """TetGen ran past :data:`TETGEN_TIMEOUT` and was stopped."""
+
+
 #: Run TetGen in a forked child process (Linux only). TetGen can segfault on
 #: near-degenerate input, and its error path (a C++ exception thrown from deep
 #: inside) can corrupt the heap of the process it runs in; in a child, either
@@ -541,6 +546,14 @@ class _TetGenCrashed(Exception):
 ISOLATE_TETGEN = (sys.platform.startswith("linux") and hasattr(os, "fork")
                   and os.environ.get("TETRACE_TETGEN_ISOLATE", "1").strip().lower()
                   not in ("0", "false", "no", "off"))
+
+#: Seconds TetGen may run (in the forked child) before it is stopped and
+#: :func:`tetrahedralize` raises; None (the default) waits for ever. Set from
+#: ``TETRACE_TETGEN_TIMEOUT``. On near-degenerate input (a repaired scene whose cut
+#: pieces have edges far below TetGen's tolerance) TetGen can stall in boundary
+#: recovery for tens of minutes.
+TETGEN_TIMEOUT = float(os.environ["TETRACE_TETGEN_TIMEOUT"]) if os.environ.get(
+    "TETRACE_TETGEN_TIMEOUT", "").strip() else None
 
 
 def _tetgen_arrays(points_in, faces_in, markers, options):
@@ -564,49 +577,66 @@ def _tetgen_arrays(points_in, faces_in, markers, options):
             marks[scene].astype(np.int64))
 
 
-def _call_forked(fn, *args):
-    """Return ``fn(*args)`` computed in a forked child; re-raise its _TetGenFailed."""
+def _call_forked(fn, *args, timeout=None):
+    """Return ``fn(*args)`` computed in a forked child.
+
+    Re-raises the child's :class:`_TetGenFailed`; raises :class:`_TetGenCrashed`
+    when the child dies without answering or runs past ``timeout`` seconds.
+    """
+    import ctypes  # noqa: F401  (loaded before the fork; the child uses it)
     import pickle
+    import select
     import signal
+    import tempfile
     import warnings
 
-    read_fd, write_fd = os.pipe()
-    with warnings.catch_warnings():
-        # Python >= 3.12 warns on fork in a threaded process; the child only runs
-        # TetGen and numpy and never touches locks other threads may hold.
-        warnings.simplefilter("ignore", DeprecationWarning)
-        pid = os.fork()
-    if pid == 0:  # child: never return into the caller's code
-        try:
-            os.close(read_fd)
-            # A crash is reported by the parent; no traceback dump from the child.
-            import faulthandler
-
-            faulthandler.disable()
-            # TetGen writes _skipped.node/.face into the working directory when it fails:
-            # let it write them somewhere that is not the caller's.
-            import tempfile
-
-            os.chdir(tempfile.mkdtemp(prefix="tetrace-tetgen-"))
+    parent = os.getpid()
+    # TetGen writes _skipped.node/.face into the working directory when it fails:
+    # the child works in a folder of its own, removed afterwards.
+    with tempfile.TemporaryDirectory(prefix="tetrace-tetgen-") as workdir:
+        read_fd, write_fd = os.pipe()
+        with warnings.catch_warnings():
+            # Python >= 3.12 warns on fork in a threaded process; the child only runs
+            # TetGen and numpy and never touches locks other threads may hold.
+            warnings.simplefilter("ignore", DeprecationWarning)
+            pid = os.fork()
+        if pid == 0:  # child: never return into the caller's code
             try:
-                result = ("ok", fn(*args))
-            except _TetGenFailed as exc:
-                result = ("failed", str(exc))
-            except BaseException as exc:  # noqa: BLE001  (reported to the parent)
-                result = ("error", f"{type(exc).__name__}: {exc}")
-            with os.fdopen(write_fd, "wb") as out:
-                out.write(pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL))
+                os.close(read_fd)
+                _child_setup(parent, workdir)
+                try:
+                    result = ("ok", fn(*args))
+                except _TetGenFailed as exc:
+                    result = ("failed", str(exc))
+                except BaseException as exc:  # noqa: BLE001  (reported to the parent)
+                    result = ("error", f"{type(exc).__name__}: {exc}")
+                with os.fdopen(write_fd, "wb") as out:
+                    out.write(pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL))
+            finally:
+                os._exit(0)
+        os.close(write_fd)
+        deadline = None if timeout is None else time.monotonic() + timeout
+        chunks = []
+        try:
+            while True:
+                if deadline is not None:
+                    left = deadline - time.monotonic()
+                    if left <= 0:
+                        raise _TetGenTimeout(f"stopped after {timeout:g} s, TETGEN_TIMEOUT")
+                    if not select.select([read_fd], [], [], left)[0]:
+                        continue
+                chunk = os.read(read_fd, 1 << 22)
+                if not chunk:
+                    break
+                chunks.append(chunk)
+        except BaseException:  # timeout or KeyboardInterrupt: stop the child too
+            os.kill(pid, signal.SIGKILL)
+            os.waitpid(pid, 0)
+            raise
         finally:
-            os._exit(0)
-    os.close(write_fd)
-    try:
-        with os.fdopen(read_fd, "rb") as inp:
-            data = inp.read()
-    except BaseException:  # KeyboardInterrupt while TetGen runs: stop the child too
-        os.kill(pid, signal.SIGKILL)
-        os.waitpid(pid, 0)
-        raise
-    _, status = os.waitpid(pid, 0)
+            os.close(read_fd)
+        _, status = os.waitpid(pid, 0)
+    data = b"".join(chunks)
     if not data:
         if os.WIFSIGNALED(status):
             sig = os.WTERMSIG(status)
@@ -625,6 +655,26 @@ def _call_forked(fn, *args):
     return payload
 
 
+def _child_setup(parent, workdir):
+    """Prepare a forked TetGen child: quiet on crashes, bound to its parent's life."""
+    # A crash is reported by the parent; no traceback dump from the child.
+    import faulthandler
+
+    faulthandler.disable()
+    os.chdir(workdir)
+    # Die with the parent (PR_SET_PDEATHSIG = 1), so a killed caller leaves no
+    # TetGen running on; if it already died, stop now.
+    try:
+        import ctypes
+        import signal
+
+        ctypes.CDLL(None).prctl(1, int(signal.SIGKILL))
+    except (OSError, AttributeError):
+        pass
+    if os.getppid() != parent:
+        os._exit(1)
+
+
 def _run_tetgen(cm: CleanMesh, box: np.ndarray, options: dict, isolate=None):
     """Tetrahedralize scene + box; return ``(points, tets, faces, face_triangle)``."""
     import tetgen  # noqa: F401  (imported here so a forked child finds it loaded)
@@ -634,12 +684,13 @@ def _run_tetgen(cm: CleanMesh, box: np.ndarray, options: dict, isolate=None):
     points_in = np.vstack([cm.vertices, corners])
     faces_in = np.vstack([cm.faces, box_faces + nv])
     if len(points_in) >= 2**31 or len(faces_in) >= 2**31 - 1:
-        raise MeshingError(f"scene too large for TetGen: {len(points_in)} points, {len(faces_in)} faces")
+        raise MeshingError(f"scene too large for TetGen: {len(points_in)} points, "
+                           f"{len(faces_in)} faces")
     # Marker id + 1 for scene face id (0 is TetGen's "no marker"), -1 for the box.
     markers = np.concatenate([np.arange(1, len(cm.faces) + 1), np.full(len(box_faces), -1)])
     args = (points_in, faces_in.astype(np.int32), markers.astype(np.int32), options)
     if ISOLATE_TETGEN if isolate is None else isolate:
-        points, tets, faces, marks = _call_forked(_tetgen_arrays, *args)
+        points, tets, faces, marks = _call_forked(_tetgen_arrays, *args, timeout=TETGEN_TIMEOUT)
     else:
         points, tets, faces, marks = _tetgen_arrays(*args)
     face_triangle = np.ascontiguousarray(cm.triangle_ids[marks - 1], dtype=np.uint32)
@@ -783,7 +834,8 @@ def tetrahedralize(mesh, preset=DEFAULT_PRESET, *, margin=0.02, contain=None, mi
     try:
         points, tets, cfaces, face_triangle = _run_tetgen(cm, box, options)
     except (_TetGenFailed, _TetGenCrashed) as exc:
-        what = "failed" if isinstance(exc, _TetGenFailed) else "crashed"
+        what = ("failed" if isinstance(exc, _TetGenFailed)
+                else "timed out" if isinstance(exc, _TetGenTimeout) else "crashed")
         if repaired:
             why = (f"after exact repair of {n_cut} intersecting triangle pairs; the cut pieces "
                    "likely have features below TetGen's tolerance (nearly overlapping edges, "
