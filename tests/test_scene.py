@@ -154,8 +154,10 @@ def test_integer_and_empty_rays(spot):
 
 def test_memory_and_sizes(spot):
     m = spot.memory()
-    assert {"points_f64", "points_f32", "constrained", "locator", "tets_tet20"} <= set(m)
-    assert m["tets_tet20"] == spot.n_tets * spot.bytes_per_tet == spot.n_tets * 20
+    default = tetrace._native.DEFAULT_LAYOUT
+    assert {"points_f64", "points_f32", "constrained", "locator", f"tets_{default}"} <= set(m)
+    assert m[f"tets_{default}"] == spot.n_tets * spot.bytes_per_tet
+    assert spot.bytes_per_tet == tetrace.LAYOUT_BYTES[default]
     assert spot.tets().shape == (spot.n_tets, 4) and spot.points().shape == (spot.n_points, 3)
     assert spot.build_times["rust"] > 0 and spot.build_times["tetgen"] > 0
     assert "tets" in repr(spot)

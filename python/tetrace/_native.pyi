@@ -42,7 +42,7 @@ class NativeScene:
         threads: Optional[int] = None,
         max_steps: Optional[int] = None,
         method: str = "aman2022",
-        layout: str = "tet20",
+        layout: str = "tet32",
     ) -> dict[str, np.ndarray]: ...
     def cast_f64(
         self,
@@ -53,7 +53,7 @@ class NativeScene:
         threads: Optional[int] = None,
         max_steps: Optional[int] = None,
         method: str = "aman2022",
-        layout: str = "tet20",
+        layout: str = "tet32",
     ) -> dict[str, np.ndarray]: ...
     def memory(self) -> dict[str, int]: ...
     def points(self) -> npt.NDArray[np.float64]: ...

@@ -101,7 +101,7 @@ impl PyScene {
     }
 
     /// Casts float32 rays; returns (t, u, v, point, triangle, tet, steps, status).
-    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method="aman2022", layout="tet20"))]
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method="aman2022", layout="tet32"))]
     #[allow(clippy::too_many_arguments)]
     fn cast_f32<'py>(
         &self,
@@ -119,7 +119,7 @@ impl PyScene {
     }
 
     /// Casts float64 rays; returns the same fields in float64.
-    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method="aman2022", layout="tet20"))]
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method="aman2022", layout="tet32"))]
     #[allow(clippy::too_many_arguments)]
     fn cast_f64<'py>(
         &self,

@@ -67,7 +67,7 @@ def main(argv=None):
     p.add_argument("--method", action="append", default=None,
                    help="exit method (repeatable, or 'all'; default: the default method)")
     p.add_argument("--layout", action="append", default=None,
-                   help="tet layout (repeatable, or 'all'; default: tet20)")
+                   help="tet layout (repeatable, or 'all'; default: the default layout)")
     p.add_argument("--precision", choices=["f32", "f64", "both"], default="both")
     p.add_argument("--order", choices=["hilbert", "mesher", "both"], default="hilbert",
                    help="point/tet order: Hilbert within regions, TetGen's, or both")
