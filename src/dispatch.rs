@@ -9,7 +9,7 @@ use crate::scene::{CastOptions, HitsOut, Rays, Scene};
 use std::sync::OnceLock;
 
 /// The exit methods `tetrace.methods()` lists (each is its type's `ExitMethod::NAME`).
-pub const METHODS: [&str; 7] = [
+pub const METHODS: [&str; 8] = [
     "lagae2008_plane",
     "lagae2008_halfspace",
     "lagae2008_plucker",
@@ -17,6 +17,7 @@ pub const METHODS: [&str; 7] = [
     "ms06",
     "maria2017",
     "aman2022",
+    "robust",
 ];
 
 /// Runs `$body` with the type alias `$m` bound to the method named `$name`, or evaluates to
@@ -50,6 +51,10 @@ macro_rules! with_method {
             }
             "aman2022" => {
                 type $m = $crate::traverse::Aman2022;
+                $body
+            }
+            "robust" => {
+                type $m = $crate::traverse::Robust;
                 $body
             }
             other => Err($crate::dispatch::unknown("method", other, &$crate::dispatch::METHODS)),

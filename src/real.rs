@@ -19,6 +19,8 @@ pub trait Real:
     + 'static
 {
     const ZERO: Self;
+    /// Unit roundoff (half the machine epsilon): the relative error of one rounding.
+    const UNIT_ROUNDOFF: Self;
     const NAME: &'static str;
     fn from_f64(x: f64) -> Self;
     fn from_f32(x: f32) -> Self;
@@ -27,6 +29,7 @@ pub trait Real:
 
 impl Real for f32 {
     const ZERO: Self = 0.0;
+    const UNIT_ROUNDOFF: Self = f32::EPSILON / 2.0;
     const NAME: &'static str = "f32";
     #[inline(always)]
     fn from_f64(x: f64) -> Self {
@@ -44,6 +47,7 @@ impl Real for f32 {
 
 impl Real for f64 {
     const ZERO: Self = 0.0;
+    const UNIT_ROUNDOFF: Self = f64::EPSILON / 2.0;
     const NAME: &'static str = "f64";
     #[inline(always)]
     fn from_f64(x: f64) -> Self {
@@ -60,6 +64,15 @@ impl Real for f64 {
 }
 
 pub type V3<R> = [R; 3];
+
+#[inline(always)]
+pub fn abs<R: Real>(x: R) -> R {
+    if x < R::ZERO {
+        -x
+    } else {
+        x
+    }
+}
 
 #[inline(always)]
 pub fn sub3<R: Real>(a: V3<R>, b: V3<R>) -> V3<R> {

@@ -11,6 +11,7 @@ pub mod lagae2008_plucker;
 pub mod lagae2008_stp;
 pub mod maria2017;
 pub mod ms06;
+pub mod robust;
 
 use crate::layout::Layout;
 use crate::mesh::build::{CONSTRAINED_BIT, OUTWARD_FACES};
@@ -24,6 +25,7 @@ pub use lagae2008_plucker::Lagae2008Plucker;
 pub use lagae2008_stp::Lagae2008Stp;
 pub use maria2017::Maria2017;
 pub use ms06::Ms06;
+pub use robust::Robust;
 
 /// Which of the three candidate faces a ray leaves by (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

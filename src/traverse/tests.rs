@@ -360,3 +360,101 @@ fn paper_methods_survive_degenerate_inputs() {
     both::<Ms06>();
     both::<Maria2017>();
 }
+
+#[test]
+fn robust_exact_faces_and_agreement() {
+    check_exact_exit_faces::<f32, Robust>();
+    check_exact_exit_faces::<f64, Robust>();
+    check_agreement::<Robust>(700);
+}
+
+/// Degenerate on purpose: an unjittered grid (all coordinates multiples of 1/4, many
+/// coplanar faces) and axis-aligned rays through its vertices, along its edges and in its
+/// face planes. The robust walk must end every ray at the right triangle; the others are
+/// only required to terminate.
+#[test]
+fn robust_survives_rays_through_vertices_and_edges() {
+    use crate::scene::{CastOptions, FAILED};
+    let mut rng = Rng(99);
+    let (pts, tets) = kuhn_grid(4, 0.0, &mut rng);
+    let faces: Vec<[u32; 3]> = all_faces(&tets).into_iter().filter(|_| rng.f() < 0.15).collect();
+    let tris: Vec<[[f64; 3]; 3]> = faces.iter().map(|f| f.map(|v| pts[v as usize])).collect();
+    let ids: Vec<u32> = (0..faces.len() as u32).collect();
+    let scene = Scene::build(pts, &tets, &faces, &ids, tris.clone()).unwrap();
+    let (mut o, mut d) = (Vec::new(), Vec::new());
+    let g = |k: usize| k as f64 / 4.0;
+    for i in 0..5 {
+        for j in 0..5 {
+            for axis in 0..3 {
+                for dir in [1.0, -1.0] {
+                    // Through grid vertices, along grid edges: exactly on the lines of the mesh.
+                    let mut p = [g(i), g(j), 0.0];
+                    p.rotate_right(axis);
+                    p[axis] = if dir > 0.0 { -0.5 } else { 1.5 };
+                    let mut v = [0.0; 3];
+                    v[axis] = dir;
+                    o.extend(p);
+                    d.extend(v);
+                    // Diagonal in a grid plane, through vertices.
+                    let mut q = [g(i), 0.0, 0.0];
+                    q.rotate_right(axis);
+                    let mut w = [0.0, 1.0, 1.0];
+                    w.rotate_right(axis);
+                    o.extend([0, 1, 2].map(|k| q[k] - 0.5 * w[k] * dir));
+                    d.extend(w.map(|x| x * dir));
+                }
+            }
+        }
+    }
+    let n = o.len() / 3;
+    for method in crate::dispatch::METHODS {
+        let res = cast::<f64>(&scene, &o, &d, |s, r, out| {
+            s.cast_named(method, "tet32", r, out, &CastOptions { threads: Some(1), max_steps: 10_000 })
+        });
+        let failed = res.status.iter().filter(|&&s| s == FAILED).count();
+        if method != "robust" {
+            // Recorded, not asserted: the stability issue reports these.
+            eprintln!("{method}: {failed} of {n} degenerate rays FAILED");
+            continue;
+        }
+        assert_eq!(failed, 0, "robust: {failed} of {n} degenerate rays FAILED");
+        for k in 0..n {
+            let ok = [0, 1, 2].map(|a| o[3 * k + a]);
+            let dk = [0, 1, 2].map(|a| d[3 * k + a]);
+            // Where the ray touches a triangle only on its boundary, hit and miss are both
+            // right (a line nudged either way does one or the other); a hit strictly inside a
+            // triangle is not optional. So: t_touch <= t <= t_inside.
+            let touch = brute_hit(ok, dk, &tris, 1e-12);
+            let inside = brute_hit(ok, dk, &tris, -1e-12);
+            if res.status[k] == HIT {
+                let t = res.t[k];
+                assert!(touch.is_some_and(|a| t >= a - 1e-9), "robust ray {k}: t {t} before any triangle {touch:?}");
+                assert!(inside.is_none_or(|b| t <= b + 1e-9), "robust ray {k}: t {t} after a sure hit {inside:?}");
+            } else {
+                assert_eq!(res.status[k], MISS);
+                assert!(inside.is_none(), "robust ray {k} missed a sure hit at {inside:?}");
+            }
+        }
+    }
+}
+
+/// Brute-force nearest hit; `eps` > 0 counts a band around each triangle's boundary as part
+/// of it, `eps` < 0 only its interior. A triangle whose plane holds the ray is touched, never
+/// hit for sure: it counts (at its nearest vertex's t, a lower bound) only when `eps` > 0.
+fn brute_hit(o: [f64; 3], d: [f64; 3], tris: &[[[f64; 3]; 3]], eps: f64) -> Option<f64> {
+    use glam::DVec3;
+    tris.iter()
+        .filter_map(|tri| {
+            let [p0, p1, p2] = tri.map(DVec3::from);
+            let n = (p1 - p0).cross(p2 - p0);
+            let dd = DVec3::from(d);
+            if n.dot(dd).abs() <= 1e-12 * n.length() * dd.length() {
+                let coplanar = n.dot(DVec3::from(o) - p0).abs() <= 1e-12 * n.length();
+                return (eps > 0.0 && coplanar)
+                    .then(|| tri.iter().map(|v| (DVec3::from(*v) - DVec3::from(o)).dot(dd) / dd.length_squared()).fold(f64::INFINITY, f64::min).max(0.0));
+            }
+            let (t, u, v) = crate::scene::intersect_triangle(o, d, tri, || *tri);
+            (u >= -eps && v >= -eps && u + v <= 1.0 + eps && t >= 0.0).then_some(t)
+        })
+        .min_by(f64::total_cmp)
+}
