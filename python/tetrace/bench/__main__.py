@@ -41,8 +41,23 @@ def exitface_main(argv):
     return 0
 
 
+def stability_main(argv):
+    from .stability import run_stability
+
+    p = argparse.ArgumentParser(prog="python -m tetrace.bench stability",
+                                description="Outcomes of every method on the stress families.")
+    p.add_argument("--rays", type=int, default=20_000, help="rays per family")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--family", action="append", default=None)
+    args = p.parse_args(argv)
+    run_stability(args.rays, args.seed, args.family)
+    return 0
+
+
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
+    if argv[:1] == ["stability"]:
+        return stability_main(argv[1:])
     if argv[:1] == ["agreement"]:
         return agreement_main(argv[1:])
     if argv[:1] == ["exitface"]:
