@@ -1,4 +1,4 @@
-"""Stress families: every ray ends, and the robust walk neither fails nor leaks.
+"""Stress families: every ray ends; the robust walk never leaks, and fails only on degenerate lines.
 
 The counts of the other methods are recorded (printed with -s, and in the stability bench);
 they are not zero and are not asserted to be. What the robust walk still gets wrong on
@@ -19,7 +19,8 @@ N = 15_000  # per family: 7 families -> 105,000 rays per method and precision
 def results():
     out = {}
     for case in cases(N, seed=0):
-        scene = tetrace.Scene.from_mesh((case.vertices, case.faces), contain=case.origins)
+        scene = tetrace.Scene.from_mesh((case.vertices, case.faces),
+                                        contain=np.vstack([case.origins, case.origins + 1e-9]))
         for precision in ("f32", "f64"):
             dt = np.float32 if precision == "f32" else np.float64
             o, d = case.origins.astype(dt), case.directions.astype(dt)
@@ -38,19 +39,27 @@ def test_families_are_reproducible():
     assert all(np.array_equal(x, y) for x, y in zip(a, b))
 
 
-def test_robust_walk_never_fails_or_leaks(results):
+# The robust walk hits the step guard on some rays lying in the box's face planes, where its
+# tie-break for exact zeros is not realizable by a perturbed line (docs/robust_walk.md,
+# "Degenerate lines"): 0 of these 15,000 (seed 0), 86 of the bench's 20,000. The bound allows
+# that rate; leaks stay at 0.
+ROBUST_FAILED_MAX = {"grazing": 70}
+
+
+def test_robust_walk_never_leaks_and_fails_only_on_degenerate_lines(results):
     total = 0
     for (family, method, precision), c in results.items():
         if method != "robust":
             continue
         total += sum(c.values())
-        assert c["failed"] == 0, (family, precision, c)
+        assert c["failed"] <= ROBUST_FAILED_MAX.get(family, 0), (family, precision, c)
         assert c["leak"] == 0, (family, precision, c)
     assert total >= 2 * 100_000
 
 
-# Measured on the families above (seed 0, 15,000 rays each): wrong answers of the robust walk
-# on degenerate lines (hits behind the start or on a triangle the line only lies in).
+# Wrong answers of the robust walk on degenerate lines (a hit behind the start on a box
+# diagonal; a hit on a triangle the line only lies in): 2 axis rays of 15,000 here; 1 axis and
+# 19 grazing rays of 20,000 in the bench.
 ROBUST_WRONG_MAX = {"axis": 10, "grazing": 150}
 
 
@@ -64,7 +73,7 @@ def test_robust_wrong_answers_are_only_on_degenerate_lines(results):
 
 
 def test_other_methods_counts_are_recorded(results, capsys):
-    rows = [(f, m, p, c) for (f, m, p), c in results.items() if m != "robust"]
+    rows = [(f, m, p, c) for (f, m, p), c in results.items()]
     with capsys.disabled():
         for f, m, p, c in rows:
             if c["wrong"] or c["leak"] or c["failed"]:
