@@ -8,10 +8,10 @@
 //! Aman et al.'s 2D determinant without its rounding, so the decision tree is theirs (two
 //! predicates per tet, three in the start tet's search).
 //!
-//! Exact zeros (the line meets the edge) are broken by a rule that depends only on the edge:
-//! p→q counts as positive when p precedes q lexicographically. The rule is antisymmetric, so
-//! the two tets sharing an edge still agree. Why the walk then cannot leak or loop is argued
-//! in docs/robust_walk.md.
+//! Exact zeros (the line meets the edge) are broken by a symbolic perturbation of the line
+//! (`perturbed_side`): the sign a slightly moved line would give, which is antisymmetric and
+//! the same for every tet. Why the walk then cannot leak or loop is argued in
+//! docs/robust_walk.md.
 //!
 //! Precision: the predicates are exact on the points the walk is given: float64 points, or
 //! float32 points widened exactly (the mesh rounded to float32, which the f32 walk walks).
@@ -52,9 +52,7 @@ const FILTER_ULPS: f64 = 128.0;
 
 /// The side of edge p→q seen along the ray, exactly: the sign of orient3d(b, p, q, s) =
 /// det(b − s, p − s, q − s). The 2D determinant decides when it exceeds its error bound;
-/// otherwise Shewchuk's adaptive predicate. Exact zeros (the line meets the edge) are broken by
-/// the edge alone: p→q counts as positive when p precedes q lexicographically, which is
-/// antisymmetric, so the two tets sharing the edge agree.
+/// otherwise Shewchuk's adaptive predicate; exact zeros by the symbolic perturbation.
 #[inline(always)]
 pub fn side<R: Real>(ray: &LineRay<R>, p: &LineVert<R>, q: &LineVert<R>) -> bool {
     let det = p.xy[0] * q.xy[1] - p.xy[1] * q.xy[0];
@@ -68,7 +66,7 @@ pub fn side<R: Real>(ray: &LineRay<R>, p: &LineVert<R>, q: &LineVert<R>) -> bool
     }
 }
 
-/// The exact sign with its tie-break, out of line: a few rays in a million need it.
+/// The exact sign, out of line: a few rays in a million need it.
 #[inline(never)]
 fn exact_side<R: Real>(ray: &LineRay<R>, p: &LineVert<R>, q: &LineVert<R>) -> bool {
     let (pp, qq) = (p.p.map(R::to_f64), q.p.map(R::to_f64));
@@ -77,8 +75,49 @@ fn exact_side<R: Real>(ray: &LineRay<R>, p: &LineVert<R>, q: &LineVert<R>) -> bo
     if det != 0.0 {
         det > 0.0
     } else {
-        pp.iter().zip(&qq).map(|(x, y)| x.total_cmp(y)).find(|o| o.is_ne()) == Some(std::cmp::Ordering::Less)
+        perturbed_side(ray.s, ray.b, pp, qq)
     }
+}
+
+/// Directions of the symbolic perturbation: the line's start moves by ε·DELTA and its second
+/// point by ε·DELTA + ε²·DELTA2. Any vectors do that no mesh edge is parallel to; these have
+/// no simple ratios between their components.
+const DELTA: V3<f64> = [0.5717136585712, 0.3313491758381, 0.7527361949209];
+const DELTA2: V3<f64> = [-0.2915382917263, 0.8419846213571, 0.4503218740313];
+
+/// The side of p→q for the line perturbed as above, as ε → 0⁺ (simulation of simplicity):
+/// with D = b − s, P = p − s, Q = q − s, V = q − p, the orientation becomes
+///     det(D,P,Q) − ε det(D,δ,V) + ε² det(δ₂,P,Q) − ε³ det(δ₂,δ,V) + …
+/// and its sign is that of the first nonzero term, evaluated exactly in rationals. Every term
+/// changes sign with p ↔ q, and each is the orientation of a real nearby line, so the signs of
+/// all edges are those of one line in general position: the walk is that line's exact walk.
+fn perturbed_side(s: V3<f64>, b: V3<f64>, p: V3<f64>, q: V3<f64>) -> bool {
+    use num_rational::BigRational;
+    use num_traits::{Signed, Zero};
+    let r = |x: f64| BigRational::from_float(x).unwrap_or_else(BigRational::zero);
+    let v3 = |a: V3<f64>| a.map(r);
+    let sub = |a: &[BigRational; 3], b: &[BigRational; 3]| [0, 1, 2].map(|k| &a[k] - &b[k]);
+    let det = |a: &[BigRational; 3], b: &[BigRational; 3], c: &[BigRational; 3]| {
+        &a[0] * (&b[1] * &c[2] - &b[2] * &c[1]) - &a[1] * (&b[0] * &c[2] - &b[2] * &c[0])
+            + &a[2] * (&b[0] * &c[1] - &b[1] * &c[0])
+    };
+    let (s, b, p, q) = (v3(s), v3(b), v3(p), v3(q));
+    let (dl, dl2) = (v3(DELTA), v3(DELTA2));
+    let d = sub(&b, &s);
+    let (pv, qv, v) = (sub(&p, &s), sub(&q, &s), sub(&q, &p));
+    let terms = [
+        -det(&d, &dl, &v),
+        det(&dl2, &pv, &qv),
+        -det(&dl2, &dl, &v),
+    ];
+    for t in terms {
+        if !t.is_zero() {
+            return t.is_positive();
+        }
+    }
+    // Only an edge parallel to DELTA gets here: fall back to an order of the endpoints, which is
+    // still antisymmetric.
+    p.iter().zip(&q).map(|(x, y)| x.cmp(y)).find(|o| o.is_ne()) == Some(std::cmp::Ordering::Less)
 }
 
 impl<R: Real> ExitMethod<R> for Robust {
