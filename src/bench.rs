@@ -56,7 +56,11 @@ pub fn cases(n_tets: usize, rays_per_tet: usize, seed: u64) -> Vec<Case> {
             let b = [w[0], w[1] - w[0], w[2] - w[1], 1.0 - w[2]];
             let p = [0, 1, 2].map(|k| (0..4).map(|i| b[i] * v[i][k]).sum::<f64>());
             let dir = loop {
-                let d = [rng.f() * 2.0 - 1.0, rng.f() * 2.0 - 1.0, rng.f() * 2.0 - 1.0];
+                let d = [
+                    rng.f() * 2.0 - 1.0,
+                    rng.f() * 2.0 - 1.0,
+                    rng.f() * 2.0 - 1.0,
+                ];
                 let l = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
                 if l > 1e-6 && l <= 1.0 {
                     break d;
@@ -79,7 +83,12 @@ pub fn cases(n_tets: usize, rays_per_tet: usize, seed: u64) -> Vec<Case> {
             } else {
                 Exit::Cad
             };
-            out.push(Case { origin: p, dir, corners: [v[a], v[b2], v[c], v[entry]], exit: e });
+            out.push(Case {
+                origin: p,
+                dir,
+                corners: [v[a], v[b2], v[c], v[entry]],
+                exit: e,
+            });
         }
     }
     out
@@ -101,7 +110,11 @@ pub fn time_method<R: Real, M: ExitMethod<R>>(cases: &[Case], repeat: usize) -> 
         .map(|c| {
             let ray = M::prepare(c.origin, c.dir);
             let pv = |q: V3<f64>| M::vertex(&ray, q.map(R::from_f64));
-            (ray, [pv(c.corners[0]), pv(c.corners[1]), pv(c.corners[2])], c.corners[3].map(R::from_f64))
+            (
+                ray,
+                [pv(c.corners[0]), pv(c.corners[1]), pv(c.corners[2])],
+                c.corners[3].map(R::from_f64),
+            )
         })
         .collect();
     let mut best = f64::INFINITY;
@@ -123,11 +136,18 @@ pub fn time_method<R: Real, M: ExitMethod<R>>(cases: &[Case], repeat: usize) -> 
 }
 
 /// Runs the benchmark for a method by name and precision ("f32" or "f64").
-pub fn exitface(method: &str, precision: &str, cases: &[Case], repeat: usize) -> Result<(f64, usize)> {
+pub fn exitface(
+    method: &str,
+    precision: &str,
+    cases: &[Case],
+    repeat: usize,
+) -> Result<(f64, usize)> {
     match precision {
         "f32" => with_method!(method, M => Ok(time_method::<f32, M>(cases, repeat))),
         "f64" => with_method!(method, M => Ok(time_method::<f64, M>(cases, repeat))),
-        other => Err(Error::InvalidOption(format!("precision must be f32 or f64, got {other:?}"))),
+        other => Err(Error::InvalidOption(format!(
+            "precision must be f32 or f64, got {other:?}"
+        ))),
     }
 }
 
@@ -142,6 +162,9 @@ mod tests {
         let (_, wrong) = time_method::<f64, Aman2022>(&cs, 1);
         assert_eq!(wrong, 0);
         let (ns, wrong32) = time_method::<f32, Aman2022>(&cs, 1);
-        assert!(ns > 0.0 && wrong32 <= 2, "{wrong32} float32 decisions differ");
+        assert!(
+            ns > 0.0 && wrong32 <= 2,
+            "{wrong32} float32 decisions differ"
+        );
     }
 }

@@ -57,7 +57,11 @@ macro_rules! with_method {
                 type $m = $crate::traverse::Robust;
                 $body
             }
-            other => Err($crate::dispatch::unknown("method", other, &$crate::dispatch::METHODS)),
+            other => Err($crate::dispatch::unknown(
+                "method",
+                other,
+                &$crate::dispatch::METHODS,
+            )),
         }
     };
 }
@@ -82,7 +86,9 @@ pub struct Layouts {
 }
 
 pub(crate) fn get<'a, L: Layout>(cell: &'a OnceLock<Result<L>>, mesh: &TetMesh) -> Result<&'a L> {
-    cell.get_or_init(|| L::build(mesh)).as_ref().map_err(Clone::clone)
+    cell.get_or_init(|| L::build(mesh))
+        .as_ref()
+        .map_err(Clone::clone)
 }
 
 impl Layouts {
@@ -118,7 +124,10 @@ impl Layouts {
 }
 
 pub(crate) fn unknown(what: &str, name: &str, known: &[&str]) -> Error {
-    Error::InvalidOption(format!("unknown {what} {name:?}; known: {}", known.join(", ")))
+    Error::InvalidOption(format!(
+        "unknown {what} {name:?}; known: {}",
+        known.join(", ")
+    ))
 }
 
 #[cfg(test)]
@@ -169,7 +178,13 @@ impl Scene {
         macro_rules! with_layout {
             ($m:ty) => {
                 match layout {
-                    "plain" => self.cast_generic::<R, Plain, $m>(points, get(&self.layouts.plain, mesh)?, rays, out, opts),
+                    "plain" => self.cast_generic::<R, Plain, $m>(
+                        points,
+                        get(&self.layouts.plain, mesh)?,
+                        rays,
+                        out,
+                        opts,
+                    ),
                     "tet80" => {
                         if R::NAME != "f32" {
                             return Err(Error::InvalidOption(
@@ -178,11 +193,35 @@ impl Scene {
                                     .into(),
                             ));
                         }
-                        self.cast_generic::<R, Tet80, $m>(points, get(&self.layouts.tet80, mesh)?, rays, out, opts)
+                        self.cast_generic::<R, Tet80, $m>(
+                            points,
+                            get(&self.layouts.tet80, mesh)?,
+                            rays,
+                            out,
+                            opts,
+                        )
                     }
-                    "tet32" => self.cast_generic::<R, Tet32, $m>(points, get(&self.layouts.tet32, mesh)?, rays, out, opts),
-                    "tet20" => self.cast_generic::<R, Tet20, $m>(points, get(&self.layouts.tet20, mesh)?, rays, out, opts),
-                    "tet16" => self.cast_generic::<R, Tet16, $m>(points, get(&self.layouts.tet16, mesh)?, rays, out, opts),
+                    "tet32" => self.cast_generic::<R, Tet32, $m>(
+                        points,
+                        get(&self.layouts.tet32, mesh)?,
+                        rays,
+                        out,
+                        opts,
+                    ),
+                    "tet20" => self.cast_generic::<R, Tet20, $m>(
+                        points,
+                        get(&self.layouts.tet20, mesh)?,
+                        rays,
+                        out,
+                        opts,
+                    ),
+                    "tet16" => self.cast_generic::<R, Tet16, $m>(
+                        points,
+                        get(&self.layouts.tet16, mesh)?,
+                        rays,
+                        out,
+                        opts,
+                    ),
                     other => Err(unknown("layout", other, &LAYOUTS)),
                 }
             };

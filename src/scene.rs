@@ -68,8 +68,26 @@ impl<'a, R> HitsOut<'a, R> {
         let (s0, s1) = self.steps.split_at_mut(n);
         let (st0, st1) = self.status.split_at_mut(n);
         (
-            HitsOut { t: t0, u: u0, v: v0, point: p0, triangle: tr0, tet: te0, steps: s0, status: st0 },
-            HitsOut { t: t1, u: u1, v: v1, point: p1, triangle: tr1, tet: te1, steps: s1, status: st1 },
+            HitsOut {
+                t: t0,
+                u: u0,
+                v: v0,
+                point: p0,
+                triangle: tr0,
+                tet: te0,
+                steps: s0,
+                status: st0,
+            },
+            HitsOut {
+                t: t1,
+                u: u1,
+                v: v1,
+                point: p1,
+                triangle: tr1,
+                tet: te1,
+                steps: s1,
+                status: st1,
+            },
         )
     }
 
@@ -107,7 +125,15 @@ struct RayHit {
 
 impl RayHit {
     fn nothing(status: u8) -> RayHit {
-        RayHit { status, t: f64::INFINITY, u: f64::NAN, v: f64::NAN, triangle: -1, tet: -1, steps: 0 }
+        RayHit {
+            status,
+            t: f64::INFINITY,
+            u: f64::NAN,
+            v: f64::NAN,
+            triangle: -1,
+            tet: -1,
+            steps: 0,
+        }
     }
 }
 
@@ -138,18 +164,30 @@ impl Scene {
         triangles: Vec<[[f64; 3]; 3]>,
         hilbert: bool,
     ) -> Result<Scene> {
-        if let Some(k) = face_triangle.iter().position(|&t| t as usize >= triangles.len()) {
+        if let Some(k) = face_triangle
+            .iter()
+            .position(|&t| t as usize >= triangles.len())
+        {
             return Err(Error::InvalidInput(format!(
                 "constrained face {k} names triangle {} but only {} triangles were given",
                 face_triangle[k],
                 triangles.len()
             )));
         }
-        if let Some(k) = triangles.iter().position(|t| !t.iter().flatten().all(|x| x.is_finite())) {
-            return Err(Error::InvalidInput(format!("triangle {k} has a non-finite corner")));
+        if let Some(k) = triangles
+            .iter()
+            .position(|t| !t.iter().flatten().all(|x| x.is_finite()))
+        {
+            return Err(Error::InvalidInput(format!(
+                "triangle {k} has a non-finite corner"
+            )));
         }
         let np = points.len() as u64;
-        let in_range = tets.iter().flatten().chain(faces.iter().flatten()).all(|&v| (v as u64) < np);
+        let in_range = tets
+            .iter()
+            .flatten()
+            .chain(faces.iter().flatten())
+            .all(|&v| (v as u64) < np);
         let mesh = if hilbert && in_range && points.iter().flatten().all(|x| x.is_finite()) {
             // Build once unordered to find the regions, then again in Hilbert order within
             // regions: construction is cheap next to meshing (bunny: ~0.1 s).
@@ -170,14 +208,24 @@ impl Scene {
         if !mesh.domain_is_box {
             return Err(Error::InvalidMesh(
                 "some boundary faces do not lie on the bounding box: the domain must be a box \
-                 (tetrace.meshing wraps scenes in one)".into(),
+                 (tetrace.meshing wraps scenes in one)"
+                    .into(),
             ));
         }
         let locator = GridLocator::build(&mesh);
         let entry = BoundaryLocator::build(&mesh);
         let points_f32 = mesh.points.iter().map(|p| p.map(|x| x as f32)).collect();
-        let scene = Scene { mesh, locator, entry, layouts: Default::default(), points_f32, triangles };
-        scene.layouts.prepare(crate::dispatch::DEFAULT_LAYOUT, &scene.mesh)?;
+        let scene = Scene {
+            mesh,
+            locator,
+            entry,
+            layouts: Default::default(),
+            points_f32,
+            triangles,
+        };
+        scene
+            .layouts
+            .prepare(crate::dispatch::DEFAULT_LAYOUT, &scene.mesh)?;
         Ok(scene)
     }
 
@@ -190,18 +238,38 @@ impl Scene {
             ("points_f64".to_string(), self.mesh.points.len() * 24),
             ("points_f32".to_string(), self.points_f32.len() * 12),
             ("constrained".to_string(), self.mesh.constrained.len() * 8),
-            ("locator".to_string(), self.locator.bytes() + self.entry.bytes() + self.mesh.tets.len() * 32),
+            (
+                "locator".to_string(),
+                self.locator.bytes() + self.entry.bytes() + self.mesh.tets.len() * 32,
+            ),
         ];
-        m.extend(self.layouts.built().into_iter().map(|(n, b)| (format!("tets_{n}"), b)));
+        m.extend(
+            self.layouts
+                .built()
+                .into_iter()
+                .map(|(n, b)| (format!("tets_{n}"), b)),
+        );
         m
     }
 
     pub fn cast_f32(&self, rays: &Rays<f32>, out: HitsOut<f32>, opts: &CastOptions) -> Result<()> {
-        self.cast_named(crate::dispatch::DEFAULT_METHOD, crate::dispatch::DEFAULT_LAYOUT, rays, out, opts)
+        self.cast_named(
+            crate::dispatch::DEFAULT_METHOD,
+            crate::dispatch::DEFAULT_LAYOUT,
+            rays,
+            out,
+            opts,
+        )
     }
 
     pub fn cast_f64(&self, rays: &Rays<f64>, out: HitsOut<f64>, opts: &CastOptions) -> Result<()> {
-        self.cast_named(crate::dispatch::DEFAULT_METHOD, crate::dispatch::DEFAULT_LAYOUT, rays, out, opts)
+        self.cast_named(
+            crate::dispatch::DEFAULT_METHOD,
+            crate::dispatch::DEFAULT_LAYOUT,
+            rays,
+            out,
+            opts,
+        )
     }
 
     /// Casts with an explicit precision, layout and exit method (the dispatch of the public
@@ -215,7 +283,8 @@ impl Scene {
         opts: &CastOptions,
     ) -> Result<()> {
         let n = out.len();
-        if rays.origins.len() != 3 * n || rays.directions.len() != 3 * n || out.point.len() != 3 * n {
+        if rays.origins.len() != 3 * n || rays.directions.len() != 3 * n || out.point.len() != 3 * n
+        {
             return Err(Error::InvalidInput(format!(
                 "{} rays expected 3N origin and direction values, got {} and {}",
                 n,
@@ -225,7 +294,10 @@ impl Scene {
         }
         for (name, b) in [("tmin", rays.tmin), ("tmax", rays.tmax)] {
             if b.len() != 1 && b.len() != n {
-                return Err(Error::InvalidInput(format!("{name} needs 1 or {n} values, got {}", b.len())));
+                return Err(Error::InvalidInput(format!(
+                    "{name} needs 1 or {n} values, got {}",
+                    b.len()
+                )));
             }
         }
         let run_chunk = |(k, chunk): (usize, HitsOut<R>)| {
@@ -234,18 +306,40 @@ impl Scene {
             let mut camera: Option<([f64; 3], f64, u32)> = None;
             let mut entry_hint = None;
             let base = k * CHUNK;
-            let HitsOut { t, u, v, point, triangle, tet, steps, status } = chunk;
+            let HitsOut {
+                t,
+                u,
+                v,
+                point,
+                triangle,
+                tet,
+                steps,
+                status,
+            } = chunk;
             for j in 0..t.len() {
                 let i = base + j;
-                let r = self.cast_one::<R, L, M>(points, layout, rays, i, opts, &mut hint, &mut camera, &mut entry_hint, &mut rng);
+                let r = self.cast_one::<R, L, M>(
+                    points,
+                    layout,
+                    rays,
+                    i,
+                    opts,
+                    &mut hint,
+                    &mut camera,
+                    &mut entry_hint,
+                    &mut rng,
+                );
                 t[j] = R::from_f64(r.t);
                 u[j] = R::from_f64(r.u);
                 v[j] = R::from_f64(r.v);
                 let o = [0, 1, 2].map(|a| rays.origins[3 * i + a].to_f64());
                 let d = [0, 1, 2].map(|a| rays.directions[3 * i + a].to_f64());
                 for a in 0..3 {
-                    point[3 * j + a] =
-                        R::from_f64(if r.status == HIT { o[a] + r.t * d[a] } else { f64::NAN });
+                    point[3 * j + a] = R::from_f64(if r.status == HIT {
+                        o[a] + r.t * d[a]
+                    } else {
+                        f64::NAN
+                    });
                 }
                 triangle[j] = r.triangle;
                 tet[j] = r.tet;
@@ -339,18 +433,41 @@ impl Scene {
         };
         *hint = Some(start);
         let ray = M::prepare(start_point, d);
-        let w = walk::<R, L, M>(layout, points, &ray, start, mesh.tets[start as usize], entry_face, opts.max_steps);
-        let mut r = RayHit { tet: w.tet as i32, steps: w.steps, ..RayHit::nothing(MISS) };
+        let w = walk::<R, L, M>(
+            layout,
+            points,
+            &ray,
+            start,
+            mesh.tets[start as usize],
+            entry_face,
+            opts.max_steps,
+        );
+        let mut r = RayHit {
+            tet: w.tet as i32,
+            steps: w.steps,
+            ..RayHit::nothing(MISS)
+        };
         match w.end {
             WalkEnd::Boundary => {}
             WalkEnd::StepLimit => r.status = FAILED,
             WalkEnd::Hit { constrained } => {
                 let tri = mesh.constrained[constrained as usize].triangle;
-                let ids = if w.slots { w.face.map(|k| mesh.tets[w.tet as usize][k as usize]) } else { w.face };
+                let ids = if w.slots {
+                    w.face.map(|k| mesh.tets[w.tet as usize][k as usize])
+                } else {
+                    w.face
+                };
                 let face = || ids.map(|v| mesh.points[v as usize]);
                 let (t, u, v) = intersect_triangle(o, d, &self.triangles[tri as usize], face);
                 if t <= tmax {
-                    r = RayHit { status: HIT, t: t.max(tmin), u, v, triangle: tri as i32, ..r };
+                    r = RayHit {
+                        status: HIT,
+                        t: t.max(tmin),
+                        u,
+                        v,
+                        triangle: tri as i32,
+                        ..r
+                    };
                 }
             }
         }
@@ -368,7 +485,14 @@ pub struct BoxSpan {
 }
 
 /// The parameter range where the ray o + t d is inside the box, within [tmin, tmax].
-pub fn clip_box(o: [f64; 3], d: [f64; 3], lo: [f64; 3], hi: [f64; 3], tmin: f64, tmax: f64) -> Option<BoxSpan> {
+pub fn clip_box(
+    o: [f64; 3],
+    d: [f64; 3],
+    lo: [f64; 3],
+    hi: [f64; 3],
+    tmin: f64,
+    tmax: f64,
+) -> Option<BoxSpan> {
     let (mut t0, mut t1) = (tmin, tmax);
     let mut side = None;
     for a in 0..3 {

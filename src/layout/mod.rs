@@ -28,7 +28,13 @@ pub use tet32::Tet32;
 pub use tet80::Tet80;
 
 /// The names `tetrace.layouts()` lists, in the order of the table above.
-pub const LAYOUTS: [&str; 5] = [Plain::NAME, Tet80::NAME, Tet32::NAME, Tet20::NAME, Tet16::NAME];
+pub const LAYOUTS: [&str; 5] = [
+    Plain::NAME,
+    Tet80::NAME,
+    Tet32::NAME,
+    Tet20::NAME,
+    Tet16::NAME,
+];
 
 pub trait Layout: Sized + Sync + Send {
     const NAME: &'static str;
@@ -85,11 +91,26 @@ mod tests {
 
     #[test]
     fn record_sizes_are_as_designed() {
-        assert_eq!((Plain::BYTES_PER_TET, size_of::<plain::PlainRecord>()), (32, 32));
-        assert_eq!((Tet80::BYTES_PER_TET, size_of::<tet80::Tet80Record>()), (80, 80));
-        assert_eq!((Tet32::BYTES_PER_TET, size_of::<tet32::Tet32Record>()), (32, 32));
-        assert_eq!((Tet20::BYTES_PER_TET, size_of::<tet20::Tet20Record>()), (20, 20));
-        assert_eq!((Tet16::BYTES_PER_TET, size_of::<tet16::Tet16Record>()), (16, 16));
+        assert_eq!(
+            (Plain::BYTES_PER_TET, size_of::<plain::PlainRecord>()),
+            (32, 32)
+        );
+        assert_eq!(
+            (Tet80::BYTES_PER_TET, size_of::<tet80::Tet80Record>()),
+            (80, 80)
+        );
+        assert_eq!(
+            (Tet32::BYTES_PER_TET, size_of::<tet32::Tet32Record>()),
+            (32, 32)
+        );
+        assert_eq!(
+            (Tet20::BYTES_PER_TET, size_of::<tet20::Tet20Record>()),
+            (20, 20)
+        );
+        assert_eq!(
+            (Tet16::BYTES_PER_TET, size_of::<tet16::Tet16Record>()),
+            (16, 16)
+        );
         assert_eq!(LAYOUTS, ["plain", "tet80", "tet32", "tet20", "tet16"]);
     }
 
@@ -121,7 +142,10 @@ mod tests {
                     assert_eq!(got, want, "{name}: tet {ti} face {i}");
                 }
                 for (name, got) in [
-                    ("plain", plain.new_vertex(ti, others[0], others[1], others[2])),
+                    (
+                        "plain",
+                        plain.new_vertex(ti, others[0], others[1], others[2]),
+                    ),
                     ("tet32", t32.new_vertex(ti, others[0], others[1], others[2])),
                     ("tet20", t20.new_vertex(ti, others[0], others[1], others[2])),
                     ("tet16", t16.new_vertex(ti, others[0], others[1], others[2])),

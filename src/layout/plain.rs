@@ -33,7 +33,12 @@ impl Layout for Plain {
     const BYTES_PER_TET: usize = 32;
 
     fn build(mesh: &TetMesh) -> Result<Self> {
-        let records = mesh.tets.iter().zip(&mesh.links).map(|(&vertices, &links)| PlainRecord { vertices, links }).collect();
+        let records = mesh
+            .tets
+            .iter()
+            .zip(&mesh.links)
+            .map(|(&vertices, &links)| PlainRecord { vertices, links })
+            .collect();
         Ok(Plain { records })
     }
 

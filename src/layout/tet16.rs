@@ -64,7 +64,8 @@ impl Tet16 {
     /// Link k (0..4) of a record.
     #[inline(always)]
     pub fn link(r: &Tet16Record, k: usize) -> Link {
-        let bits = (r.packed[0] as u128) | (r.packed[1] as u128) << 32 | (r.packed[2] as u128) << 64;
+        let bits =
+            (r.packed[0] as u128) | (r.packed[1] as u128) << 32 | (r.packed[2] as u128) << 64;
         widen(((bits >> (24 * k)) & 0xFF_FFFF) as u32)
     }
 }
@@ -123,7 +124,15 @@ mod tests {
 
     #[test]
     fn narrow_links_round_trip() {
-        for l in [0, 1, 12345, MAX_ID, BOUNDARY, CONSTRAINED_BIT, CONSTRAINED_BIT | MAX_ID] {
+        for l in [
+            0,
+            1,
+            12345,
+            MAX_ID,
+            BOUNDARY,
+            CONSTRAINED_BIT,
+            CONSTRAINED_BIT | MAX_ID,
+        ] {
             assert_eq!(widen(narrow(l).unwrap()), l);
         }
         assert_eq!(narrow(MAX_ID + 1), None);

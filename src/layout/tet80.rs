@@ -82,7 +82,10 @@ impl Layout for Tet80 {
                         let j = (0..4).find(|&j| !f.contains(&other[j])).unwrap_or(0);
                         beyond << 2 | j as u32
                     };
-                    r.faces[i] = Tet80Face { constrained, neighbor };
+                    r.faces[i] = Tet80Face {
+                        constrained,
+                        neighbor,
+                    };
                 }
                 r
             })

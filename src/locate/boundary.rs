@@ -22,7 +22,11 @@ struct Side {
 fn contains(tri: &[[f64; 2]; 3], q: [f64; 2]) -> bool {
     let p = |v: [f64; 2]| robust::Coord { x: v[0], y: v[1] };
     let (a, b, c, x) = (p(tri[0]), p(tri[1]), p(tri[2]), p(q));
-    let o = [robust::orient2d(a, b, x), robust::orient2d(b, c, x), robust::orient2d(c, a, x)];
+    let o = [
+        robust::orient2d(a, b, x),
+        robust::orient2d(b, c, x),
+        robust::orient2d(c, a, x),
+    ];
     // Either winding: a side's faces are seen from outside or inside depending on the side.
     o.iter().all(|&x| x >= 0.0) || o.iter().all(|&x| x <= 0.0)
 }
@@ -62,7 +66,9 @@ impl BoundaryLocator {
                 let n = ((faces.len() as f64).sqrt().ceil() as usize).clamp(1, 256);
                 let dims = [n, n];
                 let inv_cell = [dims[0] as f64 / ext[0], dims[1] as f64 / ext[1]];
-                let cell = |x: f64, d: usize| -> usize { (((x - slo[d]) * inv_cell[d]) as usize).min(dims[d] - 1) };
+                let cell = |x: f64, d: usize| -> usize {
+                    (((x - slo[d]) * inv_cell[d]) as usize).min(dims[d] - 1)
+                };
                 let mut buckets: Vec<Vec<(u32, u8, [[f64; 2]; 3])>> = vec![Vec::new(); n * n];
                 for (t, i, p) in faces {
                     let q = p.map(|v| [v[axes[0]], v[axes[1]]]);
@@ -87,20 +93,39 @@ impl BoundaryLocator {
                     entries.extend(b);
                     start.push(entries.len() as u32);
                 }
-                Side { axes, lo: slo, inv_cell, dims, start, entries }
+                Side {
+                    axes,
+                    lo: slo,
+                    inv_cell,
+                    dims,
+                    start,
+                    entries,
+                }
             })
             .collect();
         BoundaryLocator { sides }
     }
 
     pub fn bytes(&self) -> usize {
-        self.sides.iter().map(|s| s.start.len() * 4 + s.entries.len() * std::mem::size_of::<(u32, u8, [[f64; 2]; 3])>()).sum()
+        self.sides
+            .iter()
+            .map(|s| {
+                s.start.len() * 4
+                    + s.entries.len() * std::mem::size_of::<(u32, u8, [[f64; 2]; 3])>()
+            })
+            .sum()
     }
 
     /// The boundary tet, and its local face, on side (`axis`, `high`) that holds point p (on
     /// that side). `hint` remembers the last face found: a camera's neighbouring rays mostly
     /// enter by it.
-    pub fn locate(&self, p: [f64; 3], axis: usize, high: bool, hint: &mut Option<(usize, usize)>) -> Option<(u32, usize)> {
+    pub fn locate(
+        &self,
+        p: [f64; 3],
+        axis: usize,
+        high: bool,
+        hint: &mut Option<(usize, usize)>,
+    ) -> Option<(u32, usize)> {
         let side = 2 * axis + high as usize;
         let s = &self.sides[side];
         let q = [p[s.axes[0]], p[s.axes[1]]];

@@ -36,7 +36,12 @@ impl GridLocator {
         let inv_cell = [0, 1, 2].map(|a| dims[a] as f64 / ext[a]);
         let n = dims[0] * dims[1] * dims[2];
         let mut seeds = vec![BOUNDARY; n];
-        let mut g = GridLocator { lo, inv_cell, dims, seeds: Vec::new() };
+        let mut g = GridLocator {
+            lo,
+            inv_cell,
+            dims,
+            seeds: Vec::new(),
+        };
         for (t, tet) in mesh.tets.iter().enumerate() {
             let mut c = [0.0; 3];
             for &v in tet {
@@ -51,7 +56,11 @@ impl GridLocator {
         while !frontier.is_empty() {
             let mut next = Vec::new();
             for &i in &frontier {
-                let (x, y, z) = (i % dims[0], (i / dims[0]) % dims[1], i / (dims[0] * dims[1]));
+                let (x, y, z) = (
+                    i % dims[0],
+                    (i / dims[0]) % dims[1],
+                    i / (dims[0] * dims[1]),
+                );
                 let mut visit = |xx: usize, yy: usize, zz: usize| {
                     let j = xx + dims[0] * (yy + dims[1] * zz);
                     if seeds[j] == BOUNDARY {
@@ -59,12 +68,24 @@ impl GridLocator {
                         next.push(j);
                     }
                 };
-                if x > 0 { visit(x - 1, y, z) }
-                if x + 1 < dims[0] { visit(x + 1, y, z) }
-                if y > 0 { visit(x, y - 1, z) }
-                if y + 1 < dims[1] { visit(x, y + 1, z) }
-                if z > 0 { visit(x, y, z - 1) }
-                if z + 1 < dims[2] { visit(x, y, z + 1) }
+                if x > 0 {
+                    visit(x - 1, y, z)
+                }
+                if x + 1 < dims[0] {
+                    visit(x + 1, y, z)
+                }
+                if y > 0 {
+                    visit(x, y - 1, z)
+                }
+                if y + 1 < dims[1] {
+                    visit(x, y + 1, z)
+                }
+                if z > 0 {
+                    visit(x, y, z - 1)
+                }
+                if z + 1 < dims[2] {
+                    visit(x, y, z + 1)
+                }
             }
             frontier = next;
         }
@@ -75,7 +96,8 @@ impl GridLocator {
     #[inline]
     fn cell(&self, p: [f64; 3]) -> usize {
         // `as usize` saturates negatives and NaN to 0 and truncates: floor without libm.
-        let i = [0, 1, 2].map(|a| (((p[a] - self.lo[a]) * self.inv_cell[a]) as usize).min(self.dims[a] - 1));
+        let i = [0, 1, 2]
+            .map(|a| (((p[a] - self.lo[a]) * self.inv_cell[a]) as usize).min(self.dims[a] - 1));
         i[0] + self.dims[0] * (i[1] + self.dims[1] * i[2])
     }
 
@@ -127,7 +149,9 @@ impl GridLocator {
         (0..mesh.len() as u32)
             .find(|&t| {
                 let v = mesh.tet_points(t);
-                OUTWARD_FACES.iter().all(|f| orient(v[f[0]], v[f[1]], v[f[2]], p) <= 0.0)
+                OUTWARD_FACES
+                    .iter()
+                    .all(|f| orient(v[f[0]], v[f[1]], v[f[2]], p) <= 0.0)
             })
             .map_or(Located::Outside, Located::Inside)
     }

@@ -50,7 +50,11 @@ pub struct TetMesh {
 /// positive when d lies on the side of plane (a,b,c) that det(b-a, c-a, d-a) > 0 points to.
 #[inline]
 pub fn orient(a: [f64; 3], b: [f64; 3], c: [f64; 3], d: [f64; 3]) -> f64 {
-    let p = |v: [f64; 3]| robust::Coord3D { x: v[0], y: v[1], z: v[2] };
+    let p = |v: [f64; 3]| robust::Coord3D {
+        x: v[0],
+        y: v[1],
+        z: v[2],
+    };
     // robust::orient3d is positive when d is *below* (a,b,c); ours is the opposite sign.
     -robust::orient3d(p(a), p(b), p(c), p(d))
 }
@@ -112,7 +116,10 @@ impl TetMesh {
             return Err(Error::TooLarge(format!("{} points", points.len())));
         }
         if let Some(i) = points.iter().position(|p| !p.iter().all(|x| x.is_finite())) {
-            return Err(Error::InvalidInput(format!("point {i} is not finite: {:?}", points[i])));
+            return Err(Error::InvalidInput(format!(
+                "point {i} is not finite: {:?}",
+                points[i]
+            )));
         }
         let np = points.len() as u32;
         if let Some(t) = tets.iter().position(|t| t.iter().any(|&v| v >= np)) {
@@ -164,7 +171,10 @@ impl TetMesh {
         let mut keys: Vec<([u32; 3], u32)> = Vec::with_capacity(oriented.len() * 4);
         for (t, tet) in oriented.iter().enumerate() {
             for (i, f) in OUTWARD_FACES.iter().enumerate() {
-                keys.push((sorted3([tet[f[0]], tet[f[1]], tet[f[2]]]), (t as u32) * 4 + i as u32));
+                keys.push((
+                    sorted3([tet[f[0]], tet[f[1]], tet[f[2]]]),
+                    (t as u32) * 4 + i as u32,
+                ));
             }
         }
         keys.par_sort_unstable();
@@ -198,8 +208,11 @@ impl TetMesh {
         for (f, (&face, &tri)) in faces.iter().zip(face_triangle).enumerate() {
             let key = sorted3(face);
             let lo = keys.partition_point(|e| e.0 < key);
-            let sides: Vec<u32> =
-                keys[lo..].iter().take_while(|e| e.0 == key).map(|e| e.1).collect();
+            let sides: Vec<u32> = keys[lo..]
+                .iter()
+                .take_while(|e| e.0 == key)
+                .map(|e| e.1)
+                .collect();
             if sides.is_empty() {
                 return Err(Error::InvalidMesh(format!(
                     "constrained face {f} {face:?} is not a face of any tet"
@@ -215,7 +228,10 @@ impl TetMesh {
                     return Err(Error::TooLarge("too many constrained faces".into()));
                 }
                 links[t][i] = CONSTRAINED_BIT | constrained.len() as u32;
-                constrained.push(ConstrainedSide { triangle: tri, beyond });
+                constrained.push(ConstrainedSide {
+                    triangle: tri,
+                    beyond,
+                });
             }
         }
 
@@ -226,9 +242,7 @@ impl TetMesh {
             })
         };
         let domain_is_box = links.iter().zip(&oriented).all(|(l, tet)| {
-            (0..4).all(|i| {
-                l[i] != BOUNDARY || on_box_side(OUTWARD_FACES[i].map(|k| tet[k]))
-            })
+            (0..4).all(|i| l[i] != BOUNDARY || on_box_side(OUTWARD_FACES[i].map(|k| tet[k])))
         });
 
         Ok(TetMesh {
@@ -316,7 +330,13 @@ mod tests {
         let p = (0..8)
             .map(|i| [(i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64])
             .collect();
-        let t = vec![[0, 1, 2, 4], [3, 1, 2, 7], [5, 1, 4, 7], [6, 2, 7, 4], [1, 2, 4, 7]];
+        let t = vec![
+            [0, 1, 2, 4],
+            [3, 1, 2, 7],
+            [5, 1, 4, 7],
+            [6, 2, 7, 4],
+            [1, 2, 4, 7],
+        ];
         (p, t)
     }
 
@@ -363,7 +383,11 @@ mod tests {
         let (p, t) = cube5();
         // The face (1,2,4) is shared by the central tet and the corner tet at 0.
         let m = TetMesh::build(p, &t, &[[4, 2, 1], [0, 1, 2]], &[7, 9]).unwrap();
-        let cs: Vec<_> = m.constrained.iter().map(|c| (c.triangle, c.beyond)).collect();
+        let cs: Vec<_> = m
+            .constrained
+            .iter()
+            .map(|c| (c.triangle, c.beyond))
+            .collect();
         assert_eq!(cs.len(), 3);
         assert!(cs.contains(&(7, 0)) && cs.contains(&(7, 4)) && cs.contains(&(9, BOUNDARY)));
         // Location crosses constrained faces.
@@ -380,27 +404,46 @@ mod tests {
         let faces: Vec<[u32; 3]> = OUTWARD_FACES.iter().map(|f| f.map(|k| c[k])).collect();
         let m = TetMesh::build(p, &t, &faces, &[0, 1, 2, 3]).unwrap();
         let r = m.regions();
-        assert_eq!(r, vec![0, 1, 2, 3, 4], "corners are cut off from each other by the centre");
+        assert_eq!(
+            r,
+            vec![0, 1, 2, 3, 4],
+            "corners are cut off from each other by the centre"
+        );
     }
 
     #[test]
     fn errors_not_panics() {
         let (p, t) = cube5();
         let flat = vec![[0u32, 1, 2, 3]]; // four points of one cube face
-        assert!(matches!(TetMesh::build(p.clone(), &flat, &[], &[]), Err(Error::InvalidMesh(_))));
+        assert!(matches!(
+            TetMesh::build(p.clone(), &flat, &[], &[]),
+            Err(Error::InvalidMesh(_))
+        ));
         let bad = vec![[0u32, 1, 2, 99]];
-        assert!(matches!(TetMesh::build(p.clone(), &bad, &[], &[]), Err(Error::InvalidInput(_))));
+        assert!(matches!(
+            TetMesh::build(p.clone(), &bad, &[], &[]),
+            Err(Error::InvalidInput(_))
+        ));
         let mut dup = t.clone();
         dup.push(t[4]);
         dup.push(t[4]);
-        assert!(matches!(TetMesh::build(p.clone(), &dup, &[], &[]), Err(Error::InvalidMesh(_))));
+        assert!(matches!(
+            TetMesh::build(p.clone(), &dup, &[], &[]),
+            Err(Error::InvalidMesh(_))
+        ));
         assert!(matches!(
             TetMesh::build(p.clone(), &t, &[[0, 3, 5]], &[0]),
             Err(Error::InvalidMesh(_))
         ));
         let mut nan = p.clone();
         nan[0][1] = f64::NAN;
-        assert!(matches!(TetMesh::build(nan, &t, &[], &[]), Err(Error::InvalidInput(_))));
-        assert!(matches!(TetMesh::build(p, &[], &[], &[]), Err(Error::InvalidInput(_))));
+        assert!(matches!(
+            TetMesh::build(nan, &t, &[], &[]),
+            Err(Error::InvalidInput(_))
+        ));
+        assert!(matches!(
+            TetMesh::build(p, &[], &[], &[]),
+            Err(Error::InvalidInput(_))
+        ));
     }
 }

@@ -1,17 +1,30 @@
 //! Python bindings: validate, release the GIL, call the core over slices, hand the result
 //! vectors to numpy without copying. Nothing else lives here.
 
-use crate::error::Error;
 use crate::dispatch::Precision;
+use crate::error::Error;
 use crate::scene::{CastOptions, HitsOut, Rays, Scene};
-use numpy::{Element, IntoPyArray, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods};
+use numpy::{
+    Element, IntoPyArray, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3,
+    PyUntypedArrayMethods,
+};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
-pyo3::create_exception!(_native, MeshError, PyValueError, "The tetrahedralization is unusable (flat tets, non-manifold faces, ...).");
-pyo3::create_exception!(_native, TooLargeError, PyValueError, "A size limit of a layout would be exceeded.");
+pyo3::create_exception!(
+    _native,
+    MeshError,
+    PyValueError,
+    "The tetrahedralization is unusable (flat tets, non-manifold faces, ...)."
+);
+pyo3::create_exception!(
+    _native,
+    TooLargeError,
+    PyValueError,
+    "A size limit of a layout would be exceeded."
+);
 
 /// The one mapping from core errors to Python exceptions.
 impl From<Error> for PyErr {
@@ -36,7 +49,9 @@ fn guarded<T>(f: impl FnOnce() -> crate::Result<T>) -> PyResult<T> {
                 .cloned()
                 .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
                 .unwrap_or_default();
-            Err(PyRuntimeError::new_err(format!("internal error in tetrace (please report): {what}")))
+            Err(PyRuntimeError::new_err(format!(
+                "internal error in tetrace (please report): {what}"
+            )))
         }
     }
 }
@@ -45,27 +60,31 @@ fn slice<'a, T: Element, D: numpy::ndarray::Dimension>(
     a: &'a numpy::PyReadonlyArray<'_, T, D>,
     name: &str,
 ) -> PyResult<&'a [T]> {
-    a.as_slice().map_err(|_| PyValueError::new_err(format!("{name} must be C-contiguous")))
+    a.as_slice()
+        .map_err(|_| PyValueError::new_err(format!("{name} must be C-contiguous")))
 }
 
 fn check_cols<T: Element>(a: &PyReadonlyArray2<'_, T>, cols: usize, name: &str) -> PyResult<usize> {
     let s = a.shape();
     if s[1] != cols {
-        return Err(PyValueError::new_err(format!("{name} must have shape (N, {cols}), got {s:?}")));
+        return Err(PyValueError::new_err(format!(
+            "{name} must have shape (N, {cols}), got {s:?}"
+        )));
     }
     Ok(s[0])
 }
 
 /// Reinterprets a flat slice of 3k (or 4k, 9k) values as k fixed-size rows.
 fn rows<T: Copy, const K: usize>(flat: &[T]) -> Vec<[T; K]> {
-    flat.chunks_exact(K).map(|c| std::array::from_fn(|i| c[i])).collect()
+    flat.chunks_exact(K)
+        .map(|c| std::array::from_fn(|i| c[i]))
+        .collect()
 }
 
 #[pyclass(frozen, name = "NativeScene", module = "tetrace._native")]
 pub struct PyScene {
     inner: Scene,
 }
-
 
 #[pymethods]
 impl PyScene {
@@ -86,7 +105,9 @@ impl PyScene {
         check_cols(&faces, 3, "faces")?;
         let ts = triangles.shape();
         if ts[1] != 3 || ts[2] != 3 {
-            return Err(PyValueError::new_err(format!("triangles must have shape (F, 3, 3), got {ts:?}")));
+            return Err(PyValueError::new_err(format!(
+                "triangles must have shape (F, 3, 3), got {ts:?}"
+            )));
         }
         let p: Vec<[f64; 3]> = rows(slice(&points, "points")?);
         let t: Vec<[u32; 4]> = rows(slice(&tets, "tets")?);
@@ -115,7 +136,18 @@ impl PyScene {
         method: &str,
         layout: &str,
     ) -> PyResult<Bound<'py, PyDict>> {
-        cast_any(py, &self.inner, origins, directions, tmin, tmax, threads, max_steps, method, layout)
+        cast_any(
+            py,
+            &self.inner,
+            origins,
+            directions,
+            tmin,
+            tmax,
+            threads,
+            max_steps,
+            method,
+            layout,
+        )
     }
 
     /// Casts float64 rays; returns the same fields in float64.
@@ -133,7 +165,18 @@ impl PyScene {
         method: &str,
         layout: &str,
     ) -> PyResult<Bound<'py, PyDict>> {
-        cast_any(py, &self.inner, origins, directions, tmin, tmax, threads, max_steps, method, layout)
+        cast_any(
+            py,
+            &self.inner,
+            origins,
+            directions,
+            tmin,
+            tmax,
+            threads,
+            max_steps,
+            method,
+            layout,
+        )
     }
 
     /// Bytes used by each part of the structure.
@@ -168,7 +211,9 @@ impl PyScene {
     /// The points (P, 3) in the scene's order (Hilbert order unless disabled).
     fn points<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, numpy::PyArray2<f64>>> {
         let flat: Vec<f64> = self.inner.mesh.points.iter().flatten().copied().collect();
-        Ok(flat.into_pyarray(py).reshape([self.inner.mesh.points.len(), 3])?)
+        Ok(flat
+            .into_pyarray(py)
+            .reshape([self.inner.mesh.points.len(), 3])?)
     }
 
     /// The positively oriented tets (T, 4), for inspection and plotting.
@@ -193,20 +238,38 @@ fn cast_any<'py, R: Precision + Element>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let n = check_cols(&origins, 3, "origins")?;
     if check_cols(&directions, 3, "directions")? != n {
-        return Err(PyValueError::new_err("origins and directions must have the same number of rows"));
+        return Err(PyValueError::new_err(
+            "origins and directions must have the same number of rows",
+        ));
     }
     if threads == Some(0) {
-        return Err(PyValueError::new_err("threads must be at least 1 (or None for all cores)"));
+        return Err(PyValueError::new_err(
+            "threads must be at least 1 (or None for all cores)",
+        ));
     }
-    let (o, d) = (slice(&origins, "origins")?, slice(&directions, "directions")?);
+    let (o, d) = (
+        slice(&origins, "origins")?,
+        slice(&directions, "directions")?,
+    );
     let (lo, hi) = (slice(&tmin, "tmin")?, slice(&tmax, "tmax")?);
     let max_steps = max_steps.unwrap_or_else(|| default_max_steps(scene.mesh.len()));
     let opts = CastOptions { threads, max_steps };
-    let (mut t, mut u, mut v, mut p) = (vec![R::ZERO; n], vec![R::ZERO; n], vec![R::ZERO; n], vec![R::ZERO; 3 * n]);
-    let (mut tri, mut tet, mut steps, mut status) = (vec![0i32; n], vec![0i32; n], vec![0u32; n], vec![0u8; n]);
+    let (mut t, mut u, mut v, mut p) = (
+        vec![R::ZERO; n],
+        vec![R::ZERO; n],
+        vec![R::ZERO; n],
+        vec![R::ZERO; 3 * n],
+    );
+    let (mut tri, mut tet, mut steps, mut status) =
+        (vec![0i32; n], vec![0i32; n], vec![0u32; n], vec![0u8; n]);
     py.detach(|| {
         guarded(|| {
-            let rays = Rays { origins: o, directions: d, tmin: lo, tmax: hi };
+            let rays = Rays {
+                origins: o,
+                directions: d,
+                tmin: lo,
+                tmax: hi,
+            };
             let out = HitsOut {
                 t: &mut t,
                 u: &mut u,
@@ -242,9 +305,17 @@ pub fn default_max_steps(n_tets: usize) -> u32 {
 /// from the float64 reference) for every method and precision, one thread.
 #[pyfunction]
 #[pyo3(signature = (n_tets=10_000, rays_per_tet=16, seed=1, repeat=5))]
-fn exitface_bench(py: Python<'_>, n_tets: usize, rays_per_tet: usize, seed: u64, repeat: usize) -> PyResult<Vec<(&'static str, &'static str, f64, usize)>> {
+fn exitface_bench(
+    py: Python<'_>,
+    n_tets: usize,
+    rays_per_tet: usize,
+    seed: u64,
+    repeat: usize,
+) -> PyResult<Vec<(&'static str, &'static str, f64, usize)>> {
     if n_tets == 0 || rays_per_tet == 0 {
-        return Err(PyValueError::new_err("n_tets and rays_per_tet must be positive"));
+        return Err(PyValueError::new_err(
+            "n_tets and rays_per_tet must be positive",
+        ));
     }
     py.detach(|| {
         guarded(|| {

@@ -58,11 +58,23 @@ fn quantize(p: [f64; 3], lo: [f64; 3], scale: [f64; 3]) -> [u32; 3] {
 pub fn order(points: &[[f64; 3]], bounds: [[f64; 3]; 2], groups: Option<&[u32]>) -> Vec<u32> {
     let [lo, hi] = bounds;
     let max = ((1u32 << BITS) - 1) as f64;
-    let scale = [0, 1, 2].map(|a| if hi[a] > lo[a] { max / (hi[a] - lo[a]) } else { 0.0 });
+    let scale = [0, 1, 2].map(|a| {
+        if hi[a] > lo[a] {
+            max / (hi[a] - lo[a])
+        } else {
+            0.0
+        }
+    });
     let mut keyed: Vec<(u32, u64, u32)> = points
         .par_iter()
         .enumerate()
-        .map(|(i, &p)| (groups.map_or(0, |g| g[i]), hilbert_key(quantize(p, lo, scale)), i as u32))
+        .map(|(i, &p)| {
+            (
+                groups.map_or(0, |g| g[i]),
+                hilbert_key(quantize(p, lo, scale)),
+                i as u32,
+            )
+        })
         .collect();
     keyed.par_sort_unstable();
     keyed.into_iter().map(|(_, _, i)| i).collect()
@@ -97,8 +109,14 @@ pub fn reorder(
         })
         .collect();
     let tet_order = order(&centroids, bounds, regions);
-    let new_tets = tet_order.iter().map(|&o| tets[o as usize].map(|v| new_id[v as usize])).collect();
-    let new_faces = faces.iter().map(|f| f.map(|v| new_id[v as usize])).collect();
+    let new_tets = tet_order
+        .iter()
+        .map(|&o| tets[o as usize].map(|v| new_id[v as usize]))
+        .collect();
+    let new_faces = faces
+        .iter()
+        .map(|f| f.map(|v| new_id[v as usize]))
+        .collect();
     (new_points, new_tets, new_faces, tet_order)
 }
 
@@ -131,13 +149,28 @@ mod tests {
 
     #[test]
     fn reorder_keeps_the_mesh() {
-        let pts = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 1.0, 1.0]];
+        let pts = vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [1.0, 1.0, 1.0],
+        ];
         let tets = vec![[0, 1, 2, 3], [1, 2, 3, 4]];
-        let (p, t, f, order) = reorder(&pts, &tets, &[[1, 2, 3]], [[0.0; 3], [1.0; 3]], Some(&[1, 0]));
+        let (p, t, f, order) = reorder(
+            &pts,
+            &tets,
+            &[[1, 2, 3]],
+            [[0.0; 3], [1.0; 3]],
+            Some(&[1, 0]),
+        );
         assert_eq!(order, vec![1, 0], "region 0 first");
         for (new, &old) in order.iter().enumerate() {
             let a: Vec<_> = t[new].iter().map(|&v| p[v as usize]).collect();
-            let b: Vec<_> = tets[old as usize].iter().map(|&v| pts[v as usize]).collect();
+            let b: Vec<_> = tets[old as usize]
+                .iter()
+                .map(|&v| pts[v as usize])
+                .collect();
             assert_eq!(a, b);
         }
         let fp: Vec<_> = f[0].iter().map(|&v| p[v as usize]).collect();

@@ -42,7 +42,10 @@ impl<R: Real> ExitMethod<R> for Lagae2008Halfspace {
     type Vert = V3<R>;
 
     fn prepare(origin: V3<f64>, dir: V3<f64>) -> Self::Ray {
-        HalfspaceRay { o: origin.map(R::from_f64), u: dir.map(R::from_f64) }
+        HalfspaceRay {
+            o: origin.map(R::from_f64),
+            u: dir.map(R::from_f64),
+        }
     }
 
     #[inline(always)]
@@ -62,7 +65,11 @@ impl<R: Real> ExitMethod<R> for Lagae2008Halfspace {
         // Entry point: the ray meets the entry face's plane at o + t u.
         let n = cross(sub3(*b, *a), sub3(*c, *a));
         let t = div(dot3(n, sub3(*a, ray.o)), dot3(n, u));
-        let p = [ray.o[0] + t * u[0], ray.o[1] + t * u[1], ray.o[2] + t * u[2]];
+        let p = [
+            ray.o[0] + t * u[0],
+            ray.o[1] + t * u[1],
+            ray.o[2] + t * u[2],
+        ];
         // Classify u against the plane through p, d and k (normal (d − p) × (k − p)).
         let dp = sub3(*d, p);
         let xa = dot3(u, cross(dp, sub3(*a, p)));

@@ -68,7 +68,10 @@ impl<R: Real> ExitMethod<R> for Lagae2008Plane {
     type Vert = V3<R>;
 
     fn prepare(origin: V3<f64>, dir: V3<f64>) -> Self::Ray {
-        PlaneRay { o: origin.map(R::from_f64), u: dir.map(R::from_f64) }
+        PlaneRay {
+            o: origin.map(R::from_f64),
+            u: dir.map(R::from_f64),
+        }
     }
 
     #[inline(always)]

@@ -46,7 +46,11 @@ impl<R: Real> PluckerRay<R> {
 
 #[inline(always)]
 pub(super) fn cross<R: Real>(a: V3<R>, b: V3<R>) -> V3<R> {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
 }
 
 /// Side product of the ray with the edge line p→q, from world coordinates (23 operations).

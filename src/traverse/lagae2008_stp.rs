@@ -42,7 +42,10 @@ impl<R: Real> ExitMethod<R> for Lagae2008Stp {
     type Vert = V3<R>;
 
     fn prepare(origin: V3<f64>, dir: V3<f64>) -> Self::Ray {
-        StpRay { o: origin.map(R::from_f64), u: dir.map(R::from_f64) }
+        StpRay {
+            o: origin.map(R::from_f64),
+            u: dir.map(R::from_f64),
+        }
     }
 
     #[inline(always)]

@@ -53,7 +53,13 @@ pub trait ExitMethod<R: Real> {
     /// tet, whose four vertices are given in positive orientation.
     fn start_exit(ray: &Self::Ray, v: &[Self::Vert; 4]) -> usize;
     /// The exit face of a tet entered through (a, b, c) whose fourth vertex is d.
-    fn step(ray: &Self::Ray, a: &Self::Vert, b: &Self::Vert, c: &Self::Vert, d: &Self::Vert) -> Exit;
+    fn step(
+        ray: &Self::Ray,
+        a: &Self::Vert,
+        b: &Self::Vert,
+        c: &Self::Vert,
+        d: &Self::Vert,
+    ) -> Exit;
 }
 
 /// How a walk ended.
@@ -118,7 +124,11 @@ pub fn walk<R: Real, L: Layout, M: ExitMethod<R>>(
         // around the ray, as the loop expects of an entry face.
         let f = OUTWARD_FACES[i];
         (a, b, c) = (names[f[0]], names[f[2]], names[f[1]]);
-        (pa, pb, pc) = (M::vertex(ray, position(start, a)), M::vertex(ray, position(start, b)), M::vertex(ray, position(start, c)));
+        (pa, pb, pc) = (
+            M::vertex(ray, position(start, a)),
+            M::vertex(ray, position(start, b)),
+            M::vertex(ray, position(start, c)),
+        );
         (link, t, steps, entry_face) = (start, start, 0u32, i);
     } else {
         let vs = names.map(|v| M::vertex(ray, position(start, v)));
@@ -138,12 +148,26 @@ pub fn walk<R: Real, L: Layout, M: ExitMethod<R>>(
             let end = if link == BOUNDARY {
                 WalkEnd::Boundary
             } else {
-                WalkEnd::Hit { constrained: link & !CONSTRAINED_BIT }
+                WalkEnd::Hit {
+                    constrained: link & !CONSTRAINED_BIT,
+                }
             };
-            return Walk { end, tet: t, face: [a, b, c], slots: L::INLINE, steps };
+            return Walk {
+                end,
+                tet: t,
+                face: [a, b, c],
+                slots: L::INLINE,
+                steps,
+            };
         }
         if steps >= max_steps {
-            return Walk { end: WalkEnd::StepLimit, tet: t, face: [a, b, c], slots: L::INLINE, steps };
+            return Walk {
+                end: WalkEnd::StepLimit,
+                tet: t,
+                face: [a, b, c],
+                slots: L::INLINE,
+                steps,
+            };
         }
         t = link;
         steps += 1;

@@ -70,7 +70,11 @@ pub fn side<R: Real>(ray: &LineRay<R>, p: &LineVert<R>, q: &LineVert<R>) -> bool
 #[inline(never)]
 fn exact_side<R: Real>(ray: &LineRay<R>, p: &LineVert<R>, q: &LineVert<R>) -> bool {
     let (pp, qq) = (p.p.map(R::to_f64), q.p.map(R::to_f64));
-    let c = |v: V3<f64>| robust::Coord3D { x: v[0], y: v[1], z: v[2] };
+    let c = |v: V3<f64>| robust::Coord3D {
+        x: v[0],
+        y: v[1],
+        z: v[2],
+    };
     let det = robust::orient3d(c(ray.b), c(pp), c(qq), c(ray.s));
     if det != 0.0 {
         det > 0.0
@@ -105,11 +109,7 @@ fn perturbed_side(s: V3<f64>, b: V3<f64>, p: V3<f64>, q: V3<f64>) -> bool {
     let (dl, dl2) = (v3(DELTA), v3(DELTA2));
     let d = sub(&b, &s);
     let (pv, qv, v) = (sub(&p, &s), sub(&q, &s), sub(&q, &p));
-    let terms = [
-        -det(&d, &dl, &v),
-        det(&dl2, &pv, &qv),
-        -det(&dl2, &dl, &v),
-    ];
+    let terms = [-det(&d, &dl, &v), det(&dl2, &pv, &qv), -det(&dl2, &dl, &v)];
     for t in terms {
         if !t.is_zero() {
             return t.is_positive();
@@ -132,7 +132,13 @@ impl<R: Real> ExitMethod<R> for Robust {
         let bs = [0, 1, 2].map(|k| b[k] - origin[k]);
         let inv = 1.0 / (bs[0] * bs[0] + bs[1] * bs[1] + bs[2] * bs[2]).sqrt();
         let (u, w) = super::aman2022::onb(bs.map(|x| x * inv));
-        LineRay { s: origin, b, sr: origin.map(R::from_f64), u: u.map(R::from_f64), w: w.map(R::from_f64) }
+        LineRay {
+            s: origin,
+            b,
+            sr: origin.map(R::from_f64),
+            u: u.map(R::from_f64),
+            w: w.map(R::from_f64),
+        }
     }
 
     #[inline(always)]
@@ -165,7 +171,13 @@ impl<R: Real> ExitMethod<R> for Robust {
     }
 
     #[inline(always)]
-    fn step(ray: &LineRay<R>, a: &LineVert<R>, b: &LineVert<R>, c: &LineVert<R>, d: &LineVert<R>) -> Exit {
+    fn step(
+        ray: &LineRay<R>,
+        a: &LineVert<R>,
+        b: &LineVert<R>,
+        c: &LineVert<R>,
+        d: &LineVert<R>,
+    ) -> Exit {
         // Aman et al.'s tree on exact signs: side(d, a) >= 0: (a,b,d) if side(d, b) <= 0,
         // else (b,c,d); otherwise (c,a,d) if side(d, c) >= 0, else (b,c,d). Signs are never
         // zero here, so the tree's ties do not arise.
@@ -219,8 +231,16 @@ mod tests {
                 <Robust as ExitMethod<f32>>::vertex(&ray32, p.map(|x| x as f32)),
                 <Robust as ExitMethod<f32>>::vertex(&ray32, q.map(|x| x as f32)),
             );
-            assert_eq!(side(&ray32, &vp32, &vq32), exact_side(&ray32, &vp32, &vq32), "f32 case {k}");
-            assert_ne!(side(&ray, &vp, &vq), side(&ray, &vq, &vp), "antisymmetric, case {k}");
+            assert_eq!(
+                side(&ray32, &vp32, &vq32),
+                exact_side(&ray32, &vp32, &vq32),
+                "f32 case {k}"
+            );
+            assert_ne!(
+                side(&ray, &vp, &vq),
+                side(&ray, &vq, &vp),
+                "antisymmetric, case {k}"
+            );
         }
     }
 }

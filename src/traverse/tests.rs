@@ -35,7 +35,14 @@ pub(crate) fn kuhn_grid(n: usize, jitter: f64, rng: &mut Rng) -> (Vec<[f64; 3]>,
         }
     }
     let mut tets = Vec::new();
-    let perms = [[0, 1, 2], [0, 2, 1], [1, 0, 2], [1, 2, 0], [2, 0, 1], [2, 1, 0]];
+    let perms = [
+        [0, 1, 2],
+        [0, 2, 1],
+        [1, 0, 2],
+        [1, 2, 0],
+        [2, 0, 1],
+        [2, 1, 0],
+    ];
     for z in 0..n {
         for y in 0..n {
             for x in 0..n {
@@ -59,7 +66,13 @@ fn all_faces(tets: &[[u32; 4]]) -> Vec<[u32; 3]> {
     let mut f: Vec<[u32; 3]> = tets
         .iter()
         .flat_map(|t| {
-            [[t[1], t[2], t[3]], [t[0], t[2], t[3]], [t[0], t[1], t[3]], [t[0], t[1], t[2]]].map(|mut k| {
+            [
+                [t[1], t[2], t[3]],
+                [t[0], t[2], t[3]],
+                [t[0], t[1], t[3]],
+                [t[0], t[1], t[2]],
+            ]
+            .map(|mut k| {
                 k.sort();
                 k
             })
@@ -67,7 +80,10 @@ fn all_faces(tets: &[[u32; 4]]) -> Vec<[u32; 3]> {
         .collect();
     // Interior faces only (listed twice): scene triangles never lie on the domain boundary.
     f.sort();
-    f.chunk_by(|a, b| a == b).filter(|g| g.len() == 2).map(|g| g[0]).collect()
+    f.chunk_by(|a, b| a == b)
+        .filter(|g| g.len() == 2)
+        .map(|g| g[0])
+        .collect()
 }
 
 fn brute(o: [f64; 3], d: [f64; 3], tris: &[[[f64; 3]; 3]], tmin: f64) -> Option<(f64, usize)> {
@@ -88,22 +104,58 @@ struct Cast<R> {
     steps: Vec<u32>,
 }
 
-fn cast<R: Real>(scene: &Scene, o: &[R], d: &[R], f: impl Fn(&Scene, &Rays<R>, HitsOut<R>) -> crate::Result<()>) -> Cast<R> {
+fn cast<R: Real>(
+    scene: &Scene,
+    o: &[R],
+    d: &[R],
+    f: impl Fn(&Scene, &Rays<R>, HitsOut<R>) -> crate::Result<()>,
+) -> Cast<R> {
     let n = o.len() / 3;
-    let (mut t, mut u, mut v, mut p) = (vec![R::ZERO; n], vec![R::ZERO; n], vec![R::ZERO; n], vec![R::ZERO; 3 * n]);
-    let (mut tri, mut tet, mut steps, mut status) = (vec![0; n], vec![0; n], vec![0; n], vec![0; n]);
-    let rays = Rays { origins: o, directions: d, tmin: &[0.0], tmax: &[f64::INFINITY] };
-    let out = HitsOut { t: &mut t, u: &mut u, v: &mut v, point: &mut p, triangle: &mut tri, tet: &mut tet, steps: &mut steps, status: &mut status };
+    let (mut t, mut u, mut v, mut p) = (
+        vec![R::ZERO; n],
+        vec![R::ZERO; n],
+        vec![R::ZERO; n],
+        vec![R::ZERO; 3 * n],
+    );
+    let (mut tri, mut tet, mut steps, mut status) =
+        (vec![0; n], vec![0; n], vec![0; n], vec![0; n]);
+    let rays = Rays {
+        origins: o,
+        directions: d,
+        tmin: &[0.0],
+        tmax: &[f64::INFINITY],
+    };
+    let out = HitsOut {
+        t: &mut t,
+        u: &mut u,
+        v: &mut v,
+        point: &mut p,
+        triangle: &mut tri,
+        tet: &mut tet,
+        steps: &mut steps,
+        status: &mut status,
+    };
     f(scene, &rays, out).unwrap();
-    Cast { t, tri, status, steps }
+    Cast {
+        t,
+        tri,
+        status,
+        steps,
+    }
 }
 
 fn random_scene(rng: &mut Rng, n: usize, frac: f64) -> (Scene, Vec<[[f64; 3]; 3]>) {
     let (pts, tets) = kuhn_grid(n, 0.3, rng);
-    let faces: Vec<[u32; 3]> = all_faces(&tets).into_iter().filter(|_| rng.f() < frac).collect();
+    let faces: Vec<[u32; 3]> = all_faces(&tets)
+        .into_iter()
+        .filter(|_| rng.f() < frac)
+        .collect();
     let tris: Vec<[[f64; 3]; 3]> = faces.iter().map(|f| f.map(|v| pts[v as usize])).collect();
     let ids: Vec<u32> = (0..faces.len() as u32).collect();
-    (Scene::build(pts, &tets, &faces, &ids, tris.clone()).unwrap(), tris)
+    (
+        Scene::build(pts, &tets, &faces, &ids, tris.clone()).unwrap(),
+        tris,
+    )
 }
 
 #[test]
@@ -135,7 +187,11 @@ fn onb_is_right_handed() {
         let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
         let n = n.map(|x| x / l);
         let (u, w) = aman2022::onb(n);
-        let (u, w, n) = (glam::DVec3::from(u), glam::DVec3::from(w), glam::DVec3::from(n));
+        let (u, w, n) = (
+            glam::DVec3::from(u),
+            glam::DVec3::from(w),
+            glam::DVec3::from(n),
+        );
         assert!((u.cross(w) - n).length() < 1e-12);
         assert!(u.dot(n).abs() < 1e-12 && w.dot(n).abs() < 1e-12);
     }
@@ -145,7 +201,12 @@ fn onb_is_right_handed() {
 /// (the start tet) and entering through each face and leaving by each of the three others.
 pub(crate) fn check_exact_exit_faces<R: Real, M: ExitMethod<R>>() {
     // A generic tet, positively oriented, with no face parallel to an axis.
-    let v = [[0.1, 0.05, 0.0], [1.2, 0.1, 0.15], [0.2, 1.1, -0.1], [0.3, 0.2, 0.9]];
+    let v = [
+        [0.1, 0.05, 0.0],
+        [1.2, 0.1, 0.15],
+        [0.2, 1.1, -0.1],
+        [0.3, 0.2, 0.9],
+    ];
     assert!(orient(v[0], v[1], v[2], v[3]) > 0.0);
     let centroid = |f: [usize; 3]| [0, 1, 2].map(|a| (v[f[0]][a] + v[f[1]][a] + v[f[2]][a]) / 3.0);
     let to_r = |p: [f64; 3]| p.map(R::from_f64);
@@ -155,7 +216,13 @@ pub(crate) fn check_exact_exit_faces<R: Real, M: ExitMethod<R>>() {
         let d = [0, 1, 2].map(|a| c[a] - inside[a]);
         let ray = M::prepare(inside, d);
         let vs = v.map(|p| M::vertex(&ray, to_r(p)));
-        assert_eq!(M::start_exit(&ray, &vs), i, "{} {}: start tet, ray to face {i}", M::NAME, R::NAME);
+        assert_eq!(
+            M::start_exit(&ray, &vs),
+            i,
+            "{} {}: start tet, ray to face {i}",
+            M::NAME,
+            R::NAME
+        );
     }
     // Enter through face e (its outward order reversed is counter-clockwise around the ray),
     // leave through each other face x.
@@ -163,7 +230,11 @@ pub(crate) fn check_exact_exit_faces<R: Real, M: ExitMethod<R>>() {
         let f = OUTWARD_FACES[e];
         let (a, b, c, d) = (f[0], f[2], f[1], e);
         let entry = centroid(f);
-        for (target, want) in [([a, b, d], Exit::Abd), ([b, c, d], Exit::Bcd), ([c, a, d], Exit::Cad)] {
+        for (target, want) in [
+            ([a, b, d], Exit::Abd),
+            ([b, c, d], Exit::Bcd),
+            ([c, a, d], Exit::Cad),
+        ] {
             // Aim from a point near the entry face's centroid to a point near the target's.
             let g = centroid(target);
             let en = [0, 1, 2].map(|k| 0.9 * entry[k] + 0.1 * inside[k]);
@@ -171,7 +242,13 @@ pub(crate) fn check_exact_exit_faces<R: Real, M: ExitMethod<R>>() {
             let o = [0, 1, 2].map(|k| en[k] - 0.5 * dir[k]);
             let ray = M::prepare(o, dir);
             let p = [a, b, c, d].map(|q| M::vertex(&ray, to_r(v[q])));
-            assert_eq!(M::step(&ray, &p[0], &p[1], &p[2], &p[3]), want, "{} {}: entering by face {e}", M::NAME, R::NAME);
+            assert_eq!(
+                M::step(&ray, &p[0], &p[1], &p[2], &p[3]),
+                want,
+                "{} {}: entering by face {e}",
+                M::NAME,
+                R::NAME
+            );
         }
     }
 }
@@ -182,7 +259,10 @@ fn exact_exit_faces_aman2022() {
     check_exact_exit_faces::<f64, Aman2022>();
 }
 
-pub(crate) fn agreement<R: Real>(seed: u64, f: impl Fn(&Scene, &Rays<R>, HitsOut<R>) -> crate::Result<()> + Copy) {
+pub(crate) fn agreement<R: Real>(
+    seed: u64,
+    f: impl Fn(&Scene, &Rays<R>, HitsOut<R>) -> crate::Result<()> + Copy,
+) {
     let mut rng = Rng(seed);
     let (scene, tris) = random_scene(&mut rng, 5, 0.08);
     let n = 3000;
@@ -206,21 +286,33 @@ pub(crate) fn agreement<R: Real>(seed: u64, f: impl Fn(&Scene, &Rays<R>, HitsOut
         // Compare against the rounded ray the walk saw.
         let ok = [0, 1, 2].map(|a| or[3 * k + a].to_f64());
         let dk = [0, 1, 2].map(|a| dr[3 * k + a].to_f64());
-        let want = clip_box(ok, dk, [0.0; 3], [1.0; 3], 0.0, f64::INFINITY).and_then(|_| brute(ok, dk, &tris, 0.0));
-        assert!(res.status[k] == HIT || res.status[k] == MISS, "ray {k}: status {}", res.status[k]);
+        let want = clip_box(ok, dk, [0.0; 3], [1.0; 3], 0.0, f64::INFINITY)
+            .and_then(|_| brute(ok, dk, &tris, 0.0));
+        assert!(
+            res.status[k] == HIT || res.status[k] == MISS,
+            "ray {k}: status {}",
+            res.status[k]
+        );
         match want {
             Some((t, tri)) => {
                 if res.status[k] != HIT || res.tri[k] as usize != tri {
                     bad += 1;
                     eprintln!("ray {k} o={ok:?} d={dk:?}: want tri {tri} t {t}, got status {} tri {} t {:?} steps {}", res.status[k], res.tri[k], res.t[k], res.steps[k]);
                 } else {
-                    assert!((res.t[k].to_f64() - t).abs() < 1e-5, "ray {k}: t {:?} vs {t}", res.t[k]);
+                    assert!(
+                        (res.t[k].to_f64() - t).abs() < 1e-5,
+                        "ray {k}: t {:?} vs {t}",
+                        res.t[k]
+                    );
                 }
             }
             None => {
                 if res.status[k] != MISS {
                     bad += 1;
-                    eprintln!("ray {k} o={ok:?} d={dk:?}: want miss, got status {} tri {} t {:?}", res.status[k], res.tri[k], res.t[k]);
+                    eprintln!(
+                        "ray {k} o={ok:?} d={dk:?}: want miss, got status {} tri {} t {:?}",
+                        res.status[k], res.tri[k], res.t[k]
+                    );
                 }
             }
         }
@@ -235,12 +327,19 @@ pub(crate) fn agreement<R: Real>(seed: u64, f: impl Fn(&Scene, &Rays<R>, HitsOut
 pub(crate) fn check_agreement<M: ExitMethod<f32> + ExitMethod<f64>>(seed: u64) {
     use crate::layout::{Layout, Plain, Tet16, Tet20, Tet32, Tet80};
     fn on<L: Layout, M: ExitMethod<f32> + ExitMethod<f64>>(seed: u64, f64_too: bool) {
-        let opts = CastOptions { threads: None, max_steps: 100_000 };
+        let opts = CastOptions {
+            threads: None,
+            max_steps: 100_000,
+        };
         // agreement() casts once per scene: the layout is built there, for that scene.
         if f64_too {
-            agreement::<f64>(seed, |s, r, o| s.cast_generic::<f64, L, M>(&s.mesh.points, &L::build(&s.mesh)?, r, o, &opts));
+            agreement::<f64>(seed, |s, r, o| {
+                s.cast_generic::<f64, L, M>(&s.mesh.points, &L::build(&s.mesh)?, r, o, &opts)
+            });
         }
-        agreement::<f32>(seed + 1, |s, r, o| s.cast_generic::<f32, L, M>(&s.points_f32, &L::build(&s.mesh)?, r, o, &opts));
+        agreement::<f32>(seed + 1, |s, r, o| {
+            s.cast_generic::<f32, L, M>(&s.points_f32, &L::build(&s.mesh)?, r, o, &opts)
+        });
     }
     on::<Plain, M>(seed, true);
     on::<Tet80, M>(seed + 10, false);
@@ -256,12 +355,30 @@ fn aman2022_agrees_with_brute_force() {
 
 #[test]
 fn agrees_with_brute_force_f64() {
-    agreement::<f64>(11, |s, r, o| s.cast_f64(r, o, &CastOptions { threads: Some(1), max_steps: 100_000 }));
+    agreement::<f64>(11, |s, r, o| {
+        s.cast_f64(
+            r,
+            o,
+            &CastOptions {
+                threads: Some(1),
+                max_steps: 100_000,
+            },
+        )
+    });
 }
 
 #[test]
 fn agrees_with_brute_force_f32() {
-    agreement::<f32>(12, |s, r, o| s.cast_f32(r, o, &CastOptions { threads: None, max_steps: 100_000 }));
+    agreement::<f32>(12, |s, r, o| {
+        s.cast_f32(
+            r,
+            o,
+            &CastOptions {
+                threads: None,
+                max_steps: 100_000,
+            },
+        )
+    });
 }
 
 #[test]
@@ -270,7 +387,16 @@ fn empty_scene_misses_and_counts_steps() {
     let (scene, _) = random_scene(&mut rng, 3, 0.0);
     let o = [-1.0, 0.5, 0.5, 0.5, 0.5, 0.5, 2.0, 2.0, 2.0];
     let d = [1.0, 0.01, 0.02, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0];
-    let res = cast::<f64>(&scene, &o, &d, |s, r, o| s.cast_f64(r, o, &CastOptions { threads: Some(1), max_steps: 1000 }));
+    let res = cast::<f64>(&scene, &o, &d, |s, r, o| {
+        s.cast_f64(
+            r,
+            o,
+            &CastOptions {
+                threads: Some(1),
+                max_steps: 1000,
+            },
+        )
+    });
     assert_eq!(res.status, vec![MISS, MISS, MISS]);
     assert!(res.steps[0] >= 3 && res.steps[1] >= 1);
     assert_eq!(res.steps[2], 0); // misses the domain
@@ -323,8 +449,18 @@ fn maria2017_exit_faces_and_agreement() {
 /// face, and the same one every time, for every method added with the Lagae/MS06/Maria set.
 fn check_degenerate_inputs<R: Real, M: ExitMethod<R>>() {
     // Integer tet: rays along the axes through its vertices give exact zero side products.
-    let v = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-    let flat = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0]];
+    let v = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, 0.0, 1.0],
+    ];
+    let flat = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [1.0, 1.0, 0.0],
+    ];
     let rays = [
         ([0.0, 0.0, -1.0], [0.0, 0.0, 1.0]),
         ([0.25, 0.25, 0.25], [0.0, 0.0, 1.0]),
@@ -338,10 +474,21 @@ fn check_degenerate_inputs<R: Real, M: ExitMethod<R>>() {
         for tet in [v, flat] {
             let p = tet.map(|q| M::vertex(&ray, q.map(R::from_f64)));
             let i = M::start_exit(&ray, &p);
-            assert!(i < 4 && i == M::start_exit(&ray, &p), "{} {}", M::NAME, R::NAME);
+            assert!(
+                i < 4 && i == M::start_exit(&ray, &p),
+                "{} {}",
+                M::NAME,
+                R::NAME
+            );
             for e in [[0, 1, 2, 3], [1, 0, 3, 2], [3, 2, 1, 0], [0, 0, 0, 0]] {
                 let x = M::step(&ray, &p[e[0]], &p[e[1]], &p[e[2]], &p[e[3]]);
-                assert_eq!(x, M::step(&ray, &p[e[0]], &p[e[1]], &p[e[2]], &p[e[3]]), "{} {}", M::NAME, R::NAME);
+                assert_eq!(
+                    x,
+                    M::step(&ray, &p[e[0]], &p[e[1]], &p[e[2]], &p[e[3]]),
+                    "{} {}",
+                    M::NAME,
+                    R::NAME
+                );
             }
         }
     }
@@ -377,7 +524,10 @@ fn robust_survives_rays_through_vertices_and_edges() {
     use crate::scene::{CastOptions, FAILED};
     let mut rng = Rng(99);
     let (pts, tets) = kuhn_grid(4, 0.0, &mut rng);
-    let faces: Vec<[u32; 3]> = all_faces(&tets).into_iter().filter(|_| rng.f() < 0.15).collect();
+    let faces: Vec<[u32; 3]> = all_faces(&tets)
+        .into_iter()
+        .filter(|_| rng.f() < 0.15)
+        .collect();
     let tris: Vec<[[f64; 3]; 3]> = faces.iter().map(|f| f.map(|v| pts[v as usize])).collect();
     let ids: Vec<u32> = (0..faces.len() as u32).collect();
     let scene = Scene::build(pts, &tets, &faces, &ids, tris.clone()).unwrap();
@@ -409,7 +559,16 @@ fn robust_survives_rays_through_vertices_and_edges() {
     let n = o.len() / 3;
     for method in crate::dispatch::METHODS {
         let res = cast::<f64>(&scene, &o, &d, |s, r, out| {
-            s.cast_named(method, "tet32", r, out, &CastOptions { threads: Some(1), max_steps: 10_000 })
+            s.cast_named(
+                method,
+                "tet32",
+                r,
+                out,
+                &CastOptions {
+                    threads: Some(1),
+                    max_steps: 10_000,
+                },
+            )
         });
         let failed = res.status.iter().filter(|&&s| s == FAILED).count();
         if method != "robust" {
@@ -428,11 +587,20 @@ fn robust_survives_rays_through_vertices_and_edges() {
             let inside = brute_hit(ok, dk, &tris, -1e-12);
             if res.status[k] == HIT {
                 let t = res.t[k];
-                assert!(touch.is_some_and(|a| t >= a - 1e-9), "robust ray {k}: t {t} before any triangle {touch:?}");
-                assert!(inside.is_none_or(|b| t <= b + 1e-9), "robust ray {k}: t {t} after a sure hit {inside:?}");
+                assert!(
+                    touch.is_some_and(|a| t >= a - 1e-9),
+                    "robust ray {k}: t {t} before any triangle {touch:?}"
+                );
+                assert!(
+                    inside.is_none_or(|b| t <= b + 1e-9),
+                    "robust ray {k}: t {t} after a sure hit {inside:?}"
+                );
             } else {
                 assert_eq!(res.status[k], MISS);
-                assert!(inside.is_none(), "robust ray {k} missed a sure hit at {inside:?}");
+                assert!(
+                    inside.is_none(),
+                    "robust ray {k} missed a sure hit at {inside:?}"
+                );
             }
         }
     }
@@ -450,8 +618,12 @@ fn brute_hit(o: [f64; 3], d: [f64; 3], tris: &[[[f64; 3]; 3]], eps: f64) -> Opti
             let dd = DVec3::from(d);
             if n.dot(dd).abs() <= 1e-12 * n.length() * dd.length() {
                 let coplanar = n.dot(DVec3::from(o) - p0).abs() <= 1e-12 * n.length();
-                return (eps > 0.0 && coplanar)
-                    .then(|| tri.iter().map(|v| (DVec3::from(*v) - DVec3::from(o)).dot(dd) / dd.length_squared()).fold(f64::INFINITY, f64::min).max(0.0));
+                return (eps > 0.0 && coplanar).then(|| {
+                    tri.iter()
+                        .map(|v| (DVec3::from(*v) - DVec3::from(o)).dot(dd) / dd.length_squared())
+                        .fold(f64::INFINITY, f64::min)
+                        .max(0.0)
+                });
             }
             let (t, u, v) = crate::scene::intersect_triangle(o, d, tri, || *tri);
             (u >= -eps && v >= -eps && u + v <= 1.0 + eps && t >= 0.0).then_some(t)
