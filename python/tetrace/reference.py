@@ -30,11 +30,12 @@ from __future__ import annotations
 import os
 import time
 from concurrent.futures import ThreadPoolExecutor
-from pathlib import Path
 
 import numpy as np
 
 from .hits import HIT, INVALID, MISS, Hits
+from .meshing import load_triangles
+from .rays import prepare_rays
 
 __all__ = ["embree_available", "embree_scene", "embree_cast", "EmbreeReference", "load_triangles"]
 
@@ -56,84 +57,6 @@ def embree_available() -> bool:
     except Exception:
         return False
     return True
-
-
-def load_triangles(mesh) -> tuple[np.ndarray, np.ndarray]:
-    """Return ``(vertices, faces)`` of a mesh given in any accepted form.
-
-    Parameters
-    ----------
-    mesh : trimesh.Trimesh or str or os.PathLike or tuple
-        A ``trimesh.Trimesh`` (anything with ``vertices`` and ``faces``), a path
-        loaded with ``trimesh.load(path, force="mesh")``, or a
-        ``(vertices (V, 3), faces (F, 3))`` tuple.
-
-    Returns
-    -------
-    vertices : numpy.ndarray
-        ``(V, 3)`` float64.
-    faces : numpy.ndarray
-        ``(F, 3)`` int64, in the caller's order; nothing is removed.
-    """
-    if isinstance(mesh, (str, os.PathLike)):
-        import trimesh
-
-        path = Path(mesh)
-        if not path.exists():
-            raise FileNotFoundError(f"mesh file not found: {path}")
-        mesh = trimesh.load(path, force="mesh")
-    if hasattr(mesh, "vertices") and hasattr(mesh, "faces"):
-        vertices, faces = mesh.vertices, mesh.faces
-    elif isinstance(mesh, (tuple, list)) and len(mesh) == 2:
-        vertices, faces = mesh
-    else:
-        raise TypeError(
-            "mesh must be a trimesh.Trimesh, a path or a (vertices, faces) tuple, "
-            f"got {type(mesh).__name__}"
-        )
-    vertices = np.asarray(vertices, dtype=np.float64)
-    faces = np.asarray(faces)
-    if vertices.ndim != 2 or vertices.shape[1] != 3:
-        raise ValueError(f"vertices must have shape (V, 3), got {vertices.shape}")
-    if faces.ndim != 2 or faces.shape[1] != 3:
-        raise ValueError(f"faces must have shape (F, 3), got {faces.shape}")
-    if not np.issubdtype(faces.dtype, np.integer):
-        raise TypeError(f"faces must be integers, got {faces.dtype}")
-    faces = faces.astype(np.int64, copy=False)
-    if faces.size and (faces.min() < 0 or faces.max() >= len(vertices)):
-        raise ValueError("faces index outside the vertex array")
-    return vertices, faces
-
-
-def _split_rays(origins, directions):
-    """Normalise the ray arguments to float arrays ``(N, 3), (N, 3)``."""
-    origins = np.asarray(origins)
-    if directions is None:
-        rays = np.atleast_2d(origins)
-        if rays.ndim != 2 or rays.shape[1] != 6:
-            raise ValueError(
-                f"with directions=None, origins must be (N, 6) rays, got shape {origins.shape}"
-            )
-        origins, directions = rays[:, :3], rays[:, 3:]
-    else:
-        origins = np.atleast_2d(origins)
-        directions = np.atleast_2d(np.asarray(directions))
-        if origins.ndim != 2 or origins.shape[1] != 3:
-            raise ValueError(f"origins must have shape (N, 3), got {origins.shape}")
-        if directions.ndim != 2 or directions.shape[1] != 3:
-            raise ValueError(f"directions must have shape (N, 3) or (3,), got {directions.shape}")
-        if len(directions) == 1 and len(origins) != 1:
-            directions = np.broadcast_to(directions, origins.shape)
-        elif len(origins) == 1 and len(directions) != 1:
-            origins = np.broadcast_to(origins, directions.shape)
-        if origins.shape != directions.shape:
-            raise ValueError(
-                f"origins {origins.shape} and directions {directions.shape} differ in length"
-            )
-    dtype = np.result_type(origins.dtype, directions.dtype, np.float32)
-    if not np.issubdtype(dtype, np.floating):
-        dtype = np.float64
-    return origins.astype(dtype, copy=False), directions.astype(dtype, copy=False)
 
 
 class EmbreeReference:
@@ -225,7 +148,8 @@ class EmbreeReference:
             NaN or infinite component or a zero-length direction (miss
             sentinels in the other fields); nothing is raised for those.
         """
-        origins, directions = _split_rays(origins, directions)
+        # Same ray forms and dtype rules as Scene.cast; bad rays are marked here, not raised.
+        origins, directions = prepare_rays(origins, directions, invalid="mark")
         dtype = origins.dtype
         n = len(origins)
         tmin = np.broadcast_to(np.asarray(tmin, dtype=np.float64), (n,))
