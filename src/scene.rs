@@ -252,17 +252,13 @@ impl Scene {
         m
     }
 
-    pub fn cast_f32(&self, rays: &Rays<f32>, out: HitsOut<f32>, opts: &CastOptions) -> Result<()> {
-        self.cast_named(
-            crate::dispatch::DEFAULT_METHOD,
-            crate::dispatch::DEFAULT_LAYOUT,
-            rays,
-            out,
-            opts,
-        )
-    }
-
-    pub fn cast_f64(&self, rays: &Rays<f64>, out: HitsOut<f64>, opts: &CastOptions) -> Result<()> {
+    /// Casts with the default method and layout, in the rays' precision R.
+    pub fn cast<R: crate::dispatch::Precision>(
+        &self,
+        rays: &Rays<R>,
+        out: HitsOut<R>,
+        opts: &CastOptions,
+    ) -> Result<()> {
         self.cast_named(
             crate::dispatch::DEFAULT_METHOD,
             crate::dispatch::DEFAULT_LAYOUT,

@@ -33,21 +33,10 @@ class NativeScene:
         triangles: npt.NDArray[np.float64],
         hilbert: bool = True,
     ) -> None: ...
-    def cast_f32(
+    def cast(
         self,
-        origins: npt.NDArray[np.float32],
-        directions: npt.NDArray[np.float32],
-        tmin: npt.NDArray[np.float64],
-        tmax: npt.NDArray[np.float64],
-        threads: Optional[int] = None,
-        max_steps: Optional[int] = None,
-        method: str = "aman2022",
-        layout: str = "tet32",
-    ) -> dict[str, np.ndarray]: ...
-    def cast_f64(
-        self,
-        origins: npt.NDArray[np.float64],
-        directions: npt.NDArray[np.float64],
+        origins: npt.NDArray[np.floating],
+        directions: npt.NDArray[np.floating],
         tmin: npt.NDArray[np.float64],
         tmax: npt.NDArray[np.float64],
         threads: Optional[int] = None,

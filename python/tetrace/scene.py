@@ -171,8 +171,7 @@ class Scene:
             raise ValueError(f"threads must be a positive int or None, got {threads!r}")
         if max_steps is not None and (not isinstance(max_steps, (int, np.integer)) or not 0 < max_steps < 2**32):
             raise ValueError(f"max_steps must be a positive int below 2**32, got {max_steps!r}")
-        native = self._native.cast_f32 if o.dtype == np.float32 else self._native.cast_f64
-        r = native(o, d, lo, hi, threads, max_steps, method, layout)
+        r = self._native.cast(o, d, lo, hi, threads, max_steps, method, layout)
         if invalid == "raise":
             raise_invalid(r["status"], o, d)
         return Hits(**r)

@@ -121,14 +121,15 @@ impl PyScene {
         Ok(PyScene { inner })
     }
 
-    /// Casts float32 rays; returns (t, u, v, point, triangle, tet, steps, status).
+    /// Casts rays: origins and directions both float32 (the walk runs in float32) or both
+    /// float64. Returns a dict of the Hits fields, in that precision.
     #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method="aman2022", layout="tet32"))]
     #[allow(clippy::too_many_arguments)]
-    fn cast_f32<'py>(
+    fn cast<'py>(
         &self,
         py: Python<'py>,
-        origins: PyReadonlyArray2<'py, f32>,
-        directions: PyReadonlyArray2<'py, f32>,
+        origins: &Bound<'py, PyAny>,
+        directions: &Bound<'py, PyAny>,
         tmin: PyReadonlyArray1<'py, f64>,
         tmax: PyReadonlyArray1<'py, f64>,
         threads: Option<usize>,
@@ -136,47 +137,27 @@ impl PyScene {
         method: &str,
         layout: &str,
     ) -> PyResult<Bound<'py, PyDict>> {
-        cast_any(
-            py,
-            &self.inner,
-            origins,
-            directions,
-            tmin,
-            tmax,
-            threads,
-            max_steps,
-            method,
-            layout,
-        )
-    }
-
-    /// Casts float64 rays; returns the same fields in float64.
-    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method="aman2022", layout="tet32"))]
-    #[allow(clippy::too_many_arguments)]
-    fn cast_f64<'py>(
-        &self,
-        py: Python<'py>,
-        origins: PyReadonlyArray2<'py, f64>,
-        directions: PyReadonlyArray2<'py, f64>,
-        tmin: PyReadonlyArray1<'py, f64>,
-        tmax: PyReadonlyArray1<'py, f64>,
-        threads: Option<usize>,
-        max_steps: Option<u32>,
-        method: &str,
-        layout: &str,
-    ) -> PyResult<Bound<'py, PyDict>> {
-        cast_any(
-            py,
-            &self.inner,
-            origins,
-            directions,
-            tmin,
-            tmax,
-            threads,
-            max_steps,
-            method,
-            layout,
-        )
+        let scene = &self.inner;
+        let f32s = (
+            origins.extract::<PyReadonlyArray2<'py, f32>>(),
+            directions.extract::<PyReadonlyArray2<'py, f32>>(),
+        );
+        if let (Ok(o), Ok(d)) = f32s {
+            return cast_any(
+                py, scene, o, d, tmin, tmax, threads, max_steps, method, layout,
+            );
+        }
+        match (
+            origins.extract::<PyReadonlyArray2<'py, f64>>(),
+            directions.extract::<PyReadonlyArray2<'py, f64>>(),
+        ) {
+            (Ok(o), Ok(d)) => cast_any(
+                py, scene, o, d, tmin, tmax, threads, max_steps, method, layout,
+            ),
+            _ => Err(pyo3::exceptions::PyTypeError::new_err(
+                "origins and directions must be 2-D arrays, both float32 or both float64",
+            )),
+        }
     }
 
     /// Bytes used by each part of the structure.

@@ -356,7 +356,7 @@ fn aman2022_agrees_with_brute_force() {
 #[test]
 fn agrees_with_brute_force_f64() {
     agreement::<f64>(11, |s, r, o| {
-        s.cast_f64(
+        s.cast(
             r,
             o,
             &CastOptions {
@@ -370,7 +370,7 @@ fn agrees_with_brute_force_f64() {
 #[test]
 fn agrees_with_brute_force_f32() {
     agreement::<f32>(12, |s, r, o| {
-        s.cast_f32(
+        s.cast(
             r,
             o,
             &CastOptions {
@@ -388,7 +388,7 @@ fn empty_scene_misses_and_counts_steps() {
     let o = [-1.0, 0.5, 0.5, 0.5, 0.5, 0.5, 2.0, 2.0, 2.0];
     let d = [1.0, 0.01, 0.02, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0];
     let res = cast::<f64>(&scene, &o, &d, |s, r, o| {
-        s.cast_f64(
+        s.cast(
             r,
             o,
             &CastOptions {
