@@ -12,19 +12,11 @@ import numpy as np
 import pytest
 
 import tetrace
-from tetrace.camera import orbit_views, pinhole, random_rays
+from tetrace.bench.agreement import ray_sets
 from tetrace.compare import compare
 from tetrace.reference import embree_scene
 
 SCENES = ["bunny.obj", "armadillo.obj", "torus_knots_27.obj", "cornell_box.obj"]
-RES = 1024
-
-
-def _rays(bounds):
-    views = [pinhole(*v, fov_deg=40.0, width=RES, height=RES, dtype=np.float64)
-             for v in orbit_views(bounds, n=3, distance=1.6)]
-    views.append(random_rays(bounds, 100_000, seed=1234, grow=0.25))
-    return views
 
 
 # Float32 side products in world coordinates (Lagae & Dutré's Plücker and scalar triple
@@ -47,8 +39,8 @@ def combos():
 def _check(scene, name):
     bounds = np.array([scene.vertices.min(0), scene.vertices.max(0)])
     ref_scene = embree_scene((scene.vertices, scene.faces))
-    for k, (o, d) in enumerate(_rays(bounds)):
-        kind = "random" if k == 3 else f"view {k}"
+    # The same rays as `python -m tetrace.bench agreement`: three 1024^2 views, 10^5 random.
+    for kind, o, d in ray_sets(bounds):
         refs = {}
         for method, layout, precision in combos():
             dtype = np.float32 if precision == "f32" else np.float64

@@ -76,9 +76,10 @@ def raise_invalid(status, origins, directions):
 
 def prepare_bounds(value, n, name):
     """Return tmin or tmax as a float64 array of 1 or ``n`` values."""
-    a = np.asarray(value, dtype=np.float64) if not _is_bad_dtype(value) else None
-    if a is None:
-        raise TypeError(f"{name} must be a number or an array of numbers")
+    a = np.asarray(value)
+    if a.dtype.kind not in "biuf":
+        raise TypeError(f"{name} must be a number or an array of numbers, got dtype {a.dtype}")
+    a = a.astype(np.float64, copy=False)
     if a.ndim == 0:
         a = a.reshape(1)
     if a.ndim != 1 or len(a) not in (1, n):
@@ -88,11 +89,6 @@ def prepare_bounds(value, n, name):
     if name == "tmin" and (a < 0).any():
         raise ValueError("tmin must be >= 0")
     return np.ascontiguousarray(a)
-
-
-def _is_bad_dtype(value):
-    kind = np.asarray(value).dtype.kind
-    return kind not in "biuf"
 
 
 def _as_float(a, name):
