@@ -6,7 +6,7 @@ use crate::layout::Layout;
 use crate::locate::{BoundaryLocator, GridLocator, Located};
 use crate::mesh::TetMesh;
 use crate::real::Real;
-use crate::traverse::{walk, ExitMethod, WalkEnd};
+use crate::traverse::{walk, ExitMethod, Walk, WalkEnd};
 use rayon::prelude::*;
 
 /// Per-ray status codes, shared with Python.
@@ -58,7 +58,30 @@ impl<'a, R> HitsOut<'a, R> {
         self.t.is_empty()
     }
 
-    fn split_at(self, n: usize) -> (Self, Self) {
+    /// Writes ray j's result (ray i of `rays`: the point is o + t d in f64, then rounded).
+    #[inline]
+    pub(crate) fn set(&mut self, j: usize, r: &RayHit, rays: &Rays<R>, i: usize)
+    where
+        R: Real,
+    {
+        self.t[j] = R::from_f64(r.t);
+        self.u[j] = R::from_f64(r.u);
+        self.v[j] = R::from_f64(r.v);
+        for a in 0..3 {
+            let (o, d) = (rays.origins[3 * i + a].to_f64(), rays.directions[3 * i + a].to_f64());
+            self.point[3 * j + a] = R::from_f64(if r.status == HIT {
+                o + r.t * d
+            } else {
+                f64::NAN
+            });
+        }
+        self.triangle[j] = r.triangle;
+        self.tet[j] = r.tet;
+        self.steps[j] = r.steps;
+        self.status[j] = r.status;
+    }
+
+    pub(crate) fn split_at(self, n: usize) -> (Self, Self) {
         let (t0, t1) = self.t.split_at_mut(n);
         let (u0, u1) = self.u.split_at_mut(n);
         let (v0, v1) = self.v.split_at_mut(n);
@@ -91,7 +114,7 @@ impl<'a, R> HitsOut<'a, R> {
         )
     }
 
-    fn chunks(self, size: usize) -> Vec<Self> {
+    pub(crate) fn chunks(self, size: usize) -> Vec<Self> {
         let mut out = Vec::with_capacity(self.len().div_ceil(size.max(1)));
         let mut rest = self;
         while rest.len() > size {
@@ -113,7 +136,7 @@ pub struct CastOptions {
 
 /// One ray's result before it is written out.
 #[derive(Clone, Copy, Debug)]
-struct RayHit {
+pub(crate) struct RayHit {
     status: u8,
     t: f64,
     u: f64,
@@ -124,7 +147,7 @@ struct RayHit {
 }
 
 impl RayHit {
-    fn nothing(status: u8) -> RayHit {
+    pub(crate) fn nothing(status: u8) -> RayHit {
         RayHit {
             status,
             t: f64::INFINITY,
@@ -139,7 +162,7 @@ impl RayHit {
 
 /// Rays per parallel task: large enough to amortize, small enough to balance, and contiguous
 /// so coherent rays (a camera's) share their start-tet hints.
-const CHUNK: usize = 4096;
+pub(crate) const CHUNK: usize = 4096;
 
 impl Scene {
     /// Builds with points and tets in Hilbert order (see [`Scene::build_with`]).
@@ -278,41 +301,14 @@ impl Scene {
         out: HitsOut<R>,
         opts: &CastOptions,
     ) -> Result<()> {
-        let n = out.len();
-        if rays.origins.len() != 3 * n || rays.directions.len() != 3 * n || out.point.len() != 3 * n
-        {
-            return Err(Error::InvalidInput(format!(
-                "{} rays expected 3N origin and direction values, got {} and {}",
-                n,
-                rays.origins.len(),
-                rays.directions.len()
-            )));
-        }
-        for (name, b) in [("tmin", rays.tmin), ("tmax", rays.tmax)] {
-            if b.len() != 1 && b.len() != n {
-                return Err(Error::InvalidInput(format!(
-                    "{name} needs 1 or {n} values, got {}",
-                    b.len()
-                )));
-            }
-        }
-        let run_chunk = |(k, chunk): (usize, HitsOut<R>)| {
+        check_lengths(rays, &out)?;
+        let run_chunk = |(k, mut chunk): (usize, HitsOut<R>)| {
             let mut hint = None;
-            let mut rng = 0x9E37_79B9u32 ^ (k as u32).wrapping_mul(0x85EB_CA6B) | 1;
+            let mut rng = chunk_seed(k);
             let mut camera: Option<([f64; 3], f64, u32)> = None;
             let mut entry_hint = None;
             let base = k * CHUNK;
-            let HitsOut {
-                t,
-                u,
-                v,
-                point,
-                triangle,
-                tet,
-                steps,
-                status,
-            } = chunk;
-            for j in 0..t.len() {
+            for j in 0..chunk.len() {
                 let i = base + j;
                 let r = self.cast_one::<R, L, M>(
                     points,
@@ -325,22 +321,7 @@ impl Scene {
                     &mut entry_hint,
                     &mut rng,
                 );
-                t[j] = R::from_f64(r.t);
-                u[j] = R::from_f64(r.u);
-                v[j] = R::from_f64(r.v);
-                let o = [0, 1, 2].map(|a| rays.origins[3 * i + a].to_f64());
-                let d = [0, 1, 2].map(|a| rays.directions[3 * i + a].to_f64());
-                for a in 0..3 {
-                    point[3 * j + a] = R::from_f64(if r.status == HIT {
-                        o[a] + r.t * d[a]
-                    } else {
-                        f64::NAN
-                    });
-                }
-                triangle[j] = r.triangle;
-                tet[j] = r.tet;
-                steps[j] = r.steps;
-                status[j] = r.status;
+                chunk.set(j, &r, rays, i);
             }
         };
         let chunks: Vec<_> = out.chunks(CHUNK).into_iter().enumerate().collect();
@@ -370,17 +351,48 @@ impl Scene {
         entry_hint: &mut Option<(usize, usize)>,
         rng: &mut u32,
     ) -> RayHit {
+        let s = match self.locate_one(rays, i, hint, camera, entry_hint, rng) {
+            Start::Done(r) => return r,
+            Start::Walk(s) => s,
+        };
+        let ray = M::prepare(s.point, s.d);
+        let w = walk::<R, L, M>(
+            layout,
+            points,
+            &ray,
+            s.tet,
+            self.mesh.tets[s.tet as usize],
+            s.entry,
+            opts.max_steps,
+        );
+        self.finish(&s, &w)
+    }
+
+    /// Where ray i's walk starts (the first half of a cast; the GPU path walks elsewhere and
+    /// comes back to [`Scene::finish`]). The hints carry state between neighbouring rays of a
+    /// chunk, as in `cast_generic`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub(crate) fn locate_one<R: Real>(
+        &self,
+        rays: &Rays<R>,
+        i: usize,
+        hint: &mut Option<u32>,
+        camera: &mut Option<([f64; 3], f64, u32)>,
+        entry_hint: &mut Option<(usize, usize)>,
+        rng: &mut u32,
+    ) -> Start {
         let o = [0, 1, 2].map(|a| rays.origins[3 * i + a].to_f64());
         let d = [0, 1, 2].map(|a| rays.directions[3 * i + a].to_f64());
         let tmin = rays.tmin[if rays.tmin.len() == 1 { 0 } else { i }];
         let tmax = rays.tmax[if rays.tmax.len() == 1 { 0 } else { i }];
         let finite = o.iter().chain(&d).all(|x| x.is_finite());
         if !finite || d == [0.0; 3] || tmin.is_nan() || tmax.is_nan() {
-            return RayHit::nothing(INVALID);
+            return Start::Done(RayHit::nothing(INVALID));
         }
         let tmin = tmin.max(0.0);
         if tmax < tmin {
-            return RayHit::nothing(MISS);
+            return Start::Done(RayHit::nothing(MISS));
         }
         let mesh = &self.mesh;
         // Where the walk starts: o + tmin d if that is inside, else where the ray enters the box.
@@ -402,7 +414,7 @@ impl Scene {
             }
         } else {
             let Some(entry) = clip_box(o, d, lo, hi, tmin, tmax) else {
-                return RayHit::nothing(MISS);
+                return Start::Done(RayHit::nothing(MISS));
             };
             // Clamp: rounding may leave the entry point a hair off the box side.
             start_point = at(entry.t0);
@@ -425,19 +437,25 @@ impl Scene {
         };
         let Located::Inside(start) = start else {
             // Inside the box but no tet holds the point: only a broken mesh can do this.
-            return RayHit::nothing(if inside { FAILED } else { MISS });
+            return Start::Done(RayHit::nothing(if inside { FAILED } else { MISS }));
         };
         *hint = Some(start);
-        let ray = M::prepare(start_point, d);
-        let w = walk::<R, L, M>(
-            layout,
-            points,
-            &ray,
-            start,
-            mesh.tets[start as usize],
-            entry_face,
-            opts.max_steps,
-        );
+        Start::Walk(WalkStart {
+            o,
+            d,
+            tmin,
+            tmax,
+            point: start_point,
+            tet: start,
+            entry: entry_face,
+        })
+    }
+
+    /// The second half of a cast: the hit of a finished walk, evaluated in f64 on the
+    /// caller's triangle.
+    #[inline]
+    pub(crate) fn finish(&self, s: &WalkStart, w: &Walk) -> RayHit {
+        let mesh = &self.mesh;
         let mut r = RayHit {
             tet: w.tet as i32,
             steps: w.steps,
@@ -454,11 +472,11 @@ impl Scene {
                     w.face
                 };
                 let face = || ids.map(|v| mesh.points[v as usize]);
-                let (t, u, v) = intersect_triangle(o, d, &self.triangles[tri as usize], face);
-                if t <= tmax {
+                let (t, u, v) = intersect_triangle(s.o, s.d, &self.triangles[tri as usize], face);
+                if t <= s.tmax {
                     r = RayHit {
                         status: HIT,
-                        t: t.max(tmin),
+                        t: t.max(s.tmin),
                         u,
                         v,
                         triangle: tri as i32,
@@ -469,6 +487,57 @@ impl Scene {
         }
         r
     }
+}
+
+/// Where a ray's walk starts, once located.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct WalkStart {
+    /// The ray as given (origin, direction) and its clamped [tmin, tmax].
+    pub o: [f64; 3],
+    pub d: [f64; 3],
+    pub tmin: f64,
+    pub tmax: f64,
+    /// The point the walk starts from (o + tmin d, or the entry point on the box).
+    pub point: [f64; 3],
+    pub tet: u32,
+    /// The face of `tet` the ray enters by, when it comes from outside the box.
+    pub entry: Option<usize>,
+}
+
+/// A located ray: either done already (invalid, missing the box, ...) or ready to walk.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Start {
+    Done(RayHit),
+    Walk(WalkStart),
+}
+
+/// The locator's random state for chunk k (a fixed seed per chunk: casts are reproducible).
+#[inline]
+pub(crate) fn chunk_seed(k: usize) -> u32 {
+    0x9E37_79B9u32 ^ (k as u32).wrapping_mul(0x85EB_CA6B) | 1
+}
+
+/// Rays and outputs of one cast have matching lengths.
+pub(crate) fn check_lengths<R>(rays: &Rays<R>, out: &HitsOut<R>) -> Result<()> {
+    let n = out.len();
+    if rays.origins.len() != 3 * n || rays.directions.len() != 3 * n || out.point.len() != 3 * n
+    {
+        return Err(Error::InvalidInput(format!(
+            "{} rays expected 3N origin and direction values, got {} and {}",
+            n,
+            rays.origins.len(),
+            rays.directions.len()
+        )));
+    }
+    for (name, b) in [("tmin", rays.tmin), ("tmax", rays.tmax)] {
+        if b.len() != 1 && b.len() != n {
+            return Err(Error::InvalidInput(format!(
+                "{name} needs 1 or {n} values, got {}",
+                b.len()
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// Where a ray meets the domain box.
