@@ -78,11 +78,11 @@ pub const DEFAULT_LAYOUT: &str = "tet32";
 /// Traversal layouts of a scene, each built the first time a cast asks for it.
 #[derive(Default)]
 pub struct Layouts {
-    plain: OnceLock<Result<Plain>>,
-    tet80: OnceLock<Result<Tet80>>,
-    tet32: OnceLock<Result<Tet32>>,
-    tet20: OnceLock<Result<Tet20>>,
-    tet16: OnceLock<Result<Tet16>>,
+    pub(crate) plain: OnceLock<Result<Plain>>,
+    pub(crate) tet80: OnceLock<Result<Tet80>>,
+    pub(crate) tet32: OnceLock<Result<Tet32>>,
+    pub(crate) tet20: OnceLock<Result<Tet20>>,
+    pub(crate) tet16: OnceLock<Result<Tet16>>,
 }
 
 pub(crate) fn get<'a, L: Layout>(cell: &'a OnceLock<Result<L>>, mesh: &TetMesh) -> Result<&'a L> {

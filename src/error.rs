@@ -13,6 +13,8 @@ pub enum Error {
     TooLarge(String),
     /// An option that does not exist or does not fit the others.
     InvalidOption(String),
+    /// No GPU adapter, or the device failed (validation, out of memory, lost).
+    Gpu(String),
 }
 
 impl fmt::Display for Error {
@@ -22,6 +24,7 @@ impl fmt::Display for Error {
             Error::InvalidMesh(m) => write!(f, "invalid tetrahedralization: {m}"),
             Error::TooLarge(m) => write!(f, "too large: {m}"),
             Error::InvalidOption(m) => write!(f, "invalid option: {m}"),
+            Error::Gpu(m) => write!(f, "GPU: {m}"),
         }
     }
 }

@@ -5,6 +5,7 @@
 pub mod bench;
 pub mod dispatch;
 pub mod error;
+pub mod gpu;
 pub mod layout;
 pub mod locate;
 pub mod mesh;

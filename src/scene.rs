@@ -23,6 +23,8 @@ pub struct Scene {
     pub entry: BoundaryLocator,
     /// Traversal layouts, built on first use (see dispatch.rs).
     pub layouts: crate::dispatch::Layouts,
+    /// Device copies of the layouts, uploaded by the first GPU cast of each kernel.
+    pub gpu: crate::gpu::GpuCache,
     pub points_f32: Vec<[f32; 3]>,
     /// The caller's triangles (three corners each), indexed by the ids constrained faces carry.
     pub triangles: Vec<[[f64; 3]; 3]>,
@@ -68,7 +70,10 @@ impl<'a, R> HitsOut<'a, R> {
         self.u[j] = R::from_f64(r.u);
         self.v[j] = R::from_f64(r.v);
         for a in 0..3 {
-            let (o, d) = (rays.origins[3 * i + a].to_f64(), rays.directions[3 * i + a].to_f64());
+            let (o, d) = (
+                rays.origins[3 * i + a].to_f64(),
+                rays.directions[3 * i + a].to_f64(),
+            );
             self.point[3 * j + a] = R::from_f64(if r.status == HIT {
                 o + r.t * d
             } else {
@@ -243,6 +248,7 @@ impl Scene {
             locator,
             entry,
             layouts: Default::default(),
+            gpu: Default::default(),
             points_f32,
             triangles,
         };
@@ -520,8 +526,7 @@ pub(crate) fn chunk_seed(k: usize) -> u32 {
 /// Rays and outputs of one cast have matching lengths.
 pub(crate) fn check_lengths<R>(rays: &Rays<R>, out: &HitsOut<R>) -> Result<()> {
     let n = out.len();
-    if rays.origins.len() != 3 * n || rays.directions.len() != 3 * n || out.point.len() != 3 * n
-    {
+    if rays.origins.len() != 3 * n || rays.directions.len() != 3 * n || out.point.len() != 3 * n {
         return Err(Error::InvalidInput(format!(
             "{} rays expected 3N origin and direction values, got {} and {}",
             n,

@@ -1,0 +1,104 @@
+// Shared by every traversal kernel: src/gpu/shaders.rs puts this file in front of each
+// kernel's own file. Every struct here is mirrored by a #[repr(C)] Pod struct in
+// src/gpu/structs.rs whose size and field offsets are asserted there.
+//
+// One invocation walks one ray, from the start tet the host located (src/scene.rs,
+// `locate_one`), to the first constrained face or the domain boundary; the host then finishes
+// the hit on the caller's triangle in float64 (`Scene::finish`), as the CPU cast does.
+
+// Links, as in src/mesh/build.rs: a neighbour tet id, the domain BOUNDARY, or
+// CONSTRAINED_BIT | index into the constrained-side table.
+const BOUNDARY: u32 = 0xffffffffu;
+const CONSTRAINED_BIT: u32 = 0x80000000u;
+// RayIn.entry when the ray starts inside its tet (no entry face).
+const NO_ENTRY: u32 = 4u;
+
+// RayOut.end
+const END_BOUNDARY: u32 = 0u;
+const END_HIT: u32 = 1u;
+const END_STEP_LIMIT: u32 = 2u;
+// Robust kernel only: a sign was too close to call in float32; the host walks the ray again.
+const END_DEFERRED: u32 = 3u;
+
+// Exits of the walk (src/traverse/mod.rs, `Exit`): the face opposite c, a or b.
+const EXIT_ABD: u32 = 0u;
+const EXIT_BCD: u32 = 1u;
+const EXIT_CAD: u32 = 2u;
+
+const WORKGROUP: u32 = 64u;
+
+struct Params {
+    n_rays: u32,
+    max_steps: u32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+// One ray, prepared on the host exactly as the CPU walk prepares it (`ExitMethod::prepare`,
+// in float64, rounded to float32): for aman2022 and robust `origin` is the start point and
+// (e0, e1) the 2D basis (u, w); for maria2017 e0 is the direction and e1 the moment o x u.
+struct RayIn {
+    origin: vec3<f32>,
+    // The start tet.
+    tet: u32,
+    e0: vec3<f32>,
+    // The face of `tet` the ray enters by (0..3), or NO_ENTRY.
+    entry: u32,
+    e1: vec3<f32>,
+    // Robust only: |s - origin|_1 rounded up, the float32 rounding of the start point s.
+    slack: f32,
+    // Vertex ids of the start tet, positively oriented (layouts that name vertices by id).
+    verts: vec4<u32>,
+}
+
+struct RayOut {
+    end: u32,
+    // END_HIT: index into the constrained-side table.
+    constrained: u32,
+    // The tet the walk ended in, and tets visited (the start tet included).
+    tet: u32,
+    steps: u32,
+    // The face it left by, counter-clockwise around the ray: vertex ids, or local slots
+    // 0..3 for tet80 (which knows no ids). w is unused.
+    face: vec4<u32>,
+}
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read> rays: array<RayIn>;
+@group(0) @binding(2) var<storage, read_write> hits: array<RayOut>;
+
+// OUTWARD_FACES of src/mesh/build.rs: face i is opposite vertex i, ordered so its normal
+// points out of the tet.
+fn outward_face(i: u32) -> vec3<u32> {
+    switch i {
+        case 0u: { return vec3<u32>(1u, 2u, 3u); }
+        case 1u: { return vec3<u32>(0u, 3u, 2u); }
+        case 2u: { return vec3<u32>(0u, 1u, 3u); }
+        default: { return vec3<u32>(0u, 2u, 1u); }
+    }
+}
+
+// Rank of vertex id x among the tet's other three (src/layout/mod.rs, `rank`).
+fn rank(x: u32, a: u32, b: u32, c: u32) -> u32 {
+    return select(0u, 1u, a < x) + select(0u, 1u, b < x) + select(0u, 1u, c < x);
+}
+
+// The invocation's ray index; the host dispatches a 2D grid when one row is not enough.
+fn ray_index(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
+    return gid.y * nwg.x * WORKGROUP + gid.x;
+}
+
+fn finish(i: u32, end: u32, link: u32, tet: u32, steps: u32, a: u32, b: u32, c: u32) {
+    var out: RayOut;
+    out.end = end;
+    out.constrained = link & ~CONSTRAINED_BIT;
+    out.tet = tet;
+    out.steps = steps;
+    out.face = vec4<u32>(a, b, c, 0u);
+    hits[i] = out;
+}
+
+// The end of a walk that reached a link with CONSTRAINED_BIT set (BOUNDARY has it too).
+fn link_end(link: u32) -> u32 {
+    return select(END_HIT, END_BOUNDARY, link == BOUNDARY);
+}

@@ -1,0 +1,243 @@
+//! The device: adapters wgpu can see, the one tetrace picks, its device and queue (created
+//! once per process with the adapter's own limits), and the kernels' pipelines.
+
+use super::kernels::Kernel;
+use crate::error::{Error, Result};
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
+
+/// What `tetrace.gpu.info()` shows of an adapter.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct AdapterSummary {
+    pub name: String,
+    /// "Vulkan", "Metal", "Dx12", "Gl".
+    pub backend: String,
+    /// "DiscreteGpu", "IntegratedGpu", "VirtualGpu", "Cpu" (lavapipe, llvmpipe), "Other".
+    pub device_type: String,
+    pub driver: String,
+    pub driver_info: String,
+    pub vendor: u32,
+    pub device: u32,
+    /// Whether it runs compute shaders (GL adapters may not).
+    pub compute: bool,
+    pub max_storage_buffer_binding_size: u64,
+    pub max_buffer_size: u64,
+}
+
+fn summary(a: &wgpu::Adapter) -> AdapterSummary {
+    let info = a.get_info();
+    let limits = a.limits();
+    AdapterSummary {
+        name: info.name,
+        backend: format!("{:?}", info.backend),
+        device_type: format!("{:?}", info.device_type),
+        driver: info.driver,
+        driver_info: info.driver_info,
+        vendor: info.vendor,
+        device: info.device,
+        compute: a
+            .get_downlevel_capabilities()
+            .flags
+            .contains(wgpu::DownlevelFlags::COMPUTE_SHADERS),
+        max_storage_buffer_binding_size: limits.max_storage_buffer_binding_size,
+        max_buffer_size: limits.max_buffer_size,
+    }
+}
+
+/// The backends this build can use on this platform (a subset of Vulkan, Metal, DX12, GL).
+pub fn backends_looked_for() -> String {
+    let enabled = wgpu::Instance::enabled_backend_features();
+    let mut names = Vec::new();
+    for (b, n) in [
+        (wgpu::Backends::VULKAN, "Vulkan"),
+        (wgpu::Backends::METAL, "Metal"),
+        (wgpu::Backends::DX12, "DX12"),
+        (wgpu::Backends::GL, "OpenGL/GLES"),
+    ] {
+        if enabled.contains(b) {
+            names.push(n);
+        }
+    }
+    names.join(", ")
+}
+
+fn instance() -> wgpu::Instance {
+    // WGPU_BACKEND (e.g. "vulkan", "gl") narrows the backends, as everywhere in wgpu.
+    wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env())
+}
+
+fn all_adapters() -> Vec<wgpu::Adapter> {
+    let inst = instance();
+    pollster::block_on(inst.enumerate_adapters(wgpu::Backends::all()))
+}
+
+/// Every adapter wgpu finds, best first (the first with compute shaders is the one used).
+pub fn adapters() -> Vec<AdapterSummary> {
+    let mut a = all_adapters();
+    a.sort_by_key(preference);
+    a.iter().map(summary).collect()
+}
+
+/// Real GPUs before virtual and software ones; Vulkan/Metal/DX12 before GL.
+fn preference(a: &wgpu::Adapter) -> (u8, u8) {
+    let info = a.get_info();
+    let kind = match info.device_type {
+        wgpu::DeviceType::DiscreteGpu => 0,
+        wgpu::DeviceType::IntegratedGpu => 1,
+        wgpu::DeviceType::VirtualGpu => 2,
+        wgpu::DeviceType::Cpu => 3,
+        wgpu::DeviceType::Other => 4,
+    };
+    let backend = match info.backend {
+        wgpu::Backend::Vulkan | wgpu::Backend::Metal | wgpu::Backend::Dx12 => 0,
+        _ => 1,
+    };
+    (kind, backend)
+}
+
+/// The error of a machine where wgpu finds no usable adapter.
+pub fn no_adapter_error(found: &[AdapterSummary]) -> Error {
+    let env = std::env::var("WGPU_BACKEND")
+        .map(|v| format!(" (WGPU_BACKEND={v} narrows the search)"))
+        .unwrap_or_default();
+    let seen = if found.is_empty() {
+        "none found".to_string()
+    } else {
+        let names: Vec<String> = found
+            .iter()
+            .map(|a| format!("{} ({}, no compute shaders)", a.name, a.backend))
+            .collect();
+        format!("found only {}", names.join("; "))
+    };
+    Error::Gpu(format!(
+        "no GPU adapter with compute shaders: wgpu looked for {} adapters{env}: {seen}. On Linux \
+         without a GPU, Mesa's software Vulkan driver (lavapipe) provides one: apt-get install \
+         mesa-vulkan-drivers",
+        backends_looked_for()
+    ))
+}
+
+/// The device tetrace casts on.
+pub struct Gpu {
+    pub adapter: AdapterSummary,
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    /// The device's limits: the adapter's own, all requested (large scenes need their
+    /// max_storage_buffer_binding_size and max_buffer_size, not WebGPU's defaults).
+    pub limits: wgpu::Limits,
+    pipelines: Mutex<HashMap<Kernel, Arc<wgpu::ComputePipeline>>>,
+}
+
+static GPU: Mutex<Option<Arc<Gpu>>> = Mutex::new(None);
+
+/// The process's device, created on first use. Failures are not cached (a driver installed
+/// later is found by the next call).
+pub fn gpu() -> Result<Arc<Gpu>> {
+    let mut slot = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(g) = slot.as_ref() {
+        return Ok(g.clone());
+    }
+    let g = Arc::new(Gpu::new()?);
+    *slot = Some(g.clone());
+    Ok(g)
+}
+
+impl Gpu {
+    fn new() -> Result<Gpu> {
+        // Native APIs first; GL only when they offer nothing (probing GL on a headless Linux
+        // machine prints EGL complaints, and it is the slowest path).
+        let compute = |a: &wgpu::Adapter| {
+            a.get_downlevel_capabilities()
+                .flags
+                .contains(wgpu::DownlevelFlags::COMPUTE_SHADERS)
+        };
+        let native = wgpu::Backends::VULKAN | wgpu::Backends::METAL | wgpu::Backends::DX12;
+        let inst = instance();
+        let mut all = pollster::block_on(inst.enumerate_adapters(native));
+        if !all.iter().any(compute) {
+            all = all_adapters();
+        }
+        all.sort_by_key(preference);
+        let Some(adapter) = all.iter().find(|a| compute(a)) else {
+            let seen: Vec<AdapterSummary> = all.iter().map(summary).collect();
+            return Err(no_adapter_error(&seen));
+        };
+        let limits = adapter.limits();
+        let desc = wgpu::DeviceDescriptor {
+            label: Some("tetrace"),
+            required_features: wgpu::Features::empty(),
+            required_limits: limits.clone(),
+            memory_hints: wgpu::MemoryHints::Performance,
+            ..Default::default()
+        };
+        let (device, queue) = pollster::block_on(adapter.request_device(&desc)).map_err(|e| {
+            Error::Gpu(format!(
+                "cannot open a device on {}: {e}",
+                adapter.get_info().name
+            ))
+        })?;
+        // Errors outside an error scope would otherwise panic inside wgpu; every operation
+        // here runs in a scope (see `scoped`), so this only reports what escapes them.
+        device.on_uncaptured_error(Arc::new(|e| {
+            eprintln!("tetrace: uncaptured GPU error: {e}");
+        }));
+        Ok(Gpu {
+            adapter: summary(adapter),
+            limits: device.limits(),
+            device,
+            queue,
+            pipelines: Mutex::new(HashMap::new()),
+        })
+    }
+
+    /// Runs `f` inside validation and out-of-memory error scopes; a captured error becomes
+    /// `Error::Gpu` naming `what`.
+    pub fn scoped<T>(&self, what: &str, f: impl FnOnce() -> T) -> Result<T> {
+        let oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let val = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let out = f();
+        let e1 = pollster::block_on(val.pop());
+        let e2 = pollster::block_on(oom.pop());
+        match e1.or(e2) {
+            Some(e) => Err(Error::Gpu(format!("{what}: {e}"))),
+            None => Ok(out),
+        }
+    }
+
+    /// Waits for all submitted work.
+    pub fn wait(&self) -> Result<()> {
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map(|_| ())
+            .map_err(|e| Error::Gpu(format!("waiting for the device: {e}")))
+    }
+
+    /// The kernel's compute pipeline, compiled on first use.
+    pub fn pipeline(&self, kernel: Kernel) -> Result<Arc<wgpu::ComputePipeline>> {
+        let mut p = self.pipelines.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(x) = p.get(&kernel) {
+            return Ok(x.clone());
+        }
+        let source = kernel.source();
+        let pipeline = self.scoped(&format!("compiling shaders/{}", kernel.file()), || {
+            let module = self
+                .device
+                .create_shader_module(wgpu::ShaderModuleDescriptor {
+                    label: Some(kernel.file()),
+                    source: wgpu::ShaderSource::Wgsl(source.into()),
+                });
+            self.device
+                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(kernel.file()),
+                    layout: None,
+                    module: &module,
+                    entry_point: Some("main"),
+                    compilation_options: Default::default(),
+                    cache: None,
+                })
+        })?;
+        let pipeline = Arc::new(pipeline);
+        p.insert(kernel, pipeline.clone());
+        Ok(pipeline)
+    }
+}

@@ -1,0 +1,20 @@
+//! Traversal on the GPU through wgpu compute shaders (`shaders/*.wgsl`).
+//!
+//! Start-tet location and the hit on the caller's triangle stay on the CPU (the same code as
+//! the CPU cast); the walk from tet to tet runs on the device, one invocation per ray. Each
+//! kernel has a CPU twin, the float32 walk with the same method and layout, which it matches
+//! up to the GPU compiler's freedom to fuse multiply-adds. The robust kernel certifies each
+//! sign with an error bound valid under any fusing and hands rays it cannot certify back to
+//! the CPU robust walk. Design, bounds and measurements: docs/gpu.md.
+
+pub mod cast;
+pub mod context;
+pub mod kernels;
+pub mod structs;
+
+pub use cast::{GpuCache, GpuTimings};
+pub use context::{adapters, gpu, AdapterSummary, Gpu};
+pub use kernels::{Kernel, KERNELS};
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,511 @@
+//! GPU tests. The shader checks need no GPU: naga (the WGSL front end wgpu itself uses)
+//! parses and validates every kernel, and its layouter checks the Rust mirrors of the WGSL
+//! structs. The parity tests need an adapter (Mesa's lavapipe is enough): without one they
+//! fail under CI=true and skip, saying so, elsewhere.
+
+use super::kernels::{Kernel, COMMON_WGSL, KERNELS};
+use super::structs::*;
+use crate::scene::{CastOptions, HitsOut, Rays, Scene, FAILED, HIT};
+use crate::traverse::tests::{kuhn_grid, Rng};
+use std::mem::{offset_of, size_of};
+use std::path::PathBuf;
+
+fn shaders_dir() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("shaders")
+}
+
+fn parse_and_validate(name: &str, source: &str) -> (naga::Module, naga::valid::ModuleInfo) {
+    let module = naga::front::wgsl::parse_str(source)
+        .unwrap_or_else(|e| panic!("{name}: WGSL parse error:\n{}", e.emit_to_string(source)));
+    let info = naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::empty(),
+    )
+    .validate(&module)
+    .unwrap_or_else(|e| panic!("{name}: invalid WGSL:\n{}", e.emit_to_string(source)));
+    (module, info)
+}
+
+/// Every file in shaders/ is the common file or one kernel's, and every kernel, joined to the
+/// common file as the device gets it, parses and validates with one compute entry point.
+#[test]
+fn every_shader_validates_with_naga() {
+    let mut files: Vec<String> = std::fs::read_dir(shaders_dir())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".wgsl"))
+        .collect();
+    files.sort();
+    let mut expected: Vec<String> = KERNELS.iter().map(|k| k.file().to_string()).collect();
+    expected.push("common.wgsl".into());
+    expected.sort();
+    assert_eq!(
+        files, expected,
+        "shaders/ holds exactly common.wgsl and one file per kernel"
+    );
+    // The embedded sources are the files on disk.
+    let common = std::fs::read_to_string(shaders_dir().join("common.wgsl")).unwrap();
+    assert_eq!(common, COMMON_WGSL);
+    for k in KERNELS {
+        let own = std::fs::read_to_string(shaders_dir().join(k.file())).unwrap();
+        let src = k.source();
+        assert!(
+            src.ends_with(&own),
+            "{}: embedded source is stale",
+            k.file()
+        );
+        let (module, _) = parse_and_validate(k.file(), &src);
+        let entries: Vec<_> = module
+            .entry_points
+            .iter()
+            .map(|e| (e.name.as_str(), e.stage))
+            .collect();
+        assert_eq!(
+            entries,
+            [("main", naga::ShaderStage::Compute)],
+            "{}",
+            k.file()
+        );
+        assert_eq!(module.entry_points[0].workgroup_size, [WORKGROUP, 1, 1]);
+    }
+}
+
+/// A broken kernel is caught: the check above can fail.
+#[test]
+fn naga_rejects_a_broken_kernel() {
+    let bad = format!("{COMMON_WGSL}\nfn f() -> u32 {{ return 1.0; }}\n");
+    let module = naga::front::wgsl::parse_str(&bad);
+    let invalid = match module {
+        Err(_) => true,
+        Ok(m) => naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            naga::valid::Capabilities::empty(),
+        )
+        .validate(&m)
+        .is_err(),
+    };
+    assert!(invalid);
+}
+
+/// The Rust mirrors have the WGSL structs' sizes and member offsets, as naga lays them out.
+#[test]
+fn rust_mirrors_match_wgsl_layouts() {
+    let expect: Vec<(&str, usize, Vec<(&str, usize)>)> = vec![
+        (
+            "Params",
+            size_of::<Params>(),
+            vec![
+                ("n_rays", offset_of!(Params, n_rays)),
+                ("max_steps", offset_of!(Params, max_steps)),
+            ],
+        ),
+        (
+            "RayIn",
+            size_of::<RayIn>(),
+            vec![
+                ("origin", offset_of!(RayIn, origin)),
+                ("tet", offset_of!(RayIn, tet)),
+                ("e0", offset_of!(RayIn, e0)),
+                ("entry", offset_of!(RayIn, entry)),
+                ("e1", offset_of!(RayIn, e1)),
+                ("slack", offset_of!(RayIn, slack)),
+                ("verts", offset_of!(RayIn, verts)),
+            ],
+        ),
+        (
+            "RayOut",
+            size_of::<RayOut>(),
+            vec![
+                ("end", offset_of!(RayOut, end)),
+                ("constrained", offset_of!(RayOut, constrained)),
+                ("tet", offset_of!(RayOut, tet)),
+                ("steps", offset_of!(RayOut, steps)),
+                ("face", offset_of!(RayOut, face)),
+            ],
+        ),
+        (
+            "Tet20",
+            size_of::<Tet20>(),
+            vec![
+                ("vertex_xor", offset_of!(Tet20, vertex_xor)),
+                ("links", offset_of!(Tet20, links)),
+            ],
+        ),
+        (
+            "Face80",
+            size_of::<Face80>(),
+            vec![
+                ("constrained", offset_of!(Face80, constrained)),
+                ("neighbor", offset_of!(Face80, neighbor)),
+            ],
+        ),
+        (
+            "Tet80",
+            size_of::<Tet80>(),
+            vec![
+                ("vertices", offset_of!(Tet80, vertices)),
+                ("faces", offset_of!(Tet80, faces)),
+            ],
+        ),
+    ];
+    let mut seen = std::collections::HashSet::new();
+    for k in KERNELS {
+        let (module, _) = parse_and_validate(k.file(), &k.source());
+        let mut layouter = naga::proc::Layouter::default();
+        layouter.update(module.to_ctx()).unwrap();
+        for (h, ty) in module.types.iter() {
+            let Some(name) = ty.name.as_deref() else {
+                continue;
+            };
+            let naga::TypeInner::Struct { members, span } = &ty.inner else {
+                continue;
+            };
+            let (_, size, fields) = expect
+                .iter()
+                .find(|e| e.0 == name)
+                .unwrap_or_else(|| panic!("{}: struct {name} has no Rust mirror here", k.file()));
+            assert_eq!(*span as usize, *size, "{}: size of {name}", k.file());
+            assert_eq!(
+                layouter[h].size as usize,
+                *size,
+                "{}: size of {name}",
+                k.file()
+            );
+            for (f, off) in fields {
+                let m = members
+                    .iter()
+                    .find(|m| m.name.as_deref() == Some(f))
+                    .unwrap_or_else(|| panic!("{name}.{f} missing in WGSL"));
+                assert_eq!(
+                    m.offset as usize,
+                    *off,
+                    "{}: offset of {name}.{f}",
+                    k.file()
+                );
+            }
+            // Storage arrays of it have the Rust stride.
+            seen.insert(name.to_string());
+        }
+    }
+    for (name, _, _) in &expect {
+        assert!(
+            seen.contains(*name),
+            "struct {name} not found in any kernel"
+        );
+    }
+}
+
+fn in_ci() -> bool {
+    matches!(
+        std::env::var("CI")
+            .unwrap_or_default()
+            .trim()
+            .to_lowercase()
+            .as_str(),
+        "true" | "1" | "yes"
+    )
+}
+
+/// The device, or None with a note (locally); under CI a missing adapter fails the test.
+fn device_or_skip(test: &str) -> bool {
+    match super::gpu() {
+        Ok(_) => true,
+        Err(e) => {
+            if in_ci() {
+                panic!("{test}: {e} (CI=true: failing instead of skipping)");
+            }
+            eprintln!("SKIPPED {test}: {e}");
+            false
+        }
+    }
+}
+
+/// A jittered Kuhn grid over [0,1]³ moved by `offset`, a fraction `frac` of its interior faces
+/// constrained (each its own triangle).
+fn grid_scene(n: usize, frac: f64, offset: f64, seed: u64) -> Scene {
+    let mut rng = Rng(seed);
+    let (mut pts, tets) = kuhn_grid(n, 0.3, &mut rng);
+    for p in &mut pts {
+        for x in p.iter_mut() {
+            *x += offset;
+        }
+    }
+    let mut faces: Vec<[u32; 3]> = tets
+        .iter()
+        .flat_map(|t| {
+            [[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]].map(|f| {
+                let mut k = f.map(|i| t[i]);
+                k.sort();
+                k
+            })
+        })
+        .collect();
+    faces.sort();
+    let interior: Vec<[u32; 3]> = faces
+        .chunk_by(|a, b| a == b)
+        .filter(|g| g.len() == 2)
+        .map(|g| g[0])
+        .filter(|_| rng.f() < frac)
+        .collect();
+    let tris: Vec<[[f64; 3]; 3]> = interior
+        .iter()
+        .map(|f| f.map(|v| pts[v as usize]))
+        .collect();
+    let ids: Vec<u32> = (0..interior.len() as u32).collect();
+    Scene::build(pts, &tets, &interior, &ids, tris).unwrap()
+}
+
+/// Random rays from inside and around the scene, and a pinhole camera from outside the box.
+fn rays(n: usize, offset: f64, seed: u64) -> (Vec<f32>, Vec<f32>) {
+    let mut rng = Rng(seed);
+    let (mut o, mut d) = (Vec::new(), Vec::new());
+    for _ in 0..n {
+        for _ in 0..3 {
+            o.push((offset + rng.f() * 2.0 - 0.5) as f32);
+            d.push((rng.f() - 0.5) as f32);
+        }
+    }
+    let res = 128;
+    let eye = [offset + 0.5, offset + 0.45, offset - 1.2];
+    for y in 0..res {
+        for x in 0..res {
+            o.extend(eye.map(|e| e as f32));
+            let px = (x as f64 + 0.5) / res as f64 - 0.5;
+            let py = (y as f64 + 0.5) / res as f64 - 0.5;
+            d.extend([px * 0.9, py * 0.9, 1.0].map(|v| v as f32));
+        }
+    }
+    (o, d)
+}
+
+#[derive(Debug)]
+struct Out {
+    t: Vec<f32>,
+    tri: Vec<i32>,
+    tet: Vec<i32>,
+    steps: Vec<u32>,
+    status: Vec<u8>,
+}
+
+fn run(
+    scene: &Scene,
+    o: &[f32],
+    d: &[f32],
+    f: impl FnOnce(&Rays<f32>, HitsOut<f32>) -> crate::Result<()>,
+) -> Out {
+    let n = o.len() / 3;
+    let (mut t, mut u, mut v, mut p) = (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; 3 * n]);
+    let (mut tri, mut tet, mut steps, mut status) =
+        (vec![0; n], vec![0; n], vec![0; n], vec![0; n]);
+    let rays = Rays {
+        origins: o,
+        directions: d,
+        tmin: &[0.0],
+        tmax: &[f64::INFINITY],
+    };
+    let out = HitsOut {
+        t: &mut t,
+        u: &mut u,
+        v: &mut v,
+        point: &mut p,
+        triangle: &mut tri,
+        tet: &mut tet,
+        steps: &mut steps,
+        status: &mut status,
+    };
+    f(&rays, out).unwrap();
+    let _ = scene;
+    Out {
+        t,
+        tri,
+        tet,
+        steps,
+        status,
+    }
+}
+
+/// GPU against its CPU twin: (rays, different triangle or status, worst relative t error over
+/// rays with the same triangle, failed on GPU).
+fn parity(
+    scene: &Scene,
+    kernel: Kernel,
+    o: &[f32],
+    d: &[f32],
+) -> (usize, usize, f64, usize, Out, Out) {
+    let opts = CastOptions {
+        threads: None,
+        max_steps: scene.mesh.len() as u32 + 1,
+    };
+    let cpu = run(scene, o, d, |r, out| {
+        scene.cast_named(kernel.method(), kernel.layout(), r, out, &opts)
+    });
+    let gpu = run(scene, o, d, |r, out| {
+        scene
+            .cast_gpu(Some(kernel.method()), Some(kernel.layout()), r, out, &opts)
+            .map(|_| ())
+    });
+    let n = cpu.t.len();
+    let mut differ = 0;
+    let mut worst = 0f64;
+    for i in 0..n {
+        if cpu.tri[i] != gpu.tri[i] || cpu.status[i] != gpu.status[i] {
+            differ += 1;
+        } else if cpu.status[i] == HIT {
+            let (a, b) = (cpu.t[i] as f64, gpu.t[i] as f64);
+            worst = worst.max((a - b).abs() / a.abs().max(f64::MIN_POSITIVE));
+        }
+    }
+    let failed = gpu.status.iter().filter(|&&s| s == FAILED).count();
+    (n, differ, worst, failed, cpu, gpu)
+}
+
+fn check_kernel(kernel: Kernel) {
+    let test = format!("gpu parity {}/{}", kernel.method(), kernel.layout());
+    if !device_or_skip(&test) {
+        return;
+    }
+    for (offset, seed) in [(0.0, 3u64), (10.0, 5)] {
+        let scene = grid_scene(10, 0.05, offset, seed);
+        let (o, d) = rays(40_000, offset, seed + 1);
+        let (n, differ, worst, failed, cpu, gpu) = parity(&scene, kernel, &o, &d);
+        let hits = gpu.status.iter().filter(|&&s| s == HIT).count();
+        eprintln!(
+            "{test} offset {offset}: {n} rays, {hits} hits, {differ} differ from the CPU twin, \
+             worst relative t {worst:.2e}, {failed} failed"
+        );
+        assert!(
+            hits > n / 10,
+            "{test}: too few hits ({hits}) to mean anything"
+        );
+        assert_eq!(failed, 0, "{test}");
+        assert!(worst <= 1e-6, "{test}: t differs by {worst:e}");
+        if kernel == Kernel::RobustTet20 {
+            // Exact signs on both sides: the same walk, ray for ray.
+            assert_eq!(differ, 0, "{test}");
+            assert_eq!(cpu.tet, gpu.tet, "{test}: end tets");
+            assert_eq!(cpu.steps, gpu.steps, "{test}: steps");
+        } else {
+            assert!(
+                differ * 10_000 <= n,
+                "{test}: {differ} of {n} rays differ (> 0.01%)"
+            );
+        }
+    }
+}
+
+#[test]
+fn gpu_aman2022_tet20_matches_cpu_twin() {
+    check_kernel(Kernel::Aman2022Tet20);
+}
+
+#[test]
+fn gpu_maria2017_tet80_matches_cpu_twin() {
+    check_kernel(Kernel::Maria2017Tet80);
+}
+
+#[test]
+fn gpu_robust_tet20_matches_cpu_robust() {
+    check_kernel(Kernel::RobustTet20);
+}
+
+/// Batching and the 2D dispatch: small batches and a grid of at most 7 workgroups a row give
+/// the results of one dispatch.
+#[test]
+fn gpu_batches_do_not_change_results() {
+    if !device_or_skip("gpu batches") {
+        return;
+    }
+    let scene = grid_scene(6, 0.1, 0.0, 9);
+    let (o, d) = rays(20_000, 0.0, 11);
+    let opts = CastOptions {
+        threads: None,
+        max_steps: 1 << 20,
+    };
+    let one = run(&scene, &o, &d, |r, out| {
+        scene.cast_gpu(None, None, r, out, &opts).map(|_| ())
+    });
+    let mut timings = None;
+    let many = run(&scene, &o, &d, |r, out| {
+        timings = Some(scene.cast_gpu_with(None, None, r, out, &opts, 1000, Some(7))?);
+        Ok(())
+    });
+    let t = timings.unwrap();
+    assert_eq!(t.batches, t.walked.div_ceil(1000), "{t:?}");
+    assert!(t.batches > 10, "{t:?}");
+    assert_eq!(one.tri, many.tri);
+    assert_eq!(one.status, many.status);
+    assert_eq!(one.steps, many.steps);
+}
+
+/// Rays the float32 filter cannot decide (along grid lines and in the box's face planes,
+/// where orientations are exactly zero) are deferred, walked by the CPU robust walk, and end
+/// exactly where the CPU robust cast ends.
+#[test]
+fn gpu_robust_defers_degenerate_rays() {
+    if !device_or_skip("gpu robust deferral") {
+        return;
+    }
+    let n = 8;
+    let scene = grid_scene(n, 0.05, 0.0, 21);
+    let (mut o, mut d) = (Vec::new(), Vec::new());
+    for i in 0..=n {
+        for j in 0..=n {
+            let (x, y) = (i as f32 / n as f32, j as f32 / n as f32);
+            // Along a boundary grid line, from outside the box and from inside it.
+            o.extend([x, 0.0, -0.5]);
+            d.extend([0.0, 0.0, 1.0]);
+            o.extend([0.0, y, 0.25]);
+            d.extend([0.0, 1.0, 0.5]);
+            // In the face plane x = 0, through its vertices.
+            o.extend([0.0, x, y]);
+            d.extend([0.0, 0.5 - x, 0.5 - y]);
+        }
+    }
+    let opts = CastOptions {
+        threads: None,
+        max_steps: scene.mesh.len() as u32 + 1,
+    };
+    let cpu = run(&scene, &o, &d, |r, out| {
+        scene.cast_named("robust", "tet20", r, out, &opts)
+    });
+    let mut timings = None;
+    let gpu = run(&scene, &o, &d, |r, out| {
+        timings = Some(scene.cast_gpu(Some("robust"), Some("tet20"), r, out, &opts)?);
+        Ok(())
+    });
+    let t = timings.unwrap();
+    eprintln!(
+        "gpu robust deferral: {} rays walked, {} deferred",
+        t.walked, t.deferred
+    );
+    assert!(t.deferred > 0, "{t:?}");
+    assert_eq!(cpu.status, gpu.status);
+    assert_eq!(cpu.tri, gpu.tri);
+    assert_eq!(cpu.tet, gpu.tet);
+    assert_eq!(cpu.steps, gpu.steps);
+    assert_eq!(cpu.t, gpu.t);
+    assert!(!gpu.status.contains(&FAILED));
+}
+
+#[test]
+fn unknown_kernel_is_a_clear_error() {
+    let e = Kernel::find(Some("ms06"), Some("tet32")).unwrap_err();
+    assert!(e.to_string().contains("aman2022/tet20"), "{e}");
+    assert_eq!(Kernel::find(None, None).unwrap(), Kernel::Aman2022Tet20);
+    assert_eq!(
+        Kernel::find(Some("maria2017"), None).unwrap(),
+        Kernel::Maria2017Tet80
+    );
+}
+
+/// The robust kernel's slack: an upper bound on |s − s̃|₁.
+#[test]
+fn slack_bounds_the_start_point_rounding() {
+    let mut rng = Rng(1);
+    for _ in 0..10_000 {
+        let s = [0, 1, 2].map(|_| (rng.f() - 0.5) * 10f64.powi((rng.f() * 12.0) as i32 - 6));
+        let sr = s.map(|x| x as f32);
+        let e: f64 = (0..3).map(|k| (s[k] - sr[k] as f64).abs()).sum();
+        assert!(super::cast::slack(s, sr) as f64 >= e);
+    }
+}
