@@ -18,28 +18,39 @@ const SIDE_FALSE: u32 = 0u;
 const SIDE_TRUE: u32 = 1u;
 const SIDE_UNSURE: u32 = 2u;
 
-// Filter constants (docs/gpu.md): |computed det - exact det| <= 64 u N_p N_q
-// + 4 eta (N_p + N_q) + 2^-100 (N_p + N_q + 1), u = 2^-24, N = |p - s~|_1 + eta.
-const FILTER_REL: f32 = 3.814697265625e-6; // 64 * 2^-24 = 2^-18
-const FILTER_SLACK: f32 = 4.0;
-const FILTER_ABS: f32 = 7.888609052210118e-31; // 2^-100
+// Filter (docs/gpu.md): with N = |p - s~|_1, M = |x| + |y| (the projected L1 norm) and
+// eta = |s - s~|_1, |computed det - exact det (scaled)| is below
+//   2^-20 (N_p M_q + M_p N_q) + 2^-22 M_p M_q + 2 eta (M_p + M_q) + 2^-40 N_p N_q
+//   + 2^-19 eta (N_p + N_q) + 2 eta^2 + 2^-100 (N_p + N_q + 1)
+// for any evaluation order and any fused multiply-add (u = 2^-24; each coefficient is at
+// least twice its first-order value). Far from s the error scales with M (the distance of
+// the vertices from the ray), not with N, so distant signs are certified unless the ray
+// nearly meets the edge.
+const C_NM: f32 = 9.5367431640625e-7; // 2^-20
+const C_MM: f32 = 2.384185791015625e-7; // 2^-22
+const C_NN: f32 = 9.094947017729282e-13; // 2^-40
+const C_ETA_N: f32 = 1.9073486328125e-6; // 2^-19
+const C_ABS: f32 = 7.888609052210118e-31; // 2^-100
 
-// A vertex: (x, y) projected on the basis (u, w), z = its L1 offset from s~ plus eta.
-fn project(o: vec3<f32>, u: vec3<f32>, w: vec3<f32>, eta: f32, id: u32) -> vec3<f32> {
+// A vertex: (x, y) projected on the basis (u, w), z = N = its L1 offset from s~.
+fn project(o: vec3<f32>, u: vec3<f32>, w: vec3<f32>, id: u32) -> vec3<f32> {
     let p = points[id];
     let q = vec3<f32>(p.x - o.x, p.y - o.y, p.z - o.z);
     return vec3<f32>(
         q.x * u.x + q.y * u.y + q.z * u.z,
         q.x * w.x + q.y * w.y + q.z * w.z,
-        abs(q.x) + abs(q.y) + abs(q.z) + eta,
+        abs(q.x) + abs(q.y) + abs(q.z),
     );
 }
 
 // The side of edge p->q seen along the ray (src/traverse/robust.rs, `side`), if certain.
 fn side(p: vec3<f32>, q: vec3<f32>, eta: f32) -> u32 {
     let det = p.x * q.y - p.y * q.x;
+    let mp = abs(p.x) + abs(p.y);
+    let mq = abs(q.x) + abs(q.y);
     let n = p.z + q.z;
-    let bound = FILTER_REL * p.z * q.z + FILTER_SLACK * eta * n + FILTER_ABS * (n + 1.0);
+    let bound = C_NM * (p.z * mq + mp * q.z) + C_MM * mp * mq + 2.0 * eta * (mp + mq)
+        + C_NN * p.z * q.z + C_ETA_N * eta * n + 2.0 * eta * eta + C_ABS * (n + 1.0);
     if det > bound {
         return SIDE_TRUE;
     }
@@ -120,15 +131,15 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         a = names[f.x];
         b = names[f.z];
         c = names[f.y];
-        pa = project(o, u, w, eta, a);
-        pb = project(o, u, w, eta, b);
-        pc = project(o, u, w, eta, c);
+        pa = project(o, u, w, a);
+        pb = project(o, u, w, b);
+        pc = project(o, u, w, c);
         link = t;
         steps = 0u;
     } else {
         var vs: array<vec3<f32>, 4>;
         for (var k = 0u; k < 4u; k++) {
-            vs[k] = project(o, u, w, eta, names[k]);
+            vs[k] = project(o, u, w, names[k]);
         }
         let e = start_exit(&vs, eta);
         if e == 4u {
@@ -157,7 +168,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         t = link;
         steps += 1u;
         let d = tets[t].vertex_xor ^ a ^ b ^ c;
-        let pd = project(o, u, w, eta, d);
+        let pd = project(o, u, w, d);
         let e = step_exit(pa, pb, pc, pd, eta);
         if e == 3u {
             finish(i, END_DEFERRED, 0u, t, steps, a, b, c);

@@ -1,6 +1,6 @@
 """Type stubs for the compiled core (hand-written; keep in step with src/py/mod.rs)."""
 
-from typing import Optional
+from typing import Any, Optional
 
 import numpy as np
 import numpy.typing as npt
@@ -20,8 +20,13 @@ def exitface_bench(
     n_tets: int = 10_000, rays_per_tet: int = 16, seed: int = 1, repeat: int = 5
 ) -> list[tuple[str, str, float, int]]: ...
 
+def gpu_adapters() -> list[dict[str, Any]]: ...
+def gpu_device() -> dict[str, Any]: ...
+def gpu_kernels() -> list[tuple[str, str]]: ...
+
 class MeshError(ValueError): ...
 class TooLargeError(ValueError): ...
+class GpuError(RuntimeError): ...
 
 class NativeScene:
     def __init__(
@@ -44,6 +49,17 @@ class NativeScene:
         method: str = "aman2022",
         layout: str = "tet32",
     ) -> dict[str, np.ndarray]: ...
+    def cast_gpu(
+        self,
+        origins: npt.NDArray[np.float32],
+        directions: npt.NDArray[np.float32],
+        tmin: npt.NDArray[np.float64],
+        tmax: npt.NDArray[np.float64],
+        threads: Optional[int] = None,
+        max_steps: Optional[int] = None,
+        method: Optional[str] = None,
+        layout: Optional[str] = None,
+    ) -> tuple[dict[str, np.ndarray], dict[str, float]]: ...
     def memory(self) -> dict[str, int]: ...
     def points(self) -> npt.NDArray[np.float64]: ...
     def tets(self) -> npt.NDArray[np.uint32]: ...

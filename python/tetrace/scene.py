@@ -70,6 +70,11 @@ class Scene:
             hilbert=bool(hilbert),
         )
         self.hilbert = bool(hilbert)
+        #: dict or None: seconds of each phase of the last GPU cast (``locate``,
+        #: ``scene_upload``, ``upload``, ``kernel``, ``readback``, ``finish``) and counts
+        #: (``walked``: rays the GPU walked, ``deferred``: robust rays re-walked on the CPU,
+        #: ``batches``).
+        self.gpu_timings = None
         rust = time.perf_counter() - t0
         self.build_times = dict(tet.timings)
         self.build_times["rust"] = rust
@@ -119,7 +124,8 @@ class Scene:
         return cls(tet, vertices, faces, hilbert=hilbert)
 
     def cast(self, origins, directions=None, *, tmin=0.0, tmax=np.inf, threads=None,
-             max_steps=None, invalid="raise", method=None, layout=None, precision=None):
+             max_steps=None, invalid="raise", method=None, layout=None, precision=None,
+             device="cpu"):
         """Cast rays and return their closest hits.
 
         Parameters
@@ -146,12 +152,25 @@ class Scene:
         precision : {"f32", "f64"}, optional
             Precision of the walk; default: float32 for float32 rays, float64 otherwise.
             Rays are converted when it differs.
+        device : {"cpu", "gpu", "auto"}
+            Where the walk runs. ``"gpu"``: on the GPU (:mod:`tetrace.gpu`), in float32:
+            float64 rays are rounded to float32 and ``precision="f64"`` is refused; method
+            and layout must name a GPU kernel (:func:`tetrace.gpu.kernels`; by default
+            ``aman2022`` on ``tet20``). Start location and the hit on your triangle stay on
+            the CPU. ``"auto"``: the GPU when a device opens, the walk is float32 and a kernel
+            exists for the method and layout, else the CPU.
 
         Returns
         -------
         Hits
             Fields in the walk's precision (hit ``t``, ``u``, ``v`` are evaluated in float64
-            on the caller's triangle, then rounded).
+            on the caller's triangle, then rounded). After a GPU cast, :attr:`gpu_timings`
+            holds the seconds of each phase.
+
+        Raises
+        ------
+        tetrace.gpu.GpuError
+            ``device="gpu"`` without a usable adapter, or the device failed.
         """
         o, d = prepare_rays(origins, directions, invalid=invalid)
         if precision is not None:
@@ -159,11 +178,23 @@ class Scene:
                 raise ValueError(f'precision must be "f32" or "f64", got {precision!r}')
             want = np.float32 if precision == "f32" else np.float64
             o, d = o.astype(want, copy=False), d.astype(want, copy=False)
-        method = _native.DEFAULT_METHOD if method is None else method
-        layout = _native.DEFAULT_LAYOUT if layout is None else layout
+        if device not in ("cpu", "gpu", "auto"):
+            raise ValueError(f'device must be "cpu", "gpu" or "auto", got {device!r}')
         for what, value in (("method", method), ("layout", layout)):
-            if not isinstance(value, str):
+            if value is not None and not isinstance(value, str):
                 raise TypeError(f"{what} must be a name (str), got {type(value).__name__}")
+        use_gpu = False
+        if device == "gpu":
+            if precision == "f64":
+                raise ValueError('device="gpu" walks in float32 (WGSL has no float64); use '
+                                 'precision="f32" or device="cpu"')
+            use_gpu = True
+        elif device == "auto" and o.dtype == np.float32:
+            from . import gpu
+            use_gpu = gpu.kernel_for(method, layout) is not None and gpu.available()
+        if not use_gpu:
+            method = _native.DEFAULT_METHOD if method is None else method
+            layout = _native.DEFAULT_LAYOUT if layout is None else layout
         n = len(o)
         lo = prepare_bounds(tmin, n, "tmin")
         hi = prepare_bounds(tmax, n, "tmax")
@@ -171,7 +202,12 @@ class Scene:
             raise ValueError(f"threads must be a positive int or None, got {threads!r}")
         if max_steps is not None and (not isinstance(max_steps, (int, np.integer)) or not 0 < max_steps < 2**32):
             raise ValueError(f"max_steps must be a positive int below 2**32, got {max_steps!r}")
-        r = self._native.cast(o, d, lo, hi, threads, max_steps, method, layout)
+        if use_gpu:
+            o, d = o.astype(np.float32, copy=False), d.astype(np.float32, copy=False)
+            r, self.gpu_timings = self._native.cast_gpu(o, d, lo, hi, threads, max_steps, method,
+                                                        layout)
+        else:
+            r = self._native.cast(o, d, lo, hi, threads, max_steps, method, layout)
         if invalid == "raise":
             raise_invalid(r["status"], o, d)
         return Hits(**r)
@@ -223,8 +259,9 @@ class Scene:
         -------
         dict
             ``points_f64``, ``points_f32``, ``constrained`` (constrained-side table),
-            ``locator`` (seed grid, boundary grid, location topology), and
-            ``tets_<layout>`` for each layout built so far.
+            ``locator`` (seed grid, boundary grid, location topology),
+            ``tets_<layout>`` for each layout built so far, and ``gpu_<method>_<layout>``
+            for each kernel's buffers on the GPU.
         """
         return dict(self._native.memory())
 

@@ -68,6 +68,26 @@ impl GpuCache {
     }
 }
 
+/// A scene buffer of `size` bytes must fit one storage binding and one buffer of the device.
+pub(crate) fn check_fits(
+    label: &str,
+    size: u64,
+    limits: &wgpu::Limits,
+    device: &str,
+) -> Result<()> {
+    let binding = limits.max_storage_buffer_binding_size;
+    let max = limits.max_buffer_size;
+    if size > binding || size > max {
+        return Err(Error::TooLarge(format!(
+            "the scene's {label} take {size} bytes on the GPU, but {device} binds at most \
+             {binding} bytes per storage buffer (max_storage_buffer_binding_size) and allocates \
+             at most {max} (max_buffer_size); use the CPU (device=\"cpu\"), a smaller layout, or a \
+             device with larger limits"
+        )));
+    }
+    Ok(())
+}
+
 /// A buffer of `n` records, filled while mapped (no second host copy of the whole scene), after
 /// checking it fits the device's limits.
 fn upload_records<T: bytemuck::Pod + Send>(
@@ -77,16 +97,7 @@ fn upload_records<T: bytemuck::Pod + Send>(
     fill: impl Fn(usize) -> T + Sync,
 ) -> Result<wgpu::Buffer> {
     let size = (n.max(1) * std::mem::size_of::<T>()) as u64;
-    let binding = g.limits.max_storage_buffer_binding_size;
-    let max = g.limits.max_buffer_size;
-    if size > binding || size > max {
-        return Err(Error::TooLarge(format!(
-            "the scene's {label} take {size} bytes on the device, but {} binds at most {binding} \
-             bytes per storage buffer (max_storage_buffer_binding_size) and allocates at most \
-             {max} (max_buffer_size); use a smaller layout or a device with more memory",
-            g.adapter.name
-        )));
-    }
+    check_fits(label, size, &g.limits, &g.adapter.name)?;
     g.scoped(
         &format!("uploading the scene's {label} ({size} bytes)"),
         || {

@@ -326,12 +326,13 @@ fn run(
 
 /// GPU against its CPU twin: (rays, different triangle or status, worst relative t error over
 /// rays with the same triangle, failed on GPU).
+#[allow(clippy::type_complexity)]
 fn parity(
     scene: &Scene,
     kernel: Kernel,
     o: &[f32],
     d: &[f32],
-) -> (usize, usize, f64, usize, Out, Out) {
+) -> (usize, usize, f64, usize, Out, Out, super::GpuTimings) {
     let opts = CastOptions {
         threads: None,
         max_steps: scene.mesh.len() as u32 + 1,
@@ -339,10 +340,10 @@ fn parity(
     let cpu = run(scene, o, d, |r, out| {
         scene.cast_named(kernel.method(), kernel.layout(), r, out, &opts)
     });
+    let mut timings = Default::default();
     let gpu = run(scene, o, d, |r, out| {
-        scene
-            .cast_gpu(Some(kernel.method()), Some(kernel.layout()), r, out, &opts)
-            .map(|_| ())
+        timings = scene.cast_gpu(Some(kernel.method()), Some(kernel.layout()), r, out, &opts)?;
+        Ok(())
     });
     let n = cpu.t.len();
     let mut differ = 0;
@@ -356,7 +357,7 @@ fn parity(
         }
     }
     let failed = gpu.status.iter().filter(|&&s| s == FAILED).count();
-    (n, differ, worst, failed, cpu, gpu)
+    (n, differ, worst, failed, cpu, gpu, timings)
 }
 
 fn check_kernel(kernel: Kernel) {
@@ -367,11 +368,12 @@ fn check_kernel(kernel: Kernel) {
     for (offset, seed) in [(0.0, 3u64), (10.0, 5)] {
         let scene = grid_scene(10, 0.05, offset, seed);
         let (o, d) = rays(40_000, offset, seed + 1);
-        let (n, differ, worst, failed, cpu, gpu) = parity(&scene, kernel, &o, &d);
+        let (n, differ, worst, failed, cpu, gpu, t) = parity(&scene, kernel, &o, &d);
         let hits = gpu.status.iter().filter(|&&s| s == HIT).count();
         eprintln!(
             "{test} offset {offset}: {n} rays, {hits} hits, {differ} differ from the CPU twin, \
-             worst relative t {worst:.2e}, {failed} failed"
+             worst relative t {worst:.2e}, {failed} failed, {} walked on the GPU, {} deferred",
+            t.walked, t.deferred
         );
         assert!(
             hits > n / 10,
@@ -508,4 +510,20 @@ fn slack_bounds_the_start_point_rounding() {
         let e: f64 = (0..3).map(|k| (s[k] - sr[k] as f64).abs()).sum();
         assert!(super::cast::slack(s, sr) as f64 >= e);
     }
+}
+
+/// A scene buffer beyond the device's limits is refused with TooLarge naming both numbers.
+#[test]
+fn oversized_scene_is_too_large() {
+    let limits = wgpu::Limits::default();
+    let ok = super::cast::check_fits("tet20 records", 1 << 20, &limits, "test device");
+    assert!(ok.is_ok());
+    let big = limits.max_storage_buffer_binding_size + 20;
+    let e = super::cast::check_fits("tet20 records", big, &limits, "test device").unwrap_err();
+    assert!(matches!(e, crate::Error::TooLarge(_)), "{e}");
+    let m = e.to_string();
+    assert!(
+        m.contains(&big.to_string()) && m.contains("max_storage_buffer_binding_size"),
+        "{m}"
+    );
 }

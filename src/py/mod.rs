@@ -26,6 +26,13 @@ pyo3::create_exception!(
     "A size limit of a layout would be exceeded."
 );
 
+pyo3::create_exception!(
+    _native,
+    GpuError,
+    PyRuntimeError,
+    "No usable GPU adapter, or the device failed."
+);
+
 /// The one mapping from core errors to Python exceptions.
 impl From<Error> for PyErr {
     fn from(e: Error) -> PyErr {
@@ -34,6 +41,7 @@ impl From<Error> for PyErr {
             Error::InvalidInput(_) | Error::InvalidOption(_) => PyValueError::new_err(msg),
             Error::InvalidMesh(_) => MeshError::new_err(msg),
             Error::TooLarge(_) => TooLargeError::new_err(msg),
+            Error::Gpu(_) => GpuError::new_err(msg),
         }
     }
 }
@@ -160,11 +168,63 @@ impl PyScene {
         }
     }
 
-    /// Bytes used by each part of the structure.
+    /// Casts float32 rays on the GPU (start location and hits on the CPU, the walk on the
+    /// device). Returns the Hits fields and the seconds of each phase.
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn cast_gpu<'py>(
+        &self,
+        py: Python<'py>,
+        origins: PyReadonlyArray2<'py, f32>,
+        directions: PyReadonlyArray2<'py, f32>,
+        tmin: PyReadonlyArray1<'py, f64>,
+        tmax: PyReadonlyArray1<'py, f64>,
+        threads: Option<usize>,
+        max_steps: Option<u32>,
+        method: Option<&str>,
+        layout: Option<&str>,
+    ) -> PyResult<(Bound<'py, PyDict>, Bound<'py, PyDict>)> {
+        let scene = &self.inner;
+        let mut timings = crate::gpu::GpuTimings::default();
+        let hits = cast_impl(
+            py,
+            scene,
+            origins,
+            directions,
+            tmin,
+            tmax,
+            threads,
+            max_steps,
+            |rays, out, opts| {
+                timings = scene.cast_gpu(method, layout, rays, out, opts)?;
+                Ok(())
+            },
+        )?;
+        let t = PyDict::new(py);
+        for (k, v) in [
+            ("locate", timings.locate),
+            ("scene_upload", timings.scene_upload),
+            ("upload", timings.upload),
+            ("kernel", timings.kernel),
+            ("readback", timings.readback),
+            ("finish", timings.finish),
+        ] {
+            t.set_item(k, v)?;
+        }
+        t.set_item("walked", timings.walked)?;
+        t.set_item("deferred", timings.deferred)?;
+        t.set_item("batches", timings.batches)?;
+        Ok((hits, t))
+    }
+
+    /// Bytes used by each part of the structure (`gpu_<method>_<layout>`: on the device).
     fn memory<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let d = PyDict::new(py);
         for (k, v) in self.inner.memory() {
             d.set_item(k, v)?;
+        }
+        for (k, v) in self.inner.gpu.bytes() {
+            d.set_item(format!("gpu_{}_{}", k.method(), k.layout()), v)?;
         }
         Ok(d)
     }
@@ -217,6 +277,32 @@ fn cast_any<'py, R: Precision + Element>(
     method: &str,
     layout: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
+    cast_impl(
+        py,
+        scene,
+        origins,
+        directions,
+        tmin,
+        tmax,
+        threads,
+        max_steps,
+        |rays, out, opts| scene.cast_named(method, layout, rays, out, opts),
+    )
+}
+
+/// Validates, allocates the outputs, runs `cast` with the GIL released, returns the fields.
+#[allow(clippy::too_many_arguments)]
+fn cast_impl<'py, R: Precision + Element>(
+    py: Python<'py>,
+    scene: &Scene,
+    origins: PyReadonlyArray2<'py, R>,
+    directions: PyReadonlyArray2<'py, R>,
+    tmin: PyReadonlyArray1<'py, f64>,
+    tmax: PyReadonlyArray1<'py, f64>,
+    threads: Option<usize>,
+    max_steps: Option<u32>,
+    cast: impl FnOnce(&Rays<R>, HitsOut<R>, &CastOptions) -> crate::Result<()> + Send,
+) -> PyResult<Bound<'py, PyDict>> {
     let n = check_cols(&origins, 3, "origins")?;
     if check_cols(&directions, 3, "directions")? != n {
         return Err(PyValueError::new_err(
@@ -261,7 +347,7 @@ fn cast_any<'py, R: Precision + Element>(
                 steps: &mut steps,
                 status: &mut status,
             };
-            scene.cast_named(method, layout, &rays, out, &opts)
+            cast(&rays, out, &opts)
         })
     })?;
     let out = PyDict::new(py);
@@ -332,16 +418,70 @@ fn layouts() -> Vec<(&'static str, usize)> {
     ]
 }
 
+/// Every adapter wgpu finds, best first, as dicts.
+#[pyfunction]
+fn gpu_adapters<'py>(py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
+    let found = py.detach(|| guarded(|| Ok(crate::gpu::adapters())))?;
+    found.iter().map(|a| adapter_dict(py, a)).collect()
+}
+
+/// The adapter GPU casts run on (opening the device on first use); GpuError without one.
+#[pyfunction]
+fn gpu_device<'py>(py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+    let g = py.detach(|| guarded(crate::gpu::gpu))?;
+    let d = adapter_dict(py, &g.adapter)?;
+    d.set_item(
+        "device_max_storage_buffer_binding_size",
+        g.limits.max_storage_buffer_binding_size,
+    )?;
+    d.set_item("device_max_buffer_size", g.limits.max_buffer_size)?;
+    Ok(d)
+}
+
+/// The GPU kernels as (method, layout) pairs, the default first.
+#[pyfunction]
+fn gpu_kernels() -> Vec<(&'static str, &'static str)> {
+    crate::gpu::KERNELS
+        .iter()
+        .map(|k| (k.method(), k.layout()))
+        .collect()
+}
+
+fn adapter_dict<'py>(
+    py: Python<'py>,
+    a: &crate::gpu::AdapterSummary,
+) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("name", &a.name)?;
+    d.set_item("backend", &a.backend)?;
+    d.set_item("device_type", &a.device_type)?;
+    d.set_item("driver", &a.driver)?;
+    d.set_item("driver_info", &a.driver_info)?;
+    d.set_item("vendor", a.vendor)?;
+    d.set_item("device", a.device)?;
+    d.set_item("compute", a.compute)?;
+    d.set_item(
+        "max_storage_buffer_binding_size",
+        a.max_storage_buffer_binding_size,
+    )?;
+    d.set_item("max_buffer_size", a.max_buffer_size)?;
+    Ok(d)
+}
+
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyScene>()?;
     m.add_function(wrap_pyfunction!(methods, m)?)?;
     m.add_function(wrap_pyfunction!(layouts, m)?)?;
     m.add_function(wrap_pyfunction!(exitface_bench, m)?)?;
+    m.add_function(wrap_pyfunction!(gpu_adapters, m)?)?;
+    m.add_function(wrap_pyfunction!(gpu_device, m)?)?;
+    m.add_function(wrap_pyfunction!(gpu_kernels, m)?)?;
     m.add("DEFAULT_METHOD", crate::dispatch::DEFAULT_METHOD)?;
     m.add("DEFAULT_LAYOUT", crate::dispatch::DEFAULT_LAYOUT)?;
     m.add("MeshError", m.py().get_type::<MeshError>())?;
     m.add("TooLargeError", m.py().get_type::<TooLargeError>())?;
+    m.add("GpuError", m.py().get_type::<GpuError>())?;
     m.add("MISS", crate::MISS)?;
     m.add("HIT", crate::HIT)?;
     m.add("FAILED", crate::FAILED)?;

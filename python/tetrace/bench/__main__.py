@@ -87,6 +87,9 @@ def main(argv=None):
     p.add_argument("--order", choices=["hilbert", "mesher", "both"], default="hilbert",
                    help="point/tet order: Hilbert within regions, TetGen's, or both")
     p.add_argument("--threads", choices=["1", "all", "both"], default="both")
+    p.add_argument("--device", choices=["cpu", "gpu", "both"], default="cpu",
+                   help="cpu: the CPU walks (default); gpu: only the GPU kernels (kernel "
+                        "Mrays/s, upload and readback timed apart); both")
     args = p.parse_args(argv)
     both = lambda x, pair: pair if x == "both" else (x,)
     run_scene_bench(args.scene, preset=args.preset, width=args.width, height=args.height,
@@ -94,7 +97,8 @@ def main(argv=None):
                     json_path=args.json, methods=args.method, layouts=args.layout,
                     precisions=both(args.precision, ("f32", "f64")),
                     orders=both(args.order, ("hilbert", "mesher")),
-                    threads=both(args.threads, ("1", "all")))
+                    threads=both(args.threads, ("1", "all")),
+                    devices=both(args.device, ("cpu", "gpu")))
     return 0
 
 

@@ -31,10 +31,52 @@ def _table(rows, header):
     return "\n".join([line(header), sep] + [line(r) for r in rows])
 
 
+def _gpu_runs(scene, o32, d32, ref, v, f, methods, layouts, repeat, results):
+    """GPU rows of the bench table, and the last kernel's hits."""
+    from .. import gpu
+
+    kernels = gpu.kernels()
+    if methods not in (["all"], "all") and methods:
+        kernels = [k for k in kernels if k[0] in methods]
+    if layouts not in (["all"], "all") and layouts:
+        kernels = [k for k in kernels if k[1] in layouts]
+    if not methods and not layouts:
+        kernels = [gpu.DEFAULT_KERNEL]
+    results["gpu_device"] = gpu.device()
+    results["gpu_runs"] = []
+    rows, hits = [], None
+    n = len(o32)
+    for method, layout in kernels:
+        scene.cast(o32[:1], d32[:1], method=method, layout=layout, device="gpu")  # upload once
+        scene_upload = scene.gpu_timings["scene_upload"]
+        best = None
+        for _ in range(repeat):
+            t0 = time.perf_counter()
+            hits = scene.cast(o32, d32, method=method, layout=layout, device="gpu")
+            wall = time.perf_counter() - t0
+            t = dict(scene.gpu_timings, wall=wall)
+            if best is None or t["kernel"] < best["kernel"]:
+                best = t
+        a = compare(hits, ref, v, f)
+        kernel_rate = best["walked"] / best["kernel"] / 1e6
+        e2e = n / best["wall"] / 1e6
+        rows.append([method, layout, f"{kernel_rate:.2f}", f"{e2e:.2f}", f"{best['kernel']:.3f}",
+                     f"{best['upload']:.3f}", f"{best['readback']:.3f}", f"{best['locate']:.3f}",
+                     f"{best['finish']:.3f}", f"{scene_upload:.3f}", f"{hits.steps.mean():.1f}",
+                     f"{a.fraction * 100:.3f}%"])
+        results["runs"].append({
+            "caster": "tetrace-gpu", "method": method, "layout": layout, "precision": "f32",
+            "device": results["gpu_device"]["name"], "kernel_mrays_per_s": kernel_rate,
+            "mrays_per_s": e2e, "seconds": best, "scene_upload_seconds": scene_upload,
+            "tets_per_ray": float(hits.steps.mean()), "agreement": a.fraction,
+            "failed": a.failed, "unexplained": a.far_from_edges})
+    return rows, hits
+
+
 def run_scene_bench(path=None, *, preset="quality", width=1024, height=1024, repeat=3,
                     distance=1.6, image=None, json_path=None, methods=None, layouts=None,
                     precisions=("f32", "f64"), orders=("hilbert",), threads=("1", "all"),
-                    out=print):
+                    devices=("cpu",), out=print):
     """Build a scene, cast a pinhole camera with tetrace and embreex, print one report.
 
     Parameters
@@ -60,6 +102,11 @@ def run_scene_bench(path=None, *, preset="quality", width=1024, height=1024, rep
     orders : sequence of {"hilbert", "mesher"}
         Point/tet order: Hilbert within regions (default) or TetGen's own.
     threads : sequence of {"1", "all"}
+    devices : sequence of {"cpu", "gpu"}
+        ``"gpu"`` also casts with each GPU kernel that fits ``methods``/``layouts`` (default:
+        the default kernel; ``"all"``: every kernel) and reports kernel Mrays/s (rays the GPU
+        walked per second of kernel time) apart from ray upload, readback, the CPU's start
+        location and hit finishing, and the one-time scene upload.
     out : callable
         Where lines go (print by default).
 
@@ -72,6 +119,7 @@ def run_scene_bench(path=None, *, preset="quality", width=1024, height=1024, rep
     from ..reference import embree_scene
     from ..scene import layouts as all_layouts, methods as all_methods
 
+    methods_arg, layouts_arg = methods, layouts
     methods = all_methods() if methods in (["all"], "all") else (methods or [_native.DEFAULT_METHOD])
     layouts = all_layouts() if layouts in (["all"], "all") else (layouts or [_native.DEFAULT_LAYOUT])
     path = str(path) if path is not None else str(default_scene_path())
@@ -108,7 +156,7 @@ def run_scene_bench(path=None, *, preset="quality", width=1024, height=1024, rep
                                 "mrays_per_s": embree_rate[label]})
     ref = ref_scene.cast(o32, d32)
     last32 = None
-    for order in orders:
+    for order in (orders if "cpu" in devices else ()):
         sc = scenes[order]
         for method in methods:
             for layout in layouts:
@@ -137,6 +185,12 @@ def run_scene_bench(path=None, *, preset="quality", width=1024, height=1024, rep
                         if prec == "f32" and last32 is None:
                             last32 = hits
 
+    gpu_rows = []
+    if "gpu" in devices:
+        gpu_rows, gpu_hits = _gpu_runs(scene, o32, d32, ref, v, f, methods_arg, layouts_arg,
+                                       repeat, results)
+        last32 = gpu_hits if last32 is None else last32
+
     hit_frac = float((ref.status == HIT).mean())
     out(f"tetrace bench: {name} ({len(f):,} triangles), preset {preset!r}, "
         f"{width}x{height} pinhole camera, {hit_frac * 100:.1f}% of rays hit, best of {repeat}")
@@ -149,6 +203,14 @@ def run_scene_bench(path=None, *, preset="quality", width=1024, height=1024, rep
         + ", ".join(f"{k} {b / 1e6:.1f}" for k, b in mem.items()))
     out(_table(rows, ["caster", "method", "layout", "precision", "order", "threads", "Mrays/s",
                       "x embreex", "tets/ray", "bytes/tet", "agree w/ embreex"]))
+    if gpu_rows:
+        dev = results["gpu_device"]
+        out(f"GPU: {dev['name']} ({dev['backend']}, {dev['device_type']}); kernel Mrays/s = rays "
+            f"walked on the GPU / kernel seconds; end-to-end includes the CPU's start location "
+            f"and hit finishing; seconds are the best run's")
+        out(_table(gpu_rows, ["method", "layout", "kernel Mrays/s", "end-to-end Mrays/s",
+                              "kernel s", "upload s", "readback s", "locate s", "finish s",
+                              "scene upload s", "tets/ray", "agree w/ embreex"]))
     if image and last32 is not None:
         from ..image import lambert, save_png
         save_png(image, lambert(last32, d32, v, f, width, height), cmap="gray", vmin=0, vmax=1)

@@ -1,0 +1,111 @@
+"""GPU casting through wgpu compute shaders: adapters, the device, the kernels.
+
+``scene.cast(..., device="gpu")`` locates each ray's start tet and finishes its hit on the
+CPU, as the CPU cast does, and walks from tet to tet on the GPU, one invocation per ray. The
+GPU walks in float32 (WGSL has no float64). Kernels (method on layout): Aman et al. 2022 on
+tet20 (the default), Maria et al. 2017 on tet80, and the robust walk on tet20, whose float32
+filter hands the rays it cannot certify back to the CPU robust walk. Design: ``docs/gpu.md``.
+
+Any Vulkan, Metal, DX12 or OpenGL adapter with compute shaders works; on a Linux machine
+without a GPU, Mesa's software Vulkan driver (lavapipe, ``apt-get install
+mesa-vulkan-drivers``) provides one. ``WGPU_BACKEND`` (e.g. ``vulkan``) narrows the search.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+from . import _native
+
+__all__ = ["GpuError", "info", "device", "available", "kernels", "DEFAULT_KERNEL"]
+
+#: Raised when no adapter can run the kernels, or the device fails.
+GpuError = _native.GpuError
+
+
+def kernels():
+    """Return the GPU kernels as ``(method, layout)`` pairs, the default first.
+
+    Returns
+    -------
+    list of tuple of str
+    """
+    return [tuple(k) for k in _native.gpu_kernels()]
+
+
+#: The kernel ``device="gpu"`` uses when neither method nor layout is given.
+DEFAULT_KERNEL = kernels()[0]
+
+
+def kernel_for(method=None, layout=None):
+    """Return the ``(method, layout)`` kernel a GPU cast uses, or None if there is none.
+
+    A missing method means the default kernel's; a missing layout means the kernel's layout
+    for that method (tet80 for ``maria2017``, tet20 otherwise), as in ``src/gpu/kernels.rs``.
+
+    Parameters
+    ----------
+    method, layout : str, optional
+
+    Returns
+    -------
+    tuple of str or None
+    """
+    method = DEFAULT_KERNEL[0] if method is None else method
+    if layout is None:
+        layout = "tet80" if method == "maria2017" else "tet20"
+    return (method, layout) if (method, layout) in kernels() else None
+
+
+def info():
+    """List the adapters wgpu finds, best first; the first with compute shaders is used.
+
+    Returns
+    -------
+    list of dict
+        ``name``, ``backend`` (Vulkan, Metal, Dx12, Gl), ``device_type`` (DiscreteGpu,
+        IntegratedGpu, VirtualGpu, Cpu for software drivers such as lavapipe, Other),
+        ``driver``, ``driver_info``, ``vendor``, ``device``, ``compute`` (runs compute shaders),
+        ``max_storage_buffer_binding_size``, ``max_buffer_size`` (bytes).
+
+    Raises
+    ------
+    GpuError
+        No adapter with compute shaders; the message names the backends looked for.
+    """
+    found = _native.gpu_adapters()
+    if not any(a["compute"] for a in found):
+        _native.gpu_device()  # raises GpuError naming what was looked for
+    return found
+
+
+def device():
+    """Return the adapter GPU casts run on, opening its device on first use.
+
+    Returns
+    -------
+    dict
+        As in :func:`info`, plus the limits the device was opened with
+        (``device_max_storage_buffer_binding_size``, ``device_max_buffer_size``).
+
+    Raises
+    ------
+    GpuError
+        No adapter with compute shaders, or the device could not be opened.
+    """
+    return _native.gpu_device()
+
+
+@lru_cache(maxsize=1)
+def available():
+    """Return whether a GPU device can be opened (checked once per process).
+
+    Returns
+    -------
+    bool
+    """
+    try:
+        _native.gpu_device()
+    except GpuError:
+        return False
+    return True
