@@ -260,8 +260,8 @@ class Scene:
         dict
             ``points_f64``, ``points_f32``, ``constrained`` (constrained-side table),
             ``locator`` (seed grid, boundary grid, location topology),
-            ``tets_<layout>`` for each layout built so far, and ``gpu_<method>_<layout>``
-            for each kernel's buffers on the GPU.
+            ``tets_<layout>`` for each layout built so far, and ``gpu_<layout>`` for each
+            layout's buffers on the GPU (records, and float32 points for tet20).
         """
         return dict(self._native.memory())
 

@@ -47,15 +47,16 @@ struct SceneBuffers {
 }
 
 /// The device copies of a scene (kept in `Scene::gpu`): uploaded on the first GPU cast with a
-/// kernel and kept for the next.
+/// layout and kept for the next; kernels on the same layout (aman2022 and robust on tet20)
+/// share them.
 #[derive(Default)]
 pub struct GpuCache {
-    buffers: Mutex<HashMap<Kernel, Arc<SceneBuffers>>>,
+    buffers: Mutex<HashMap<&'static str, Arc<SceneBuffers>>>,
 }
 
 impl GpuCache {
-    /// Bytes on the device per kernel's buffers.
-    pub fn bytes(&self) -> Vec<(Kernel, u64)> {
+    /// Bytes on the device per layout (records, and points for id layouts).
+    pub fn bytes(&self) -> Vec<(&'static str, u64)> {
         let b = self.buffers.lock().unwrap_or_else(|e| e.into_inner());
         b.iter()
             .map(|(k, s)| {
@@ -136,7 +137,7 @@ fn upload_records<T: bytemuck::Pod + Send>(
 impl Scene {
     fn gpu_buffers(&self, g: &Gpu, kernel: Kernel) -> Result<(Arc<SceneBuffers>, f64)> {
         let mut cache = self.gpu.buffers.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some(b) = cache.get(&kernel) {
+        if let Some(b) = cache.get(kernel.layout()) {
             return Ok((b.clone(), 0.0));
         }
         let t0 = Instant::now();
@@ -181,7 +182,7 @@ impl Scene {
         };
         g.wait()?;
         let b = Arc::new(b);
-        cache.insert(kernel, b.clone());
+        cache.insert(kernel.layout(), b.clone());
         Ok((b, t0.elapsed().as_secs_f64()))
     }
 

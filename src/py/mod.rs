@@ -217,14 +217,14 @@ impl PyScene {
         Ok((hits, t))
     }
 
-    /// Bytes used by each part of the structure (`gpu_<method>_<layout>`: on the device).
+    /// Bytes used by each part of the structure (`gpu_<layout>`: on the device).
     fn memory<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let d = PyDict::new(py);
         for (k, v) in self.inner.memory() {
             d.set_item(k, v)?;
         }
         for (k, v) in self.inner.gpu.bytes() {
-            d.set_item(format!("gpu_{}_{}", k.method(), k.layout()), v)?;
+            d.set_item(format!("gpu_{k}"), v)?;
         }
         Ok(d)
     }
