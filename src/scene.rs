@@ -6,7 +6,8 @@ use crate::layout::Layout;
 use crate::locate::{BoundaryLocator, GridLocator, Located};
 use crate::mesh::TetMesh;
 use crate::real::Real;
-use crate::traverse::{walk, ExitMethod, WalkEnd};
+use crate::traverse::robust::ExactAudit;
+use crate::traverse::{walk_observed, ExitMethod, NoObserver, WalkEnd, WalkObserver};
 use rayon::prelude::*;
 
 /// Per-ray status codes, shared with Python.
@@ -47,6 +48,9 @@ pub struct HitsOut<'a, R> {
     pub tet: &'a mut [i32],
     pub steps: &'a mut [u32],
     pub status: &'a mut [u8],
+    /// Empty, or two per ray to audit every step (see [`ExactAudit`]): exit faces taken that
+    /// the exact predicates reject, and steps where the method found no exit face.
+    pub audit: &'a mut [u32],
 }
 
 impl<'a, R> HitsOut<'a, R> {
@@ -67,6 +71,7 @@ impl<'a, R> HitsOut<'a, R> {
         let (te0, te1) = self.tet.split_at_mut(n);
         let (s0, s1) = self.steps.split_at_mut(n);
         let (st0, st1) = self.status.split_at_mut(n);
+        let (au0, au1) = self.audit.split_at_mut(if self.audit.is_empty() { 0 } else { 2 * n });
         (
             HitsOut {
                 t: t0,
@@ -77,6 +82,7 @@ impl<'a, R> HitsOut<'a, R> {
                 tet: te0,
                 steps: s0,
                 status: st0,
+                audit: au0,
             },
             HitsOut {
                 t: t1,
@@ -87,6 +93,7 @@ impl<'a, R> HitsOut<'a, R> {
                 tet: te1,
                 steps: s1,
                 status: st1,
+                audit: au1,
             },
         )
     }
@@ -121,6 +128,7 @@ struct RayHit {
     triangle: i32,
     tet: i32,
     steps: u32,
+    audit: [u32; 2],
 }
 
 impl RayHit {
@@ -133,7 +141,34 @@ impl RayHit {
             triangle: -1,
             tet: -1,
             steps: 0,
+            audit: [0, 0],
         }
+    }
+}
+
+/// What a cast records of each walk besides its end: nothing, or the exact audit.
+trait RayObserver<R: Real>: WalkObserver<R> {
+    fn for_ray(start: [f64; 3], dir: [f64; 3], domain: &[[f64; 3]; 2]) -> Self;
+    fn counts(&self) -> [u32; 2];
+}
+
+impl<R: Real> RayObserver<R> for NoObserver {
+    #[inline(always)]
+    fn for_ray(_: [f64; 3], _: [f64; 3], _: &[[f64; 3]; 2]) -> Self {
+        NoObserver
+    }
+    #[inline(always)]
+    fn counts(&self) -> [u32; 2] {
+        [0, 0]
+    }
+}
+
+impl<R: Real> RayObserver<R> for ExactAudit {
+    fn for_ray(start: [f64; 3], dir: [f64; 3], domain: &[[f64; 3]; 2]) -> Self {
+        ExactAudit::new::<R>(start, dir, domain)
+    }
+    fn counts(&self) -> [u32; 2] {
+        [self.wrong_exits, self.no_exit]
     }
 }
 
@@ -296,6 +331,28 @@ impl Scene {
                 )));
             }
         }
+        if !out.audit.is_empty() && out.audit.len() != 2 * n {
+            return Err(Error::InvalidInput(format!(
+                "the audit needs 2 values per ray ({}), got {}",
+                2 * n,
+                out.audit.len()
+            )));
+        }
+        if out.audit.is_empty() {
+            self.cast_observed::<R, L, M, NoObserver>(points, layout, rays, out, opts)
+        } else {
+            self.cast_observed::<R, L, M, ExactAudit>(points, layout, rays, out, opts)
+        }
+    }
+
+    fn cast_observed<R: Real, L: Layout, M: ExitMethod<R>, O: RayObserver<R>>(
+        &self,
+        points: &[[R; 3]],
+        layout: &L,
+        rays: &Rays<R>,
+        out: HitsOut<R>,
+        opts: &CastOptions,
+    ) -> Result<()> {
         let run_chunk = |(k, chunk): (usize, HitsOut<R>)| {
             let mut hint = None;
             let mut rng = 0x9E37_79B9u32 ^ (k as u32).wrapping_mul(0x85EB_CA6B) | 1;
@@ -311,10 +368,11 @@ impl Scene {
                 tet,
                 steps,
                 status,
+                audit,
             } = chunk;
             for j in 0..t.len() {
                 let i = base + j;
-                let r = self.cast_one::<R, L, M>(
+                let r = self.cast_one::<R, L, M, O>(
                     points,
                     layout,
                     rays,
@@ -341,6 +399,9 @@ impl Scene {
                 tet[j] = r.tet;
                 steps[j] = r.steps;
                 status[j] = r.status;
+                if O::ACTIVE {
+                    audit[2 * j..2 * j + 2].copy_from_slice(&r.audit);
+                }
             }
         };
         let chunks: Vec<_> = out.chunks(CHUNK).into_iter().enumerate().collect();
@@ -358,7 +419,7 @@ impl Scene {
 
     #[allow(clippy::too_many_arguments)]
     #[inline]
-    fn cast_one<R: Real, L: Layout, M: ExitMethod<R>>(
+    fn cast_one<R: Real, L: Layout, M: ExitMethod<R>, O: RayObserver<R>>(
         &self,
         points: &[[R; 3]],
         layout: &L,
@@ -428,8 +489,11 @@ impl Scene {
             return RayHit::nothing(if inside { FAILED } else { MISS });
         };
         *hint = Some(start);
-        let ray = M::prepare(start_point, d);
-        let w = walk::<R, L, M>(
+        // The walk needs only the direction: scaled exactly, tiny and huge ones behave.
+        let dir = crate::real::unit_scale(d);
+        let ray = M::prepare(start_point, dir, &mesh.bounds);
+        let mut observer = O::for_ray(start_point, dir, &mesh.bounds);
+        let w = walk_observed::<R, L, M, O>(
             layout,
             points,
             &ray,
@@ -437,10 +501,12 @@ impl Scene {
             mesh.tets[start as usize],
             entry_face,
             opts.max_steps,
+            &mut observer,
         );
         let mut r = RayHit {
             tet: w.tet as i32,
             steps: w.steps,
+            audit: observer.counts(),
             ..RayHit::nothing(MISS)
         };
         match w.end {
