@@ -117,11 +117,7 @@ pub fn time_method<R: Real, M: ExitMethod<R>>(cases: &[Case], repeat: usize) -> 
         .map(|c| {
             let ray = M::prepare(c.origin, c.dir, &bounds(&c.corners));
             let p = c.corners.map(|q| q.map(R::from_f64));
-            (
-                ray,
-                [0, 1, 2].map(|k| M::vertex(&ray, p[k])),
-                p,
-            )
+            (ray, [0, 1, 2].map(|k| M::vertex(&ray, p[k])), p)
         })
         .collect();
     // The walk's decision: `step`, or for a robust method whose filter defers, `step_exact`.

@@ -71,7 +71,9 @@ impl<'a, R> HitsOut<'a, R> {
         let (te0, te1) = self.tet.split_at_mut(n);
         let (s0, s1) = self.steps.split_at_mut(n);
         let (st0, st1) = self.status.split_at_mut(n);
-        let (au0, au1) = self.audit.split_at_mut(if self.audit.is_empty() { 0 } else { 2 * n });
+        let (au0, au1) = self
+            .audit
+            .split_at_mut(if self.audit.is_empty() { 0 } else { 2 * n });
         (
             HitsOut {
                 t: t0,
@@ -454,7 +456,16 @@ impl Scene {
             match camera {
                 Some((co, ct, t)) if *co == o && *ct == tmin => Located::Inside(*t),
                 _ => {
-                    let l = self.locator.locate(mesh, start_point, *hint, rng);
+                    let mut l = self.locator.locate(mesh, start_point, *hint, rng);
+                    if let (true, Located::Inside(t)) = (M::PERTURBED_START, l) {
+                        // Depends on the start point only: cached with the camera's tet.
+                        l = Located::Inside(crate::traverse::robust::settle_start(
+                            mesh,
+                            points,
+                            t,
+                            start_point,
+                        ));
+                    }
                     if let Located::Inside(t) = l {
                         *camera = Some((o, tmin, t));
                     }

@@ -71,8 +71,14 @@ impl<R: Real> ExitMethod<R> for Lagae2008Halfspace {
 
 /// The least margin of each candidate face's tests, (a,b,d), (b,c,d), (c,a,d).
 #[inline(always)]
-fn face_margins<R: Real>(ray: &HalfspaceRay<R>, a: &V3<R>, b: &V3<R>, c: &V3<R>, d: &V3<R>) -> [R; 3] {
-        let u = ray.u;
+fn face_margins<R: Real>(
+    ray: &HalfspaceRay<R>,
+    a: &V3<R>,
+    b: &V3<R>,
+    c: &V3<R>,
+    d: &V3<R>,
+) -> [R; 3] {
+    let u = ray.u;
     // Entry point: the ray meets the entry face's plane at o + t u.
     let n = cross(sub3(*b, *a), sub3(*c, *a));
     let t = div(dot3(n, sub3(*a, ray.o)), dot3(n, u));

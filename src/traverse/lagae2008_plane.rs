@@ -99,7 +99,13 @@ impl<R: Real> ExitMethod<R> for Lagae2008Plane {
 
 /// The nearest of the three candidate planes ahead, and whether any faced along the ray.
 #[inline(always)]
-fn candidate_exit<R: Real>(ray: &PlaneRay<R>, a: &V3<R>, b: &V3<R>, c: &V3<R>, d: &V3<R>) -> (usize, bool) {
+fn candidate_exit<R: Real>(
+    ray: &PlaneRay<R>,
+    a: &V3<R>,
+    b: &V3<R>,
+    c: &V3<R>,
+    d: &V3<R>,
+) -> (usize, bool) {
     // The three candidate planes all pass through d; (x − d) × (y − d) is the outward
     // normal of (x, y, d) since the faces come in outward (counter-clockwise) order.
     let (ea, eb, ec) = (sub3(*a, *d), sub3(*b, *d), sub3(*c, *d));

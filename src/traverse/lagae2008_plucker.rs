@@ -88,7 +88,13 @@ pub(super) fn found3<R: Real>(m: [R; 3]) -> bool {
 
 /// The least margin of each candidate face's three edge tests, (a,b,d), (b,c,d), (c,a,d).
 #[inline(always)]
-fn face_margins<R: Real>(ray: &PluckerRay<R>, a: &V3<R>, b: &V3<R>, c: &V3<R>, d: &V3<R>) -> [R; 3] {
+fn face_margins<R: Real>(
+    ray: &PluckerRay<R>,
+    a: &V3<R>,
+    b: &V3<R>,
+    c: &V3<R>,
+    d: &V3<R>,
+) -> [R; 3] {
     // The six edges of the tet, recomputed here even for the entry face (Lagae does not
     // carry them from the previous tet).
     let ab = side_world(ray, *a, *b);

@@ -91,7 +91,11 @@ impl<R: Real> ExitMethod<R> for Lagae2008Stp {
         let all = |slot: Option<R>, p, q| slot.unwrap_or_else(|| stp(u, p, q));
         let (ab, bc, ca) = (all(ab, a, b), all(bc, b, c), all(ca, c, a));
         let (ad, bd, cd) = (all(ad, a, d), all(bd, b, d), all(cd, c, d));
-        Some(pick3([min3(ab, bd, -ad), min3(bc, cd, -bd), min3(ca, ad, -cd)]))
+        Some(pick3([
+            min3(ab, bd, -ad),
+            min3(bc, cd, -bd),
+            min3(ca, ad, -cd),
+        ]))
     }
 
     fn exit_found(ray: &Self::Ray, a: &V3<R>, b: &V3<R>, c: &V3<R>, d: &V3<R>) -> bool {

@@ -40,6 +40,9 @@ pub enum Exit {
 
 pub trait ExitMethod<R: Real> {
     const NAME: &'static str;
+    /// The walk follows a symbolically perturbed line starting at s + εδ (the robust walk):
+    /// the start tet must be the one holding that point (`robust::settle_start`).
+    const PERTURBED_START: bool = false;
     /// Per-ray data computed once (e.g. a basis).
     type Ray: Copy;
     /// Per-vertex data computed once per fetched vertex (e.g. its 2D projection).

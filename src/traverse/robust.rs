@@ -21,6 +21,7 @@
 
 use super::{Exit, ExitMethod, WalkObserver};
 use crate::mesh::build::OUTWARD_FACES;
+use crate::mesh::{TetMesh, BOUNDARY};
 use crate::real::{abs, dot3, exponent, sub3, times_pow2, Real, V3};
 
 pub struct Robust;
@@ -51,14 +52,22 @@ const FILTER_ULPS: f64 = 32.0;
 
 /// The line the robust walk (and the audit) uses for a ray starting at `start` along `dir`
 /// in precision R: (s, b), see the module docs.
-pub fn exact_line<R: Real>(start: V3<f64>, dir: V3<f64>, domain: &[V3<f64>; 2]) -> (V3<f64>, V3<f64>) {
+pub fn exact_line<R: Real>(
+    start: V3<f64>,
+    dir: V3<f64>,
+    domain: &[V3<f64>; 2],
+) -> (V3<f64>, V3<f64>) {
     let s = start.map(|x| R::from_f64(x).to_f64());
     let scale = s
         .iter()
         .chain(domain[0].iter())
         .chain(domain[1].iter())
         .fold(0f64, |m, x| m.max(x.abs()));
-    let scale = if scale > 0.0 && scale.is_finite() { scale } else { 1.0 };
+    let scale = if scale > 0.0 && scale.is_finite() {
+        scale
+    } else {
+        1.0
+    };
     let m = dir.iter().fold(0f64, |m, x| m.max(x.abs()));
     // |k d|∞ in [scale, 4 scale): b − s then has d's direction to a few ulps.
     let e = exponent(scale) - exponent(m) + 1;
@@ -148,8 +157,57 @@ fn perturbed_side(s: V3<f64>, b: V3<f64>, p: V3<f64>, q: V3<f64>) -> bool {
     p.iter().zip(&q).map(|(x, y)| x.cmp(y)).find(|o| o.is_ne()) == Some(std::cmp::Ordering::Less)
 }
 
+/// The sign of orient(x, y, z, s + εδ) as ε → 0⁺ (tetrace's orientation convention): the
+/// start point moved as the perturbed line's start is.
+fn perturbed_orient(x: V3<f64>, y: V3<f64>, z: V3<f64>, s: V3<f64>) -> f64 {
+    let o = crate::mesh::build::orient(x, y, z, s);
+    if o != 0.0 {
+        return o;
+    }
+    use num_rational::BigRational;
+    use num_traits::{Signed, Zero};
+    let r = |v: V3<f64>| v.map(|c| BigRational::from_float(c).unwrap_or_else(BigRational::zero));
+    let (x, y, z) = (r(x), r(y), r(z));
+    let e1 = [0, 1, 2].map(|k| &y[k] - &x[k]);
+    let e2 = [0, 1, 2].map(|k| &z[k] - &x[k]);
+    for w in [DELTA, DELTA2] {
+        let w = r(w);
+        let det = &e1[0] * (&e2[1] * &w[2] - &e2[2] * &w[1])
+            - &e1[1] * (&e2[0] * &w[2] - &e2[2] * &w[0])
+            + &e1[2] * (&e2[0] * &w[1] - &e2[1] * &w[0]);
+        if !det.is_zero() {
+            return if det.is_positive() { 1.0 } else { -1.0 };
+        }
+    }
+    0.0
+}
+
+/// The tet holding the perturbed start point s + εδ, found from `t`, a tet holding s (on its
+/// boundary, perhaps): the robust walk's line starts there, so it must start in that tet. A
+/// start strictly inside `t` costs four orientation tests; one on a face, edge or vertex
+/// moves to the neighbour the perturbed point lies in. `points` are those the walk reads.
+pub fn settle_start<R: Real>(mesh: &TetMesh, points: &[[R; 3]], mut t: u32, start: V3<f64>) -> u32 {
+    let s = start.map(|x| R::from_f64(x).to_f64());
+    let mut prev = BOUNDARY;
+    // A valid mesh needs a few steps; the guard only matters for one that float32 rounding
+    // has folded (far from the origin), where no tet may hold the point.
+    for _ in 0..64 {
+        let v = mesh.tets[t as usize].map(|i| points[i as usize].map(R::to_f64));
+        let next = OUTWARD_FACES.iter().enumerate().find_map(|(i, f)| {
+            let n = mesh.neighbor(t, i);
+            (n != prev && perturbed_orient(v[f[0]], v[f[1]], v[f[2]], s) > 0.0).then_some(n)
+        });
+        match next {
+            Some(n) if n != BOUNDARY => (prev, t) = (t, n),
+            _ => return t,
+        }
+    }
+    t
+}
+
 impl<R: Real> ExitMethod<R> for Robust {
     const NAME: &'static str = "robust";
+    const PERTURBED_START: bool = true;
     type Ray = LineRay<R>;
     /// Aman et al.'s two coordinates, and the vertex's share of the filter's bound:
     /// `bound_scale` times its L1 distance from the line in the projection.
@@ -297,7 +355,8 @@ mod tests {
         let mut f = rng(0x1234_5678_9abc_def1);
         let (mut wrong, mut certain) = (0, 0);
         for k in 0..40_000 {
-            let (size, offset) = [(1.0, 0.0), (1e-4, 0.0), (1.0, 1e3), (1e3, -1e5), (1.0, 1e6)][k % 5];
+            let (size, offset) =
+                [(1.0, 0.0), (1e-4, 0.0), (1.0, 1e3), (1e3, -1e5), (1.0, 1e6)][k % 5];
             let pt = |f: &mut dyn FnMut() -> f64| [0, 1, 2].map(|_| offset + size * f());
             let domain = [[offset; 3], [offset + size; 3]];
             let s = pt(&mut f);
@@ -316,7 +375,10 @@ mod tests {
                 let bs = [0, 1, 2].map(|i| ray.b[i] - ray.s[i]);
                 let l = bs.iter().fold(0f64, |m, x| m.max(x.abs()));
                 [0, 1, 2].map(|i| {
-                    let x = ray.s[i] + 0.5 * t * size * bs[i] / l + 0.5 * w * (pp[i] - ray.s[i]) + e * size;
+                    let x = ray.s[i]
+                        + 0.5 * t * size * bs[i] / l
+                        + 0.5 * w * (pp[i] - ray.s[i])
+                        + e * size;
                     R::from_f64(x.clamp(offset, offset + size))
                 })
             };
@@ -349,7 +411,10 @@ mod tests {
     fn filter_agrees_with_exact_predicate() {
         for (wrong, certain) in [filter_mistakes::<f64>(1.0), filter_mistakes::<f32>(1.0)] {
             assert_eq!(wrong, 0);
-            assert!(certain > 20_000, "the filter decides most cases ({certain})");
+            assert!(
+                certain > 20_000,
+                "the filter decides most cases ({certain})"
+            );
         }
         assert!(filter_mistakes::<f32>(1e-3).0 > 0);
         assert!(filter_mistakes::<f64>(1e-3).0 > 0);
@@ -367,7 +432,10 @@ mod tests {
             assert_eq!(s0, s1);
             for p in [[0.9, 0.1, 0.3], [0.0, 1.0, 1.0]] {
                 let q = [0.5, 0.5, 0.5];
-                assert_eq!(orient_line(s0, b0, p, q).signum(), orient_line(s1, b1, p, q).signum());
+                assert_eq!(
+                    orient_line(s0, b0, p, q).signum(),
+                    orient_line(s1, b1, p, q).signum()
+                );
             }
             assert!(b1.iter().all(|x| x.is_finite()) && b1 != s1);
         }
