@@ -97,40 +97,47 @@ pub fn cases(n_tets: usize, rays_per_tet: usize, seed: u64) -> Vec<Case> {
 /// The face (opposite vertex i) a ray from inside leaves by: float64 2D method, a reference
 /// that is exact for these well-shaped tets.
 fn exact_exit(v: &[V3<f64>; 4], p: V3<f64>, d: V3<f64>) -> usize {
-    let ray = <Aman2022 as ExitMethod<f64>>::prepare(p, d);
+    let ray = <Aman2022 as ExitMethod<f64>>::prepare(p, d, &bounds(v));
     let vs = v.map(|q| <Aman2022 as ExitMethod<f64>>::vertex(&ray, q));
-    <Aman2022 as ExitMethod<f64>>::start_exit(&ray, &vs)
+    <Aman2022 as ExitMethod<f64>>::start_exit(&ray, &vs, v)
+}
+
+/// The bounding box of a tet's corners (the domain methods' error bounds need).
+fn bounds(v: &[V3<f64>; 4]) -> [V3<f64>; 2] {
+    let lo = [0, 1, 2].map(|k| v.iter().map(|p| p[k]).fold(f64::INFINITY, f64::min));
+    let hi = [0, 1, 2].map(|k| v.iter().map(|p| p[k]).fold(f64::NEG_INFINITY, f64::max));
+    [lo, hi]
 }
 
 /// Nanoseconds per decision (best of `repeat` passes) and how many decisions differ from
 /// the float64 reference.
 pub fn time_method<R: Real, M: ExitMethod<R>>(cases: &[Case], repeat: usize) -> (f64, usize) {
-    let prepared: Vec<(M::Ray, [M::Vert; 3], V3<R>)> = cases
+    let prepared: Vec<(M::Ray, [M::Vert; 3], [V3<R>; 4])> = cases
         .iter()
         .map(|c| {
-            let ray = M::prepare(c.origin, c.dir);
-            let pv = |q: V3<f64>| M::vertex(&ray, q.map(R::from_f64));
-            (
-                ray,
-                [pv(c.corners[0]), pv(c.corners[1]), pv(c.corners[2])],
-                c.corners[3].map(R::from_f64),
-            )
+            let ray = M::prepare(c.origin, c.dir, &bounds(&c.corners));
+            let p = c.corners.map(|q| q.map(R::from_f64));
+            (ray, [0, 1, 2].map(|k| M::vertex(&ray, p[k])), p)
         })
         .collect();
+    // The walk's decision: `step`, or for a robust method whose filter defers, `step_exact`.
+    let decide = |ray: &M::Ray, [a, b, c]: &[M::Vert; 3], p: &[V3<R>; 4]| {
+        let vd = M::vertex(ray, black_box(p[3]));
+        M::step(ray, a, b, c, &vd).unwrap_or_else(|| M::step_exact(ray, p))
+    };
     let mut best = f64::INFINITY;
     let mut wrong = 0;
     for _ in 0..repeat.max(1) {
         let t0 = Instant::now();
         let mut sum = 0u32;
-        for (ray, [a, b, c], d) in &prepared {
-            let vd = M::vertex(ray, black_box(*d));
-            sum = sum.wrapping_add(M::step(ray, a, b, c, &vd) as u32);
+        for (ray, v, p) in &prepared {
+            sum = sum.wrapping_add(decide(ray, v, p) as u32);
         }
         black_box(sum);
         best = best.min(t0.elapsed().as_secs_f64());
     }
-    for ((ray, [a, b, c], d), case) in prepared.iter().zip(cases) {
-        wrong += (M::step(ray, a, b, c, &M::vertex(ray, *d)) != case.exit) as usize;
+    for ((ray, v, p), case) in prepared.iter().zip(cases) {
+        wrong += (decide(ray, v, p) != case.exit) as usize;
     }
     (best * 1e9 / cases.len() as f64, wrong)
 }

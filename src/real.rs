@@ -21,6 +21,8 @@ pub trait Real:
     const ZERO: Self;
     /// Unit roundoff (half the machine epsilon): the relative error of one rounding.
     const UNIT_ROUNDOFF: Self;
+    /// The smallest positive normal number: below it products lose relative precision.
+    const MIN_NORMAL: Self;
     const NAME: &'static str;
     fn from_f64(x: f64) -> Self;
     fn from_f32(x: f32) -> Self;
@@ -30,6 +32,7 @@ pub trait Real:
 impl Real for f32 {
     const ZERO: Self = 0.0;
     const UNIT_ROUNDOFF: Self = f32::EPSILON / 2.0;
+    const MIN_NORMAL: Self = f32::MIN_POSITIVE;
     const NAME: &'static str = "f32";
     #[inline(always)]
     fn from_f64(x: f64) -> Self {
@@ -48,6 +51,7 @@ impl Real for f32 {
 impl Real for f64 {
     const ZERO: Self = 0.0;
     const UNIT_ROUNDOFF: Self = f64::EPSILON / 2.0;
+    const MIN_NORMAL: Self = f64::MIN_POSITIVE;
     const NAME: &'static str = "f64";
     #[inline(always)]
     fn from_f64(x: f64) -> Self {
@@ -82,4 +86,31 @@ pub fn sub3<R: Real>(a: V3<R>, b: V3<R>) -> V3<R> {
 #[inline(always)]
 pub fn dot3<R: Real>(a: V3<R>, b: V3<R>) -> R {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// The binary exponent of a positive finite x (x in [2^e, 2^(e+1))).
+pub fn exponent(x: f64) -> i32 {
+    if x < f64::MIN_POSITIVE {
+        return exponent(x * 2f64.powi(64)) - 64;
+    }
+    ((x.to_bits() >> 52) & 0x7ff) as i32 - 1023
+}
+
+/// x · 2^e, exactly (in two steps when 2^e itself is not a normal number).
+pub fn times_pow2(x: f64, e: i32) -> f64 {
+    // 2^k for k in the normal range, built from its bits (powi may be a library call).
+    let pow2 = |k: i32| f64::from_bits(((k.clamp(-1022, 1023) + 1023) as u64) << 52);
+    let h = e / 2;
+    x * pow2(h) * pow2(e - h)
+}
+
+/// `d` scaled by a power of two (exactly, so its direction is unchanged) to a largest
+/// component in [1, 2): methods that normalize need neither fear underflow nor overflow.
+pub fn unit_scale(d: V3<f64>) -> V3<f64> {
+    let m = d.iter().fold(0f64, |m, x| m.max(x.abs()));
+    if m == 0.0 || !m.is_finite() {
+        return d;
+    }
+    let e = -exponent(m);
+    d.map(|x| times_pow2(x, e))
 }

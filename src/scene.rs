@@ -6,7 +6,8 @@ use crate::layout::Layout;
 use crate::locate::{BoundaryLocator, GridLocator, Located};
 use crate::mesh::TetMesh;
 use crate::real::Real;
-use crate::traverse::{walk, ExitMethod, Walk, WalkEnd};
+use crate::traverse::robust::ExactAudit;
+use crate::traverse::{walk_observed, ExitMethod, NoObserver, Walk, WalkEnd, WalkObserver};
 use rayon::prelude::*;
 
 /// Per-ray status codes, shared with Python.
@@ -49,6 +50,9 @@ pub struct HitsOut<'a, R> {
     pub tet: &'a mut [i32],
     pub steps: &'a mut [u32],
     pub status: &'a mut [u8],
+    /// Empty, or two per ray to audit every step (see [`ExactAudit`]): exit faces taken that
+    /// the exact predicates reject, and steps where the method found no exit face.
+    pub audit: &'a mut [u32],
 }
 
 impl<'a, R> HitsOut<'a, R> {
@@ -95,6 +99,9 @@ impl<'a, R> HitsOut<'a, R> {
         let (te0, te1) = self.tet.split_at_mut(n);
         let (s0, s1) = self.steps.split_at_mut(n);
         let (st0, st1) = self.status.split_at_mut(n);
+        let (au0, au1) = self
+            .audit
+            .split_at_mut(if self.audit.is_empty() { 0 } else { 2 * n });
         (
             HitsOut {
                 t: t0,
@@ -105,6 +112,7 @@ impl<'a, R> HitsOut<'a, R> {
                 tet: te0,
                 steps: s0,
                 status: st0,
+                audit: au0,
             },
             HitsOut {
                 t: t1,
@@ -115,6 +123,7 @@ impl<'a, R> HitsOut<'a, R> {
                 tet: te1,
                 steps: s1,
                 status: st1,
+                audit: au1,
             },
         )
     }
@@ -149,6 +158,7 @@ pub(crate) struct RayHit {
     triangle: i32,
     tet: i32,
     steps: u32,
+    audit: [u32; 2],
 }
 
 impl RayHit {
@@ -161,7 +171,34 @@ impl RayHit {
             triangle: -1,
             tet: -1,
             steps: 0,
+            audit: [0, 0],
         }
+    }
+}
+
+/// What a cast records of each walk besides its end: nothing, or the exact audit.
+trait RayObserver<R: Real>: WalkObserver<R> {
+    fn for_ray(start: [f64; 3], dir: [f64; 3], domain: &[[f64; 3]; 2]) -> Self;
+    fn counts(&self) -> [u32; 2];
+}
+
+impl<R: Real> RayObserver<R> for NoObserver {
+    #[inline(always)]
+    fn for_ray(_: [f64; 3], _: [f64; 3], _: &[[f64; 3]; 2]) -> Self {
+        NoObserver
+    }
+    #[inline(always)]
+    fn counts(&self) -> [u32; 2] {
+        [0, 0]
+    }
+}
+
+impl<R: Real> RayObserver<R> for ExactAudit {
+    fn for_ray(start: [f64; 3], dir: [f64; 3], domain: &[[f64; 3]; 2]) -> Self {
+        ExactAudit::new::<R>(start, dir, domain)
+    }
+    fn counts(&self) -> [u32; 2] {
+        [self.wrong_exits, self.no_exit]
     }
 }
 
@@ -308,6 +345,21 @@ impl Scene {
         opts: &CastOptions,
     ) -> Result<()> {
         check_lengths(rays, &out)?;
+        if out.audit.is_empty() {
+            self.cast_observed::<R, L, M, NoObserver>(points, layout, rays, out, opts)
+        } else {
+            self.cast_observed::<R, L, M, ExactAudit>(points, layout, rays, out, opts)
+        }
+    }
+
+    fn cast_observed<R: Real, L: Layout, M: ExitMethod<R>, O: RayObserver<R>>(
+        &self,
+        points: &[[R; 3]],
+        layout: &L,
+        rays: &Rays<R>,
+        out: HitsOut<R>,
+        opts: &CastOptions,
+    ) -> Result<()> {
         let run_chunk = |(k, mut chunk): (usize, HitsOut<R>)| {
             let mut hint = None;
             let mut rng = chunk_seed(k);
@@ -316,7 +368,7 @@ impl Scene {
             let base = k * CHUNK;
             for j in 0..chunk.len() {
                 let i = base + j;
-                let r = self.cast_one::<R, L, M>(
+                let r = self.cast_one::<R, L, M, O>(
                     points,
                     layout,
                     rays,
@@ -328,6 +380,9 @@ impl Scene {
                     &mut rng,
                 );
                 chunk.set(j, &r, rays, i);
+                if O::ACTIVE {
+                    chunk.audit[2 * j..2 * j + 2].copy_from_slice(&r.audit);
+                }
             }
         };
         let chunks: Vec<_> = out.chunks(CHUNK).into_iter().enumerate().collect();
@@ -345,7 +400,7 @@ impl Scene {
 
     #[allow(clippy::too_many_arguments)]
     #[inline]
-    fn cast_one<R: Real, L: Layout, M: ExitMethod<R>>(
+    fn cast_one<R: Real, L: Layout, M: ExitMethod<R>, O: RayObserver<R>>(
         &self,
         points: &[[R; 3]],
         layout: &L,
@@ -357,12 +412,14 @@ impl Scene {
         entry_hint: &mut Option<(usize, usize)>,
         rng: &mut u32,
     ) -> RayHit {
-        let s = match self.locate_one(rays, i, hint, camera, entry_hint, rng) {
+        let settle = M::PERTURBED_START.then_some(points);
+        let s = match self.locate_one(rays, i, settle, hint, camera, entry_hint, rng) {
             Start::Done(r) => return r,
             Start::Walk(s) => s,
         };
-        let ray = M::prepare(s.point, s.d);
-        let w = walk::<R, L, M>(
+        let ray = s.prepare::<R, M>(&self.mesh);
+        let mut observer = O::for_ray(s.point, s.dir, &self.mesh.bounds);
+        let w = walk_observed::<R, L, M, O>(
             layout,
             points,
             &ray,
@@ -370,19 +427,26 @@ impl Scene {
             self.mesh.tets[s.tet as usize],
             s.entry,
             opts.max_steps,
+            &mut observer,
         );
-        self.finish(&s, &w)
+        RayHit {
+            audit: observer.counts(),
+            ..self.finish(&s, &w)
+        }
     }
 
     /// Where ray i's walk starts (the first half of a cast; the GPU path walks elsewhere and
     /// comes back to [`Scene::finish`]). The hints carry state between neighbouring rays of a
-    /// chunk, as in `cast_generic`.
+    /// chunk, as in `cast_generic`. `settle`: the points the walk reads, for a method whose
+    /// walk starts at the perturbed start point ([`ExitMethod::PERTURBED_START`]): an interior
+    /// start then moves to the tet holding that point (`robust::settle_start`).
     #[allow(clippy::too_many_arguments)]
     #[inline]
     pub(crate) fn locate_one<R: Real>(
         &self,
         rays: &Rays<R>,
         i: usize,
+        settle: Option<&[[R; 3]]>,
         hint: &mut Option<u32>,
         camera: &mut Option<([f64; 3], f64, u32)>,
         entry_hint: &mut Option<(usize, usize)>,
@@ -411,7 +475,16 @@ impl Scene {
             match camera {
                 Some((co, ct, t)) if *co == o && *ct == tmin => Located::Inside(*t),
                 _ => {
-                    let l = self.locator.locate(mesh, start_point, *hint, rng);
+                    let mut l = self.locator.locate(mesh, start_point, *hint, rng);
+                    if let (Some(points), Located::Inside(t)) = (settle, l) {
+                        // Depends on the start point only: cached with the camera's tet.
+                        l = Located::Inside(crate::traverse::robust::settle_start(
+                            mesh,
+                            points,
+                            t,
+                            start_point,
+                        ));
+                    }
                     if let Located::Inside(t) = l {
                         *camera = Some((o, tmin, t));
                     }
@@ -449,6 +522,8 @@ impl Scene {
         Start::Walk(WalkStart {
             o,
             d,
+            // The walk needs only the direction: scaled exactly, tiny and huge ones behave.
+            dir: crate::real::unit_scale(d),
             tmin,
             tmax,
             point: start_point,
@@ -501,6 +576,8 @@ pub(crate) struct WalkStart {
     /// The ray as given (origin, direction) and its clamped [tmin, tmax].
     pub o: [f64; 3],
     pub d: [f64; 3],
+    /// `d` scaled by a power of two (`real::unit_scale`, exact): what the walk is prepared with.
+    pub dir: [f64; 3],
     pub tmin: f64,
     pub tmax: f64,
     /// The point the walk starts from (o + tmin d, or the entry point on the box).
@@ -508,6 +585,14 @@ pub(crate) struct WalkStart {
     pub tet: u32,
     /// The face of `tet` the ray enters by, when it comes from outside the box.
     pub entry: Option<usize>,
+}
+
+impl WalkStart {
+    /// The ray as method M's walk takes it (the CPU cast's and the GPU kernels' preparation).
+    #[inline]
+    pub(crate) fn prepare<R: Real, M: ExitMethod<R>>(&self, mesh: &TetMesh) -> M::Ray {
+        M::prepare(self.point, self.dir, &mesh.bounds)
+    }
 }
 
 /// A located ray: either done already (invalid, missing the box, ...) or ready to walk.
@@ -523,7 +608,7 @@ pub(crate) fn chunk_seed(k: usize) -> u32 {
     0x9E37_79B9u32 ^ (k as u32).wrapping_mul(0x85EB_CA6B) | 1
 }
 
-/// Rays and outputs of one cast have matching lengths.
+/// Rays and outputs of one cast have matching lengths (the audit: empty or 2 per ray).
 pub(crate) fn check_lengths<R>(rays: &Rays<R>, out: &HitsOut<R>) -> Result<()> {
     let n = out.len();
     if rays.origins.len() != 3 * n || rays.directions.len() != 3 * n || out.point.len() != 3 * n {
@@ -541,6 +626,13 @@ pub(crate) fn check_lengths<R>(rays: &Rays<R>, out: &HitsOut<R>) -> Result<()> {
                 b.len()
             )));
         }
+    }
+    if !out.audit.is_empty() && out.audit.len() != 2 * n {
+        return Err(Error::InvalidInput(format!(
+            "the audit needs 2 values per ray ({}), got {}",
+            2 * n,
+            out.audit.len()
+        )));
     }
     Ok(())
 }

@@ -48,6 +48,7 @@ class NativeScene:
         max_steps: Optional[int] = None,
         method: str = "aman2022",
         layout: str = "tet32",
+        audit: bool = False,
     ) -> dict[str, np.ndarray]: ...
     def cast_gpu(
         self,

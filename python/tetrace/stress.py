@@ -5,8 +5,13 @@ what is known about them (e.g. that every ray starts inside a closed surface, so
 leak). ``classify`` sorts the results of a cast into the failure taxonomy, using the robust
 method in float64 as the reference walk.
 
-This is the first part of the stability work: the families below and the classification by
-outcome. Deciding per step whether a method chose a wrong exit face is not done here yet.
+Each ray is judged twice. Per step, by the walk's exact audit (``audited_cast``): every exit
+face the method took is checked with exact orientation predicates against the line the robust
+walk in the same precision follows (a face the line does not leave by is a *wrong exit*), and
+methods with a fallback report the steps where their own tests found *no exit face*. Per ray,
+against every triangle of the scene (``brute_bounds``): a hit before anything the ray touches
+or past a triangle it surely pierces is a *wrong hit*; no hit where one was certain is a *leak*;
+the step guard firing is a *cycle*.
 """
 
 from __future__ import annotations
@@ -17,7 +22,8 @@ import numpy as np
 
 from .hits import FAILED, HIT
 
-__all__ = ["StressCase", "FAMILIES", "cases", "classify", "OUTCOMES"]
+__all__ = ["StressCase", "FAMILIES", "cases", "classify", "OUTCOMES", "audited_cast",
+           "build_scene"]
 
 
 @dataclasses.dataclass
@@ -33,8 +39,10 @@ class StressCase:
     origins, directions : numpy.ndarray
         ``(N, 3)`` float64 rays.
     closed : bool
-        Every ray starts strictly inside a closed, watertight surface of the scene: a miss is
-        a leak.
+        Every ray must hit (it starts strictly inside a closed, watertight surface, or is
+        aimed at a point of the scene from outside): a miss is a leak.
+    contain : bool
+        Grow the domain to hold the origins (False: rays enter through the domain box).
     """
 
     family: str
@@ -43,6 +51,7 @@ class StressCase:
     origins: np.ndarray
     directions: np.ndarray
     closed: bool
+    contain: bool = True
 
 
 def _sphere(subdivisions=3):
@@ -129,6 +138,69 @@ def fam_tiny(rng, n, scale=1e-4):
     return StressCase(f"tiny{scale:g}", v, f, o, d, True)
 
 
+def fam_huge(rng, n, scale=1e6):
+    """A sphere scaled very large; rays from inside to random directions."""
+    case = fam_tiny(rng, n, scale)
+    case.family = f"huge{scale:g}"
+    return case
+
+
+def fam_flat(rng, n, flatness=1e-4):
+    """A sphere flattened to ``flatness`` of its width: nearly coplanar points, so TetGen
+    fills it with flat tets and slivers; rays from inside in random directions graze them."""
+    v, f = _sphere()
+    v = v * np.array([1.0, 1.0, flatness])
+    o = (rng.random((n, 3)) - 0.5) * np.array([0.8, 0.8, 0.8 * flatness])
+    d = rng.standard_normal((n, 3))
+    return StressCase("flat", v, f, o, d, True)
+
+
+def fam_terrain(rng, n, k=24, bump=1e-6):
+    """A nearly flat open height field (bumps of ``bump`` x its size) hit from above at its
+    vertices, on its edges and inside its triangles: every ray must hit."""
+    x, y = np.meshgrid(np.linspace(0, 1, k), np.linspace(0, 1, k), indexing="ij")
+    z = bump * rng.standard_normal(x.shape)
+    v = np.column_stack([x.ravel(), y.ravel(), z.ravel()])
+    i = np.arange(k * k).reshape(k, k)
+    a, b, c, d_ = i[:-1, :-1].ravel(), i[1:, :-1].ravel(), i[1:, 1:].ravel(), i[:-1, 1:].ravel()
+    f = np.concatenate([np.column_stack([a, b, c]), np.column_stack([a, c, d_])])
+    # Aim only at triangles away from the border: a vertex or edge on the border of an open
+    # surface may rightly be missed; interior ones are surrounded by triangles.
+    inner = np.nonzero(np.all((v[f][:, :, :2] > 0.01) & (v[f][:, :, :2] < 0.99), axis=(1, 2)))[0]
+    tri = v[f[inner[rng.integers(0, len(inner), n)]]]
+    w = rng.random((n, 3)) + 1e-3
+    kind = rng.random(n)
+    k = rng.integers(0, 3, n)
+    w[kind < 0.3] = np.eye(3)[k[kind < 0.3]]  # a third exactly at vertices
+    on_edge = (kind >= 0.3) & (kind < 0.6)
+    w[on_edge, k[on_edge]] = 0.0  # a third on edges
+    w /= w.sum(1, keepdims=True)
+    target = np.einsum("ij,ijk->ik", w, tri)
+    o = np.column_stack([rng.random((n, 2)), np.full(n, 0.5)])
+    return StressCase("terrain", v, f, o, target - o, True)
+
+
+def fam_long(rng, n, distance=1e4):
+    """Rays from ``distance`` x the sphere's size away, outside the domain, aimed at points of
+    the sphere facing them (away from its silhouette, so rounding cannot make them miss):
+    they enter through the domain box after a very long way."""
+    v, f = _sphere()
+    c = v[f].mean(1)
+    o = _unit(rng.standard_normal((n, 3)))
+    facing = (_unit(c) @ o.T) > 0.5
+    t = c[np.argmax(facing * rng.random(facing.shape), axis=0)]
+    o = o * distance
+    return StressCase("long", v, f, o, t - o, True, contain=False)
+
+
+def fam_dirscale(rng, n):
+    """From inside a sphere, directions of length 1e-30 to 1e30 (t scales with them)."""
+    v, f = _sphere()
+    o = (rng.random((n, 3)) - 0.5) * 0.5
+    d = _unit(rng.standard_normal((n, 3))) * (10.0 ** rng.choice([-30, -10, 10, 30], n))[:, None]
+    return StressCase("dirscale", v, f, o, d, True)
+
+
 #: Family name -> generator ``(rng, n) -> StressCase``.
 FAMILIES = {
     "vertices": fam_vertices,
@@ -138,6 +210,11 @@ FAMILIES = {
     "far1e3": lambda rng, n: fam_far(rng, n, 1e3),
     "far1e6": lambda rng, n: fam_far(rng, n, 1e6),
     "tiny": fam_tiny,
+    "huge": fam_huge,
+    "flat": fam_flat,
+    "terrain": fam_terrain,
+    "long": fam_long,
+    "dirscale": fam_dirscale,
 }
 
 
@@ -151,8 +228,44 @@ def cases(n_per_family, seed=0, families=None):
         yield case
 
 
-#: Outcome names, in the order ``classify`` counts them.
-OUTCOMES = ("correct", "wrong", "leak", "failed")
+#: Outcome names, in the order ``classify`` counts them. A ray counts once in each that holds
+#: of it; ``correct`` rays have none of the others.
+OUTCOMES = ("correct", "wrong_exit", "no_exit", "cycle", "leak", "wrong_hit")
+
+
+def build_scene(case):
+    """The :class:`tetrace.Scene` of a stress case (domain grown to its origins if asked)."""
+    from .scene import Scene
+
+    contain = np.vstack([case.origins, case.origins + 1e-9]) if case.contain else None
+    return Scene.from_mesh((case.vertices, case.faces), contain=contain)
+
+
+def audited_cast(scene, origins, directions, *, method=None, layout=None, precision="f64",
+                 threads=None):
+    """Cast with the exact per-step audit.
+
+    Returns
+    -------
+    hits : Hits
+    audit : numpy.ndarray
+        ``(N, 2)`` uint32 per ray: exit faces taken that the line does not leave by (decided
+        with exact orientation predicates on the points the walk read), and steps where the
+        method's own tests found no exit face.
+    """
+    from . import _native
+    from .hits import Hits
+    from .rays import prepare_bounds
+
+    dt = np.float32 if precision == "f32" else np.float64
+    o = np.ascontiguousarray(origins, dtype=dt)
+    d = np.ascontiguousarray(directions, dtype=dt)
+    n = len(o)
+    r = scene._native.cast(o, d, prepare_bounds(0.0, n, "tmin"), prepare_bounds(np.inf, n, "tmax"),
+                           threads, None, method or _native.DEFAULT_METHOD,
+                           layout or _native.DEFAULT_LAYOUT, True)
+    audit = r.pop("audit")
+    return Hits(**r), audit
 
 
 def brute_bounds(origins, directions, vertices, faces, band, chunk=512):
@@ -200,40 +313,49 @@ def brute_bounds(origins, directions, vertices, faces, band, chunk=512):
     return touch, sure
 
 
-def classify(hits, origins, directions, vertices, faces, closed, band=1e-6, t_tol=1e-6):
-    """Sort a cast's rays into outcomes, decided against every triangle of the scene.
+def classify(hits, audit, bounds, directions, diag, closed, t_tol=1e-6):
+    """Sort a cast's rays into the taxonomy of :data:`OUTCOMES`.
 
     Parameters
     ----------
     hits : Hits
         The cast under test.
-    origins, directions : numpy.ndarray
-        The rays as cast (after rounding to the walk's precision).
-    vertices, faces : numpy.ndarray
-        The scene.
+    audit : numpy.ndarray
+        Its per-step audit (:func:`audited_cast`).
+    bounds : tuple of numpy.ndarray
+        ``(t_touch, t_sure)`` of :func:`brute_bounds` for these rays.
+    directions : numpy.ndarray
+        The rays' directions as cast.
+    diag : float
+        Scene diagonal (``t_tol`` is relative to it).
     closed : bool
-        Rays start inside a closed surface: a ray without a hit is a leak.
-    band : float
-        Relative barycentric margin separating "touches" from "pierces" (see
-        :func:`brute_bounds`); rounding of the walk's precision belongs inside it.
-    t_tol : float
-        Tolerance on t relative to the scene diagonal.
+        Every ray must hit: a ray without a hit is a leak.
 
     Returns
     -------
     dict
-        Counts of :data:`OUTCOMES`: ``failed`` (step guard), ``leak`` (closed family, no hit),
-        ``wrong`` (a hit before anything the ray touches, or after a triangle it surely
-        pierces, or a miss despite a sure hit), ``correct``.
+        Rays in each outcome: ``wrong_exit`` (took an exit face the line does not leave by),
+        ``no_exit`` (the method's tests found no exit face at some step), ``cycle`` (the step
+        guard fired: FAILED), ``leak`` (a must-hit ray reported no hit), ``wrong_hit`` (a hit
+        before anything the ray touches or after a triangle it surely pierces, or a miss
+        despite a sure hit), and ``correct`` (none of these).
     """
-    diag = float(np.linalg.norm(np.ptp(np.asarray(vertices, np.float64), axis=0)))
-    touch, sure = brute_bounds(origins, directions, vertices, faces, band)
+    touch, sure = bounds
     tol = t_tol * diag / np.maximum(np.linalg.norm(np.asarray(directions, np.float64), axis=1), 1e-300)
-    failed = hits.status == FAILED
+    # t is reported in the walk's precision: its own rounding is no error of the walk.
+    tol = np.maximum(tol, 4 * np.finfo(hits.t.dtype).eps * np.where(np.isfinite(touch), touch, 0))
+    cycle = hits.status == FAILED
     hit = hits.status == HIT
-    leak = ~failed & ~hit & closed
+    leak = ~cycle & ~hit & closed
     t = hits.t.astype(np.float64)
-    wrong = ~failed & ~leak & np.where(hit, (t < touch - tol) | (t > sure + tol), np.isfinite(sure))
-    correct = ~(failed | leak | wrong)
-    return {"correct": int(correct.sum()), "wrong": int(wrong.sum()),
-            "leak": int(leak.sum()), "failed": int(failed.sum())}
+    with np.errstate(invalid="ignore"):
+        wrong_hit = ~cycle & ~leak & np.where(hit, (t < touch - tol) | (t > sure + tol),
+                                              np.isfinite(sure))
+    wrong_exit = audit[:, 0] > 0
+    no_exit = audit[:, 1] > 0
+    flags = dict(wrong_exit=wrong_exit, no_exit=no_exit, cycle=cycle, leak=leak,
+                 wrong_hit=wrong_hit)
+    bad = np.zeros(len(t), bool)
+    for f in flags.values():
+        bad |= f
+    return {"correct": int((~bad).sum()), **{k: int(v.sum()) for k, v in flags.items()}}

@@ -8,9 +8,10 @@ use super::context::{gpu, Gpu};
 use super::kernels::Kernel;
 use super::structs::*;
 use crate::error::{Error, Result};
+use crate::mesh::TetMesh;
 use crate::scene::CastOptions;
 use crate::scene::{check_lengths, chunk_seed, HitsOut, Rays, Scene, Start, WalkStart, CHUNK};
-use crate::traverse::{walk, Aman2022, ExitMethod, Maria2017, Robust, Walk, WalkEnd};
+use crate::traverse::{walk, Aman2022, Maria2017, Robust, Walk, WalkEnd};
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
@@ -217,6 +218,11 @@ impl Scene {
     ) -> Result<GpuTimings> {
         let kernel = Kernel::find(method, layout)?;
         check_lengths(rays, &out)?;
+        if !out.audit.is_empty() {
+            return Err(Error::InvalidOption(
+                "the exact audit observes the CPU walk: cast with device=\"cpu\" to audit".into(),
+            ));
+        }
         let g = gpu()?;
         let pipeline = g.pipeline(kernel)?;
         let (scene_buffers, scene_upload) = self.gpu_buffers(&g, kernel)?;
@@ -295,7 +301,7 @@ impl Scene {
                     for ((j, s), o) in starts.iter().zip(res) {
                         let w = if o.end == END_DEFERRED {
                             deferred += 1;
-                            let ray = <Robust as ExitMethod<f32>>::prepare(s.point, s.d);
+                            let ray = s.prepare::<f32, Robust>(&self.mesh);
                             walk::<f32, _, Robust>(
                                 tet20.expect("deferred rays come from the robust kernel"),
                                 &self.points_f32,
@@ -337,12 +343,23 @@ impl Scene {
         let mut entry_hint = None;
         let mut starts = Vec::with_capacity(chunk.len());
         let mut prepared = Vec::with_capacity(chunk.len());
+        // As the CPU twin's cast: the robust walk starts in the perturbed start point's tet.
+        let settle = kernel.perturbed_start().then_some(&self.points_f32[..]);
         for j in 0..chunk.len() {
             let i = k * CHUNK + j;
-            match self.locate_one(rays, i, &mut hint, &mut camera, &mut entry_hint, &mut rng) {
+            let start = self.locate_one(
+                rays,
+                i,
+                settle,
+                &mut hint,
+                &mut camera,
+                &mut entry_hint,
+                &mut rng,
+            );
+            match start {
                 Start::Done(r) => chunk.set(j, &r, rays, i),
                 Start::Walk(s) => {
-                    prepared.push(prepare(kernel, &s, self.mesh.tets[s.tet as usize]));
+                    prepared.push(prepare(kernel, &s, &self.mesh));
                     starts.push((j as u32, s));
                 }
             }
@@ -525,18 +542,18 @@ type Located = (Vec<(u32, WalkStart)>, Vec<RayIn>);
 /// Rays per batch at most: bounds the ray buffers (64 + 2 × 32 bytes a ray).
 pub const MAX_BATCH: usize = 1 << 20;
 
-/// The ray as the kernel's CPU twin prepares it.
-fn prepare(kernel: Kernel, s: &WalkStart, verts: [u32; 4]) -> RayIn {
+/// The ray as the kernel's CPU twin prepares it (`WalkStart::prepare`, as the CPU cast does).
+fn prepare(kernel: Kernel, s: &WalkStart, mesh: &TetMesh) -> RayIn {
     let entry = s.entry.map_or(NO_ENTRY, |i| i as u32);
     let base = RayIn {
         tet: s.tet,
         entry,
-        verts,
+        verts: mesh.tets[s.tet as usize],
         ..Default::default()
     };
     match kernel {
         Kernel::Aman2022Tet20 => {
-            let r = <Aman2022 as ExitMethod<f32>>::prepare(s.point, s.d);
+            let r = s.prepare::<f32, Aman2022>(mesh);
             RayIn {
                 origin: r.origin,
                 e0: r.u,
@@ -545,7 +562,7 @@ fn prepare(kernel: Kernel, s: &WalkStart, verts: [u32; 4]) -> RayIn {
             }
         }
         Kernel::Maria2017Tet80 => {
-            let r = <Maria2017 as ExitMethod<f32>>::prepare(s.point, s.d);
+            let r = s.prepare::<f32, Maria2017>(mesh);
             RayIn {
                 e0: r.u,
                 e1: r.v,
@@ -553,7 +570,9 @@ fn prepare(kernel: Kernel, s: &WalkStart, verts: [u32; 4]) -> RayIn {
             }
         }
         Kernel::RobustTet20 => {
-            let r = <Robust as ExitMethod<f32>>::prepare(s.point, s.d);
+            // The CPU robust walk's exact line: s (already float32, so the slack is 0 unless
+            // that changes) and b = s + k d; the kernel projects on the basis built from b − s.
+            let r = s.prepare::<f32, Robust>(mesh);
             RayIn {
                 origin: r.sr,
                 e0: r.u,

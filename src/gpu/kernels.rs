@@ -42,6 +42,17 @@ impl Kernel {
         }
     }
 
+    /// Whether the CPU twin's walk starts in the tet holding the perturbed start point
+    /// (`ExitMethod::PERTURBED_START`): the host then locates as the twin's cast does.
+    pub fn perturbed_start(self) -> bool {
+        use crate::traverse::{Aman2022, ExitMethod, Maria2017, Robust};
+        match self {
+            Kernel::Aman2022Tet20 => <Aman2022 as ExitMethod<f32>>::PERTURBED_START,
+            Kernel::Maria2017Tet80 => <Maria2017 as ExitMethod<f32>>::PERTURBED_START,
+            Kernel::RobustTet20 => <Robust as ExitMethod<f32>>::PERTURBED_START,
+        }
+    }
+
     /// The kernel's own file under shaders/.
     pub fn file(self) -> &'static str {
         match self {

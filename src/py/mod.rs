@@ -130,8 +130,10 @@ impl PyScene {
     }
 
     /// Casts rays: origins and directions both float32 (the walk runs in float32) or both
-    /// float64. Returns a dict of the Hits fields, in that precision.
-    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method="aman2022", layout="tet32"))]
+    /// float64. Returns a dict of the Hits fields, in that precision; with `audit`, also
+    /// "audit": (N, 2) uint32, per ray the exit faces taken that exact predicates reject and
+    /// the steps where the method found no exit face.
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method="aman2022", layout="tet32", audit=false))]
     #[allow(clippy::too_many_arguments)]
     fn cast<'py>(
         &self,
@@ -144,6 +146,7 @@ impl PyScene {
         max_steps: Option<u32>,
         method: &str,
         layout: &str,
+        audit: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
         let scene = &self.inner;
         let f32s = (
@@ -152,7 +155,7 @@ impl PyScene {
         );
         if let (Ok(o), Ok(d)) = f32s {
             return cast_any(
-                py, scene, o, d, tmin, tmax, threads, max_steps, method, layout,
+                py, scene, o, d, tmin, tmax, threads, max_steps, method, layout, audit,
             );
         }
         match (
@@ -160,7 +163,7 @@ impl PyScene {
             directions.extract::<PyReadonlyArray2<'py, f64>>(),
         ) {
             (Ok(o), Ok(d)) => cast_any(
-                py, scene, o, d, tmin, tmax, threads, max_steps, method, layout,
+                py, scene, o, d, tmin, tmax, threads, max_steps, method, layout, audit,
             ),
             _ => Err(pyo3::exceptions::PyTypeError::new_err(
                 "origins and directions must be 2-D arrays, both float32 or both float64",
@@ -195,6 +198,7 @@ impl PyScene {
             tmax,
             threads,
             max_steps,
+            false,
             |rays, out, opts| {
                 timings = scene.cast_gpu(method, layout, rays, out, opts)?;
                 Ok(())
@@ -276,6 +280,7 @@ fn cast_any<'py, R: Precision + Element>(
     max_steps: Option<u32>,
     method: &str,
     layout: &str,
+    audit: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     cast_impl(
         py,
@@ -286,11 +291,13 @@ fn cast_any<'py, R: Precision + Element>(
         tmax,
         threads,
         max_steps,
+        audit,
         |rays, out, opts| scene.cast_named(method, layout, rays, out, opts),
     )
 }
 
-/// Validates, allocates the outputs, runs `cast` with the GIL released, returns the fields.
+/// Validates, allocates the outputs (with `audit`, two counts per ray), runs `cast` with the
+/// GIL released, returns the fields.
 #[allow(clippy::too_many_arguments)]
 fn cast_impl<'py, R: Precision + Element>(
     py: Python<'py>,
@@ -301,6 +308,7 @@ fn cast_impl<'py, R: Precision + Element>(
     tmax: PyReadonlyArray1<'py, f64>,
     threads: Option<usize>,
     max_steps: Option<u32>,
+    audit: bool,
     cast: impl FnOnce(&Rays<R>, HitsOut<R>, &CastOptions) -> crate::Result<()> + Send,
 ) -> PyResult<Bound<'py, PyDict>> {
     let n = check_cols(&origins, 3, "origins")?;
@@ -329,6 +337,7 @@ fn cast_impl<'py, R: Precision + Element>(
     );
     let (mut tri, mut tet, mut steps, mut status) =
         (vec![0i32; n], vec![0i32; n], vec![0u32; n], vec![0u8; n]);
+    let mut audit_counts = vec![0u32; if audit { 2 * n } else { 0 }];
     py.detach(|| {
         guarded(|| {
             let rays = Rays {
@@ -346,6 +355,7 @@ fn cast_impl<'py, R: Precision + Element>(
                 tet: &mut tet,
                 steps: &mut steps,
                 status: &mut status,
+                audit: &mut audit_counts,
             };
             cast(&rays, out, &opts)
         })
@@ -359,6 +369,9 @@ fn cast_impl<'py, R: Precision + Element>(
     out.set_item("tet", tet.into_pyarray(py))?;
     out.set_item("steps", steps.into_pyarray(py))?;
     out.set_item("status", status.into_pyarray(py))?;
+    if audit {
+        out.set_item("audit", audit_counts.into_pyarray(py).reshape([n, 2])?)?;
+    }
     Ok(out)
 }
 

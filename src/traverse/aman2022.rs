@@ -43,7 +43,7 @@ impl<R: Real> ExitMethod<R> for Aman2022 {
     type Ray = BasisRay<R>;
     type Vert = [R; 2];
 
-    fn prepare(origin: V3<f64>, dir: V3<f64>) -> Self::Ray {
+    fn prepare(origin: V3<f64>, dir: V3<f64>, _domain: &[V3<f64>; 2]) -> Self::Ray {
         let inv_len = 1.0 / (dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]).sqrt();
         let n = dir.map(|x| x * inv_len);
         let (u, w) = onb(n);
@@ -64,7 +64,7 @@ impl<R: Real> ExitMethod<R> for Aman2022 {
         ]
     }
 
-    fn start_exit(_ray: &Self::Ray, v: &[[R; 2]; 4]) -> usize {
+    fn start_exit(_ray: &Self::Ray, v: &[[R; 2]; 4], _p: &[V3<R>; 4]) -> usize {
         // The exit face projects counter-clockwise around the ray (its outward normal is along
         // the ray). With rounding, the ray may seem to pass just outside every face when it
         // starts on the tet's boundary: take the face it misses by the least.
@@ -85,8 +85,8 @@ impl<R: Real> ExitMethod<R> for Aman2022 {
     }
 
     #[inline(always)]
-    fn step(_ray: &Self::Ray, a: &[R; 2], b: &[R; 2], c: &[R; 2], d: &[R; 2]) -> Exit {
-        if cross2(d, a) >= R::ZERO {
+    fn step(_ray: &Self::Ray, a: &[R; 2], b: &[R; 2], c: &[R; 2], d: &[R; 2]) -> Option<Exit> {
+        Some(if cross2(d, a) >= R::ZERO {
             if cross2(d, b) <= R::ZERO {
                 Exit::Abd
             } else {
@@ -96,6 +96,6 @@ impl<R: Real> ExitMethod<R> for Aman2022 {
             Exit::Cad
         } else {
             Exit::Bcd
-        }
+        })
     }
 }

@@ -23,7 +23,7 @@
 //! on the side the ray passes it: no consistency across tets.
 
 use super::lagae2008_plane::div;
-use super::lagae2008_plucker::{cross, exit_by_face_tests, min2, pick3};
+use super::lagae2008_plucker::{cross, exit_by_face_tests, found3, min2, pick3};
 use super::{Exit, ExitMethod};
 use crate::real::{dot3, sub3, Real, V3};
 
@@ -41,7 +41,7 @@ impl<R: Real> ExitMethod<R> for Lagae2008Halfspace {
     /// World position.
     type Vert = V3<R>;
 
-    fn prepare(origin: V3<f64>, dir: V3<f64>) -> Self::Ray {
+    fn prepare(origin: V3<f64>, dir: V3<f64>, _domain: &[V3<f64>; 2]) -> Self::Ray {
         HalfspaceRay {
             o: origin.map(R::from_f64),
             u: dir.map(R::from_f64),
@@ -53,30 +53,46 @@ impl<R: Real> ExitMethod<R> for Lagae2008Halfspace {
         p
     }
 
-    fn start_exit(ray: &Self::Ray, v: &[V3<R>; 4]) -> usize {
+    fn start_exit(ray: &Self::Ray, v: &[V3<R>; 4], _p: &[V3<R>; 4]) -> usize {
         // Planes through the origin and the edge i–j: u against (v_i − o) × (v_j − o).
         let w = v.map(|p| sub3(p, ray.o));
         exit_by_face_tests(|i, j| dot3(ray.u, cross(w[i], w[j])))
     }
 
     #[inline(always)]
-    fn step(ray: &Self::Ray, a: &V3<R>, b: &V3<R>, c: &V3<R>, d: &V3<R>) -> Exit {
-        let u = ray.u;
-        // Entry point: the ray meets the entry face's plane at o + t u.
-        let n = cross(sub3(*b, *a), sub3(*c, *a));
-        let t = div(dot3(n, sub3(*a, ray.o)), dot3(n, u));
-        let p = [
-            ray.o[0] + t * u[0],
-            ray.o[1] + t * u[1],
-            ray.o[2] + t * u[2],
-        ];
-        // Classify u against the plane through p, d and k (normal (d − p) × (k − p)).
-        let dp = sub3(*d, p);
-        let xa = dot3(u, cross(dp, sub3(*a, p)));
-        let xb = dot3(u, cross(dp, sub3(*b, p)));
-        let xc = dot3(u, cross(dp, sub3(*c, p)));
-        // (a,b,d) iff xa ≥ 0 ≥ xb, (b,c,d) iff xb ≥ 0 ≥ xc, (c,a,d) iff xc ≥ 0 ≥ xa. Some face
-        // passes unless all three signs agree, which only rounding (of p above all) can cause.
-        pick3([min2(xa, -xb), min2(xb, -xc), min2(xc, -xa)])
+    fn step(ray: &Self::Ray, a: &V3<R>, b: &V3<R>, c: &V3<R>, d: &V3<R>) -> Option<Exit> {
+        Some(pick3(face_margins(ray, a, b, c, d)))
     }
+
+    fn exit_found(ray: &Self::Ray, a: &V3<R>, b: &V3<R>, c: &V3<R>, d: &V3<R>) -> bool {
+        found3(face_margins(ray, a, b, c, d))
+    }
+}
+
+/// The least margin of each candidate face's tests, (a,b,d), (b,c,d), (c,a,d).
+#[inline(always)]
+fn face_margins<R: Real>(
+    ray: &HalfspaceRay<R>,
+    a: &V3<R>,
+    b: &V3<R>,
+    c: &V3<R>,
+    d: &V3<R>,
+) -> [R; 3] {
+    let u = ray.u;
+    // Entry point: the ray meets the entry face's plane at o + t u.
+    let n = cross(sub3(*b, *a), sub3(*c, *a));
+    let t = div(dot3(n, sub3(*a, ray.o)), dot3(n, u));
+    let p = [
+        ray.o[0] + t * u[0],
+        ray.o[1] + t * u[1],
+        ray.o[2] + t * u[2],
+    ];
+    // Classify u against the plane through p, d and k (normal (d − p) × (k − p)).
+    let dp = sub3(*d, p);
+    let xa = dot3(u, cross(dp, sub3(*a, p)));
+    let xb = dot3(u, cross(dp, sub3(*b, p)));
+    let xc = dot3(u, cross(dp, sub3(*c, p)));
+    // (a,b,d) iff xa ≥ 0 ≥ xb, (b,c,d) iff xb ≥ 0 ≥ xc, (c,a,d) iff xc ≥ 0 ≥ xa. Some face
+    // passes unless all three signs agree, which only rounding (of p above all) can cause.
+    [min2(xa, -xb), min2(xb, -xc), min2(xc, -xa)]
 }

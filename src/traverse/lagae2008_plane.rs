@@ -39,7 +39,7 @@ pub(super) fn div<R: Real>(a: R, b: R) -> R {
 /// n·u > 0; ties keep the earlier. If rounding leaves none facing along the ray, the one with
 /// the largest n·u (deterministic; the paper's method would find no face).
 #[inline(always)]
-fn nearest_ahead<R: Real, const N: usize>(u: V3<R>, planes: [(V3<R>, V3<R>); N]) -> usize {
+fn nearest_ahead<R: Real, const N: usize>(u: V3<R>, planes: [(V3<R>, V3<R>); N]) -> (usize, bool) {
     let z = R::ZERO;
     let mut best: Option<(usize, R)> = None;
     let mut steepest = (0usize, None::<R>);
@@ -56,8 +56,8 @@ fn nearest_ahead<R: Real, const N: usize>(u: V3<R>, planes: [(V3<R>, V3<R>); N])
         }
     }
     match best {
-        Some((k, _)) => k,
-        None => steepest.0,
+        Some((k, _)) => (k, true),
+        None => (steepest.0, false),
     }
 }
 
@@ -67,7 +67,7 @@ impl<R: Real> ExitMethod<R> for Lagae2008Plane {
     /// World position.
     type Vert = V3<R>;
 
-    fn prepare(origin: V3<f64>, dir: V3<f64>) -> Self::Ray {
+    fn prepare(origin: V3<f64>, dir: V3<f64>, _domain: &[V3<f64>; 2]) -> Self::Ray {
         PlaneRay {
             o: origin.map(R::from_f64),
             u: dir.map(R::from_f64),
@@ -79,21 +79,37 @@ impl<R: Real> ExitMethod<R> for Lagae2008Plane {
         p
     }
 
-    fn start_exit(ray: &Self::Ray, v: &[V3<R>; 4]) -> usize {
+    fn start_exit(ray: &Self::Ray, v: &[V3<R>; 4], _p: &[V3<R>; 4]) -> usize {
         let planes = OUTWARD_FACES.map(|f| {
             let n = cross(sub3(v[f[1]], v[f[0]]), sub3(v[f[2]], v[f[0]]));
             (n, sub3(v[f[0]], ray.o))
         });
-        nearest_ahead(ray.u, planes)
+        nearest_ahead(ray.u, planes).0
     }
 
     #[inline(always)]
-    fn step(ray: &Self::Ray, a: &V3<R>, b: &V3<R>, c: &V3<R>, d: &V3<R>) -> Exit {
-        // The three candidate planes all pass through d; (x − d) × (y − d) is the outward
-        // normal of (x, y, d) since the faces come in outward (counter-clockwise) order.
-        let (ea, eb, ec) = (sub3(*a, *d), sub3(*b, *d), sub3(*c, *d));
-        let w = sub3(*d, ray.o);
-        let planes = [(cross(ea, eb), w), (cross(eb, ec), w), (cross(ec, ea), w)];
-        [Exit::Abd, Exit::Bcd, Exit::Cad][nearest_ahead(ray.u, planes)]
+    fn step(ray: &Self::Ray, a: &V3<R>, b: &V3<R>, c: &V3<R>, d: &V3<R>) -> Option<Exit> {
+        Some([Exit::Abd, Exit::Bcd, Exit::Cad][candidate_exit(ray, a, b, c, d).0])
     }
+
+    fn exit_found(ray: &Self::Ray, a: &V3<R>, b: &V3<R>, c: &V3<R>, d: &V3<R>) -> bool {
+        candidate_exit(ray, a, b, c, d).1
+    }
+}
+
+/// The nearest of the three candidate planes ahead, and whether any faced along the ray.
+#[inline(always)]
+fn candidate_exit<R: Real>(
+    ray: &PlaneRay<R>,
+    a: &V3<R>,
+    b: &V3<R>,
+    c: &V3<R>,
+    d: &V3<R>,
+) -> (usize, bool) {
+    // The three candidate planes all pass through d; (x − d) × (y − d) is the outward
+    // normal of (x, y, d) since the faces come in outward (counter-clockwise) order.
+    let (ea, eb, ec) = (sub3(*a, *d), sub3(*b, *d), sub3(*c, *d));
+    let w = sub3(*d, ray.o);
+    let planes = [(cross(ea, eb), w), (cross(eb, ec), w), (cross(ec, ea), w)];
+    nearest_ahead(ray.u, planes)
 }

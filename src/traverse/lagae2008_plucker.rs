@@ -81,6 +81,32 @@ pub(super) fn min3<R: Real>(x: R, y: R, z: R) -> R {
 /// by the least, so the walk always goes on deterministically (the papers' methods would report
 /// "no face"; NaN keeps the first).
 #[inline(always)]
+/// Whether some face passed its tests (see [`pick3`]).
+pub(super) fn found3<R: Real>(m: [R; 3]) -> bool {
+    m.iter().any(|&x| x >= R::ZERO)
+}
+
+/// The least margin of each candidate face's three edge tests, (a,b,d), (b,c,d), (c,a,d).
+#[inline(always)]
+fn face_margins<R: Real>(
+    ray: &PluckerRay<R>,
+    a: &V3<R>,
+    b: &V3<R>,
+    c: &V3<R>,
+    d: &V3<R>,
+) -> [R; 3] {
+    // The six edges of the tet, recomputed here even for the entry face (Lagae does not
+    // carry them from the previous tet).
+    let ab = side_world(ray, *a, *b);
+    let bc = side_world(ray, *b, *c);
+    let ca = side_world(ray, *c, *a);
+    let ad = side_world(ray, *a, *d);
+    let bd = side_world(ray, *b, *d);
+    let cd = side_world(ray, *c, *d);
+    // Face (x, y, d) is left iff s(x→y), s(y→d), s(d→x) ≥ 0; s(d→x) = −s(x→d) exactly.
+    [min3(ab, bd, -ad), min3(bc, cd, -bd), min3(ca, ad, -cd)]
+}
+
 pub(super) fn pick3<R: Real>(m: [R; 3]) -> Exit {
     const EXITS: [Exit; 3] = [Exit::Abd, Exit::Bcd, Exit::Cad];
     let z = R::ZERO;
@@ -159,7 +185,7 @@ impl<R: Real> ExitMethod<R> for Lagae2008Plucker {
     /// World position: the edges' Plücker coordinates are built from it in every tet.
     type Vert = V3<R>;
 
-    fn prepare(origin: V3<f64>, dir: V3<f64>) -> Self::Ray {
+    fn prepare(origin: V3<f64>, dir: V3<f64>, _domain: &[V3<f64>; 2]) -> Self::Ray {
         PluckerRay::new(origin, dir)
     }
 
@@ -168,7 +194,7 @@ impl<R: Real> ExitMethod<R> for Lagae2008Plucker {
         p
     }
 
-    fn start_exit(ray: &Self::Ray, v: &[V3<R>; 4]) -> usize {
+    fn start_exit(ray: &Self::Ray, v: &[V3<R>; 4], _p: &[V3<R>; 4]) -> usize {
         // All six permuted inner products up front, as Lagae does, then the four face tests.
         let mut t = [R::ZERO; 6];
         for lo in 0..4 {
@@ -180,16 +206,11 @@ impl<R: Real> ExitMethod<R> for Lagae2008Plucker {
     }
 
     #[inline(always)]
-    fn step(ray: &Self::Ray, a: &V3<R>, b: &V3<R>, c: &V3<R>, d: &V3<R>) -> Exit {
-        // The six edges of the tet, recomputed here even for the entry face (Lagae does not
-        // carry them from the previous tet).
-        let ab = side_world(ray, *a, *b);
-        let bc = side_world(ray, *b, *c);
-        let ca = side_world(ray, *c, *a);
-        let ad = side_world(ray, *a, *d);
-        let bd = side_world(ray, *b, *d);
-        let cd = side_world(ray, *c, *d);
-        // Face (x, y, d) is left iff s(x→y), s(y→d), s(d→x) ≥ 0; s(d→x) = −s(x→d) exactly.
-        pick3([min3(ab, bd, -ad), min3(bc, cd, -bd), min3(ca, ad, -cd)])
+    fn step(ray: &Self::Ray, a: &V3<R>, b: &V3<R>, c: &V3<R>, d: &V3<R>) -> Option<Exit> {
+        Some(pick3(face_margins(ray, a, b, c, d)))
+    }
+
+    fn exit_found(ray: &Self::Ray, a: &V3<R>, b: &V3<R>, c: &V3<R>, d: &V3<R>) -> bool {
+        found3(face_margins(ray, a, b, c, d))
     }
 }

@@ -17,7 +17,7 @@
 //! the cross product is antisymmetric bit for bit), so tets sharing an edge agree on its sign;
 //! the cost of accuracy is that |P|, |Q| grow with the distance from the ray origin.
 
-use super::lagae2008_plucker::{cross, exit_by_face_tests, min3, pick3};
+use super::lagae2008_plucker::{cross, exit_by_face_tests, found3, min3, pick3};
 use super::{Exit, ExitMethod};
 use crate::real::{dot3, sub3, Real, V3};
 
@@ -41,7 +41,7 @@ impl<R: Real> ExitMethod<R> for Lagae2008Stp {
     /// The vertex relative to the ray origin.
     type Vert = V3<R>;
 
-    fn prepare(origin: V3<f64>, dir: V3<f64>) -> Self::Ray {
+    fn prepare(origin: V3<f64>, dir: V3<f64>, _domain: &[V3<f64>; 2]) -> Self::Ray {
         StpRay {
             o: origin.map(R::from_f64),
             u: dir.map(R::from_f64),
@@ -53,12 +53,12 @@ impl<R: Real> ExitMethod<R> for Lagae2008Stp {
         sub3(p, ray.o)
     }
 
-    fn start_exit(ray: &Self::Ray, v: &[V3<R>; 4]) -> usize {
+    fn start_exit(ray: &Self::Ray, v: &[V3<R>; 4], _p: &[V3<R>; 4]) -> usize {
         exit_by_face_tests(|i, j| stp(ray.u, &v[i], &v[j]))
     }
 
     #[inline(always)]
-    fn step(ray: &Self::Ray, a: &V3<R>, b: &V3<R>, c: &V3<R>, d: &V3<R>) -> Exit {
+    fn step(ray: &Self::Ray, a: &V3<R>, b: &V3<R>, c: &V3<R>, d: &V3<R>) -> Option<Exit> {
         let u = ray.u;
         let z = R::ZERO;
         // Each edge's product computed at most once, on first use; d→x is −[u, X, D].
@@ -77,20 +77,30 @@ impl<R: Real> ExitMethod<R> for Lagae2008Stp {
         }
         // (a,b,d): edges a→b, b→d, d→a.
         if s!(ab, a, b) >= z && s!(bd, b, d) >= z && -s!(ad, a, d) >= z {
-            return Exit::Abd;
+            return Some(Exit::Abd);
         }
         // (b,c,d): edges b→c, c→d, d→b.
         if s!(bc, b, c) >= z && s!(cd, c, d) >= z && -s!(bd, b, d) >= z {
-            return Exit::Bcd;
+            return Some(Exit::Bcd);
         }
         // (c,a,d): edges c→a, a→d, d→c.
         if s!(ca, c, a) >= z && s!(ad, a, d) >= z && -s!(cd, c, d) >= z {
-            return Exit::Cad;
+            return Some(Exit::Cad);
         }
         // Rounding made every test fail: the face failing by the least (all six products).
         let all = |slot: Option<R>, p, q| slot.unwrap_or_else(|| stp(u, p, q));
         let (ab, bc, ca) = (all(ab, a, b), all(bc, b, c), all(ca, c, a));
         let (ad, bd, cd) = (all(ad, a, d), all(bd, b, d), all(cd, c, d));
-        pick3([min3(ab, bd, -ad), min3(bc, cd, -bd), min3(ca, ad, -cd)])
+        Some(pick3([
+            min3(ab, bd, -ad),
+            min3(bc, cd, -bd),
+            min3(ca, ad, -cd),
+        ]))
+    }
+
+    fn exit_found(ray: &Self::Ray, a: &V3<R>, b: &V3<R>, c: &V3<R>, d: &V3<R>) -> bool {
+        let s = |p, q| stp(ray.u, p, q);
+        let (ab, bc, ca, ad, bd, cd) = (s(a, b), s(b, c), s(c, a), s(a, d), s(b, d), s(c, d));
+        found3([min3(ab, bd, -ad), min3(bc, cd, -bd), min3(ca, ad, -cd)])
     }
 }

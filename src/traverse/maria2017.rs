@@ -53,7 +53,7 @@ impl<R: Real> ExitMethod<R> for Maria2017 {
     /// World position (the tet's vertices, as their 80-byte tetrahedron stores them).
     type Vert = V3<R>;
 
-    fn prepare(origin: V3<f64>, dir: V3<f64>) -> Self::Ray {
+    fn prepare(origin: V3<f64>, dir: V3<f64>, _domain: &[V3<f64>; 2]) -> Self::Ray {
         PluckerRay::new(origin, dir)
     }
 
@@ -62,7 +62,7 @@ impl<R: Real> ExitMethod<R> for Maria2017 {
         p
     }
 
-    fn start_exit(ray: &Self::Ray, v: &[V3<R>; 4]) -> usize {
+    fn start_exit(ray: &Self::Ray, v: &[V3<R>; 4], _p: &[V3<R>; 4]) -> usize {
         // Algorithm 2: side ← r⊙(V3→V2) in the frame translated to V3. The outward faces are
         // F0 = (1,2,3), which needs the ray to turn counter-clockwise around V2→V3, and
         // F1 = (0,3,2), around V3→V2. side < 0 rules out F1 (f = 1), side ≥ 0 rules out F0
@@ -81,7 +81,7 @@ impl<R: Real> ExitMethod<R> for Maria2017 {
     }
 
     #[inline(always)]
-    fn step(ray: &Self::Ray, a: &V3<R>, b: &V3<R>, c: &V3<R>, d: &V3<R>) -> Exit {
-        exit_tetra(ray, a, b, c, d)
+    fn step(ray: &Self::Ray, a: &V3<R>, b: &V3<R>, c: &V3<R>, d: &V3<R>) -> Option<Exit> {
+        Some(exit_tetra(ray, a, b, c, d))
     }
 }

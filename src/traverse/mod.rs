@@ -40,26 +40,75 @@ pub enum Exit {
 
 pub trait ExitMethod<R: Real> {
     const NAME: &'static str;
+    /// The walk follows a symbolically perturbed line starting at s + εδ (the robust walk):
+    /// the start tet must be the one holding that point (`robust::settle_start`).
+    const PERTURBED_START: bool = false;
     /// Per-ray data computed once (e.g. a basis).
     type Ray: Copy;
     /// Per-vertex data computed once per fetched vertex (e.g. its 2D projection).
     type Vert: Copy;
 
     /// `origin` is the point the walk starts from (inside the start tet); `dir` need not be
-    /// normalized.
-    fn prepare(origin: V3<f64>, dir: V3<f64>) -> Self::Ray;
+    /// normalized; `domain` is the box ([min, max]) holding every vertex the walk will read,
+    /// which methods with error bounds (the robust walk) use to bound their rounding.
+    fn prepare(origin: V3<f64>, dir: V3<f64>, domain: &[V3<f64>; 2]) -> Self::Ray;
     fn vertex(ray: &Self::Ray, p: V3<R>) -> Self::Vert;
     /// The face (index i of OUTWARD_FACES, opposite vertex i) by which the ray leaves the start
-    /// tet, whose four vertices are given in positive orientation.
-    fn start_exit(ray: &Self::Ray, v: &[Self::Vert; 4]) -> usize;
-    /// The exit face of a tet entered through (a, b, c) whose fourth vertex is d.
+    /// tet, whose four vertices (data `v`, positions `p`) are given in positive orientation.
+    fn start_exit(ray: &Self::Ray, v: &[Self::Vert; 4], p: &[V3<R>; 4]) -> usize;
+    /// The exit face of a tet entered through (a, b, c) whose fourth vertex is d, or None
+    /// when the vertex data cannot decide it (a filter found the float result uncertain): the
+    /// walk then reads the positions and calls [`ExitMethod::step_exact`].
     fn step(
         ray: &Self::Ray,
         a: &Self::Vert,
         b: &Self::Vert,
         c: &Self::Vert,
         d: &Self::Vert,
-    ) -> Exit;
+    ) -> Option<Exit>;
+    /// The exit face from the positions of a, b, c, d. Only methods whose `step` can return
+    /// None need to provide it; for the others it is `step` on the same data.
+    fn step_exact(ray: &Self::Ray, p: &[V3<R>; 4]) -> Exit {
+        let v = p.map(|x| Self::vertex(ray, x));
+        Self::step(ray, &v[0], &v[1], &v[2], &v[3]).unwrap_or(Exit::Bcd)
+    }
+    /// Whether the method's own tests named the face `step` returns, rather than a fallback
+    /// choosing one when rounding made every test fail ("no exit face found"). Decision-tree
+    /// methods always name one. Only the audit asks.
+    fn exit_found(
+        _ray: &Self::Ray,
+        _a: &Self::Vert,
+        _b: &Self::Vert,
+        _c: &Self::Vert,
+        _d: &Self::Vert,
+    ) -> bool {
+        true
+    }
+}
+
+/// The full decision for one step, as the walk makes it: `step`, else `step_exact`.
+#[inline(always)]
+pub fn decide<R: Real, M: ExitMethod<R>>(ray: &M::Ray, p: &[V3<R>; 4]) -> Exit {
+    let v = p.map(|x| M::vertex(ray, x));
+    M::step(ray, &v[0], &v[1], &v[2], &v[3]).unwrap_or_else(|| M::step_exact(ray, p))
+}
+
+/// Sees each exit face a walk takes (the audit of `tetrace.stress`); the walk's hot loop calls
+/// it only when `ACTIVE`, so the plain walk compiles as if it did not exist.
+pub trait WalkObserver<R: Real> {
+    const ACTIVE: bool;
+    /// The face the walk leaves a tet by, counter-clockwise around the ray, and whether the
+    /// method's tests found it (see [`ExitMethod::exit_found`]).
+    fn exit(&mut self, face: [V3<R>; 3], found: bool);
+}
+
+/// The plain walk's observer: nothing.
+pub struct NoObserver;
+
+impl<R: Real> WalkObserver<R> for NoObserver {
+    const ACTIVE: bool = false;
+    #[inline(always)]
+    fn exit(&mut self, _face: [V3<R>; 3], _found: bool) {}
 }
 
 /// How a walk ended.
@@ -104,6 +153,31 @@ pub fn walk<R: Real, L: Layout, M: ExitMethod<R>>(
     entry: Option<usize>,
     max_steps: u32,
 ) -> Walk {
+    walk_observed::<R, L, M, NoObserver>(
+        layout,
+        points,
+        ray,
+        start,
+        start_tet,
+        entry,
+        max_steps,
+        &mut NoObserver,
+    )
+}
+
+/// [`walk`], showing `observer` every exit face.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn walk_observed<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>>(
+    layout: &L,
+    points: &[[R; 3]],
+    ray: &M::Ray,
+    start: u32,
+    start_tet: [u32; 4],
+    entry: Option<usize>,
+    max_steps: u32,
+    observer: &mut O,
+) -> Walk {
     let position = |t: u32, v: u32| -> V3<R> {
         if L::INLINE {
             layout.inline_vertices(t)[v as usize].map(R::from_f32)
@@ -131,11 +205,15 @@ pub fn walk<R: Real, L: Layout, M: ExitMethod<R>>(
         );
         (link, t, steps, entry_face) = (start, start, 0u32, i);
     } else {
-        let vs = names.map(|v| M::vertex(ray, position(start, v)));
-        let i = M::start_exit(ray, &vs);
+        let ps = names.map(|v| position(start, v));
+        let vs = ps.map(|p| M::vertex(ray, p));
+        let i = M::start_exit(ray, &vs, &ps);
         let f = OUTWARD_FACES[i];
         (a, b, c) = (names[f[0]], names[f[1]], names[f[2]]);
         (pa, pb, pc) = (vs[f[0]], vs[f[1]], vs[f[2]]);
+        if O::ACTIVE {
+            observer.exit([ps[f[0]], ps[f[1]], ps[f[2]]], true);
+        }
         if L::INLINE {
             (link, entry_face) = layout.inline_face(start, i);
         } else {
@@ -187,7 +265,22 @@ pub fn walk<R: Real, L: Layout, M: ExitMethod<R>>(
             layout.new_vertex(t, a, b, c)
         };
         let pd = M::vertex(ray, position(t, d));
-        let opposite = match M::step(ray, &pa, &pb, &pc, &pd) {
+        let exit = match M::step(ray, &pa, &pb, &pc, &pd) {
+            Some(e) => e,
+            // Cold: the filter of a robust method was uncertain. Names are ids, or slots of
+            // tet t for INLINE layouts, so `position` finds the four vertices either way.
+            None => M::step_exact(
+                ray,
+                &[
+                    position(t, a),
+                    position(t, b),
+                    position(t, c),
+                    position(t, d),
+                ],
+            ),
+        };
+        let found = O::ACTIVE && M::exit_found(ray, &pa, &pb, &pc, &pd);
+        let opposite = match exit {
             Exit::Abd => {
                 let o = c;
                 (c, pc) = (d, pd);
@@ -204,6 +297,9 @@ pub fn walk<R: Real, L: Layout, M: ExitMethod<R>>(
                 o
             }
         };
+        if O::ACTIVE {
+            observer.exit([position(t, a), position(t, b), position(t, c)], found);
+        }
         if L::INLINE {
             (link, entry_face) = layout.inline_face(t, opposite as usize);
         } else {

@@ -31,7 +31,7 @@ impl<R: Real> ExitMethod<R> for Ms06 {
     /// World position.
     type Vert = V3<R>;
 
-    fn prepare(origin: V3<f64>, dir: V3<f64>) -> Self::Ray {
+    fn prepare(origin: V3<f64>, dir: V3<f64>, _domain: &[V3<f64>; 2]) -> Self::Ray {
         PluckerRay::new(origin, dir)
     }
 
@@ -40,25 +40,25 @@ impl<R: Real> ExitMethod<R> for Ms06 {
         p
     }
 
-    fn start_exit(ray: &Self::Ray, v: &[V3<R>; 4]) -> usize {
+    fn start_exit(ray: &Self::Ray, v: &[V3<R>; 4], _p: &[V3<R>; 4]) -> usize {
         exit_by_face_tests(|i, j| side_world(ray, v[i], v[j]))
     }
 
     #[inline(always)]
-    fn step(ray: &Self::Ray, a: &V3<R>, b: &V3<R>, c: &V3<R>, d: &V3<R>) -> Exit {
+    fn step(ray: &Self::Ray, a: &V3<R>, b: &V3<R>, c: &V3<R>, d: &V3<R>) -> Option<Exit> {
         let z = R::ZERO;
         // (a,b,d): a→b is an entry edge (known ≥ 0); b→d ≥ 0 and d→a ≥ 0 remain.
         let xa = side_world(ray, *d, *a);
         let xb = side_world(ray, *d, *b);
         if xa >= z && xb <= z {
-            return Exit::Abd;
+            return Some(Exit::Abd);
         }
         // (b,c,d): b→c is an entry edge; d→b ≥ 0 (known now) and c→d ≥ 0.
         let xc = side_world(ray, *d, *c);
-        if xb >= z && xc <= z {
+        Some(if xb >= z && xc <= z {
             Exit::Bcd
         } else {
             Exit::Cad
-        }
+        })
     }
 }

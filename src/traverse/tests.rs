@@ -134,6 +134,7 @@ fn cast<R: Real>(
         tet: &mut tet,
         steps: &mut steps,
         status: &mut status,
+        audit: &mut [],
     };
     f(scene, &rays, out).unwrap();
     Cast {
@@ -197,6 +198,9 @@ fn onb_is_right_handed() {
     }
 }
 
+/// A box holding every point of the single-tet tests (the domain methods' bounds use).
+const TEST_DOMAIN: [[f64; 3]; 2] = [[-4.0; 3], [4.0; 3]];
+
 /// For a single tet and rays through chosen faces, method M names that face: from inside
 /// (the start tet) and entering through each face and leaving by each of the three others.
 pub(crate) fn check_exact_exit_faces<R: Real, M: ExitMethod<R>>() {
@@ -214,10 +218,11 @@ pub(crate) fn check_exact_exit_faces<R: Real, M: ExitMethod<R>>() {
     for (i, f) in OUTWARD_FACES.iter().enumerate() {
         let c = centroid(*f);
         let d = [0, 1, 2].map(|a| c[a] - inside[a]);
-        let ray = M::prepare(inside, d);
-        let vs = v.map(|p| M::vertex(&ray, to_r(p)));
+        let ray = M::prepare(inside, d, &TEST_DOMAIN);
+        let ps = v.map(to_r);
+        let vs = ps.map(|p| M::vertex(&ray, p));
         assert_eq!(
-            M::start_exit(&ray, &vs),
+            M::start_exit(&ray, &vs, &ps),
             i,
             "{} {}: start tet, ray to face {i}",
             M::NAME,
@@ -240,10 +245,10 @@ pub(crate) fn check_exact_exit_faces<R: Real, M: ExitMethod<R>>() {
             let en = [0, 1, 2].map(|k| 0.9 * entry[k] + 0.1 * inside[k]);
             let dir = [0, 1, 2].map(|k| g[k] - en[k]);
             let o = [0, 1, 2].map(|k| en[k] - 0.5 * dir[k]);
-            let ray = M::prepare(o, dir);
-            let p = [a, b, c, d].map(|q| M::vertex(&ray, to_r(v[q])));
+            let ray = M::prepare(o, dir, &TEST_DOMAIN);
+            let p = [a, b, c, d].map(|q| to_r(v[q]));
             assert_eq!(
-                M::step(&ray, &p[0], &p[1], &p[2], &p[3]),
+                super::decide::<R, M>(&ray, &p),
                 want,
                 "{} {}: entering by face {e}",
                 M::NAME,
@@ -470,21 +475,23 @@ fn check_degenerate_inputs<R: Real, M: ExitMethod<R>>() {
         ([f64::NAN, 0.0, 0.0], [1.0, 0.0, 0.0]),
     ];
     for (o, d) in rays {
-        let ray = M::prepare(o, d);
+        let ray = M::prepare(o, d, &TEST_DOMAIN);
         for tet in [v, flat] {
-            let p = tet.map(|q| M::vertex(&ray, q.map(R::from_f64)));
-            let i = M::start_exit(&ray, &p);
+            let ps = tet.map(|q| q.map(R::from_f64));
+            let p = ps.map(|q| M::vertex(&ray, q));
+            let i = M::start_exit(&ray, &p, &ps);
             assert!(
-                i < 4 && i == M::start_exit(&ray, &p),
+                i < 4 && i == M::start_exit(&ray, &p, &ps),
                 "{} {}",
                 M::NAME,
                 R::NAME
             );
             for e in [[0, 1, 2, 3], [1, 0, 3, 2], [3, 2, 1, 0], [0, 0, 0, 0]] {
-                let x = M::step(&ray, &p[e[0]], &p[e[1]], &p[e[2]], &p[e[3]]);
+                let q = e.map(|k| ps[k]);
+                let x = super::decide::<R, M>(&ray, &q);
                 assert_eq!(
                     x,
-                    M::step(&ray, &p[e[0]], &p[e[1]], &p[e[2]], &p[e[3]]),
+                    super::decide::<R, M>(&ray, &q),
                     "{} {}",
                     M::NAME,
                     R::NAME

@@ -48,9 +48,23 @@ def stability_main(argv):
                                 description="Outcomes of every method on the stress families.")
     p.add_argument("--rays", type=int, default=20_000, help="rays per family")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--family", action="append", default=None)
+    p.add_argument("--family", action="append", default=None,
+                   help="stress family (repeatable; default: all)")
+    p.add_argument("--method", action="append", default=None,
+                   help="exit method (repeatable; default: all)")
+    p.add_argument("--layout", action="append", default=None,
+                   help="tet layout (repeatable, or 'all'; default: tet32)")
+    p.add_argument("--precision", choices=["f32", "f64", "both"], default="both")
+    p.add_argument("--json", default=None, help="also write the rows as JSON here")
     args = p.parse_args(argv)
-    run_stability(args.rays, args.seed, args.family)
+    from .. import _native
+
+    layouts = args.layout or ["tet32"]
+    if layouts == ["all"]:
+        layouts = [name for name, _ in _native.layouts()]
+    precisions = ["f32", "f64"] if args.precision == "both" else [args.precision]
+    run_stability(args.rays, args.seed, args.family, args.method, layouts, precisions,
+                  json_path=args.json)
     return 0
 
 
