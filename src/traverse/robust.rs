@@ -85,7 +85,7 @@ fn det2<R: Real>(p: &[R; 3], q: &[R; 3]) -> R {
 #[inline(always)]
 fn certain_side<R: Real>(p: &[R; 3], q: &[R; 3]) -> Option<bool> {
     let det = det2(p, q);
-    let bound = p[2] + q[2] + R::MIN_NORMAL;
+    let bound = p[2] + q[2];
     if det > bound {
         Some(true)
     } else if -det > bound {
@@ -238,7 +238,8 @@ impl<R: Real> ExitMethod<R> for Robust {
     fn vertex(ray: &LineRay<R>, p: V3<R>) -> [R; 3] {
         let q = sub3(p, ray.sr);
         let (x, y) = (dot3(q, ray.u), dot3(q, ray.w));
-        [x, y, ray.bound_scale * (abs(x) + abs(y))]
+        // The smallest normal number (half of it per vertex) guards against underflow.
+        [x, y, ray.bound_scale * (abs(x) + abs(y)) + R::MIN_NORMAL]
     }
 
     fn start_exit(ray: &LineRay<R>, v: &[[R; 3]; 4], p: &[V3<R>; 4]) -> usize {
@@ -278,8 +279,7 @@ impl<R: Real> ExitMethod<R> for Robust {
             let xc = det2(d, c);
             (if xc >= R::ZERO { Exit::Cad } else { Exit::Bcd }, xc, c)
         };
-        let tiny = R::MIN_NORMAL;
-        if abs(xa) > d[2] + a[2] + tiny && abs(x2) > d[2] + e2[2] + tiny {
+        if abs(xa) > d[2] + a[2] && abs(x2) > d[2] + e2[2] {
             Some(exit)
         } else {
             None
