@@ -495,11 +495,17 @@ impl Scene {
                 None => self.locator.locate(mesh, start_point, *hint, rng),
             }
         };
-        let Located::Inside(start) = start else {
+        let Located::Inside(mut start) = start else {
             // Inside the box but no tet holds the point: only a broken mesh can do this.
             return RayHit::nothing(if inside { FAILED } else { MISS });
         };
         *hint = Some(start);
+        if M::PERTURBED_START && !inside {
+            // Entering through the box: the perturbed start lies just inside it, in the tet
+            // settle_start finds; the exit from there is the method's to decide.
+            start = crate::traverse::robust::settle_start(mesh, points, start, start_point);
+            entry_face = None;
+        }
         // The walk needs only the direction: scaled exactly, tiny and huge ones behave.
         let dir = crate::real::unit_scale(d);
         let ray = M::prepare(start_point, dir, &mesh.bounds);
