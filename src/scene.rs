@@ -438,8 +438,9 @@ impl Scene {
     /// Where ray i's walk starts (the first half of a cast; the GPU path walks elsewhere and
     /// comes back to [`Scene::finish`]). The hints carry state between neighbouring rays of a
     /// chunk, as in `cast_generic`. `settle`: the points the walk reads, for a method whose
-    /// walk starts at the perturbed start point ([`ExitMethod::PERTURBED_START`]): an interior
-    /// start then moves to the tet holding that point (`robust::settle_start`).
+    /// walk starts at the perturbed start point ([`ExitMethod::PERTURBED_START`]): the start,
+    /// inside the box or entering it, then moves to the tet holding that point
+    /// (`robust::settle_start`), with no entry face (the method's start exit decides).
     #[allow(clippy::too_many_arguments)]
     #[inline]
     pub(crate) fn locate_one<R: Real>(
@@ -514,11 +515,17 @@ impl Scene {
                 None => self.locator.locate(mesh, start_point, *hint, rng),
             }
         };
-        let Located::Inside(start) = start else {
+        let Located::Inside(mut start) = start else {
             // Inside the box but no tet holds the point: only a broken mesh can do this.
             return Start::Done(RayHit::nothing(if inside { FAILED } else { MISS }));
         };
         *hint = Some(start);
+        if let (Some(points), false) = (settle, inside) {
+            // Entering through the box: the perturbed start lies just inside it, in the tet
+            // settle_start finds; the exit from there is the method's to decide.
+            start = crate::traverse::robust::settle_start(mesh, points, start, start_point);
+            entry_face = None;
+        }
         Start::Walk(WalkStart {
             o,
             d,
@@ -583,7 +590,8 @@ pub(crate) struct WalkStart {
     /// The point the walk starts from (o + tmin d, or the entry point on the box).
     pub point: [f64; 3],
     pub tet: u32,
-    /// The face of `tet` the ray enters by, when it comes from outside the box.
+    /// The face of `tet` the ray enters by, when it comes from outside the box (never for a
+    /// method with a perturbed start: its entry is settled like an interior start).
     pub entry: Option<usize>,
 }
 

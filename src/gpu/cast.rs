@@ -543,7 +543,7 @@ type Located = (Vec<(u32, WalkStart)>, Vec<RayIn>);
 pub const MAX_BATCH: usize = 1 << 20;
 
 /// The ray as the kernel's CPU twin prepares it (`WalkStart::prepare`, as the CPU cast does).
-fn prepare(kernel: Kernel, s: &WalkStart, mesh: &TetMesh) -> RayIn {
+pub(super) fn prepare(kernel: Kernel, s: &WalkStart, mesh: &TetMesh) -> RayIn {
     let entry = s.entry.map_or(NO_ENTRY, |i| i as u32);
     let base = RayIn {
         tet: s.tet,

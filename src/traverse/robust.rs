@@ -31,6 +31,8 @@ pub struct LineRay<R> {
     /// The exact line: through s and b (see the module docs).
     pub s: V3<f64>,
     pub b: V3<f64>,
+    /// The start's perturbation direction δ (see `start_delta`).
+    pub delta: V3<f64>,
     /// s in the walk's precision (exactly s), and the 2D basis built from b − s.
     pub sr: V3<R>,
     pub u: V3<R>,
@@ -57,7 +59,7 @@ pub fn exact_line<R: Real>(
     dir: V3<f64>,
     domain: &[V3<f64>; 2],
 ) -> (V3<f64>, V3<f64>) {
-    let s = start.map(|x| R::from_f64(x).to_f64());
+    let s = start_point::<R>(start, domain);
     let scale = s
         .iter()
         .chain(domain[0].iter())
@@ -85,7 +87,7 @@ fn det2<R: Real>(p: &[R; 3], q: &[R; 3]) -> R {
 #[inline(always)]
 fn certain_side<R: Real>(p: &[R; 3], q: &[R; 3]) -> Option<bool> {
     let det = det2(p, q);
-    let bound = p[2] + q[2] + R::MIN_NORMAL;
+    let bound = p[2] + q[2];
     if det > bound {
         Some(true)
     } else if -det > bound {
@@ -116,12 +118,37 @@ fn exact_side<R: Real>(ray: &LineRay<R>, p: V3<R>, q: V3<R>) -> bool {
     if det != 0.0 {
         det > 0.0
     } else {
-        perturbed_side(ray.s, ray.b, pp, qq)
+        perturbed_side(ray.s, ray.b, pp, qq, ray.delta)
     }
 }
 
-/// Directions of the symbolic perturbation: the line's start moves by ε·DELTA and its second
-/// point by ε·DELTA + ε²·DELTA2. Any vectors do that no mesh edge is parallel to; these have
+/// The walk's start: `start` rounded to R and clamped into the domain box rounded to R (whose
+/// corners are the float32 walk's box corners), so the start is in the mesh the walk reads.
+fn start_point<R: Real>(start: V3<f64>, domain: &[V3<f64>; 2]) -> V3<f64> {
+    let r = |x: f64| R::from_f64(x).to_f64();
+    [0, 1, 2].map(|k| r(start[k]).clamp(r(domain[0][k]), r(domain[1][k])))
+}
+
+/// The start point's perturbation for one ray: DELTA with each component's sign turned to
+/// point into the domain where the start lies on its box (a ray starting on, or entering
+/// through, a side of the box): the perturbed start is then inside the mesh. Flipping signs
+/// keeps DELTA generic; it is fixed for the whole walk, which is all consistency needs.
+pub fn start_delta<R: Real>(start: V3<f64>, domain: &[V3<f64>; 2]) -> V3<f64> {
+    let s = start_point::<R>(start, domain);
+    let r = |x: f64| R::from_f64(x).to_f64();
+    [0, 1, 2].map(|k| {
+        if s[k] <= r(domain[0][k]) {
+            DELTA[k].abs()
+        } else if s[k] >= r(domain[1][k]) {
+            -DELTA[k].abs()
+        } else {
+            DELTA[k]
+        }
+    })
+}
+
+/// Directions of the symbolic perturbation: the line's start moves by ε·δ (DELTA, signs per
+/// ray from `start_delta`) and its second point by ε·δ + ε²·DELTA2. Any vectors do that no mesh edge is parallel to; these have
 /// no simple ratios between their components.
 const DELTA: V3<f64> = [0.5717136585712, 0.3313491758381, 0.7527361949209];
 const DELTA2: V3<f64> = [-0.2915382917263, 0.8419846213571, 0.4503218740313];
@@ -132,7 +159,7 @@ const DELTA2: V3<f64> = [-0.2915382917263, 0.8419846213571, 0.4503218740313];
 /// and its sign is that of the first nonzero term, evaluated exactly in rationals. Every term
 /// changes sign with p ↔ q, and each is the orientation of a real nearby line, so the signs of
 /// all edges are those of one line in general position: the walk is that line's exact walk.
-fn perturbed_side(s: V3<f64>, b: V3<f64>, p: V3<f64>, q: V3<f64>) -> bool {
+fn perturbed_side(s: V3<f64>, b: V3<f64>, p: V3<f64>, q: V3<f64>, delta: V3<f64>) -> bool {
     use num_rational::BigRational;
     use num_traits::{Signed, Zero};
     let r = |x: f64| BigRational::from_float(x).unwrap_or_else(BigRational::zero);
@@ -143,7 +170,7 @@ fn perturbed_side(s: V3<f64>, b: V3<f64>, p: V3<f64>, q: V3<f64>) -> bool {
             + &a[2] * (&b[0] * &c[1] - &b[1] * &c[0])
     };
     let (s, b, p, q) = (v3(s), v3(b), v3(p), v3(q));
-    let (dl, dl2) = (v3(DELTA), v3(DELTA2));
+    let (dl, dl2) = (v3(delta), v3(DELTA2));
     let d = sub(&b, &s);
     let (pv, qv, v) = (sub(&p, &s), sub(&q, &s), sub(&q, &p));
     let terms = [-det(&d, &dl, &v), det(&dl2, &pv, &qv), -det(&dl2, &dl, &v)];
@@ -159,7 +186,7 @@ fn perturbed_side(s: V3<f64>, b: V3<f64>, p: V3<f64>, q: V3<f64>) -> bool {
 
 /// The sign of orient(x, y, z, s + εδ) as ε → 0⁺ (tetrace's orientation convention): the
 /// start point moved as the perturbed line's start is.
-fn perturbed_orient(x: V3<f64>, y: V3<f64>, z: V3<f64>, s: V3<f64>) -> f64 {
+fn perturbed_orient(x: V3<f64>, y: V3<f64>, z: V3<f64>, s: V3<f64>, delta: V3<f64>) -> f64 {
     let o = crate::mesh::build::orient(x, y, z, s);
     if o != 0.0 {
         return o;
@@ -170,7 +197,7 @@ fn perturbed_orient(x: V3<f64>, y: V3<f64>, z: V3<f64>, s: V3<f64>) -> f64 {
     let (x, y, z) = (r(x), r(y), r(z));
     let e1 = [0, 1, 2].map(|k| &y[k] - &x[k]);
     let e2 = [0, 1, 2].map(|k| &z[k] - &x[k]);
-    for w in [DELTA, DELTA2] {
+    for w in [delta, DELTA2] {
         let w = r(w);
         let det = &e1[0] * (&e2[1] * &w[2] - &e2[2] * &w[1])
             - &e1[1] * (&e2[0] * &w[2] - &e2[2] * &w[0])
@@ -187,7 +214,8 @@ fn perturbed_orient(x: V3<f64>, y: V3<f64>, z: V3<f64>, s: V3<f64>) -> f64 {
 /// start strictly inside `t` costs four orientation tests; one on a face, edge or vertex
 /// moves to the neighbour the perturbed point lies in. `points` are those the walk reads.
 pub fn settle_start<R: Real>(mesh: &TetMesh, points: &[[R; 3]], mut t: u32, start: V3<f64>) -> u32 {
-    let s = start.map(|x| R::from_f64(x).to_f64());
+    let s = start_point::<R>(start, &mesh.bounds);
+    let delta = start_delta::<R>(start, &mesh.bounds);
     let mut prev = BOUNDARY;
     // A valid mesh needs a few steps; the guard only matters for one that float32 rounding
     // has folded (far from the origin), where no tet may hold the point.
@@ -195,7 +223,7 @@ pub fn settle_start<R: Real>(mesh: &TetMesh, points: &[[R; 3]], mut t: u32, star
         let v = mesh.tets[t as usize].map(|i| points[i as usize].map(R::to_f64));
         let next = OUTWARD_FACES.iter().enumerate().find_map(|(i, f)| {
             let n = mesh.neighbor(t, i);
-            (n != prev && perturbed_orient(v[f[0]], v[f[1]], v[f[2]], s) > 0.0).then_some(n)
+            (n != prev && perturbed_orient(v[f[0]], v[f[1]], v[f[2]], s, delta) > 0.0).then_some(n)
         });
         match next {
             Some(n) if n != BOUNDARY => (prev, t) = (t, n),
@@ -227,6 +255,7 @@ impl<R: Real> ExitMethod<R> for Robust {
         LineRay {
             s,
             b,
+            delta: start_delta::<R>(origin, domain),
             sr: s.map(R::from_f64),
             u: u.map(R::from_f64),
             w: w.map(R::from_f64),
@@ -238,7 +267,8 @@ impl<R: Real> ExitMethod<R> for Robust {
     fn vertex(ray: &LineRay<R>, p: V3<R>) -> [R; 3] {
         let q = sub3(p, ray.sr);
         let (x, y) = (dot3(q, ray.u), dot3(q, ray.w));
-        [x, y, ray.bound_scale * (abs(x) + abs(y))]
+        // The smallest normal number (half of it per vertex) guards against underflow.
+        [x, y, ray.bound_scale * (abs(x) + abs(y)) + R::MIN_NORMAL]
     }
 
     fn start_exit(ray: &LineRay<R>, v: &[[R; 3]; 4], p: &[V3<R>; 4]) -> usize {
@@ -278,8 +308,7 @@ impl<R: Real> ExitMethod<R> for Robust {
             let xc = det2(d, c);
             (if xc >= R::ZERO { Exit::Cad } else { Exit::Bcd }, xc, c)
         };
-        let tiny = R::MIN_NORMAL;
-        if abs(xa) > d[2] + a[2] + tiny && abs(x2) > d[2] + e2[2] + tiny {
+        if abs(xa) > d[2] + a[2] && abs(x2) > d[2] + e2[2] {
             Some(exit)
         } else {
             None

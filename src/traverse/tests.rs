@@ -637,3 +637,76 @@ fn brute_hit(o: [f64; 3], d: [f64; 3], tris: &[[[f64; 3]; 3]], eps: f64) -> Opti
         })
         .min_by(f64::total_cmp)
 }
+
+/// Rays starting at every point of a jittered grid, box-side points included (their start
+/// lies on the domain's boundary), and rays from outside aimed at box-side points: the
+/// perturbed start must be inside the mesh (`robust::start_delta`), else the walk starts in a
+/// tet its line does not cross and can cycle. Robust: no FAILED ray in either precision, and
+/// in float64 every hit bracketed by brute force.
+#[test]
+fn robust_rays_from_the_domain_boundary() {
+    use crate::scene::{CastOptions, FAILED};
+    let mut rng = Rng(31);
+    let (pts, tets) = kuhn_grid(6, 0.3, &mut rng);
+    let faces: Vec<[u32; 3]> = all_faces(&tets)
+        .into_iter()
+        .filter(|_| rng.f() < 0.05)
+        .collect();
+    let tris: Vec<[[f64; 3]; 3]> = faces.iter().map(|f| f.map(|v| pts[v as usize])).collect();
+    let ids: Vec<u32> = (0..faces.len() as u32).collect();
+    let scene = Scene::build(pts.clone(), &tets, &faces, &ids, tris.clone()).unwrap();
+    let (mut o, mut d) = (Vec::new(), Vec::new());
+    for p in &pts {
+        for _ in 0..4 {
+            let v = [rng.f() - 0.5, rng.f() - 0.5, rng.f() - 0.5];
+            o.extend(*p);
+            d.extend(v);
+            // From outside, through this point.
+            o.extend([0, 1, 2].map(|k| p[k] - 3.0 * v[k]));
+            d.extend(v);
+        }
+    }
+    let n = o.len() / 3;
+    let opts = CastOptions {
+        threads: Some(1),
+        max_steps: 100_000,
+    };
+    let res = cast::<f64>(&scene, &o, &d, |s, r, out| {
+        s.cast_named("robust", "tet32", r, out, &opts)
+    });
+    let o32: Vec<f32> = o.iter().map(|&x| x as f32).collect();
+    let d32: Vec<f32> = d.iter().map(|&x| x as f32).collect();
+    let res32 = cast::<f32>(&scene, &o32, &d32, |s, r, out| {
+        s.cast_named("robust", "tet32", r, out, &opts)
+    });
+    for (name, status) in [("f64", &res.status), ("f32", &res32.status)] {
+        let failed = status.iter().filter(|&&s| s == FAILED).count();
+        assert_eq!(failed, 0, "robust {name}: {failed} of {n} rays FAILED");
+    }
+    let on_scene: std::collections::HashSet<u32> = faces.iter().flatten().copied().collect();
+    let mut checked = 0;
+    for k in 0..n {
+        let ok = [0, 1, 2].map(|a| o[3 * k + a]);
+        let dk = [0, 1, 2].map(|a| d[3 * k + a]);
+        if k % 2 == 0 && on_scene.contains(&((k / 8) as u32)) {
+            continue; // starts on a scene triangle: a hit at t = 0 and none are both right
+        }
+        checked += 1;
+        let touch = brute_hit(ok, dk, &tris, 1e-12);
+        let inside = brute_hit(ok, dk, &tris, -1e-12);
+        if res.status[k] == HIT {
+            let t = res.t[k];
+            assert!(
+                touch.is_some_and(|a| t >= a - 1e-9),
+                "ray {k}: {t} before {touch:?}"
+            );
+            assert!(
+                inside.is_none_or(|b| t <= b + 1e-9),
+                "ray {k}: {t} after {inside:?}"
+            );
+        } else {
+            assert!(inside.is_none(), "ray {k} missed a sure hit at {inside:?}");
+        }
+    }
+    assert!(checked > n / 2);
+}
