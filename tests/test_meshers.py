@@ -183,6 +183,21 @@ def test_snap_merges_nearby_vertices_and_keeps_ids():
     assert len(_snap(tiny, 2.0**-20).faces) == 0
 
 
+def test_needles_in_intersecting_pairs_are_dropped():
+    """A needle (1e-9 wide) crossing a triangle: _drop_needles removes the needle, not the
+    triangle, and counts it as degenerate; a wide crossing triangle is kept."""
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0],                 # floor triangle
+                  [0.2, 0.2, -0.5], [0.2, 0.2, 0.5], [0.2 + 1e-9, 0.2, 0.0],  # needle
+                  [0.5, 0.1, -0.5], [0.1, 0.5, -0.5], [0.3, 0.3, 0.5]])     # wide, crossing
+    f = np.array([[0, 1, 2], [3, 4, 5], [6, 7, 8]])
+    cm = clean(v, f)
+    assert count_intersecting_pairs(cm.vertices, cm.faces) == 2
+    out, dropped = meshing._drop_needles(cm, 1e-6 * np.sqrt(3))
+    assert dropped == 1 and out.triangle_ids.tolist() == [0, 2]
+    assert out.dropped_degenerate == cm.dropped_degenerate + 1
+    assert count_intersecting_pairs(out.vertices, out.faces) == 1
+
+
 def test_snap_ladder_after_a_tetgen_failure(monkeypatch):
     """When TetGen fails on the scene as given, the next rung snap-rounds, repairs and
     meshes with TetGen's optimisation off; the result is a valid CT on the snapped
