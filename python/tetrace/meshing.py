@@ -1295,6 +1295,35 @@ def _unique_rows(a):
     return a[keep]
 
 
+def _point_triangle_distance(p, a, b, c):
+    """Distance from points ``p (N, 3)`` to triangles ``(a, b, c)`` (each ``(N, 3)``),
+    vectorized (Ericson, Real-Time Collision Detection, 5.1.5)."""
+    ab, ac, ap = b - a, c - a, p - a
+    d1, d2 = np.einsum("ij,ij->i", ab, ap), np.einsum("ij,ij->i", ac, ap)
+    bp = p - b
+    d3, d4 = np.einsum("ij,ij->i", ab, bp), np.einsum("ij,ij->i", ac, bp)
+    cp = p - c
+    d5, d6 = np.einsum("ij,ij->i", ab, cp), np.einsum("ij,ij->i", ac, cp)
+    va, vb, vc = d3 * d6 - d5 * d4, d5 * d2 - d1 * d6, d1 * d4 - d3 * d2
+    with np.errstate(invalid="ignore", divide="ignore"):
+        # interior by default, then the regions in the reverse order of the book's tests
+        den = va + vb + vc
+        v, w = vb / den, vc / den
+        closest = a + ab * v[:, None] + ac * w[:, None]
+        cases = [
+            ((va <= 0) & (d4 - d3 >= 0) & (d5 - d6 >= 0),  # edge bc
+             b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)))[:, None]),
+            ((vb <= 0) & (d2 >= 0) & (d6 <= 0), a + ac * (d2 / (d2 - d6))[:, None]),  # edge ac
+            ((d6 >= 0) & (d5 <= d6), c),  # vertex c
+            ((vc <= 0) & (d1 >= 0) & (d3 <= 0), a + ab * (d1 / (d1 - d3))[:, None]),  # edge ab
+            ((d3 >= 0) & (d4 <= d3), b),  # vertex b
+            ((d1 <= 0) & (d2 <= 0), a),  # vertex a
+        ]
+    for mask, point in cases:
+        closest = np.where(mask[:, None], point, closest)
+    return np.linalg.norm(p - closest, axis=1)
+
+
 def _face_samples(q):
     """Six points on each triangle of ``q (N, 3, 3)`` besides its centroid: the edge
     midpoints and three points halfway between the centroid and a corner; ``(N, 6, 3)``."""
@@ -1348,8 +1377,17 @@ def _recover_surface(points, tets, scene_v, scene_f, n_scene, tol):
     faces, q, dc, nearest = faces[keep], q[keep], dc[keep], nearest[keep]
     if len(faces) == 0:
         return empty
-    s2, _, _ = igl.point_mesh_squared_distance(_face_samples(q).reshape(-1, 3), scene_v, scene_f)
-    ds = np.sqrt(s2).reshape(len(faces), 6)
+    # Distances to the centroid's triangle bound those to the surface from above, and
+    # settle most faces (fTetWild without optimisation keeps pieces of one triangle);
+    # only samples farther than tol from it are looked up in the whole scene.
+    samples = _face_samples(q).reshape(-1, 3)
+    t = np.repeat(scene_v[scene_f[nearest]], 6, axis=0)
+    ds = _point_triangle_distance(samples, t[:, 0], t[:, 1], t[:, 2])
+    far = np.flatnonzero(~(ds <= tol))
+    if len(far):
+        s2, _, _ = igl.point_mesh_squared_distance(samples[far], scene_v, scene_f)
+        ds[far] = np.sqrt(s2)
+    ds = ds.reshape(len(faces), 6)
     on = ds.max(axis=1) <= tol
     dist = np.concatenate([dv[faces], dc[:, None], ds], axis=1)
     return (np.ascontiguousarray(faces[on], dtype=np.uint32), nearest[on], dist[on])
