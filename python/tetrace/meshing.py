@@ -191,8 +191,9 @@ def preset_options(preset) -> dict:
 def default_timeout(n_faces, stage="tetgen") -> float:
     """Seconds one stage may run on a scene of ``n_faces`` triangles before it is stopped.
 
-    ``"tetgen"`` and ``"repair"``: 60 s + 1 ms per triangle (bunny, 69k triangles:
-    129 s, against 3.5 s for the default preset and 10 s for ``"quality1.5"``);
+    ``"tetgen"`` and ``"repair"``: 180 s + 1 ms per triangle (bunny, 69k triangles:
+    249 s, against 3.5 s for the default preset and 10 s for ``"quality1.5"``; but
+    featuretype's 3.5k triangles, with their sharp angles, took 50 s to refine);
     ``"ftetwild"``: 300 s + 10 ms per triangle (fTetWild is far slower: spot's 5.8k
     triangles take 13 s on one core). ``TETRACE_TETGEN_TIMEOUT`` (seconds; 0 or
     "none": no limit) overrides every stage.
@@ -205,7 +206,7 @@ def default_timeout(n_faces, stage="tetgen") -> float:
     n = max(int(n_faces), 0)
     if stage == "ftetwild":
         return 300.0 + 10e-3 * n
-    return 60.0 + 1e-3 * n
+    return 180.0 + 1e-3 * n
 
 
 @dataclasses.dataclass
