@@ -1288,7 +1288,7 @@ def _unique_rows(a):
     """Unique rows of an ``(N, 3)`` integer array whose rows are sorted."""
     if len(a) == 0:
         return a.reshape(0, 3)
-    a = np.ascontiguousarray(a, dtype=np.int64)
+    a = np.ascontiguousarray(a)
     order = np.lexsort((a[:, 2], a[:, 1], a[:, 0]))
     a = a[order]
     keep = np.ones(len(a), bool)
@@ -1341,6 +1341,43 @@ def _face_samples(q):
 SURFACE_MIN_COS = 0.99
 
 
+# Rows processed at a time in the surface recovery: fTetWild without optimisation
+# gives two_cylinder_engine 17M tets, and whole-array temporaries ran out of memory.
+_CHUNK = 1 << 21
+
+
+def _recover_chunk(points, faces, dv, scene_v, scene_f, n_scene, tol):
+    """The surface test of :func:`_recover_surface` on candidate faces ``(N, 3)``."""
+    import igl
+
+    q = points[faces]
+    c2, ci, _ = igl.point_mesh_squared_distance(q.mean(axis=1), scene_v, scene_f)
+    dc = np.sqrt(c2)
+    nearest = np.asarray(ci, dtype=np.int64)
+    nf = np.cross(q[:, 1] - q[:, 0], q[:, 2] - q[:, 0])
+    t = scene_v[scene_f[nearest]]
+    nt = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cos = np.abs(np.einsum("ij,ij->i", nf, nt)) / (
+            np.linalg.norm(nf, axis=1) * np.linalg.norm(nt, axis=1))
+    keep = (dc <= tol) & (nearest < n_scene) & (cos >= SURFACE_MIN_COS)
+    faces, q, dc, nearest = faces[keep], q[keep], dc[keep], nearest[keep]
+    # Distances to the centroid's triangle bound those to the surface from above, and
+    # settle most faces (fTetWild without optimisation keeps pieces of one triangle);
+    # only samples farther than tol from it are looked up in the whole scene.
+    samples = _face_samples(q).reshape(-1, 3)
+    t = np.repeat(scene_v[scene_f[nearest]], 6, axis=0)
+    ds = _point_triangle_distance(samples, t[:, 0], t[:, 1], t[:, 2])
+    far = np.flatnonzero(~(ds <= tol))
+    if len(far):
+        s2, _, _ = igl.point_mesh_squared_distance(samples[far], scene_v, scene_f)
+        ds[far] = np.sqrt(s2)
+    ds = ds.reshape(len(faces), 6)
+    on = ds.max(axis=1) <= tol
+    dist = np.concatenate([dv[faces], dc[:, None], ds], axis=1)
+    return faces[on], nearest[on], dist[on]
+
+
 def _recover_surface(points, tets, scene_v, scene_f, n_scene, tol):
     """Find the tet faces lying on the remeshed scene surface.
 
@@ -1356,42 +1393,21 @@ def _recover_surface(points, tets, scene_v, scene_f, n_scene, tol):
 
     d2, _, _ = igl.point_mesh_squared_distance(points, scene_v, scene_f)
     dv = np.sqrt(d2)
-    faces = _tet_faces(tets)
-    faces = faces[(dv[faces] <= tol).all(axis=1)]
-    faces = _unique_rows(np.sort(faces, axis=1))
-    empty = (np.zeros((0, 3), np.uint32), np.zeros(0, np.int64), np.zeros((0, 10)))
-    if len(faces) == 0:
-        return empty
-    # The centroid and the normal first (most candidates off the surface fail there),
-    # then the other points.
-    q = points[faces]
-    c2, ci, _ = igl.point_mesh_squared_distance(q.mean(axis=1), scene_v, scene_f)
-    dc = np.sqrt(c2)
-    nearest = np.asarray(ci, dtype=np.int64)
-    nf = np.cross(q[:, 1] - q[:, 0], q[:, 2] - q[:, 0])
-    t = scene_v[scene_f[nearest]]
-    nt = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
-    with np.errstate(invalid="ignore", divide="ignore"):
-        cos = np.abs(np.einsum("ij,ij->i", nf, nt)) / (
-            np.linalg.norm(nf, axis=1) * np.linalg.norm(nt, axis=1))
-    keep = (dc <= tol) & (nearest < n_scene) & (cos >= SURFACE_MIN_COS)
-    faces, q, dc, nearest = faces[keep], q[keep], dc[keep], nearest[keep]
-    if len(faces) == 0:
-        return empty
-    # Distances to the centroid's triangle bound those to the surface from above, and
-    # settle most faces (fTetWild without optimisation keeps pieces of one triangle);
-    # only samples farther than tol from it are looked up in the whole scene.
-    samples = _face_samples(q).reshape(-1, 3)
-    t = np.repeat(scene_v[scene_f[nearest]], 6, axis=0)
-    ds = _point_triangle_distance(samples, t[:, 0], t[:, 1], t[:, 2])
-    far = np.flatnonzero(~(ds <= tol))
-    if len(far):
-        s2, _, _ = igl.point_mesh_squared_distance(samples[far], scene_v, scene_f)
-        ds[far] = np.sqrt(s2)
-    ds = ds.reshape(len(faces), 6)
-    on = ds.max(axis=1) <= tol
-    dist = np.concatenate([dv[faces], dc[:, None], ds], axis=1)
-    return (np.ascontiguousarray(faces[on], dtype=np.uint32), nearest[on], dist[on])
+    near = dv <= tol
+    index = np.int32 if len(points) < 2**31 else np.int64
+    candidates = []
+    for start in range(0, len(tets), _CHUNK):
+        f = _tet_faces(np.asarray(tets[start:start + _CHUNK], dtype=index))
+        f = f[near[f].all(axis=1)]
+        candidates.append(np.sort(f, axis=1))
+    faces = _unique_rows(np.concatenate(candidates)) if candidates else np.zeros((0, 3), index)
+    del candidates
+    parts = [_recover_chunk(points, faces[i:i + _CHUNK].astype(np.int64), dv, scene_v, scene_f,
+                            n_scene, tol) for i in range(0, len(faces), _CHUNK)]
+    if not parts:
+        return np.zeros((0, 3), np.uint32), np.zeros(0, np.int64), np.zeros((0, 10))
+    return (np.ascontiguousarray(np.concatenate([p[0] for p in parts]), dtype=np.uint32),
+            np.concatenate([p[1] for p in parts]), np.concatenate([p[2] for p in parts]))
 
 
 def _surface_distance(points, faces, dist, scene_v, scene_f, diagonal, n_samples=200_000,
