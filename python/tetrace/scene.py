@@ -51,8 +51,10 @@ class Scene:
     vertices, faces : numpy.ndarray
         The caller's mesh, as given: hit ``triangle`` ids index ``faces``.
     build_times : dict
-        Seconds spent in each build stage: ``clean``, ``repair``, ``tetgen`` (the mesher),
-        ``rust`` (topology, locator and layout construction), ``total``.
+        Seconds spent in each build stage: ``clean``, ``repair``, ``mesher`` (TetGen or fTetWild),
+        ``rust`` (topology, locator and layout construction), ``total``; see
+        :class:`tetrace.meshing.Tetrahedralization` for the mesher's (``tetgen``,
+        ``ftetwild``, ``recover``, ``mesher``).
     """
 
     def __init__(self, tetrahedralization, vertices, faces, *, hilbert=True):
@@ -81,8 +83,9 @@ class Scene:
         self.build_times["total"] = tet.timings.get("total", 0.0) + rust
 
     @classmethod
-    def from_mesh(cls, mesh, preset="quality", *, margin=0.02, contain=None, minratio=None,
-                  maxvolume=None, repair="auto", hilbert=True):
+    def from_mesh(cls, mesh, preset="quality", *, mesher="tetgen", margin=0.02, contain=None,
+                  minratio=None, maxvolume=None, sizing=None, repair="auto", epsilon=None,
+                  edge_length=None, timeout=None, hilbert=True):
         """Tetrahedralize a triangle scene.
 
         Parameters
@@ -90,9 +93,18 @@ class Scene:
         mesh : trimesh.Trimesh or str or os.PathLike or tuple
             A mesh, a file trimesh can load, or ``(vertices (V, 3), faces (F, 3))``.
             Non-watertight, multi-component and self-intersecting scenes are accepted.
-        preset : {"quality", "constrained"}
-            ``"quality"``: TetGen quality Delaunay (radius-edge bound), fewer tets per ray;
-            ``"constrained"``: constrained Delaunay without refinement, fewest tets.
+        preset : str
+            TetGen settings (``tetrace.meshing.PRESETS``): ``"quality"`` (radius-edge
+            bound 5, the default), ``"quality3"``, ``"quality2"``, ``"quality1.5"`` or any
+            ``"quality<r>"`` (tighter bounds, more tets), ``"constrained"`` (constrained
+            Delaunay without refinement, fewest tets, more tets per ray), ``"graded"``
+            (quality plus tets that grow away from the surface).
+        mesher : {"tetgen", "ftetwild", "fallback"}
+            ``"tetgen"``: exact, hits name the caller's triangles exactly. ``"ftetwild"``:
+            fTetWild (``pip install 'pytetwild<0.3'``) remeshes the surface within
+            ``epsilon`` of the input, for scenes TetGen cannot take; each hit names the
+            triangle nearest to the face it crossed. ``"fallback"``: TetGen, then
+            fTetWild if it fails (``tetrahedralization.attempts`` says why).
         margin : float
             Domain box margin as a fraction of the scene's bounding-box diagonal.
         contain : array_like, optional
@@ -100,8 +112,17 @@ class Scene:
             Rays may start anywhere regardless; starting inside avoids locating the entry.
         minratio, maxvolume : float, optional
             Override the preset's TetGen radius-edge bound and maximum tet volume.
+        sizing : (float, float), optional
+            ``(h0, growth)``: tets grow from ``h0`` x diagonal at the surface by ``growth``
+            per unit distance (TetGen).
         repair : {"auto", True, False}
-            Resolve self-intersections exactly (libigl/CGAL) when TetGen cannot mesh the scene.
+            Resolve self-intersections exactly (libigl/CGAL) when TetGen cannot mesh the
+            scene, snap-rounding if that is not enough.
+        epsilon, edge_length : float, optional
+            fTetWild's envelope and target edge length, fractions of the diagonal
+            (defaults ``1e-3`` and ``0.05``).
+        timeout : float, optional
+            Seconds each meshing stage may run (default: grows with the scene's size).
         hilbert : bool
             Renumber points along a Hilbert curve and tets by region, then along the curve
             (Aman et al. 2022), for memory locality; False keeps the mesher's order (to measure
@@ -114,13 +135,17 @@ class Scene:
         Raises
         ------
         tetrace.MeshingError
-            The scene cannot be meshed; the message names the cause.
+            The scene cannot be meshed; the message names the stage and the cause.
         """
-        from .meshing import load_triangles, tetrahedralize
+        from .meshing import FTETWILD_EDGE_LENGTH, FTETWILD_EPSILON, load_triangles, tetrahedralize
 
         vertices, faces = load_triangles(mesh)
-        tet = tetrahedralize((vertices, faces), preset, margin=margin, contain=contain,
-                             minratio=minratio, maxvolume=maxvolume, repair=repair)
+        tet = tetrahedralize(
+            (vertices, faces), preset, mesher=mesher, margin=margin, contain=contain,
+            minratio=minratio, maxvolume=maxvolume, sizing=sizing, repair=repair,
+            epsilon=FTETWILD_EPSILON if epsilon is None else epsilon,
+            edge_length=FTETWILD_EDGE_LENGTH if edge_length is None else edge_length,
+            timeout=timeout)
         return cls(tet, vertices, faces, hilbert=hilbert)
 
     def cast(self, origins, directions=None, *, tmin=0.0, tmax=np.inf, threads=None,
@@ -278,8 +303,9 @@ class Scene:
         return self._native.points()
 
     def __repr__(self):
+        tz = self.tetrahedralization
         return (f"Scene({self.n_triangles} triangles, {self.n_tets} tets, {self.n_points} points, "
-                f"preset={self.tetrahedralization.preset!r})")
+                f"mesher={getattr(tz, 'mesher', 'tetgen')!r}, preset={tz.preset!r})")
 
 
 def default_scene_path():

@@ -19,6 +19,33 @@ def agreement_main(argv):
     return 0
 
 
+def scenes_main(argv):
+    from .scenes import default_scenes_dir, run_scenes, scene_files
+
+    p = argparse.ArgumentParser(
+        prog="python -m tetrace.bench scenes",
+        description="Build every shared scene (mesher fallback: TetGen exact, snap-rounded, "
+                    "then fTetWild) and compare camera and random rays with embreex: one row "
+                    "per scene (mesher, tets, build seconds, agreement).")
+    p.add_argument("scenes", nargs="*", help="mesh files (default: every mesh in --dir)")
+    p.add_argument("--dir", default=None,
+                   help="scenes folder (default: $TETRACE_SCENES or ../shared/scenes)")
+    p.add_argument("--mesher", default="fallback", choices=["tetgen", "ftetwild", "fallback"])
+    p.add_argument("--preset", default="quality")
+    p.add_argument("--epsilon", type=float, default=None, help="fTetWild envelope (of the diagonal)")
+    p.add_argument("--res", type=int, default=512, help="camera resolution (3 views)")
+    p.add_argument("--random", type=int, default=100_000, help="random rays")
+    p.add_argument("--timeout", type=float, default=None,
+                   help="seconds per meshing stage (default: grows with the scene)")
+    p.add_argument("--json", default=None, help="also write the rows as JSON here")
+    args = p.parse_args(argv)
+    paths = args.scenes or scene_files(args.dir or default_scenes_dir())
+    run_scenes(paths, mesher=args.mesher, preset=args.preset, res=args.res,
+               n_random=args.random, timeout=args.timeout, epsilon=args.epsilon,
+               json_path=args.json)
+    return 0
+
+
 def exitface_main(argv):
     from .. import _native
     from .scene_bench import _table
@@ -76,12 +103,15 @@ def main(argv=None):
         return agreement_main(argv[1:])
     if argv[:1] == ["exitface"]:
         return exitface_main(argv[1:])
+    if argv[:1] == ["scenes"]:
+        return scenes_main(argv[1:])
     p = argparse.ArgumentParser(
         prog="python -m tetrace.bench",
         description="Full-scene benchmark: a pinhole camera cast by tetrace and by embreex on "
                     "the same rays, with build times, structure size and hit agreement. "
                     "'python -m tetrace.bench agreement [mesh ...]' reports agreement on the "
-                    "acceptance rays instead.",
+                    "acceptance rays instead; 'python -m tetrace.bench scenes' builds every "
+                    "shared scene and reports mesher, tets, build time and agreement.",
     )
     p.add_argument("scene", nargs="?", default=None,
                    help="mesh file (default: the bundled scene, Spot)")

@@ -1,0 +1,179 @@
+"""Every shared scene through the meshers: what built it, how big, how fast, how accurate.
+
+``python -m tetrace.bench scenes`` builds each mesh file of the scenes folder with
+``mesher="fallback"`` (TetGen's exact route, snap rounding when TetGen fails, fTetWild
+when that fails too) and the given preset, casts camera rays (three orbit views) and
+random rays with tetrace and embreex, and prints one row per scene:
+
+* the mesher and preset that built it (``+snap`` when snap-rounded, ``+repair`` when
+  self-intersections were cut) and why the earlier attempts failed;
+* tets, seconds in the mesher (repair and failed attempts included) and in Rust;
+* agreement with embreex on hit/miss and on the triangle id; "same plane": the rays
+  that name Embree's triangle or a neighbour in the same plane at the hit point (within
+  1e-5 of the diagonal, normals within 1 degree) - fTetWild's surface faces can span
+  several coplanar input triangles and name only one; rays that differ away from
+  edges, p99 of |dt| over the diagonal, and (fTetWild) how far the remeshed surface is
+  from the input.
+
+A scene that no mesher can build gets a row with the reason.
+"""
+
+from __future__ import annotations
+
+import gc
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+MESH_SUFFIXES = (".obj", ".ply", ".off", ".stl", ".glb", ".gltf")
+
+
+def default_scenes_dir():
+    """``TETRACE_SCENES`` if set, else ``../shared/scenes`` from the working directory."""
+    env = os.environ.get("TETRACE_SCENES")
+    return Path(env) if env else Path("..") / "shared" / "scenes"
+
+
+def scene_files(folder):
+    """Mesh files of a folder, smallest first."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise FileNotFoundError(f"scenes folder not found: {folder} (set TETRACE_SCENES or --dir)")
+    files = [p for p in folder.iterdir() if p.suffix.lower() in MESH_SUFFIXES]
+    return sorted(files, key=lambda p: p.stat().st_size)
+
+
+def _mesher_label(tz):
+    label = tz.mesher if tz.mesher == "ftetwild" else f"tetgen {tz.preset}"
+    if tz.mesher == "tetgen" and tz.repaired:
+        label += "+repair"
+    if tz.snap:
+        label += "+snap"
+    return label
+
+
+def same_plane(hits, ref, vertices, faces, *, plane_tol=1e-5, max_degrees=1.0, diagonal=None):
+    """Of the rays where both hit different triangles, how many hit a triangle lying in the
+    same plane as the reference's at the reference's hit point (within ``plane_tol`` x
+    diagonal, normals within ``max_degrees``): the same place with the same normal."""
+    from ..hits import HIT
+
+    v = np.asarray(vertices, np.float64)
+    if diagonal is None:
+        diagonal = float(np.linalg.norm(v.max(0) - v.min(0)))
+    k = np.flatnonzero((hits.status == HIT) & (ref.status == HIT) & (hits.triangle != ref.triangle))
+    if len(k) == 0:
+        return 0
+
+    def unit_normals(tri):
+        p = v[faces[tri]]
+        n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+        return n / np.linalg.norm(n, axis=1, keepdims=True), p[:, 0]
+
+    n_ours, p_ours = unit_normals(hits.triangle[k])
+    n_ref, _ = unit_normals(ref.triangle[k])
+    cos = np.abs(np.einsum("ij,ij->i", n_ours, n_ref))
+    off = np.abs(np.einsum("ij,ij->i", ref.point[k].astype(np.float64) - p_ours, n_ours))
+    return int(((off <= plane_tol * diagonal) & (cos >= np.cos(np.radians(max_degrees)))).sum())
+
+
+def run_scene(path, *, mesher="fallback", preset="quality", res=512, n_random=100_000,
+              timeout=None, epsilon=None):
+    """Build one scene and compare it with embreex; returns a dict (see the module doc)."""
+    from ..compare import compare
+    from ..hits import HIT
+    from ..meshing import MeshingError, load_triangles
+    from ..reference import embree_scene
+    from ..scene import Scene
+    from .agreement import ray_sets
+
+    path = Path(path)
+    row = dict(scene=path.name)
+    v, f = load_triangles(path)
+    row["triangles"] = int(len(f))
+    t0 = time.perf_counter()
+    try:
+        scene = Scene.from_mesh((v, f), preset, mesher=mesher, timeout=timeout, epsilon=epsilon)
+    except MeshingError as exc:
+        row.update(ok=False, error=str(exc), seconds=time.perf_counter() - t0)
+        return row
+    tz = scene.tetrahedralization
+    bt = scene.build_times
+    row.update(ok=True, mesher=_mesher_label(tz), tets=int(scene.n_tets),
+               mesher_seconds=float(bt["total"] - bt["rust"]), rust_seconds=float(bt["rust"]),
+               timings={k: float(x) for k, x in bt.items()}, attempts=list(tz.attempts),
+               snap=float(tz.snap), options={k: v for k, v in tz.options.items()
+                                             if isinstance(v, (int, float, str, bool))})
+    if tz.surface_distance:
+        diag = tz.surface_distance["diagonal"]
+        row["surface_distance"] = {k: x / diag for k, x in tz.surface_distance.items()
+                                   if k != "diagonal"}
+    ref_scene = embree_scene((v, f))
+    bounds = np.array([v.min(0), v.max(0)])
+    totals = dict(rays=0, agree=0, coincident=0, same_plane=0, hit_differ=0, unexplained=0,
+                  failed=0)
+    dts = []
+    for _, o, d in ray_sets(bounds, res, n_random):
+        hits = scene.cast(o, d)
+        ref = ref_scene.cast(o.astype(np.float32), d.astype(np.float32))
+        a = compare(hits, ref, v, f, origins=o, directions=d)
+        totals["rays"] += a.rays
+        totals["agree"] += a.agree
+        totals["coincident"] += a.coincident
+        totals["unexplained"] += a.far_from_edges
+        totals["failed"] += a.failed
+        totals["hit_differ"] += int(((hits.status == HIT) != (ref.status == HIT)).sum())
+        totals["same_plane"] += same_plane(hits, ref, v, f)
+        both = (hits.status == HIT) & (ref.status == HIT) & (hits.triangle == ref.triangle)
+        dts.append(np.abs(hits.t[both] - ref.t[both].astype(np.float64)))
+    diag = float(np.linalg.norm(bounds[1] - bounds[0]))
+    dt = np.concatenate(dts) / diag
+    row.update(totals)
+    row["agreement"] = (totals["agree"] + totals["coincident"]) / totals["rays"]
+    row["hit_agreement"] = 1 - totals["hit_differ"] / totals["rays"]
+    row["plane_agreement"] = (totals["agree"] + totals["same_plane"]) / totals["rays"]
+    row["p99_dt"] = float(np.quantile(dt, 0.99)) if len(dt) else 0.0
+    del scene, ref_scene
+    gc.collect()
+    return row
+
+
+def run_scenes(paths, *, mesher="fallback", preset="quality", res=512, n_random=100_000,
+               timeout=None, epsilon=None, json_path=None, out=print):
+    """Print the table for the given mesh files; return the rows."""
+    from .scene_bench import _table
+
+    rows, table = [], []
+    header = ["scene", "tris", "mesher", "tets", "mesher s", "rust s", "rays", "hit agree",
+              "id agree", "same plane", "differ off edges", "failed", "p99 |dt|/diag",
+              "surface max/mean", "note"]
+    for path in paths:
+        row = run_scene(path, mesher=mesher, preset=preset, res=res, n_random=n_random,
+                        timeout=timeout, epsilon=epsilon)
+        rows.append(row)
+        if not row["ok"]:
+            table.append([row["scene"], f"{row['triangles']:,}", "FAILED", "-",
+                          f"{row['seconds']:.1f}", "-", "-", "-", "-", "-", "-", "-", "-", "-",
+                          row["error"]])
+        else:
+            sd = row.get("surface_distance")
+            note = " | ".join(row["attempts"])
+            table.append([
+                row["scene"], f"{row['triangles']:,}", row["mesher"], f"{row['tets']:,}",
+                f"{row['mesher_seconds']:.1f}", f"{row['rust_seconds']:.2f}", f"{row['rays']:,}",
+                f"{row['hit_agreement'] * 100:.3f}%", f"{row['agreement'] * 100:.3f}%",
+                f"{row['plane_agreement'] * 100:.3f}%", row["unexplained"], row["failed"], f"{row['p99_dt']:.1e}",
+                f"{sd['max']:.1e}/{sd['mean']:.1e}" if sd else "-", note])
+        # Progress on stderr: a full run takes a while.
+        print(f"{row['scene']}: " + ("ok " if row["ok"] else "FAILED ")
+              + json.dumps({k: row[k] for k in ("mesher", "tets", "agreement", "error")
+                            if k in row}), file=sys.stderr, flush=True)
+        if json_path:
+            with open(json_path, "w") as fh:
+                json.dump(rows, fh, indent=2)
+    out(_table(table, header))
+    return rows
