@@ -11,7 +11,7 @@ import numpy as np
 
 from .hits import FAILED, HIT
 
-__all__ = ["Agreement", "compare", "edge_distance"]
+__all__ = ["Agreement", "compare", "edge_distance", "same_plane"]
 
 
 @dataclasses.dataclass
@@ -218,3 +218,26 @@ def compare(hits, ref, vertices, faces, *, edge_tol=1e-5, t_tol=1e-5, diagonal=N
         dt_over_unexplained=unexplained,
         coincident=n_coincident,
     )
+
+
+def same_plane(hits, ref, vertices, faces, *, plane_tol=1e-5, max_degrees=1.0, diagonal=None):
+    """Of the rays where both hit different triangles, how many hit a triangle lying in the
+    same plane as the reference's at the reference's hit point (within ``plane_tol`` x
+    diagonal, normals within ``max_degrees``): the same place with the same normal."""
+    v = np.asarray(vertices, np.float64)
+    if diagonal is None:
+        diagonal = float(np.linalg.norm(v.max(0) - v.min(0)))
+    k = np.flatnonzero((hits.status == HIT) & (ref.status == HIT) & (hits.triangle != ref.triangle))
+    if len(k) == 0:
+        return 0
+
+    def unit_normals(tri):
+        p = v[faces[tri]]
+        n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+        return n / np.linalg.norm(n, axis=1, keepdims=True), p[:, 0]
+
+    n_ours, p_ours = unit_normals(hits.triangle[k])
+    n_ref, _ = unit_normals(ref.triangle[k])
+    cos = np.abs(np.einsum("ij,ij->i", n_ours, n_ref))
+    off = np.abs(np.einsum("ij,ij->i", ref.point[k].astype(np.float64) - p_ours, n_ours))
+    return int(((off <= plane_tol * diagonal) & (cos >= np.cos(np.radians(max_degrees)))).sum())

@@ -134,8 +134,9 @@ PRESETS: dict[str, dict] = {
 DEFAULT_PRESET = "quality"
 
 #: Values of ``mesher``: ``"tetgen"`` (exact, the default), ``"ftetwild"``
-#: (approximate, within ``epsilon``), ``"fallback"`` (TetGen, then fTetWild if it fails).
-MESHERS = ("tetgen", "ftetwild", "fallback")
+#: (approximate, within ``epsilon``), ``"fallback"`` (TetGen, then fTetWild if it fails),
+#: ``"auto"`` (the lowest-weight setting that meets ``accuracy``; :mod:`tetrace.auto_mesher`).
+MESHERS = ("tetgen", "ftetwild", "fallback", "auto")
 
 #: fTetWild defaults, relative to the scene's bounding-box diagonal: the envelope
 #: (how far the remeshed surface may lie from the input) and the target edge length.
@@ -283,6 +284,9 @@ class Tetrahedralization:
     attempts : list of str
         What was tried before and failed, and why (the TetGen attempts before a
         snap-rounded one succeeded, or before the fallback to fTetWild).
+    auto : dict or None
+        ``mesher="auto"`` only: the accuracy target, the weight tolerance, the chosen
+        ``setting`` and every ``candidate`` tried (see :mod:`tetrace.auto_mesher`).
     surface_distance : dict or None
         fTetWild only: how far the constrained faces are from the caller's
         triangles, in scene units: ``max`` and ``mean`` (from points sampled on
@@ -307,6 +311,23 @@ class Tetrahedralization:
     options: dict = dataclasses.field(default_factory=dict)
     attempts: list = dataclasses.field(default_factory=list)
     surface_distance: dict | None = None
+    auto: dict | None = None
+    _weight: float | None = dataclasses.field(default=None, repr=False, compare=False)
+
+    def weight(self) -> float:
+        """Sum of the areas of all faces of the tetrahedralization (each shared face once).
+
+        Lagae & Dutre (2008) found render time roughly proportional to it: by
+        Crofton's formula, the number of faces a random line crosses is, on
+        average, proportional to their total area. :func:`tetrahedralize` with
+        ``mesher="auto"`` ranks its candidate settings by it.
+        """
+        if self._weight is None:
+            faces = _unique_rows(np.sort(_tet_faces(self.tets), axis=1))
+            p = self.points
+            a, b, c = p[faces[:, 0]], p[faces[:, 1]], p[faces[:, 2]]
+            self._weight = float(0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1).sum())
+        return self._weight
 
     def __repr__(self):
         extra = ""
@@ -1495,7 +1516,7 @@ def tetrahedralize(mesh, preset=DEFAULT_PRESET, *, mesher="tetgen", margin=0.02,
                    minratio=None, maxvolume=None, sizing=None, repair="auto",
                    epsilon=FTETWILD_EPSILON, edge_length=FTETWILD_EDGE_LENGTH,
                    ftetwild_optimize=False, timeout=None, threads=0,
-                   stop_energy=10.0) -> Tetrahedralization:
+                   stop_energy=10.0, accuracy=None) -> Tetrahedralization:
     """Build a constrained tetrahedralization of a triangle scene inside a box.
 
     Parameters
@@ -1508,7 +1529,7 @@ def tetrahedralize(mesh, preset=DEFAULT_PRESET, *, mesher="tetgen", margin=0.02,
         TetGen settings: a key of :data:`PRESETS` (``"constrained"``,
         ``"quality"``, ``"quality3"``, ``"quality2"``, ``"quality1.5"``,
         ``"graded"``) or ``"quality<r>"`` for a radius-edge bound r > 1.
-    mesher : {"tetgen", "ftetwild", "fallback"}
+    mesher : {"tetgen", "ftetwild", "fallback", "auto"}
         ``"tetgen"``: exact; the constrained faces are pieces of the caller's
         triangles. ``"ftetwild"``: fTetWild remeshes the surface within
         ``epsilon`` and keeps the whole box around it; the constrained faces
@@ -1516,7 +1537,11 @@ def tetrahedralize(mesh, preset=DEFAULT_PRESET, *, mesher="tetgen", margin=0.02,
         ``"fallback"``: TetGen, then, if every rung of the snap ladder fails,
         TetGen's ``"constrained"`` preset on the first snap-rounded scene (when
         the preset refines), then fTetWild; the reasons go to ``attempts`` and
-        ``preset`` says which preset built it.
+        ``preset`` says which preset built it. ``"auto"``: build candidate settings
+        and keep the one with the fewest tets among those that meet ``accuracy``
+        with a weight (:meth:`Tetrahedralization.weight`) near the lowest; ``preset``
+        and the TetGen/fTetWild settings are then chosen, not given
+        (:func:`tetrace.auto_mesher.auto_tetrahedralize`).
     margin : float
         Domain box margin, a fraction of the scene's bounding-box diagonal
         (TetGen; fTetWild's box is the scene's grown by about one edge length).
@@ -1556,6 +1581,9 @@ def tetrahedralize(mesh, preset=DEFAULT_PRESET, *, mesher="tetgen", margin=0.02,
         fTetWild threads (0: all cores).
     stop_energy : float
         fTetWild stops optimising when the worst tet's AMIPS energy is below this.
+    accuracy : float, optional
+        ``mesher="auto"`` only: the fraction of random rays that must agree with
+        Embree on the caller's mesh (default 0.999).
 
     Returns
     -------
@@ -1582,6 +1610,13 @@ def tetrahedralize(mesh, preset=DEFAULT_PRESET, *, mesher="tetgen", margin=0.02,
         raise ValueError(f"repair must be 'auto', True or False, got {repair!r}")
     if mesher not in MESHERS:
         raise ValueError(f"mesher must be one of {MESHERS}, got {mesher!r}")
+    if mesher == "auto":
+        from .auto_mesher import DEFAULT_ACCURACY, auto_tetrahedralize
+
+        return auto_tetrahedralize(mesh, accuracy=DEFAULT_ACCURACY if accuracy is None else accuracy,
+                                   margin=margin, contain=contain, timeout=timeout)
+    if accuracy is not None:
+        raise ValueError("accuracy is a target for mesher='auto'; the other meshers take settings")
     p = preset_options(preset)
     sizing = _check_sizing(sizing if sizing is not None else p["sizing"])
     for what, value in (("epsilon", epsilon), ("edge_length", edge_length),

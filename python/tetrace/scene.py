@@ -85,7 +85,7 @@ class Scene:
     @classmethod
     def from_mesh(cls, mesh, preset="quality", *, mesher="tetgen", margin=0.02, contain=None,
                   minratio=None, maxvolume=None, sizing=None, repair="auto", epsilon=None,
-                  edge_length=None, timeout=None, hilbert=True):
+                  edge_length=None, timeout=None, accuracy=None, hilbert=True):
         """Tetrahedralize a triangle scene.
 
         Parameters
@@ -99,12 +99,15 @@ class Scene:
             ``"quality<r>"`` (tighter bounds, more tets), ``"constrained"`` (constrained
             Delaunay without refinement, fewest tets, more tets per ray), ``"graded"``
             (quality plus tets that grow away from the surface).
-        mesher : {"tetgen", "ftetwild", "fallback"}
+        mesher : {"tetgen", "ftetwild", "fallback", "auto"}
             ``"tetgen"``: exact, hits name the caller's triangles exactly. ``"ftetwild"``:
             fTetWild (``pip install 'pytetwild<0.3'``) remeshes the surface within
             ``epsilon`` of the input, for scenes TetGen cannot take; each hit names the
             triangle nearest to the face it crossed. ``"fallback"``: TetGen, then
-            fTetWild if it fails (``tetrahedralization.attempts`` says why).
+            fTetWild if it fails (``tetrahedralization.attempts`` says why). ``"auto"``:
+            the setting with the fewest tets among those that meet ``accuracy`` at a
+            near-lowest weight (total face area, which predicts time);
+            ``tetrahedralization.auto`` lists every candidate.
         margin : float
             Domain box margin as a fraction of the scene's bounding-box diagonal.
         contain : array_like, optional
@@ -123,6 +126,9 @@ class Scene:
             (defaults ``1e-3`` and ``0.05``).
         timeout : float, optional
             Seconds each meshing stage may run (default: grows with the scene's size).
+        accuracy : float, optional
+            ``mesher="auto"``: the fraction of random rays that must agree with Embree on
+            the input mesh (default 0.999).
         hilbert : bool
             Renumber points along a Hilbert curve and tets by region, then along the curve
             (Aman et al. 2022), for memory locality; False keeps the mesher's order (to measure
@@ -145,7 +151,7 @@ class Scene:
             minratio=minratio, maxvolume=maxvolume, sizing=sizing, repair=repair,
             epsilon=FTETWILD_EPSILON if epsilon is None else epsilon,
             edge_length=FTETWILD_EDGE_LENGTH if edge_length is None else edge_length,
-            timeout=timeout)
+            timeout=timeout, accuracy=accuracy)
         return cls(tet, vertices, faces, hilbert=hilbert)
 
     def cast(self, origins, directions=None, *, tmin=0.0, tmax=np.inf, threads=None,

@@ -29,6 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..compare import same_plane  # noqa: F401 (re-exported: the bench's column)
+
 MESH_SUFFIXES = (".obj", ".ply", ".off", ".stl", ".glb", ".gltf")
 
 
@@ -54,31 +56,6 @@ def _mesher_label(tz):
     if tz.snap:
         label += "+snap"
     return label
-
-
-def same_plane(hits, ref, vertices, faces, *, plane_tol=1e-5, max_degrees=1.0, diagonal=None):
-    """Of the rays where both hit different triangles, how many hit a triangle lying in the
-    same plane as the reference's at the reference's hit point (within ``plane_tol`` x
-    diagonal, normals within ``max_degrees``): the same place with the same normal."""
-    from ..hits import HIT
-
-    v = np.asarray(vertices, np.float64)
-    if diagonal is None:
-        diagonal = float(np.linalg.norm(v.max(0) - v.min(0)))
-    k = np.flatnonzero((hits.status == HIT) & (ref.status == HIT) & (hits.triangle != ref.triangle))
-    if len(k) == 0:
-        return 0
-
-    def unit_normals(tri):
-        p = v[faces[tri]]
-        n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-        return n / np.linalg.norm(n, axis=1, keepdims=True), p[:, 0]
-
-    n_ours, p_ours = unit_normals(hits.triangle[k])
-    n_ref, _ = unit_normals(ref.triangle[k])
-    cos = np.abs(np.einsum("ij,ij->i", n_ours, n_ref))
-    off = np.abs(np.einsum("ij,ij->i", ref.point[k].astype(np.float64) - p_ours, n_ours))
-    return int(((off <= plane_tol * diagonal) & (cos >= np.cos(np.radians(max_degrees)))).sum())
 
 
 def run_scene(path, *, mesher="fallback", preset="quality", res=512, n_random=100_000,
