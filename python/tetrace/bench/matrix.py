@@ -1,0 +1,436 @@
+"""Speed against accuracy: ``python -m tetrace.bench matrix``.
+
+Runs scenes x mesher settings x methods x layouts x precisions x threads (x GPU kernels
+with ``--gpu``) on the same camera rays (three orbit views), with embreex and, when
+installed, Open3D's ``RaycastingScene`` as peers timed in the same run, and writes:
+
+* ``matrix.csv`` and ``matrix.json``: one row per (scene, setting, caster, method, layout,
+  precision, threads, device): Mrays/s and the ratio to embreex at the same thread count;
+  agreement with embreex on the input mesh (same outcome and triangle; "plane": or a
+  triangle in the same plane at the hit point), p50/p99 |dt| over the diagonal, FAILED
+  rays; the build (mesher and Rust seconds, tets, points, weight, memory per part) and
+  tets per ray;
+* ``speed_accuracy.png``: throughput (x embreex) against disagreement, per scene;
+* ``build.png``: tets, weight, mesher seconds and memory per setting and scene;
+* ``weight_time.png``: time per ray against weight across settings (Lagae & Dutre's
+  heuristic), both relative to the ``quality`` preset of the same scene;
+
+and prints the table of Pareto-best settings per scene (no other row is both faster and
+more accurate). ``--quick`` runs the bundled scene with a few settings in a few minutes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..camera import orbit_views, pinhole
+from ..compare import compare, same_plane
+from ..hits import FAILED, HIT
+from .scene_bench import _table
+
+#: Mesher settings by name: keyword arguments of :meth:`tetrace.Scene.from_mesh`.
+SETTINGS = {
+    "constrained": dict(mesher="tetgen", preset="constrained"),
+    "quality10": dict(mesher="tetgen", preset="quality10"),
+    "quality": dict(mesher="tetgen", preset="quality"),
+    "quality3": dict(mesher="tetgen", preset="quality3"),
+    "quality1.5": dict(mesher="tetgen", preset="quality1.5"),
+    "graded": dict(mesher="tetgen", preset="graded"),
+    "ftetwild3e-3": dict(mesher="ftetwild", epsilon=3e-3),
+    "ftetwild1e-3": dict(mesher="ftetwild", epsilon=1e-3),
+    "auto": dict(mesher="auto"),
+}
+#: The full run's shared scenes (the bundled Spot is always first).
+FULL_SCENES = ("cornell_box.obj", "teapot.obj", "bunny.obj", "armadillo.obj", "torus_knots_27.obj")
+FULL = dict(settings=list(SETTINGS), methods=["lagae2008_plane", "maria2017", "aman2022", "robust"],
+            layouts=["tet32", "tet20"], precisions=["f32", "f64"], threads=["1", "all"], res=256,
+            repeat=3)
+QUICK = dict(settings=["constrained", "quality", "quality3", "graded", "ftetwild3e-3", "auto"],
+             methods=["maria2017", "aman2022", "robust"], layouts=["tet32", "tet20"],
+             precisions=["f32", "f64"], threads=["1"], res=96, repeat=2)
+
+
+def _ncpu():
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+
+
+def _best(fn, repeat):
+    best, out = np.inf, None
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        out = fn()
+        best = min(best, time.perf_counter() - t0)
+    return best, out
+
+
+def camera_rays(vertices, res):
+    """Three orbit views of the scene at ``res`` x ``res``, float64, concatenated."""
+    v = np.asarray(vertices, np.float64)
+    views = orbit_views(np.array([v.min(0), v.max(0)]), n=3, distance=1.6)
+    rays = [pinhole(e, t, u, fov_deg=40.0, width=res, height=res, dtype=np.float64)
+            for e, t, u in views]
+    return np.concatenate([r[0] for r in rays]), np.concatenate([r[1] for r in rays])
+
+
+def open3d_peer():
+    """Open3D's ``RaycastingScene`` class, or None with the reason it cannot run."""
+    try:
+        import open3d as o3d
+    except Exception as exc:  # ImportError, or OSError for a missing libusb-1.0
+        return None, f"open3d not available ({type(exc).__name__}: {exc})"
+    return o3d, None
+
+
+def _open3d_cast(o3d, v, f, o32, d32, threads, repeat):
+    scene = o3d.t.geometry.RaycastingScene()
+    scene.add_triangles(o3d.core.Tensor(np.asarray(v, np.float32)),
+                        o3d.core.Tensor(np.asarray(f, np.uint32)))
+    rays = o3d.core.Tensor(np.ascontiguousarray(np.hstack([o32, d32])))
+    seconds, r = _best(lambda: scene.cast_rays(rays, nthreads=threads), repeat)
+    t = r["t_hit"].numpy()
+    return seconds, np.isfinite(t), r["primitive_ids"].numpy().astype(np.int64), t
+
+
+def _accuracy(hits, ref, v, f, diagonal):
+    a = compare(hits, ref, v, f, diagonal=diagonal)
+    plane = a.agree + same_plane(hits, ref, v, f, diagonal=diagonal)
+    return dict(agreement=a.agree / a.rays, plane_agreement=plane / a.rays,
+                p50_dt=a.p50_dt, p99_dt=a.p99_dt, failed=int((hits.status == FAILED).sum()))
+
+
+def run_scene_settings(path, settings, *, methods, layouts, precisions, threads, res, repeat,
+                       gpu=False, out=print):
+    """Rows of one scene: peers first, then every setting x configuration."""
+    from ..meshing import MeshingError, load_triangles
+    from ..reference import embree_scene
+    from ..scene import Scene
+
+    name = Path(path).name
+    v, f = load_triangles(path)
+    diagonal = float(np.linalg.norm(v.max(0) - v.min(0)))
+    o64, d64 = camera_rays(v, res)
+    o32, d32 = o64.astype(np.float32), d64.astype(np.float32)
+    n = len(o64)
+    counts = {"1": 1, "all": _ncpu()}
+    base = dict(scene=name, triangles=int(len(f)), rays=n)
+    rows, embree_rate = [], {}
+    ref_scene = embree_scene((v, f))
+    ref = ref_scene.cast(o32, d32)
+    for label in threads:
+        k = counts[label]
+        t, _ = _best(lambda: ref_scene.intersect(o32, d32, threads=k), repeat)
+        embree_rate[label] = n / t / 1e6
+        rows.append(dict(base, setting="-", caster="embreex", method="bvh", layout="-",
+                         precision="f32", threads=k, device="cpu", mrays=embree_rate[label],
+                         ratio=1.0, agreement=1.0, plane_agreement=1.0, p50_dt=0.0, p99_dt=0.0,
+                         failed=0, mesher_s=ref_scene.build_seconds))
+    o3d, why = open3d_peer()
+    if o3d is None:
+        out(f"  {name}: Open3D peer skipped: {why}")
+    else:
+        ref_hit = ref.status == HIT
+        for label in threads:
+            k = counts[label]
+            t, hit, prim, th = _open3d_cast(o3d, v, f, o32, d32, k, repeat)
+            same = (hit == ref_hit) & (~hit | (prim == ref.triangle))
+            both = hit & ref_hit & (prim == ref.triangle)
+            dt = np.abs(th[both] - ref.t[both]) * np.linalg.norm(d32[both], axis=1) / diagonal
+            rows.append(dict(base, setting="-", caster="open3d", method="bvh", layout="-",
+                             precision="f32", threads=k, device="cpu", mrays=n / t / 1e6,
+                             ratio=n / t / 1e6 / embree_rate[label],
+                             agreement=float(same.mean()), plane_agreement=float(same.mean()),
+                             p50_dt=float(np.median(dt)) if len(dt) else 0.0,
+                             p99_dt=float(np.quantile(dt, 0.99)) if len(dt) else 0.0, failed=0))
+
+    for setting in settings:
+        kwargs = SETTINGS[setting]
+        t0 = time.perf_counter()
+        try:
+            scene = Scene.from_mesh((v, f), **kwargs)
+        except MeshingError as exc:
+            out(f"  {name} / {setting}: not built: {exc}")
+            rows.append(dict(base, setting=setting, caster="tetrace", error=str(exc),
+                             mesher_s=time.perf_counter() - t0))
+            continue
+        tz, bt = scene.tetrahedralization, scene.build_times
+        mesher_s = tz.auto["seconds"] if tz.auto else bt["total"] - bt["rust"]
+        chosen = f" -> {tz.auto['setting']}" if tz.auto else ""
+        build = dict(setting=setting, chosen=tz.auto["setting"] if tz.auto else setting,
+                     mesher=tz.mesher, tets=int(scene.n_tets), points=int(scene.n_points),
+                     weight=tz.weight(), mesher_s=mesher_s, rust_s=bt["rust"],
+                     surface_max=(tz.surface_distance["max"] / diagonal
+                                  if tz.surface_distance else 0.0))
+        out(f"  {name} / {setting}{chosen}: {scene.n_tets:,} tets, weight {build['weight']:.4g}, "
+            f"mesher {mesher_s:.2f} s, rust {bt['rust']:.2f} s")
+        for method in methods:
+            for layout in layouts:
+                for prec in precisions:
+                    if layout == "tet80" and prec == "f64":
+                        continue
+                    o, d = (o32, d32) if prec == "f32" else (o64, d64)
+                    for label in threads:
+                        k = counts[label]
+                        t, hits = _best(lambda: scene.cast(o, d, threads=k, method=method,
+                                                           layout=layout, precision=prec), repeat)
+                        mem = scene.memory()
+                        rows.append(dict(
+                            base, **build, caster="tetrace", method=method, layout=layout,
+                            precision=prec, threads=k, device="cpu", mrays=n / t / 1e6,
+                            ratio=n / t / 1e6 / embree_rate[label],
+                            tets_per_ray=float(hits.steps.mean()),
+                            mem_mb=(mem["points_f64"] + mem["points_f32"] + mem["constrained"]
+                                    + mem["locator"] + mem[f"tets_{layout}"]) / 1e6,
+                            mem_layout_mb=mem[f"tets_{layout}"] / 1e6,
+                            **_accuracy(hits, ref, v, f, diagonal)))
+        if gpu:
+            from .. import gpu as tgpu
+
+            for method, layout in tgpu.kernels():
+                scene.cast(o32[:1], d32[:1], method=method, layout=layout, device="gpu")
+                t, hits = _best(lambda: scene.cast(o32, d32, method=method, layout=layout,
+                                                   device="gpu"), repeat)
+                rows.append(dict(base, **build, caster="tetrace", method=method, layout=layout,
+                                 precision="f32", threads=0, device="gpu", mrays=n / t / 1e6,
+                                 ratio=n / t / 1e6 / embree_rate[threads[-1]],
+                                 kernel_mrays=scene.gpu_timings["walked"]
+                                 / scene.gpu_timings["kernel"] / 1e6,
+                                 tets_per_ray=float(hits.steps.mean()),
+                                 **_accuracy(hits, ref, v, f, diagonal)))
+        del scene
+    return rows
+
+
+def pareto(rows):
+    """Rows no other row of the same scene beats on both speed (ratio) and accuracy.
+
+    Accuracy is ``plane_agreement``; rows equal on both keep the first.
+    """
+    best = []
+    for scene in dict.fromkeys(r["scene"] for r in rows):
+        rs = [r for r in rows if r["scene"] == scene and "ratio" in r]
+        rs.sort(key=lambda r: (-r["ratio"], -r["plane_agreement"]))
+        top = -1.0
+        for r in rs:
+            if r["plane_agreement"] > top:
+                best.append(r)
+                top = r["plane_agreement"]
+    return best
+
+
+def _disagreement(r):
+    return max(1.0 - r["plane_agreement"], 0.5 / r["rays"])
+
+
+def charts(rows, folder):
+    """Write the three PNG charts into ``folder``; returns their paths."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    folder = Path(folder)
+    scenes = list(dict.fromkeys(r["scene"] for r in rows))
+    ok = [r for r in rows if "ratio" in r]
+    settings = list(dict.fromkeys(r["setting"] for r in ok if r["caster"] == "tetrace"))
+    colors = {s: plt.cm.tab10(i % 10) for i, s in enumerate(settings)}
+    paths = {}
+
+    # 1. Throughput against accuracy.
+    cols = min(len(scenes), 3)
+    nrow = -(-len(scenes) // cols)
+    fig, axes = plt.subplots(nrow, cols, figsize=(5.2 * cols, 4.2 * nrow), squeeze=False)
+    for ax, scene in zip(axes.flat, scenes):
+        rs = [r for r in ok if r["scene"] == scene]
+        top = max(r["threads"] for r in rs)
+        for r in rs:
+            if r["threads"] not in (top, 0):
+                continue
+            if r["caster"] == "tetrace":
+                ax.scatter(r["ratio"], _disagreement(r), color=colors[r["setting"]], s=18,
+                           marker="o" if r["precision"] == "f32" else "^",
+                           edgecolors="k" if r["device"] == "gpu" else "none")
+            else:
+                ax.scatter(r["ratio"], _disagreement(r), color="k", marker="*", s=80)
+                ax.annotate(r["caster"], (r["ratio"], _disagreement(r)), fontsize=7)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_title(f"{scene} ({top} threads)", fontsize=9)
+        ax.set_xlabel("throughput / embreex")
+        ax.set_ylabel("disagreement with embreex")
+    for ax in list(axes.flat)[len(scenes):]:
+        ax.axis("off")
+    handles = [plt.Line2D([], [], marker="o", ls="", color=colors[s], label=s) for s in settings]
+    handles += [plt.Line2D([], [], marker="o", ls="", color="gray", label="f32"),
+                plt.Line2D([], [], marker="^", ls="", color="gray", label="f64")]
+    fig.legend(handles=handles, loc="lower center", ncol=min(len(handles), 6), fontsize=8)
+    fig.tight_layout(rect=(0, 0.08, 1, 1))
+    paths["speed_accuracy"] = folder / "speed_accuracy.png"
+    fig.savefig(paths["speed_accuracy"], dpi=110)
+    plt.close(fig)
+
+    # 2. Build: one bar group per scene, one bar per setting.
+    builds = {}
+    for r in ok:
+        if r["caster"] == "tetrace" and "mem_mb" in r:
+            builds.setdefault((r["scene"], r["setting"]), r)
+    fig, axes = plt.subplots(1, 4, figsize=(18, 4))
+    width = 0.8 / max(len(settings), 1)
+    for ax, (key, label) in zip(axes, [("tets", "tets"), ("weight_rel", "weight / quality's"),
+                                       ("mesher_s", "mesher seconds"), ("mem_mb", "memory MB")]):
+        for j, s in enumerate(settings):
+            ys = []
+            for scene in scenes:
+                b = builds.get((scene, s))
+                q = builds.get((scene, "quality"))
+                if b is None:
+                    ys.append(np.nan)
+                elif key == "weight_rel":
+                    ys.append(b["weight"] / q["weight"] if q else np.nan)
+                else:
+                    ys.append(b[key])
+            ax.bar(np.arange(len(scenes)) + j * width, ys, width, color=colors[s], label=s)
+        ax.set_xticks(np.arange(len(scenes)) + 0.4 - width / 2)
+        ax.set_xticklabels(scenes, rotation=30, fontsize=7)
+        ax.set_title(label, fontsize=9)
+        if key != "weight_rel":
+            ax.set_yscale("log")
+    axes[0].legend(fontsize=7)
+    fig.tight_layout()
+    paths["build"] = folder / "build.png"
+    fig.savefig(paths["build"], dpi=110)
+    plt.close(fig)
+
+    # 3. Weight against time per ray, relative to each scene's quality preset.
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    xs, ys = [], []
+    for scene in scenes:
+        timing = [r for r in ok if r["scene"] == scene and r["caster"] == "tetrace"
+                  and r["device"] == "cpu" and r["threads"] == 1]
+        if not timing:
+            continue
+        method, layout, prec = timing[0]["method"], timing[0]["layout"], timing[0]["precision"]
+        by = {r["setting"]: r for r in timing
+              if (r["method"], r["layout"], r["precision"]) == (method, layout, prec)}
+        q = by.get("quality")
+        if q is None:
+            continue
+        for s, r in by.items():
+            x, y = r["weight"] / q["weight"], q["mrays"] / r["mrays"]
+            xs.append(x)
+            ys.append(y)
+            axes[0].scatter(x, y, color=colors[s], s=20)
+            axes[1].scatter(x, r["tets_per_ray"] / q["tets_per_ray"], color=colors[s], s=20)
+    r_time = float(np.corrcoef(xs, ys)[0, 1]) if len(xs) > 2 else float("nan")
+    for ax, what in zip(axes, ["time per ray", "tets per ray"]):
+        ax.plot([0.5, 3], [0.5, 3], "k:", lw=0.8)
+        ax.set_xlabel("weight / quality's weight (same scene)")
+        ax.set_ylabel(f"{what} / quality's")
+    axes[0].set_title(f"1 thread, {method} {layout} {prec}; Pearson r = {r_time:.3f}", fontsize=9)
+    axes[1].legend(handles=handles[:-2], fontsize=7)
+    fig.tight_layout()
+    paths["weight_time"] = folder / "weight_time.png"
+    fig.savefig(paths["weight_time"], dpi=110)
+    plt.close(fig)
+    return paths, r_time
+
+
+COLUMNS = ["scene", "triangles", "rays", "setting", "chosen", "mesher", "tets", "points", "weight",
+           "mesher_s", "rust_s", "surface_max", "mem_mb", "mem_layout_mb", "caster", "method", "layout",
+           "precision", "threads", "device", "mrays", "kernel_mrays", "ratio", "tets_per_ray",
+           "agreement", "plane_agreement", "p50_dt", "p99_dt", "failed", "error"]
+
+
+def run_matrix(scenes, *, settings, methods, layouts, precisions, threads, res, repeat,
+               out_dir, gpu=False, out=print):
+    """Run the matrix over ``scenes`` (mesh paths), write CSV/JSON/PNGs into ``out_dir``.
+
+    Returns
+    -------
+    dict
+        ``rows``, ``pareto`` (the Pareto-best rows), ``charts`` (paths),
+        ``weight_time_r`` (Pearson r of weight against time per ray), ``seconds``.
+    """
+    unknown = [s for s in settings if s not in SETTINGS]
+    if unknown:
+        raise ValueError(f"unknown settings {unknown}; choose from {list(SETTINGS)}")
+    t0 = time.perf_counter()
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    rows = []
+    for path in scenes:
+        out(f"{Path(path).name}:")
+        rows += run_scene_settings(path, settings, methods=methods, layouts=layouts,
+                                   precisions=precisions, threads=threads, res=res,
+                                   repeat=repeat, gpu=gpu, out=out)
+    with open(out_dir / "matrix.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=COLUMNS, extrasaction="ignore")
+        w.writeheader()
+        w.writerows(rows)
+    with open(out_dir / "matrix.json", "w") as fh:
+        json.dump(rows, fh, indent=1)
+    paths, r_time = charts(rows, out_dir)
+    best = pareto([r for r in rows if r["caster"] == "tetrace" and "ratio" in r
+                   and r["threads"] == max(x["threads"] for x in rows if "ratio" in x
+                                           and x["scene"] == r["scene"])])
+    out("\nPareto-best tetrace settings per scene (no other is both faster and more accurate; "
+        "most threads measured):")
+    out(_table([[r["scene"], r["setting"] + (f" ({r['chosen']})" if r["chosen"] != r["setting"]
+                                             else ""),
+                 r["method"], r["layout"], r["precision"], r["device"], f"{r['tets']:,}",
+                 f"{r['mrays']:.2f}", f"{r['ratio']:.2f}", f"{r['plane_agreement'] * 100:.3f}%",
+                 f"{r['p99_dt']:.1e}"] for r in best],
+               ["scene", "setting", "method", "layout", "prec", "device", "tets", "Mrays/s",
+                "x embreex", "agree (plane)", "p99 |dt|/diag"]))
+    out(f"weight against time per ray (1 thread, relative to quality): Pearson r = {r_time:.3f}")
+    out(f"wrote {out_dir / 'matrix.csv'}, matrix.json, "
+        + ", ".join(p.name for p in paths.values()))
+    return dict(rows=rows, pareto=best, charts=paths, weight_time_r=r_time,
+                seconds=time.perf_counter() - t0)
+
+
+def matrix_main(argv):
+    """Command line of ``python -m tetrace.bench matrix``."""
+    from ..scene import default_scene_path
+    from .scenes import default_scenes_dir
+
+    p = argparse.ArgumentParser(prog="python -m tetrace.bench matrix", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("scenes", nargs="*", help="mesh files (default: Spot, plus the full run's "
+                   f"shared scenes {', '.join(FULL_SCENES)} unless --quick)")
+    p.add_argument("--quick", action="store_true", help="Spot, 6 settings, 3 methods, 1 thread")
+    p.add_argument("--dir", default=None, help="shared scenes folder (default: $TETRACE_SCENES "
+                   "or ../shared/scenes)")
+    for name in ("settings", "methods", "layouts", "precisions", "threads"):
+        p.add_argument(f"--{name}", default=None, help=f"comma-separated {name} (default: "
+                       f"full {','.join(FULL[name])}; quick {','.join(QUICK[name])})")
+    p.add_argument("--res", type=int, default=None, help="camera resolution of each of 3 views")
+    p.add_argument("--repeat", type=int, default=None)
+    p.add_argument("--gpu", action="store_true", help="also every GPU kernel")
+    p.add_argument("--out", default="matrix-out", help="folder for CSV, JSON and PNGs")
+    args = p.parse_args(argv)
+    cfg = dict(QUICK if args.quick else FULL)
+    for name in ("settings", "methods", "layouts", "precisions", "threads"):
+        if getattr(args, name):
+            cfg[name] = getattr(args, name).split(",")
+    for name in ("res", "repeat"):
+        if getattr(args, name):
+            cfg[name] = getattr(args, name)
+    scenes = args.scenes
+    if not scenes:
+        scenes = [str(default_scene_path())]
+        if not args.quick:
+            folder = Path(args.dir) if args.dir else default_scenes_dir()
+            missing = [s for s in FULL_SCENES if not (folder / s).exists()]
+            if missing:
+                print(f"shared scenes not found in {folder}: {missing}; running the bundled "
+                      f"scene only")
+            scenes += [str(folder / s) for s in FULL_SCENES if (folder / s).exists()]
+    run_matrix(scenes, out_dir=args.out, gpu=args.gpu, **cfg)
+    return 0
