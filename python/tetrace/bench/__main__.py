@@ -30,7 +30,9 @@ def scenes_main(argv):
     p.add_argument("scenes", nargs="*", help="mesh files (default: every mesh in --dir)")
     p.add_argument("--dir", default=None,
                    help="scenes folder (default: $TETRACE_SCENES or ../shared/scenes)")
-    p.add_argument("--mesher", default="fallback", choices=["tetgen", "ftetwild", "fallback"])
+    p.add_argument("--mesher", default="fallback", choices=["tetgen", "ftetwild", "fallback", "auto"])
+    p.add_argument("--accuracy", type=float, default=None,
+                   help="mesher auto: agreement with Embree to reach (default 0.999)")
     p.add_argument("--preset", default="quality")
     p.add_argument("--epsilon", type=float, default=None, help="fTetWild envelope (of the diagonal)")
     p.add_argument("--res", type=int, default=512, help="camera resolution (3 views)")
@@ -42,7 +44,7 @@ def scenes_main(argv):
     paths = args.scenes or scene_files(args.dir or default_scenes_dir())
     run_scenes(paths, mesher=args.mesher, preset=args.preset, res=args.res,
                n_random=args.random, timeout=args.timeout, epsilon=args.epsilon,
-               json_path=args.json)
+               accuracy=args.accuracy, json_path=args.json)
     return 0
 
 
@@ -97,6 +99,12 @@ def stability_main(argv):
 
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
+    if argv[:1] == ["matrix"]:
+        from .matrix import matrix_main
+        return matrix_main(argv[1:])
+    if argv[:1] == ["growth"]:
+        from .growth import growth_main
+        return growth_main(argv[1:])
     if argv[:1] == ["stability"]:
         return stability_main(argv[1:])
     if argv[:1] == ["agreement"]:

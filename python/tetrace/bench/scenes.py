@@ -51,6 +51,8 @@ def scene_files(folder):
 
 def _mesher_label(tz):
     label = tz.mesher if tz.mesher == "ftetwild" else f"tetgen {tz.preset}"
+    if tz.auto:
+        label = f"auto: {tz.auto['setting']}"
     if tz.mesher == "tetgen" and tz.repaired:
         label += "+repair"
     if tz.snap:
@@ -59,7 +61,7 @@ def _mesher_label(tz):
 
 
 def run_scene(path, *, mesher="fallback", preset="quality", res=512, n_random=100_000,
-              timeout=None, epsilon=None):
+              timeout=None, epsilon=None, accuracy=None):
     """Build one scene and compare it with embreex; returns a dict (see the module doc)."""
     from ..compare import compare
     from ..hits import HIT
@@ -74,14 +76,15 @@ def run_scene(path, *, mesher="fallback", preset="quality", res=512, n_random=10
     row["triangles"] = int(len(f))
     t0 = time.perf_counter()
     try:
-        scene = Scene.from_mesh((v, f), preset, mesher=mesher, timeout=timeout, epsilon=epsilon)
+        scene = Scene.from_mesh((v, f), preset, mesher=mesher, timeout=timeout, epsilon=epsilon,
+                                accuracy=accuracy)
     except MeshingError as exc:
         row.update(ok=False, error=str(exc), seconds=time.perf_counter() - t0)
         return row
     tz = scene.tetrahedralization
     bt = scene.build_times
     row.update(ok=True, mesher=_mesher_label(tz), tets=int(scene.n_tets),
-               mesher_seconds=float(bt["total"] - bt["rust"]), rust_seconds=float(bt["rust"]),
+               mesher_seconds=float(tz.auto["seconds"] if tz.auto else bt["total"] - bt["rust"]), rust_seconds=float(bt["rust"]),
                timings={k: float(x) for k, x in bt.items()}, attempts=list(tz.attempts),
                snap=float(tz.snap), options={k: v for k, v in tz.options.items()
                                              if isinstance(v, (int, float, str, bool))})
@@ -120,7 +123,7 @@ def run_scene(path, *, mesher="fallback", preset="quality", res=512, n_random=10
 
 
 def run_scenes(paths, *, mesher="fallback", preset="quality", res=512, n_random=100_000,
-               timeout=None, epsilon=None, json_path=None, out=print):
+               timeout=None, epsilon=None, accuracy=None, json_path=None, out=print):
     """Print the table for the given mesh files; return the rows."""
     from .scene_bench import _table
 
@@ -130,7 +133,7 @@ def run_scenes(paths, *, mesher="fallback", preset="quality", res=512, n_random=
               "surface max/mean", "note"]
     for path in paths:
         row = run_scene(path, mesher=mesher, preset=preset, res=res, n_random=n_random,
-                        timeout=timeout, epsilon=epsilon)
+                        timeout=timeout, epsilon=epsilon, accuracy=accuracy)
         rows.append(row)
         if not row["ok"]:
             table.append([row["scene"], f"{row['triangles']:,}", "FAILED", "-",
