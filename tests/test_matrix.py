@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import tetrace
+from conftest import skip_or_fail
 from tetrace import auto_mesher, synthetic
 from tetrace.bench import matrix
 from tetrace.camera import random_rays
@@ -156,3 +157,20 @@ def test_matrix_command_line(tmp_path, embree):
     with pytest.raises(ValueError, match="unknown settings"):
         matrix.run_matrix([], settings=["nope"], methods=[], layouts=[], precisions=[],
                           threads=[], res=8, repeat=1, out_dir=tmp_path)
+
+
+def test_matrix_gpu_rows(tmp_path, embree):
+    from tetrace import gpu
+
+    try:
+        gpu.device()
+    except tetrace.GpuError as e:
+        skip_or_fail(f"no GPU adapter: {e}")
+    rows = matrix.run_matrix([str(default_scene_path())], settings=["quality"],
+                             methods=["aman2022"], layouts=["tet32"], precisions=["f32"],
+                             threads=["1"], res=16, repeat=1, out_dir=tmp_path, gpu=True,
+                             out=lambda line: None)["rows"]
+    rows = [r for r in rows if r.get("device") == "gpu"]
+    assert {(r["method"], r["layout"]) for r in rows} == set(gpu.kernels())
+    for r in rows:
+        assert r["plane_agreement"] >= 0.999 and r["failed"] == 0 and r["kernel_mrays"] > 0

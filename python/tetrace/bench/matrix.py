@@ -79,6 +79,16 @@ def camera_rays(vertices, res):
     return np.concatenate([r[0] for r in rays]), np.concatenate([r[1] for r in rays])
 
 
+def hardware_gpu():
+    """Whether wgpu finds an adapter that is not a CPU emulation (lavapipe, llvmpipe)."""
+    try:
+        from .. import gpu
+
+        return any(a["device_type"] != "Cpu" and a["compute"] for a in gpu.info())
+    except Exception:  # no wgpu backend at all: no GPU rows
+        return False
+
+
 def open3d_peer():
     """Open3D's ``RaycastingScene`` class, or None with the reason it cannot run."""
     try:
@@ -412,7 +422,9 @@ def matrix_main(argv):
                        f"full {','.join(FULL[name])}; quick {','.join(QUICK[name])})")
     p.add_argument("--res", type=int, default=None, help="camera resolution of each of 3 views")
     p.add_argument("--repeat", type=int, default=None)
-    p.add_argument("--gpu", action="store_true", help="also every GPU kernel")
+    p.add_argument("--gpu", choices=["auto", "yes", "no"], default="auto",
+                   help="also every GPU kernel: auto (default) when a hardware adapter is found "
+                        "(not a software one such as lavapipe)")
     p.add_argument("--out", default="matrix-out", help="folder for CSV, JSON and PNGs")
     args = p.parse_args(argv)
     cfg = dict(QUICK if args.quick else FULL)
@@ -432,5 +444,6 @@ def matrix_main(argv):
                 print(f"shared scenes not found in {folder}: {missing}; running the bundled "
                       f"scene only")
             scenes += [str(folder / s) for s in FULL_SCENES if (folder / s).exists()]
-    run_matrix(scenes, out_dir=args.out, gpu=args.gpu, **cfg)
+    gpu = args.gpu == "yes" or (args.gpu == "auto" and hardware_gpu())
+    run_matrix(scenes, out_dir=args.out, gpu=gpu, **cfg)
     return 0
