@@ -33,7 +33,7 @@ import numpy as np
 from ..camera import orbit_views, pinhole
 from ..compare import compare, same_plane
 from ..hits import FAILED, HIT
-from .scene_bench import _table
+from .scene_bench import _best, _table
 
 #: Mesher settings by name: keyword arguments of :meth:`tetrace.Scene.from_mesh`.
 SETTINGS = {
@@ -59,15 +59,6 @@ QUICK = dict(settings=["constrained", "quality", "quality3", "graded", "ftetwild
 
 def _ncpu():
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-
-
-def _best(fn, repeat):
-    best, out = np.inf, None
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t0)
-    return best, out
 
 
 def camera_rays(vertices, res):
