@@ -1498,7 +1498,7 @@ def _ftetwild_route(name, cm, box, *, contain, epsilon, edge_length, threads, st
     t = time.perf_counter()
     # fTetWild keeps its surface within the envelope; 0.1% slack for rounding.
     tol = eps_abs * 1.001
-    faces, nearest, dist = _recover_surface(points, tets.astype(np.int64), v,
+    faces, nearest, dist = _recover_surface(points, tets, v,
                                             f.astype(np.int64), n_scene, tol)
     if len(faces) == 0:
         timings["recover"] += time.perf_counter() - t
