@@ -264,6 +264,7 @@ def _plot(rows, path):
                     textcoords="offset points", xytext=(3, 5))
     ax.plot([], [], "o", color="gray", mfc="none", label="hollow: stadium worlds")
     ax.set_xscale("log")
+    ax.margins(x=0.1)  # room for the last world's label
     ax.set_xlabel("world triangles")
     ax.set_ylabel("Mrays/s, 1 thread")
     ax.set_ylim(bottom=0)
