@@ -132,8 +132,11 @@ def test_matrix_writes_rows_files_and_charts(tmp_path, embree):
     for r in res["pareto"]:
         assert not any(o["ratio"] > r["ratio"] and o["plane_agreement"] > r["plane_agreement"]
                        for o in ours)
-    assert np.isfinite(res["weight_time_r"])
+    assert np.isfinite(res["weight_time_r"]) and res["weight_steps_r"] > 0.5
     assert any("Pareto-best" in line for line in lines)
+    again = matrix.report(json.loads((tmp_path / "matrix.json").read_text()), tmp_path / "re",
+                          out=lambda line: None)
+    assert [r["setting"] for r in again["pareto"]] == [r["setting"] for r in res["pareto"]]
 
 
 def test_matrix_skips_a_missing_peer_and_names_why(tmp_path, monkeypatch, embree):

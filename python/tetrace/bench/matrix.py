@@ -310,7 +310,7 @@ def charts(rows, folder):
 
     # 3. Weight against time per ray, relative to each scene's quality preset.
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
-    xs, ys = [], []
+    xs, ys, zs = [], [], []
     for scene in scenes:
         timing = [r for r in ok if r["scene"] == scene and r["caster"] == "tetrace"
                   and r["device"] == "cpu" and r["threads"] == 1]
@@ -326,20 +326,23 @@ def charts(rows, folder):
             x, y = r["weight"] / q["weight"], q["mrays"] / r["mrays"]
             xs.append(x)
             ys.append(y)
+            zs.append(r["tets_per_ray"] / q["tets_per_ray"])
             axes[0].scatter(x, y, color=colors[s], s=20)
             axes[1].scatter(x, r["tets_per_ray"] / q["tets_per_ray"], color=colors[s], s=20)
     r_time = float(np.corrcoef(xs, ys)[0, 1]) if len(xs) > 2 else float("nan")
+    r_steps = float(np.corrcoef(xs, zs)[0, 1]) if len(xs) > 2 else float("nan")
     for ax, what in zip(axes, ["time per ray", "tets per ray"]):
         ax.plot([0.5, 3], [0.5, 3], "k:", lw=0.8)
         ax.set_xlabel("weight / quality's weight (same scene)")
         ax.set_ylabel(f"{what} / quality's")
     axes[0].set_title(f"1 thread, {method} {layout} {prec}; Pearson r = {r_time:.3f}", fontsize=9)
+    axes[1].set_title(f"Pearson r = {r_steps:.3f}", fontsize=9)
     axes[1].legend(handles=handles[:-2], fontsize=7)
     fig.tight_layout()
     paths["weight_time"] = folder / "weight_time.png"
     fig.savefig(paths["weight_time"], dpi=110)
     plt.close(fig)
-    return paths, r_time
+    return paths, r_time, r_steps
 
 
 COLUMNS = ["scene", "triangles", "rays", "setting", "chosen", "mesher", "tets", "points", "weight",
@@ -356,7 +359,8 @@ def run_matrix(scenes, *, settings, methods, layouts, precisions, threads, res, 
     -------
     dict
         ``rows``, ``pareto`` (the Pareto-best rows), ``charts`` (paths),
-        ``weight_time_r`` (Pearson r of weight against time per ray), ``seconds``.
+        ``weight_time_r`` and ``weight_steps_r`` (Pearson r of weight against time and
+        against tets per ray, each relative to the scene's ``quality``), ``seconds``.
     """
     unknown = [s for s in settings if s not in SETTINGS]
     if unknown:
@@ -376,7 +380,16 @@ def run_matrix(scenes, *, settings, methods, layouts, precisions, threads, res, 
         w.writerows(rows)
     with open(out_dir / "matrix.json", "w") as fh:
         json.dump(rows, fh, indent=1)
-    paths, r_time = charts(rows, out_dir)
+    res = report(rows, out_dir, out=out)
+    res["seconds"] = time.perf_counter() - t0
+    return res
+
+
+def report(rows, out_dir, out=print):
+    """Charts into ``out_dir`` and the Pareto table of matrix rows; see :func:`run_matrix`."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    paths, r_time, r_steps = charts(rows, out_dir)
     best = pareto([r for r in rows if r["caster"] == "tetrace" and "ratio" in r
                    and r["threads"] == max(x["threads"] for x in rows if "ratio" in x
                                            and x["scene"] == r["scene"])])
@@ -389,11 +402,10 @@ def run_matrix(scenes, *, settings, methods, layouts, precisions, threads, res, 
                  f"{r['p99_dt']:.1e}"] for r in best],
                ["scene", "setting", "method", "layout", "prec", "device", "tets", "Mrays/s",
                 "x embreex", "agree (plane)", "p99 |dt|/diag"]))
-    out(f"weight against time per ray (1 thread, relative to quality): Pearson r = {r_time:.3f}")
-    out(f"wrote {out_dir / 'matrix.csv'}, matrix.json, "
-        + ", ".join(p.name for p in paths.values()))
-    return dict(rows=rows, pareto=best, charts=paths, weight_time_r=r_time,
-                seconds=time.perf_counter() - t0)
+    out(f"weight against time per ray (1 thread, relative to quality): Pearson r = {r_time:.3f}; "
+        f"against tets per ray: r = {r_steps:.3f}")
+    out(f"wrote into {out_dir}: " + ", ".join(p.name for p in paths.values()))
+    return dict(rows=rows, pareto=best, charts=paths, weight_time_r=r_time, weight_steps_r=r_steps)
 
 
 def matrix_main(argv):
@@ -417,7 +429,13 @@ def matrix_main(argv):
                    help="also every GPU kernel: auto (default) when a hardware adapter is found "
                         "(not a software one such as lavapipe)")
     p.add_argument("--out", default="matrix-out", help="folder for CSV, JSON and PNGs")
+    p.add_argument("--replot", default=None, metavar="JSON",
+                   help="redraw the charts and the Pareto table of an earlier run's matrix.json")
     args = p.parse_args(argv)
+    if args.replot:
+        with open(args.replot) as fh:
+            report(json.load(fh), args.out)
+        return 0
     cfg = dict(QUICK if args.quick else FULL)
     for name in ("settings", "methods", "layouts", "precisions", "threads"):
         if getattr(args, name):
