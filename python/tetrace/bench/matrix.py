@@ -302,8 +302,8 @@ def charts(rows, folder):
         ax.set_title(label, fontsize=9)
         if key != "weight_rel":
             ax.set_yscale("log")
-    axes[0].legend(fontsize=7)
-    fig.tight_layout()
+    fig.legend(handles=handles[:-2], loc="lower center", ncol=min(len(settings), 9), fontsize=8)
+    fig.tight_layout(rect=(0, 0.1, 1, 1))
     paths["build"] = folder / "build.png"
     fig.savefig(paths["build"], dpi=110)
     plt.close(fig)
