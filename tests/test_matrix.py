@@ -177,3 +177,14 @@ def test_matrix_gpu_rows(tmp_path, embree):
     assert {(r["method"], r["layout"]) for r in rows} == set(gpu.kernels())
     for r in rows:
         assert r["plane_agreement"] >= 0.999 and r["failed"] == 0 and r["kernel_mrays"] > 0
+
+
+def test_accuracy_counts_nearby_hits_on_neighbouring_triangles(embree):
+    # fTetWild's faces name the input triangle nearest to their centre; a ray through a
+    # face can hit a neighbour of that triangle in the input. Within HIT_DISTANCE of
+    # Embree's point it still agrees, so the measure rises with the distance allowed.
+    v, f = tetrace.meshing.load_triangles(str(default_scene_path()))
+    tz = tetrahedralize((v, f), mesher="ftetwild", epsilon=1e-3)
+    strict = auto_mesher.measure_accuracy(tz, v, f, rays=4000, hit_distance=0.0)
+    loose = auto_mesher.measure_accuracy(tz, v, f, rays=4000, hit_distance=1e-3)
+    assert 0.9 < strict < loose <= 1.0
