@@ -34,7 +34,7 @@ import numpy as np
 from ..camera import orbit_views, pinhole
 from ..compare import compare, same_plane
 from ..hits import FAILED, HIT
-from .scene_bench import _best, _table
+from .scene_bench import _best, _table, configurations
 
 #: Mesher settings by name: keyword arguments of :meth:`tetrace.Scene.from_mesh`.
 SETTINGS = {
@@ -179,26 +179,21 @@ def run_scene_settings(path, settings, *, methods, layouts, precisions, threads,
                                   if tz.surface_distance else 0.0))
         out(f"  {name} / {setting}{chosen}: {scene.n_tets:,} tets, weight {build['weight']:.4g}, "
             f"mesher {mesher_s:.2f} s, rust {bt['rust']:.2f} s")
-        for method in methods:
-            for layout in layouts:
-                for prec in precisions:
-                    if layout == "tet80" and prec == "f64":
-                        continue
-                    o, d = (o32, d32) if prec == "f32" else (o64, d64)
-                    for label in threads:
-                        k = counts[label]
-                        t, hits = _best(lambda: scene.cast(o, d, threads=k, method=method,
-                                                           layout=layout, precision=prec), repeat)
-                        mem = scene.memory()
-                        rows.append(dict(
-                            base, **build, caster="tetrace", method=method, layout=layout,
-                            precision=prec, threads=k, device="cpu", mrays=n / t / 1e6,
-                            ratio=n / t / 1e6 / embree_rate[label],
-                            tets_per_ray=float(hits.steps.mean()),
-                            mem_mb=(mem["points_f64"] + mem["points_f32"] + mem["constrained"]
-                                    + mem["locator"] + mem[f"tets_{layout}"]) / 1e6,
-                            mem_layout_mb=mem[f"tets_{layout}"] / 1e6,
-                            **_accuracy(hits, ref, v, f, diagonal, d)))
+        for method, layout, prec, label in configurations(methods, layouts, precisions, threads):
+            o, d = (o32, d32) if prec == "f32" else (o64, d64)
+            k = counts[label]
+            t, hits = _best(lambda: scene.cast(o, d, threads=k, method=method,
+                                               layout=layout, precision=prec), repeat)
+            mem = scene.memory()
+            rows.append(dict(
+                base, **build, caster="tetrace", method=method, layout=layout,
+                precision=prec, threads=k, device="cpu", mrays=n / t / 1e6,
+                ratio=n / t / 1e6 / embree_rate[label],
+                tets_per_ray=float(hits.steps.mean()),
+                mem_mb=(mem["points_f64"] + mem["points_f32"] + mem["constrained"]
+                        + mem["locator"] + mem[f"tets_{layout}"]) / 1e6,
+                mem_layout_mb=mem[f"tets_{layout}"] / 1e6,
+                **_accuracy(hits, ref, v, f, diagonal, d)))
         if gpu:
             from .. import gpu as tgpu
 

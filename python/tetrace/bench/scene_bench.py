@@ -24,6 +24,18 @@ def _best(fn, repeat):
     return best, out
 
 
+def configurations(methods, layouts, precisions, threads):
+    """Every (method, layout, precision, threads) of a bench run, but tet80 in float64
+    (its records hold float32 coordinates: there is no such walk)."""
+    for method in methods:
+        for layout in layouts:
+            for prec in precisions:
+                if layout == "tet80" and prec == "f64":
+                    continue
+                for label in threads:
+                    yield method, layout, prec, label
+
+
 def _table(rows, header):
     widths = [max(len(str(r[i])) for r in rows + [header]) for i in range(len(header))]
     line = lambda r: "| " + " | ".join(str(c).rjust(w) for c, w in zip(r, widths)) + " |"
@@ -158,32 +170,27 @@ def run_scene_bench(path=None, *, preset="quality", width=1024, height=1024, rep
     last32 = None
     for order in (orders if "cpu" in devices else ()):
         sc = scenes[order]
-        for method in methods:
-            for layout in layouts:
-                for prec in precisions:
-                    if layout == "tet80" and prec == "f64":
-                        continue
-                    o, d = (o32, d32) if prec == "f32" else (o64, d64)
-                    for label in threads:
-                        k = thread_counts[label]
-                        tt, hits = _best(lambda: sc.cast(o, d, threads=k, method=method,
-                                                         layout=layout, precision=prec), repeat)
-                        rate = n / tt / 1e6
-                        a = compare(hits, ref, v, f)
-                        shown = "1" if k == 1 else f"all ({ncpu})"
-                        rows.append(["tetrace", method, layout, prec, order, shown, f"{rate:.2f}",
-                                     f"{rate / embree_rate[label]:.2f}", f"{hits.steps.mean():.1f}",
-                                     LAYOUT_BYTES[layout], f"{a.fraction * 100:.3f}%"])
-                        results["runs"].append({
-                            "caster": "tetrace", "method": method, "layout": layout,
-                            "precision": prec, "order": order, "threads": k or ncpu,
-                            "mrays_per_s": rate, "ratio_to_embree": rate / embree_rate[label],
-                            "tets_per_ray": float(hits.steps.mean()),
-                            "bytes_per_tet": LAYOUT_BYTES[layout], "agreement": a.fraction,
-                            "failed": a.failed, "unexplained": a.far_from_edges,
-                            "max_dt": a.max_dt})
-                        if prec == "f32" and last32 is None:
-                            last32 = hits
+        for method, layout, prec, label in configurations(methods, layouts, precisions, threads):
+            o, d = (o32, d32) if prec == "f32" else (o64, d64)
+            k = thread_counts[label]
+            tt, hits = _best(lambda: sc.cast(o, d, threads=k, method=method,
+                                             layout=layout, precision=prec), repeat)
+            rate = n / tt / 1e6
+            a = compare(hits, ref, v, f)
+            shown = "1" if k == 1 else f"all ({ncpu})"
+            rows.append(["tetrace", method, layout, prec, order, shown, f"{rate:.2f}",
+                         f"{rate / embree_rate[label]:.2f}", f"{hits.steps.mean():.1f}",
+                         LAYOUT_BYTES[layout], f"{a.fraction * 100:.3f}%"])
+            results["runs"].append({
+                "caster": "tetrace", "method": method, "layout": layout,
+                "precision": prec, "order": order, "threads": k or ncpu,
+                "mrays_per_s": rate, "ratio_to_embree": rate / embree_rate[label],
+                "tets_per_ray": float(hits.steps.mean()),
+                "bytes_per_tet": LAYOUT_BYTES[layout], "agreement": a.fraction,
+                "failed": a.failed, "unexplained": a.far_from_edges,
+                "max_dt": a.max_dt})
+            if prec == "f32" and last32 is None:
+                last32 = hits
 
     gpu_rows = []
     if "gpu" in devices:
