@@ -29,6 +29,35 @@ pub struct Scene {
     pub points_f32: Vec<[f32; 3]>,
     /// The caller's triangles (three corners each), indexed by the ids constrained faces carry.
     pub triangles: Vec<[[f64; 3]; 3]>,
+    /// Per caller triangle, the triangles a hit on a face naming it may lie on instead (empty
+    /// for exact meshers; see [`Scene::set_alternatives`]).
+    pub alternatives: Alternatives,
+}
+
+/// Triangles that may hold a hit instead of the one a constrained face names, in CSR form:
+/// those of triangle `k` are `ids[offsets[k]..offsets[k + 1]]`.
+#[derive(Clone, Debug, Default)]
+pub struct Alternatives {
+    pub offsets: Vec<u32>,
+    pub ids: Vec<u32>,
+}
+
+impl Alternatives {
+    #[inline]
+    pub fn of(&self, triangle: u32) -> &[u32] {
+        match self.offsets.get(triangle as usize..triangle as usize + 2) {
+            Some(&[a, b]) => &self.ids[a as usize..b as usize],
+            _ => &[],
+        }
+    }
+}
+
+/// Whether barycentric (u, v) at a finite t lie on the triangle, with a little slack for the
+/// rounding of a hit on a shared edge.
+#[inline]
+fn on_triangle((t, u, v): (f64, f64, f64)) -> bool {
+    const SLACK: f64 = 1e-9;
+    t.is_finite() && u >= -SLACK && v >= -SLACK && u + v <= 1.0 + SLACK
 }
 
 /// Rays as flat slices of length 3N (origins, directions) in the walk's precision.
@@ -288,11 +317,87 @@ impl Scene {
             gpu: Default::default(),
             points_f32,
             triangles,
+            alternatives: Alternatives::default(),
         };
         scene
             .layouts
             .prepare(crate::dispatch::DEFAULT_LAYOUT, &scene.mesh)?;
         Ok(scene)
+    }
+
+    /// Lets hits name another triangle than the constrained face's own: of `offsets` (one
+    /// per caller triangle, plus one) and `ids` (CSR, see [`Alternatives`]). For meshers whose
+    /// faces lie near the input rather than on it (fTetWild): a face names the triangle
+    /// nearest its centre, but a ray through it may cross a neighbour of that triangle; the
+    /// hit then names the alternative the ray crosses nearest the face.
+    pub fn set_alternatives(&mut self, offsets: Vec<u32>, ids: Vec<u32>) -> Result<()> {
+        let n = self.triangles.len();
+        if offsets.len() != n + 1 {
+            return Err(Error::InvalidInput(format!(
+                "alternatives: {} offsets for {n} triangles (expected {})",
+                offsets.len(),
+                n + 1
+            )));
+        }
+        if offsets[0] != 0
+            || offsets.windows(2).any(|w| w[0] > w[1])
+            || offsets[n] as usize != ids.len()
+        {
+            return Err(Error::InvalidInput(
+                "alternatives: offsets must rise from 0 to the number of ids".into(),
+            ));
+        }
+        if let Some(k) = ids.iter().position(|&t| t as usize >= n) {
+            return Err(Error::InvalidInput(format!(
+                "alternatives: id {k} names triangle {} but only {n} triangles were given",
+                ids[k]
+            )));
+        }
+        self.alternatives = Alternatives { offsets, ids };
+        Ok(())
+    }
+
+    /// The caller's triangle a hit on a constrained face lies on, and (t, u, v) on it: of the
+    /// named one and its alternatives, the one the ray crosses nearest the face (the named
+    /// one when the ray crosses none of them).
+    fn hit_triangle(
+        &self,
+        s: &WalkStart,
+        named: u32,
+        face: impl Fn() -> [[f64; 3]; 3],
+    ) -> (u32, (f64, f64, f64)) {
+        let on_named = intersect_triangle(s.o, s.d, &self.triangles[named as usize], &face);
+        let alternatives = self.alternatives.of(named);
+        if alternatives.is_empty() {
+            return (named, on_named);
+        }
+        // Of the named triangle and its alternatives, the one the ray crosses nearest to
+        // where it crosses the face (the named one may be crossed too, farther away).
+        use glam::DVec3;
+        let [a, b, c] = face().map(DVec3::from);
+        let (o, d) = (DVec3::from(s.o), DVec3::from(s.d));
+        let n = (b - a).cross(c - a);
+        let t_face = n.dot(a - o) / n.dot(d);
+        let mut best = (named, on_named);
+        let mut best_gap = if on_triangle(on_named) {
+            (on_named.0 - t_face).abs()
+        } else {
+            f64::INFINITY
+        };
+        // Crossed within a face's size of the face: the named triangle is the one (most
+        // hits; the alternatives are then not tried).
+        let size = (b - a).length().max((c - b).length()).max((a - c).length());
+        if best_gap * d.length() <= size {
+            return best;
+        }
+        for &alt in alternatives {
+            let hit = intersect_triangle(s.o, s.d, &self.triangles[alt as usize], &face);
+            let gap = (hit.0 - t_face).abs();
+            if on_triangle(hit) && gap < best_gap {
+                (best, best_gap) = ((alt, hit), gap);
+            }
+        }
+        best
     }
 
     /// Bytes of each part: (points, tets of the traversal layout, constrained table, locator).
@@ -303,7 +408,11 @@ impl Scene {
         let mut m = vec![
             ("points_f64".to_string(), self.mesh.points.len() * 24),
             ("points_f32".to_string(), self.points_f32.len() * 12),
-            ("constrained".to_string(), self.mesh.constrained.len() * 8),
+            (
+                "constrained".to_string(),
+                self.mesh.constrained.len() * 8
+                    + (self.alternatives.offsets.len() + self.alternatives.ids.len()) * 4,
+            ),
             (
                 "locator".to_string(),
                 self.locator.bytes() + self.entry.bytes() + self.mesh.tets.len() * 32,
@@ -553,14 +662,14 @@ impl Scene {
             WalkEnd::Boundary => {}
             WalkEnd::StepLimit => r.status = FAILED,
             WalkEnd::Hit { constrained } => {
-                let tri = mesh.constrained[constrained as usize].triangle;
+                let named = mesh.constrained[constrained as usize].triangle;
                 let ids = if w.slots {
                     w.face.map(|k| mesh.tets[w.tet as usize][k as usize])
                 } else {
                     w.face
                 };
                 let face = || ids.map(|v| mesh.points[v as usize]);
-                let (t, u, v) = intersect_triangle(s.o, s.d, &self.triangles[tri as usize], face);
+                let (tri, (t, u, v)) = self.hit_triangle(s, named, face);
                 if t <= s.tmax {
                     r = RayHit {
                         status: HIT,

@@ -180,11 +180,19 @@ def test_matrix_gpu_rows(tmp_path, embree):
 
 
 def test_accuracy_counts_nearby_hits_on_neighbouring_triangles(embree):
-    # fTetWild's faces name the input triangle nearest to their centre; a ray through a
-    # face can hit a neighbour of that triangle in the input. Within HIT_DISTANCE of
-    # Embree's point it still agrees, so the measure rises with the distance allowed.
+    # A mesher whose faces name a neighbour of the triangle they lie on (as fTetWild's did
+    # before the cast learnt to pick the neighbour the ray crosses): the hits are in the
+    # right place on the wrong triangle. Within HIT_DISTANCE of Embree's point they agree.
+    import dataclasses
+
     v, f = tetrace.meshing.load_triangles(str(default_scene_path()))
-    tz = tetrahedralize((v, f), mesher="ftetwild", epsilon=1e-3)
+    tz = tetrahedralize((v, f))
+    offsets, ids = tetrace.meshing.neighbour_triangles(tz.clean, len(f))
+    shifted = ids[offsets[tz.face_triangle]]  # the first neighbour of each named triangle
+    tz = dataclasses.replace(tz, face_triangle=shifted.astype(np.uint32))
     strict = auto_mesher.measure_accuracy(tz, v, f, rays=4000, hit_distance=0.0)
     loose = auto_mesher.measure_accuracy(tz, v, f, rays=4000, hit_distance=1e-3)
-    assert 0.9 < strict < loose <= 1.0
+    anywhere = auto_mesher.measure_accuracy(tz, v, f, rays=4000, hit_distance=1.0)
+    # Measured: 0.80, 0.87 (Spot's triangles are coarse: a neighbour's plane can pass
+    # farther than 1e-3 of the diagonal from the hit), 1.0.
+    assert strict < 0.9 and loose > strict + 0.05 and anywhere >= 0.999

@@ -37,6 +37,9 @@ class NativeScene:
         face_triangle: npt.NDArray[np.uint32],
         triangles: npt.NDArray[np.float64],
         hilbert: bool = True,
+        # (offsets (F+1,), ids) uint32 CSR: per caller triangle, the triangles a hit on a
+        # face naming it may lie on instead (fTetWild); the ray's crossing nearest the face wins.
+        alternatives: Optional[tuple[npt.NDArray[np.uint32], npt.NDArray[np.uint32]]] = None,
     ) -> None: ...
     def cast(
         self,

@@ -1299,6 +1299,52 @@ def _ftetwild_arrays(vertices, faces, epsilon_rel, edge_abs, threads, stop_energ
             np.ascontiguousarray(tets, dtype=np.uint32))
 
 
+#: Vertices of higher valence add no neighbours in :func:`neighbour_triangles` (a fan of
+#: thousands of triangles would add millions of pairs; its triangles keep their edge
+#: neighbours through their other vertices).
+_MAX_VALENCE = 64
+
+
+def neighbour_triangles(cm: CleanMesh, n_triangles: int):
+    """The caller's triangles that share a vertex with each caller triangle.
+
+    A fTetWild face names the input triangle nearest its centre; a ray crossing the face
+    may cross a neighbour of that triangle instead, and the cast then names the neighbour
+    it crosses (``alternatives`` of the native scene). Neighbours are found on the
+    cleaned mesh (coincident vertices merged), whose faces map to the caller's triangles.
+
+    Returns
+    -------
+    offsets, ids : numpy.ndarray
+        uint32 CSR: the neighbours of caller triangle k are ``ids[offsets[k]:offsets[k+1]]``.
+    """
+    faces = np.asarray(cm.faces, np.int64)
+    caller = np.asarray(cm.triangle_ids, np.int64)
+    vert = faces.ravel()
+    face = np.repeat(np.arange(len(faces)), 3)
+    order = np.argsort(vert, kind="stable")
+    vert, face = vert[order], face[order]
+    starts = np.flatnonzero(np.r_[True, vert[1:] != vert[:-1]]) if len(vert) else vert
+    counts = np.diff(np.r_[starts, len(vert)])
+    keep = counts <= _MAX_VALENCE
+    starts, counts = starts[keep], counts[keep]
+    # Every ordered pair of faces around each kept vertex.
+    group = np.repeat(np.arange(len(starts)), counts)
+    members = np.repeat(starts, counts) + (np.arange(counts.sum()) - np.repeat(
+        np.cumsum(counts) - counts, counts))
+    size = counts[group]
+    a = np.repeat(members, size)
+    first = np.repeat(starts[group], size)
+    b = first + (np.arange(size.sum()) - np.repeat(np.cumsum(size) - size, size))
+    pairs = np.stack([caller[face[a]], caller[face[b]]], axis=1)
+    pairs = pairs[pairs[:, 0] != pairs[:, 1]]
+    if len(pairs):
+        pairs = np.unique(pairs, axis=0)
+    offsets = np.zeros(n_triangles + 1, np.int64)
+    np.cumsum(np.bincount(pairs[:, 0], minlength=n_triangles), out=offsets[1:])
+    return offsets.astype(np.uint32), np.ascontiguousarray(pairs[:, 1], dtype=np.uint32)
+
+
 def _tet_faces(tets):
     """The ``(4T, 3)`` faces of the tets (with repeats)."""
     return np.concatenate([tets[:, [1, 2, 3]], tets[:, [0, 2, 3]],

@@ -10,6 +10,7 @@ import numpy as np
 
 from . import _native
 from .hits import Hits
+from .meshing import neighbour_triangles
 from .rays import prepare_bounds, prepare_rays, raise_invalid
 
 __all__ = ["Scene", "cast", "default_scene", "default_scene_path", "methods", "layouts",
@@ -63,6 +64,10 @@ class Scene:
         self.faces = faces
         triangles = np.ascontiguousarray(vertices[faces], dtype=np.float64)
         t0 = time.perf_counter()
+        # fTetWild's faces lie near the input, not on it: let hits name the neighbour of a
+        # face's triangle that the ray crosses (see tetrace.meshing.neighbour_triangles).
+        alternatives = (neighbour_triangles(tet.clean, len(faces))
+                        if getattr(tet, "mesher", "tetgen") == "ftetwild" else None)
         self._native = _native.NativeScene(
             np.ascontiguousarray(tet.points, dtype=np.float64),
             np.ascontiguousarray(tet.tets, dtype=np.uint32),
@@ -70,6 +75,7 @@ class Scene:
             np.ascontiguousarray(tet.face_triangle, dtype=np.uint32),
             triangles,
             hilbert=bool(hilbert),
+            alternatives=alternatives,
         )
         self.hilbert = bool(hilbert)
         #: dict or None: seconds of each phase of the last GPU cast (``locate``,

@@ -98,7 +98,8 @@ pub struct PyScene {
 impl PyScene {
     /// Builds the traversal structures from a tetrahedralization (see tetrace.meshing).
     #[new]
-    #[pyo3(signature = (points, tets, faces, face_triangle, triangles, hilbert=true))]
+    #[pyo3(signature = (points, tets, faces, face_triangle, triangles, hilbert=true, alternatives=None))]
+    #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
         points: PyReadonlyArray2<'_, f64>,
@@ -107,6 +108,7 @@ impl PyScene {
         face_triangle: PyReadonlyArray1<'_, u32>,
         triangles: PyReadonlyArray3<'_, f64>,
         hilbert: bool,
+        alternatives: Option<(PyReadonlyArray1<'_, u32>, PyReadonlyArray1<'_, u32>)>,
     ) -> PyResult<Self> {
         check_cols(&points, 3, "points")?;
         check_cols(&tets, 4, "tets")?;
@@ -125,7 +127,22 @@ impl PyScene {
             .into_iter()
             .map(|r| [[r[0], r[1], r[2]], [r[3], r[4], r[5]], [r[6], r[7], r[8]]])
             .collect();
-        let inner = py.detach(|| guarded(|| Scene::build_with(p, &t, &f, ft, tri, hilbert)))?;
+        let alternatives = match &alternatives {
+            Some((offsets, ids)) => Some((
+                slice(offsets, "alternatives offsets")?.to_vec(),
+                slice(ids, "alternatives ids")?.to_vec(),
+            )),
+            None => None,
+        };
+        let inner = py.detach(|| {
+            guarded(|| {
+                let mut scene = Scene::build_with(p, &t, &f, ft, tri, hilbert)?;
+                if let Some((offsets, ids)) = alternatives {
+                    scene.set_alternatives(offsets, ids)?;
+                }
+                Ok(scene)
+            })
+        })?;
         Ok(PyScene { inner })
     }
 

@@ -710,3 +710,96 @@ fn robust_rays_from_the_domain_boundary() {
     }
     assert!(checked > n / 2);
 }
+
+/// A mesher whose faces only lie near the input (fTetWild) names, for each face, a nearby
+/// triangle that a ray through the face may miss; with alternatives, the hit names the
+/// triangle the ray does cross. Here every face names the wrong triangle on purpose, and
+/// the right one is among the named triangle's alternatives.
+#[test]
+fn hits_name_the_alternative_the_ray_crosses() {
+    let mut rng = Rng(91);
+    let (pts, tets) = kuhn_grid(5, 0.3, &mut rng);
+    let faces: Vec<[u32; 3]> = all_faces(&tets)
+        .into_iter()
+        .filter(|_| rng.f() < 0.08)
+        .collect();
+    let tris: Vec<[[f64; 3]; 3]> = faces.iter().map(|f| f.map(|v| pts[v as usize])).collect();
+    let n_tri = tris.len() as u32;
+    // Face k names the triangle whose centre is farthest from its own (so the ray cannot
+    // cross it near the face); the alternatives of a triangle are the faces naming it.
+    let centre = |t: &[[f64; 3]; 3]| t.map(glam::DVec3::from).into_iter().sum::<glam::DVec3>();
+    let named: Vec<u32> = (0..tris.len())
+        .map(|k| {
+            let far = |j: &usize| centre(&tris[*j]).distance_squared(centre(&tris[k]));
+            (0..tris.len())
+                .max_by(|a, b| far(a).total_cmp(&far(b)))
+                .unwrap() as u32
+        })
+        .collect();
+    let mut offsets = vec![0u32; tris.len() + 1];
+    for &j in &named {
+        offsets[j as usize + 1] += 1;
+    }
+    for k in 0..tris.len() {
+        offsets[k + 1] += offsets[k];
+    }
+    let mut ids = vec![0u32; tris.len()];
+    let mut next = offsets.clone();
+    for (k, &j) in named.iter().enumerate() {
+        ids[next[j as usize] as usize] = k as u32;
+        next[j as usize] += 1;
+    }
+    let mut scene = Scene::build(pts, &tets, &faces, &named, tris.clone()).unwrap();
+
+    let n = 2000;
+    let (mut o, mut d) = (Vec::new(), Vec::new());
+    for _ in 0..n {
+        o.extend((0..3).map(|_| rng.f()));
+        d.extend((0..3).map(|_| rng.f() - 0.5));
+    }
+    let opts = CastOptions {
+        threads: None,
+        max_steps: 100_000,
+    };
+    let run = |scene: &Scene| cast::<f64>(scene, &o, &d, |s, r, out| s.cast(r, out, &opts));
+    let score = |res: &Cast<f64>| {
+        let (mut right, mut hits) = (0, 0);
+        for k in 0..n {
+            let (ok, dk) = (
+                [0, 1, 2].map(|a| o[3 * k + a]),
+                [0, 1, 2].map(|a| d[3 * k + a]),
+            );
+            if let Some((t, tri)) = brute(ok, dk, &tris, 0.0) {
+                hits += 1;
+                if res.status[k] == HIT && res.tri[k] as usize == tri && (res.t[k] - t).abs() < 1e-9
+                {
+                    right += 1;
+                }
+            }
+        }
+        (right, hits)
+    };
+    let (before, hits) = score(&run(&scene));
+    scene
+        .set_alternatives(offsets.clone(), ids.clone())
+        .unwrap();
+    let (after, _) = score(&run(&scene));
+    assert!(hits > 500, "{hits} hits");
+    assert!(
+        before < hits / 10,
+        "{before} of {hits} right without alternatives"
+    );
+    assert!(
+        after + 3 >= hits,
+        "{after} of {hits} right with alternatives"
+    );
+
+    // Malformed tables are refused with the reason.
+    let n = n_tri as usize;
+    let mut err = |o: Vec<u32>, i: Vec<u32>| scene.set_alternatives(o, i).unwrap_err().to_string();
+    assert!(err(vec![0; n], vec![]).contains("offsets"));
+    let mut falling = offsets.clone();
+    falling[0] = 1;
+    assert!(err(falling, ids.clone()).contains("must rise"));
+    assert!(err(offsets, vec![n_tri; n]).contains(&format!("names triangle {n_tri}")));
+}
