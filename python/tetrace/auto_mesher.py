@@ -46,8 +46,9 @@ WEIGHT_TOLERANCE = 0.10
 ACCURACY_RAYS = 20_000
 #: A hit on another triangle still agrees when it lies within this fraction of the
 #: diagonal of Embree's hit point: the remeshed surface of fTetWild lies within its
-#: envelope (1e-3 by default) of the input, and its faces name the nearest triangle
-#: to their centre, often a neighbour of the one the ray crosses.
+#: envelope (1e-3 by default) of the input, so a ray can cross it where the input has
+#: another triangle (a hit names the one it crosses among the face's nearest triangle
+#: and that triangle's neighbours).
 HIT_DISTANCE = 1e-3
 
 

@@ -109,7 +109,8 @@ class Scene:
             ``"tetgen"``: exact, hits name the caller's triangles exactly. ``"ftetwild"``:
             fTetWild (``pip install 'pytetwild<0.3'``) remeshes the surface within
             ``epsilon`` of the input, for scenes TetGen cannot take; each hit names the
-            triangle nearest to the face it crossed. ``"fallback"``: TetGen, then
+            triangle, of the one nearest to the face it crossed and its neighbours, that
+            the ray crosses nearest the face. ``"fallback"``: TetGen, then
             fTetWild if it fails (``tetrahedralization.attempts`` says why). ``"auto"``:
             the setting with the fewest tets among those that meet ``accuracy`` at a
             near-lowest weight (total face area, which predicts time);
