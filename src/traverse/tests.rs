@@ -587,29 +587,36 @@ fn robust_survives_rays_through_vertices_and_edges() {
         for k in 0..n {
             let ok = [0, 1, 2].map(|a| o[3 * k + a]);
             let dk = [0, 1, 2].map(|a| d[3 * k + a]);
-            // Where the ray touches a triangle only on its boundary, hit and miss are both
-            // right (a line nudged either way does one or the other); a hit strictly inside a
-            // triangle is not optional. So: t_touch <= t <= t_inside.
-            let touch = brute_hit(ok, dk, &tris, 1e-12);
-            let inside = brute_hit(ok, dk, &tris, -1e-12);
-            if res.status[k] == HIT {
-                let t = res.t[k];
-                assert!(
-                    touch.is_some_and(|a| t >= a - 1e-9),
-                    "robust ray {k}: t {t} before any triangle {touch:?}"
-                );
-                assert!(
-                    inside.is_none_or(|b| t <= b + 1e-9),
-                    "robust ray {k}: t {t} after a sure hit {inside:?}"
-                );
-            } else {
-                assert_eq!(res.status[k], MISS);
-                assert!(
-                    inside.is_none(),
-                    "robust ray {k} missed a sure hit at {inside:?}"
-                );
-            }
+            assert_between_touch_and_inside(k, res.status[k], res.t[k], ok, dk, &tris);
         }
+    }
+}
+
+/// Where a ray touches a triangle only on its boundary, hit and miss are both right (a line
+/// nudged either way does one or the other); a hit strictly inside a triangle is not
+/// optional. So a hit lies at t_touch <= t <= t_inside, and a miss has no t_inside.
+fn assert_between_touch_and_inside(
+    k: usize,
+    status: u8,
+    t: f64,
+    o: [f64; 3],
+    d: [f64; 3],
+    tris: &[[[f64; 3]; 3]],
+) {
+    let touch = brute_hit(o, d, tris, 1e-12);
+    let inside = brute_hit(o, d, tris, -1e-12);
+    if status == HIT {
+        assert!(
+            touch.is_some_and(|a| t >= a - 1e-9),
+            "ray {k}: t {t} before any triangle {touch:?}"
+        );
+        assert!(
+            inside.is_none_or(|b| t <= b + 1e-9),
+            "ray {k}: t {t} after a sure hit {inside:?}"
+        );
+    } else {
+        assert_eq!(status, MISS, "ray {k}");
+        assert!(inside.is_none(), "ray {k} missed a sure hit at {inside:?}");
     }
 }
 
@@ -692,21 +699,7 @@ fn robust_rays_from_the_domain_boundary() {
             continue; // starts on a scene triangle: a hit at t = 0 and none are both right
         }
         checked += 1;
-        let touch = brute_hit(ok, dk, &tris, 1e-12);
-        let inside = brute_hit(ok, dk, &tris, -1e-12);
-        if res.status[k] == HIT {
-            let t = res.t[k];
-            assert!(
-                touch.is_some_and(|a| t >= a - 1e-9),
-                "ray {k}: {t} before {touch:?}"
-            );
-            assert!(
-                inside.is_none_or(|b| t <= b + 1e-9),
-                "ray {k}: {t} after {inside:?}"
-            );
-        } else {
-            assert!(inside.is_none(), "ray {k} missed a sure hit at {inside:?}");
-        }
+        assert_between_touch_and_inside(k, res.status[k], res.t[k], ok, dk, &tris);
     }
     assert!(checked > n / 2);
 }
