@@ -146,17 +146,34 @@ fn cast<R: Real>(
 }
 
 fn random_scene(rng: &mut Rng, n: usize, frac: f64) -> (Scene, Vec<[[f64; 3]; 3]>) {
-    let (pts, tets) = kuhn_grid(n, 0.3, rng);
+    let g = grid_scene(rng, n, 0.3, frac);
+    (g.scene, g.tris)
+}
+
+struct GridScene {
+    scene: Scene,
+    tris: Vec<[[f64; 3]; 3]>,
+    pts: Vec<[f64; 3]>,
+    faces: Vec<[u32; 3]>,
+}
+
+/// A Kuhn grid (see [`kuhn_grid`]) with a random fraction `frac` of its faces as the scene's
+/// triangles.
+fn grid_scene(rng: &mut Rng, n: usize, jitter: f64, frac: f64) -> GridScene {
+    let (pts, tets) = kuhn_grid(n, jitter, rng);
     let faces: Vec<[u32; 3]> = all_faces(&tets)
         .into_iter()
         .filter(|_| rng.f() < frac)
         .collect();
     let tris: Vec<[[f64; 3]; 3]> = faces.iter().map(|f| f.map(|v| pts[v as usize])).collect();
     let ids: Vec<u32> = (0..faces.len() as u32).collect();
-    (
-        Scene::build(pts, &tets, &faces, &ids, tris.clone()).unwrap(),
+    let scene = Scene::build(pts.clone(), &tets, &faces, &ids, tris.clone()).unwrap();
+    GridScene {
+        scene,
         tris,
-    )
+        pts,
+        faces,
+    }
 }
 
 #[test]
@@ -530,14 +547,7 @@ fn robust_exact_faces_and_agreement() {
 fn robust_survives_rays_through_vertices_and_edges() {
     use crate::scene::{CastOptions, FAILED};
     let mut rng = Rng(99);
-    let (pts, tets) = kuhn_grid(4, 0.0, &mut rng);
-    let faces: Vec<[u32; 3]> = all_faces(&tets)
-        .into_iter()
-        .filter(|_| rng.f() < 0.15)
-        .collect();
-    let tris: Vec<[[f64; 3]; 3]> = faces.iter().map(|f| f.map(|v| pts[v as usize])).collect();
-    let ids: Vec<u32> = (0..faces.len() as u32).collect();
-    let scene = Scene::build(pts, &tets, &faces, &ids, tris.clone()).unwrap();
+    let GridScene { scene, tris, .. } = grid_scene(&mut rng, 4, 0.0, 0.15);
     let (mut o, mut d) = (Vec::new(), Vec::new());
     let g = |k: usize| k as f64 / 4.0;
     for i in 0..5 {
@@ -654,14 +664,12 @@ fn brute_hit(o: [f64; 3], d: [f64; 3], tris: &[[[f64; 3]; 3]], eps: f64) -> Opti
 fn robust_rays_from_the_domain_boundary() {
     use crate::scene::{CastOptions, FAILED};
     let mut rng = Rng(31);
-    let (pts, tets) = kuhn_grid(6, 0.3, &mut rng);
-    let faces: Vec<[u32; 3]> = all_faces(&tets)
-        .into_iter()
-        .filter(|_| rng.f() < 0.05)
-        .collect();
-    let tris: Vec<[[f64; 3]; 3]> = faces.iter().map(|f| f.map(|v| pts[v as usize])).collect();
-    let ids: Vec<u32> = (0..faces.len() as u32).collect();
-    let scene = Scene::build(pts.clone(), &tets, &faces, &ids, tris.clone()).unwrap();
+    let GridScene {
+        scene,
+        tris,
+        pts,
+        faces,
+    } = grid_scene(&mut rng, 6, 0.3, 0.05);
     let (mut o, mut d) = (Vec::new(), Vec::new());
     for p in &pts {
         for _ in 0..4 {
