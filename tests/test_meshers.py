@@ -18,9 +18,8 @@ import pytest
 
 import tetrace
 from tetrace import meshing, synthetic
-from tetrace.bench.scenes import same_plane
 from tetrace.camera import orbit_views, pinhole, random_rays
-from tetrace.compare import compare
+from tetrace.compare import compare, same_plane
 from tetrace.meshing import (
     PRESETS,
     MeshingError,

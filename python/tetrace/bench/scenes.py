@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..compare import same_plane  # noqa: F401 (re-exported: the bench's column)
+from ..compare import same_plane
 
 MESH_SUFFIXES = (".obj", ".ply", ".off", ".stl", ".glb", ".gltf")
 
