@@ -1,11 +1,20 @@
-"""Closest hits agree with Embree on real scenes (the foundation's acceptance test).
+"""Closest hits on real scenes, judged by the exact referee (docs/referee.md).
 
-For each scene: 1024x1024 camera rays from three views and 10^5 random rays (origins in and
-around the domain, uniform directions), with every exit method x layout x precision. At least 99.9% of rays agree
-on hit/miss and triangle id; every disagreement lies within 1e-5 x diagonal of an edge of the
-triangle the nearer cast hit; t agrees within 1e-5 x diagonal, except where Embree's own
-float32 t is off (grazing rays): there tetrace's t must match the exact float64 intersection
-within 1e-6 x diagonal; no ray FAILED.
+For each scene: three orbit views of 256x256 camera rays and 10^5 random rays (origins in and
+around the domain, uniform directions), cast with every exit method x layout x precision, and
+by Embree. Each ray is right when its hit/miss, triangle (up to the exact tie set) and t
+(within ulp + the float64 forward error bound) are what exact arithmetic gives for the numbers
+passed in; there is no edge band and no excuse.
+
+* Every method: no ray FAILED, and at least 99.9% right (the foundation's acceptance figure).
+* float64 walks, every method (the default and ``robust`` among them): every ray right.
+* float32 walks: counts printed (-s) and recorded by ``python -m tetrace.bench agreement``, not
+  bounded by a number from a run. Every float32 walk walks the mesh rounded to float32, so even
+  ``robust`` (exact on the points it is given) can answer for the rounded scene rather than the
+  one passed in; ``test_robust_f32_answers_for_the_scene_passed_in`` pins one such ray as a
+  strict xfail until the exact-default issue fixes it.
+* Embree's own answers are judged the same way and printed; they are not asserted on (it is
+  the peer, not the code under test), but they must be judged on the same rays.
 """
 
 import numpy as np
@@ -13,21 +22,13 @@ import pytest
 
 import tetrace
 from tetrace.bench.agreement import ray_sets
-from tetrace.compare import compare
+from tetrace.compare import agreement
 from tetrace.reference import embree_scene
+from tetrace.referee import Referee
 
 SCENES = ["bunny.obj", "armadillo.obj", "torus_knots_27.obj", "cornell_box.obj"]
-
-
-# Float32 side products in world coordinates (Lagae & Dutré's Plücker and scalar triple
-# products, MS06) miss or leak through a triangle on a few rays per million here, as Maria
-# et al. (Table 4) found; the stability issue measures this. These pairs must stay within
-# the counts measured on these scenes, every other method x layout x precision must have none.
-# Measured (unexplained rays per ray set of 1024^2 or 10^5, any layout): Plücker and MS06
-# 2, 3, 4 on the bunny views and 1 on armadillo view 0; STP 2 on armadillo view 0 and 1 on
-# torus_knots_27 view 0; 0 everywhere else.
-FRAGILE = {("lagae2008_plucker", "f32"), ("ms06", "f32"), ("lagae2008_stp", "f32")}
-FRAGILE_MAX_UNEXPLAINED = 4
+RES = 256
+N_RANDOM = 100_000
 
 
 def combos():
@@ -39,34 +40,51 @@ def combos():
 def _check(scene, name):
     bounds = np.array([scene.vertices.min(0), scene.vertices.max(0)])
     ref_scene = embree_scene((scene.vertices, scene.faces))
-    # The same rays as `python -m tetrace.bench agreement`: three 1024^2 views, 10^5 random.
-    for kind, o, d in ray_sets(bounds):
-        refs = {}
+    referee = Referee(scene.vertices, scene.faces)
+    failures = []
+    for kind, o, d in ray_sets(bounds, RES, N_RANDOM):
+        verdicts = {}
         for method, layout, precision in combos():
             dtype = np.float32 if precision == "f32" else np.float64
             o2, d2 = o.astype(dtype), d.astype(dtype)
             hits = scene.cast(o2, d2, method=method, layout=layout, precision=precision)
             assert hits.t.dtype == dtype
-            if precision not in refs:
-                refs[precision] = ref_scene.cast(o2.astype(np.float32), d2.astype(np.float32))
-            a = compare(hits, refs[precision], scene.vertices, scene.faces, origins=o2, directions=d2)
+            if precision not in verdicts:
+                # The referee judges the numbers cast: float32 rays are the rounded ones.
+                verdicts[precision] = referee.first_hits(o2, d2, hint=hits.triangle)
+                emb = ref_scene.cast(o2, d2)
+                e = agreement(emb, verdicts[precision], arithmetic="f32")
+                print(f"\nembree {name} {kind} {precision}: {e}")
+                assert e.rays == len(o2)
+            a = agreement(hits, verdicts[precision])
             msg = f"{name} {kind} {method}/{layout}/{precision}: {a}; rays {a.worst}"
             assert a.failed == 0, msg
             assert a.fraction >= 0.999, msg
-            if (method, precision) in FRAGILE:
-                assert a.far_from_edges <= FRAGILE_MAX_UNEXPLAINED, msg
-            else:
-                assert a.far_from_edges == 0, msg
-            assert a.dt_over_unexplained == 0, msg
+            if a.bad:
+                print(msg)
+            if precision == "f64" and a.bad:
+                failures.append(msg)
             assert (hits.status == tetrace.HIT).any(), msg
+    assert not failures, "\n".join(failures)
 
 
-def test_bundled_scene_agrees_with_embree(embree):
-    scene = tetrace.default_scene()
-    _check(scene, "spot (bundled)")
+def test_bundled_scene_agrees_with_referee(embree):
+    _check(tetrace.default_scene(), "spot (bundled)")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", SCENES)
-def test_shared_scene_agrees_with_embree(name, scene_path, embree):
-    scene = tetrace.Scene.from_mesh(scene_path(name))
-    _check(scene, name)
+def test_shared_scene_agrees_with_referee(name, scene_path, embree):
+    _check(tetrace.Scene.from_mesh(scene_path(name)), name)
+
+
+@pytest.mark.xfail(strict=True, reason="the float32 walk walks the mesh rounded to float32 "
+                   "(docs/robust_walk.md): exact for the rounded scene, not the one passed in")
+def test_robust_f32_answers_for_the_scene_passed_in(scene_path):
+    scene = tetrace.Scene.from_mesh(scene_path("bunny.obj"))
+    bounds = np.array([scene.vertices.min(0), scene.vertices.max(0)])
+    _, o, d = ray_sets(bounds, RES, 1)[2]  # view2: its ray 10259 is one such ray
+    o, d = o[10259:10260].astype(np.float32), d[10259:10260].astype(np.float32)
+    h = scene.cast(o, d, method="robust", precision="f32")
+    a = agreement(h, Referee(scene.vertices, scene.faces).first_hits(o, d))
+    assert a.right == 1, str(a)

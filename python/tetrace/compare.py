@@ -1,6 +1,6 @@
-"""Comparing two casts of the same rays (tetrace against the Embree reference).
-
-Used by the tests (which assert on it) and the benchmark (which reports it).
+"""Scoring casts: against the exact referee (:func:`agreement`, what tests assert on), and
+one cast against another (:func:`compare`, :func:`same_plane`: only where no exact answer is
+expected, e.g. fTetWild's remeshed surface against the input mesh).
 """
 
 from __future__ import annotations
@@ -11,7 +11,90 @@ import numpy as np
 
 from .hits import FAILED, HIT
 
-__all__ = ["Agreement", "compare", "edge_distance", "same_plane"]
+__all__ = ["Agreement", "Score", "agreement", "compare", "edge_distance", "same_plane"]
+
+
+@dataclasses.dataclass
+class Score:
+    """How a cast agrees with the exact referee (``docs/referee.md``).
+
+    Attributes
+    ----------
+    rays : int
+        Rays judged (the referee's invalid rays are left out).
+    right, failed, leaked, late, wrong : int
+        Rays in each judgement of :func:`tetrace.referee.judge` (exactly one per ray).
+    phantom, early, other_triangle, t_off : int
+        The parts of ``wrong``: a hit where the referee has none; a triangle outside the tie
+        set before ``t*``; outside the tie set at ``t*``; the right triangle with ``t`` out of
+        the bound.
+    max_t_ulps : float
+        Largest ``|t - t*|`` in ulps of the cast's ``t`` dtype over rays on a tied triangle.
+    ties : int
+        Rays whose first hit is tied between several triangles (through an edge or vertex).
+    worst : list of int
+        Up to ten ray indices that are not right, for debugging.
+    """
+
+    rays: int
+    right: int
+    failed: int
+    leaked: int
+    late: int
+    wrong: int
+    phantom: int
+    early: int
+    other_triangle: int
+    t_off: int
+    max_t_ulps: float
+    ties: int
+    worst: list
+
+    @property
+    def fraction(self):
+        """float : Share of rays the cast answers right."""
+        return self.right / self.rays if self.rays else 1.0
+
+    @property
+    def bad(self):
+        """int : Rays not right."""
+        return self.rays - self.right
+
+    def __str__(self):
+        return (f"{self.right:,}/{self.rays:,} right ({self.fraction * 100:.4f}%): "
+                f"{self.failed} failed, {self.leaked} leaked, {self.late} late, {self.wrong} wrong "
+                f"({self.phantom} phantom, {self.early} early, {self.other_triangle} other "
+                f"triangle at t*, {self.t_off} t off); max |t - t*| {self.max_t_ulps:.3g} ulp; "
+                f"{self.ties} rays tied")
+
+
+def agreement(hits, verdict, arithmetic="f64"):
+    """Score a cast against the referee's verdict on the same rays.
+
+    Parameters
+    ----------
+    hits : Hits
+    verdict : tetrace.referee.Verdict
+    arithmetic : {"f64", "f32"}
+        The precision the caster evaluates ``t`` in (see :func:`tetrace.referee.judge`).
+
+    Returns
+    -------
+    Score
+    """
+    from .referee import judge, out_dtype, ulp
+
+    j = judge(hits, verdict, arithmetic)
+    valid = ~j["invalid"]
+    on_tie = valid & verdict.in_ties(np.where(np.asarray(hits.status) == HIT, hits.triangle, -1))
+    t = np.asarray(hits.t)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ulps = (np.abs(t[on_tie].astype(np.float64) - verdict.t[on_tie])
+                / ulp(verdict.t[on_tie], out_dtype(hits, arithmetic)))
+    return Score(rays=int(valid.sum()), **{k: int(j[k].sum()) for k in (
+        "right", "failed", "leaked", "late", "wrong", "phantom", "early", "other_triangle",
+        "t_off")}, max_t_ulps=float(ulps.max()) if len(ulps) else 0.0,
+        ties=int((verdict.ties > 1).sum()), worst=np.flatnonzero(valid & ~j["right"])[:10].tolist())
 
 
 @dataclasses.dataclass

@@ -520,6 +520,12 @@ def first_hits(vertices, faces, origins, directions, tmin=0.0, tmax=np.inf):
 JUDGEMENTS = ("right", "failed", "leaked", "late", "wrong")
 
 
+def out_dtype(hits, arithmetic="f64"):
+    """The precision of a cast's ``t`` values: its dtype, or float32 for a float32 caster
+    (Embree) whatever container it returns them in."""
+    return np.float32 if arithmetic == "f32" else np.asarray(hits.t).dtype
+
+
 def judge(hits, verdict, arithmetic="f64"):
     """Judge a cast against the referee, ray by ray.
 
@@ -556,7 +562,7 @@ def judge(hits, verdict, arithmetic="f64"):
     both = c_hit & r_hit
     t = np.asarray(hits.t, np.float64)
     scale = {"f64": 1.0, "f32": 2.0 ** 29}[arithmetic]  # ratio of the unit roundoffs
-    tol = ulp(verdict.t, np.asarray(hits.t).dtype) + scale * verdict.t_bound
+    tol = ulp(verdict.t, out_dtype(hits, arithmetic)) + scale * verdict.t_bound
     with np.errstate(invalid="ignore"):
         off = np.abs(t - verdict.t) > tol
         after = t > verdict.t + tol
