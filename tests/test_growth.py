@@ -12,6 +12,9 @@ import math
 import numpy as np
 import pytest
 
+import tetrace
+from tetrace import _native
+
 from tetrace.bench.growth import _parse_world, copy_offsets, make_world, run_growth, stadium_mesh
 from tetrace.camera import orbit_views
 from tetrace.meshing import load_triangles
@@ -80,9 +83,18 @@ def test_rows(rows):
     assert abs(rows["+1"]["object_fraction"] - rows["alone"]["object_fraction"]) < 1e-3
     assert rows["alone"]["nothing_fraction"] > 0.1
     assert rows["stadium"]["nothing_fraction"] == 0.0
-    # The header line, the table (its header, rule and three rows), the verdict, the chart.
-    assert len(lines) == 4 and len(lines[1].splitlines()) == 5
-    assert lines[2].startswith("verdict: from alone") and lines[3].startswith("chart:")
+    # The header line, what each caster is and how it was scheduled, the table (its header,
+    # rule and three rows), the verdict, the chart.
+    assert len(lines) == 6 and len(lines[3].splitlines()) == 5
+    ncpu = rows["alone"]["threads_all"]
+    assert lines[1] == (f"tetrace = tetrace {tetrace.__version__}: Scene.cast(method="
+                        f"{_native.DEFAULT_METHOD}, layout={_native.DEFAULT_LAYOUT}, precision=f32, "
+                        f"device=cpu); {ncpu} thread{'s' * (ncpu != 1)}: rayon work stealing over "
+                        f"4096-ray chunks (at {ncpu})")
+    assert lines[2].startswith("embreex = embreex ") and lines[2].endswith(
+        f"EmbreeScene.run, rtcIntersect1 one ray per call, RTC_SCENE_FLAG_ROBUST; {ncpu} "
+        f"thread{'s' * (ncpu != 1)}: 4096-ray chunks taken from one shared queue (at {ncpu})")
+    assert lines[4].startswith("verdict: from alone") and lines[5].startswith("chart:")
 
 
 def test_outputs(rows):

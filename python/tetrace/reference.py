@@ -21,13 +21,18 @@ Things about ``embreex`` 4.4 that shape this module:
   ``origin + tmin * direction`` and adding ``tmin`` back to ``t``.
 * ``EmbreeScene(robust=True)`` sets ``RTC_SCENE_FLAG_ROBUST`` (Embree avoids
   optimisations that lose accuracy, so rays do not slip through shared edges).
-* ``run`` casts one ray at a time on one thread, but releases the GIL, so
-  :meth:`EmbreeReference.cast` splits large batches across threads.
+* ``run`` loops over its rays calling ``rtcIntersect1``, one ray per call, on the
+  calling thread, with the GIL released. :meth:`EmbreeReference.intersect` hands
+  chunks of :data:`CHUNK` rays from one shared queue to its worker threads
+  (:func:`run_chunks`), each chunk one ``run`` call: dynamic scheduling, like
+  tetrace's own (``CHUNK`` rays per rayon task, in ``src/scene.rs``).
 """
 
 from __future__ import annotations
 
+import functools
 import os
+import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 
@@ -37,10 +42,101 @@ from .hits import HIT, INVALID, MISS, Hits
 from .meshing import load_triangles
 from .rays import prepare_rays
 
-__all__ = ["embree_available", "embree_scene", "embree_cast", "EmbreeReference", "load_triangles"]
+__all__ = ["embree_available", "embree_scene", "embree_cast", "EmbreeReference", "load_triangles",
+           "run_chunks", "CHUNK", "cpu_count", "embree_version", "embreex_label"]
 
-# Below this many rays a batch is cast on the calling thread only.
-_MIN_RAYS_PER_THREAD = 16384
+#: Rays per chunk a worker thread takes from the queue: tetrace's own chunk (``CHUNK`` in
+#: ``src/scene.rs``), so that embreex and tetrace are scheduled alike.
+CHUNK = 4096
+
+
+def cpu_count() -> int:
+    """CPUs this process may use (its affinity mask where the OS has one)."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+
+
+def run_chunks(n, threads, fn, chunk=CHUNK):
+    """Call ``fn(start, stop)`` over ``[0, n)`` in chunks, on ``threads`` threads, dynamically.
+
+    The chunks (``chunk`` items each, the last one shorter) are handed out in order from
+    one shared queue: a thread that finishes a chunk takes the next one not yet taken, so
+    a slow chunk delays only the thread running it (no static split of the range).
+
+    Parameters
+    ----------
+    n : int
+        Items (rays) in all.
+    threads : int
+        Worker threads: exactly this many are started (``1``: every chunk on the calling
+        thread, in order). ``fn`` must release the GIL for threads to overlap.
+    fn : callable
+        ``fn(start, stop)``; it writes its results itself (chunks never overlap).
+    chunk : int
+        Items per chunk.
+
+    Raises
+    ------
+    Exception
+        The first exception raised by ``fn`` (after every worker has stopped).
+    """
+    threads, chunk = int(threads), int(chunk)
+    if threads < 1 or chunk < 1:
+        raise ValueError(f"threads and chunk must be >= 1, got {threads} and {chunk}")
+    n_chunks = -(-int(n) // chunk)
+    if threads == 1:
+        for k in range(n_chunks):
+            fn(k * chunk, min(n, (k + 1) * chunk))
+        return
+    lock = threading.Lock()
+    state = {"next": 0, "failed": False}
+
+    def worker():
+        while True:
+            with lock:
+                k = state["next"]
+                if k >= n_chunks or state["failed"]:
+                    return
+                state["next"] = k + 1
+            try:
+                fn(k * chunk, min(n, (k + 1) * chunk))
+            except BaseException:
+                state["failed"] = True  # the others stop after their current chunk
+                raise
+
+    with ThreadPoolExecutor(threads) as pool:
+        futures = [pool.submit(worker) for _ in range(threads)]
+    for fut in futures:
+        fut.result()
+
+
+@functools.lru_cache(maxsize=None)
+def embree_version() -> str:
+    """The version of the Embree library embreex loaded (``"4.4.0"``), or ``"?"``.
+
+    Read from the library itself (``rtcGetDeviceProperty(RTC_DEVICE_PROPERTY_VERSION)``),
+    as embreex does not report it.
+    """
+    try:
+        import ctypes
+
+        from embreex import rtcore_scene  # noqa: F401  (loads libembree)
+
+        with open("/proc/self/maps") as fh:
+            paths = sorted({ln.split()[-1] for ln in fh if "libembree" in ln})
+        lib = ctypes.CDLL(paths[0])
+        lib.rtcNewDevice.restype = ctypes.c_void_p
+        lib.rtcNewDevice.argtypes = [ctypes.c_char_p]
+        lib.rtcGetDeviceProperty.restype = ctypes.c_ssize_t
+        lib.rtcGetDeviceProperty.argtypes = [ctypes.c_void_p, ctypes.c_int]
+        lib.rtcReleaseDevice.argtypes = [ctypes.c_void_p]
+        device = lib.rtcNewDevice(b"threads=1")
+        if not device:
+            return "?"
+        v = int(lib.rtcGetDeviceProperty(device, 0))  # RTC_DEVICE_PROPERTY_VERSION
+        lib.rtcReleaseDevice(device)
+        return f"{v // 10000}.{v // 100 % 100}.{v % 100}" if v > 0 else "?"
+    except Exception:  # no /proc (not Linux), no embreex, an unexpected library
+        return "?"
 
 
 def embree_available() -> bool:
@@ -134,8 +230,9 @@ class EmbreeReference:
         tmin, tmax : float or array_like, optional
             Only hits with ``tmin <= t <= tmax`` count. Scalars or ``(N,)`` arrays.
         threads : int, optional
-            Worker threads for large batches (default: every CPU this process
-            may use). The results do not depend on it.
+            Worker threads taking chunks of :data:`CHUNK` rays from one queue
+            (default: every CPU this process may use). The results do not depend
+            on it.
 
         Returns
         -------
@@ -203,8 +300,12 @@ class EmbreeReference:
             status=np.where(hit, np.uint8(HIT), np.where(invalid, np.uint8(INVALID), np.uint8(MISS))),
         )
 
-    def intersect(self, origins32, directions32, tfar32=None, *, threads=None):
+    def intersect(self, origins32, directions32, tfar32=None, *, threads=None, chunk=CHUNK):
         """The bare Embree call, for timing: float32 rays in, raw results out.
+
+        The rays are cast in chunks of ``chunk`` rays (one ``EmbreeScene.run`` call
+        each: ``rtcIntersect1`` per ray, GIL released) that ``threads`` worker threads
+        take from one shared queue (:func:`run_chunks`).
 
         Parameters
         ----------
@@ -214,31 +315,59 @@ class EmbreeReference:
             ``(N,)`` float32 upper limits of ``t``. Embree overwrites it with the
             hit distances. Default: ``inf`` for every ray.
         threads : int, optional
-            Worker threads (default: every CPU this process may use). Batches
-            under 16384 rays per thread use fewer threads.
+            Worker threads (default: every CPU this process may use), whatever the
+            number of rays.
+        chunk : int, optional
+            Rays per chunk (default :data:`CHUNK`, tetrace's own).
 
         Returns
         -------
         triangle : numpy.ndarray
             ``(N,)`` int32 hit triangle, ``-1`` on miss.
         t : numpy.ndarray
-            ``(N,)`` float32, the hit distance (``tfar32`` unchanged on miss).
+            ``(N,)`` float32, the hit distance (``tfar32`` unchanged on miss); it is
+            ``tfar32`` itself when given.
         u, v : numpy.ndarray
             ``(N,)`` float32 barycentrics (undefined on miss).
         """
         n = len(origins32)
         if tfar32 is None:
             tfar32 = np.full(n, np.inf, dtype=np.float32)
-        if threads is None:
-            threads = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-        threads = max(1, min(int(threads or 1), n // _MIN_RAYS_PER_THREAD))
-        if threads == 1:
-            return self._run(origins32, directions32, tfar32)
-        bounds = np.linspace(0, n, threads + 1).astype(np.int64)
-        slices = [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:])]
-        with ThreadPoolExecutor(threads) as pool:
-            parts = list(pool.map(lambda s: self._run(origins32[s], directions32[s], tfar32[s]), slices))
-        return tuple(np.concatenate(p) for p in zip(*parts))
+        threads = cpu_count() if threads is None else int(threads)
+        prim = np.empty(n, dtype=np.int32)
+        u = np.empty(n, dtype=np.float32)
+        v = np.empty(n, dtype=np.float32)
+
+        def one(a, b):
+            # embreex writes the distances into the view tfar32[a:b] in place.
+            p, _, uu, vv = self._run(origins32[a:b], directions32[a:b], tfar32[a:b])
+            prim[a:b], u[a:b], v[a:b] = p, uu, vv
+
+        run_chunks(n, threads, one, chunk)
+        return prim, tfar32, u, v
+
+    @property
+    def label(self) -> str:
+        """str : What this caster is, exactly: binding, library, call and scene flag."""
+        return embreex_label(self.robust)
+
+
+def embreex_label(robust: bool = True) -> str:
+    """The exact description of the embreex caster, for tables and charts.
+
+    ``EmbreeScene.run`` (embreex's only cast) loops over the rays calling
+    ``rtcIntersect1``, one ray per call, ``tnear = 0``; the scene flag is
+    ``RTC_SCENE_FLAG_ROBUST`` when built with ``robust=True`` (the default here).
+    """
+    try:
+        from importlib.metadata import version
+
+        binding = version("embreex")
+    except Exception:
+        binding = "?"
+    flag = "RTC_SCENE_FLAG_ROBUST" if robust else "RTC_SCENE_FLAG_NONE"
+    return (f"embreex {binding} (Embree {embree_version()}): EmbreeScene.run, "
+            f"rtcIntersect1 one ray per call, {flag}")
 
 
 def embree_scene(mesh, *, robust: bool = True) -> EmbreeReference:

@@ -19,7 +19,8 @@ import numpy as np
 from ..camera import orbit_views, pinhole
 from ..compare import compare
 from ..scene import Scene, default_scene_path
-from .scene_bench import _best, _table
+from .casters import EmbreexCaster, TetraceCaster, timed
+from .scene_bench import _table
 
 WORLDS = ("alone", "+1", "+10", "+100", "stadium", "stadium+100")
 QUICK = ("alone", "+1", "+10", "stadium")
@@ -137,15 +138,16 @@ def run_growth(path=None, worlds=QUICK, *, preset="quality", res=512, repeat=3, 
     list of dict
         One row per world, with everything printed as numbers.
     """
+    from .. import _native
     from ..meshing import load_triangles
-    from ..reference import embree_scene
+    from ..reference import cpu_count
 
     v, f = load_triangles(str(path) if path is not None else str(default_scene_path()))
     n_obj = len(f)
     eye, target, up = orbit_views(np.array([v.min(0), v.max(0)]), n=1, distance=1.6)[0]
     o32, d32 = pinhole(eye, target, up, fov_deg=40.0, width=res, height=res, dtype=np.float32)
     n = len(o32)
-    ncpu = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    ncpu = cpu_count()
     rows, table = [], []
     for name in worlds:
         wv, wf, n_stadium = make_world(v, f, name, eye=eye, spacing=spacing,
@@ -153,21 +155,21 @@ def run_growth(path=None, worlds=QUICK, *, preset="quality", res=512, repeat=3, 
         # The domain holds the eye in every world, so every walk starts inside it alike.
         scene = Scene.from_mesh((wv, wf), preset, contain=eye[None])
         bt = scene.build_times
-        ref_scene = embree_scene((wv, wf))
-        # First casts, untimed: they warm the caches and lazy state the timings should not pay.
-        hits, ref = scene.cast(o32, d32, threads=None), ref_scene.cast(o32, d32)
-        rate = lambda fn, m: m / _best(fn, repeat)[0] / 1e6
-        tt1 = rate(lambda: scene.cast(o32, d32, threads=1), n)
-        tta = rate(lambda: scene.cast(o32, d32, threads=None), n)
-        te1 = rate(lambda: ref_scene.intersect(o32, d32, threads=1), n)
-        tea = rate(lambda: ref_scene.intersect(o32, d32, threads=ncpu), n)
+        ours = TetraceCaster(scene, _native.DEFAULT_METHOD, _native.DEFAULT_LAYOUT, "f32")
+        embreex = EmbreexCaster(wv, wf)
+        # Both casters alike (casters.timed): the same rays and threads, dynamic chunks, an
+        # untimed warm-up (caches and lazy state), then the best of `repeat`.
+        rate = lambda caster, o, d, k: len(o) / timed(caster, o, d, k, repeat)[0] / 1e6
+        tt1, tea = rate(ours, o32, d32, 1), rate(embreex, o32, d32, ncpu)
+        te1, tta = rate(embreex, o32, d32, 1), rate(ours, o32, d32, ncpu)
+        hits = ours.cast(o32, d32, ncpu)
+        ref = embreex.hits(embreex.cast(o32, d32, ncpu), o32, d32)
         on = (hits.triangle >= 0) & (hits.triangle < n_obj)
         # The same timings on the object's rays alone: the rays whose surroundings never change.
         oo, od = np.ascontiguousarray(o32[on]), np.ascontiguousarray(d32[on])
         to1 = eo1 = float("nan")
         if on.any():
-            to1 = rate(lambda: scene.cast(oo, od, threads=1), len(oo))
-            eo1 = rate(lambda: ref_scene.intersect(oo, od, threads=1), len(oo))
+            to1, eo1 = rate(ours, oo, od, 1), rate(embreex, oo, od, 1)
         a = compare(hits, ref, wv, wf)
         steps = hits.steps.astype(np.float64)
         mean = lambda m: float(steps[m].mean()) if m.any() else float("nan")
@@ -175,14 +177,16 @@ def run_growth(path=None, worlds=QUICK, *, preset="quality", res=512, repeat=3, 
                    stadium_triangles=n_stadium, triangles=int(len(wf)), tets=scene.n_tets,
                    points=scene.n_points, mesh_s=float(bt.get("mesher", bt.get("tetgen", 0.0))),
                    clean_repair_s=float(bt.get("clean", 0.0) + bt.get("repair", 0.0)),
-                   rust_s=float(bt["rust"]), embree_build_s=float(ref_scene.build_seconds),
+                   rust_s=float(bt["rust"]), embree_build_s=float(embreex.build_seconds),
                    rays=n, object_fraction=float(on.mean()),
                    nothing_fraction=float((ref.triangle < 0).mean()),
                    tets_per_ray=float(steps.mean()), tets_per_object_ray=mean(on),
                    tets_per_miss_ray=mean(~on), tetrace_mrays_1=tt1, embreex_mrays_1=te1,
                    ratio_1=tt1 / te1, threads_all=ncpu, tetrace_mrays_all=tta,
                    embreex_mrays_all=tea, ratio_all=tta / tea, tetrace_object_mrays_1=to1,
-                   embreex_object_mrays_1=eo1, agreement=a.fraction, failed=a.failed)
+                   embreex_object_mrays_1=eo1, agreement=a.fraction, failed=a.failed,
+                   tetrace_label=ours.label, embreex_label=embreex.label,
+                   tetrace_schedule=ours.schedule(ncpu), embreex_schedule=embreex.schedule(ncpu))
         rows.append(row)
         table.append([name, f"{row['triangles']:,}", f"{row['tets']:,}", f"{row['mesh_s']:.2f}",
                       f"{row['rust_s']:.2f}", f"{row['object_fraction'] * 100:.1f}",
@@ -190,11 +194,14 @@ def run_growth(path=None, worlds=QUICK, *, preset="quality", res=512, repeat=3, 
                       f"{row['tets_per_object_ray']:.1f}", f"{row['tets_per_miss_ray']:.1f}",
                       f"{tt1:.2f}", f"{te1:.2f}", f"{tt1 / te1:.2f}", f"{tta:.2f}", f"{tea:.2f}",
                       f"{tta / tea:.2f}", f"{to1:.2f}", f"{eo1:.2f}", f"{a.fraction * 100:.3f}%"])
-        del scene, ref_scene, hits, ref  # the next world may be 100x bigger: free this one first
+        del scene, ours, embreex, hits, ref  # the next world may be 100x bigger: free this one first
     out(f"local complexity: {os.path.basename(str(path or default_scene_path()))} ({n_obj:,} "
         f"triangles), preset {preset!r}, {res}x{res} camera at 1.6 bounding radii, copies at "
         f"{spacing:g} diagonals, stadium {stadium_size:g} diagonals across, best of {repeat}; "
         f"Mrays/s on 1 thread and on all {ncpu}; 'obj rays' = only the rays that hit the object")
+    if rows:
+        out(f"tetrace = {rows[0]['tetrace_label']}; {rows[0]['tetrace_schedule']} (at {ncpu})")
+        out(f"embreex = {rows[0]['embreex_label']}; {rows[0]['embreex_schedule']} (at {ncpu})")
     out(_table(table, ["world", "triangles", "tets", "mesh s", "rust s", "obj %", "nothing %",
                        "tets/ray", "tets/obj ray", "tets/miss ray", "tetrace 1T", "embreex 1T",
                        "x", f"tetrace {ncpu}T", f"embreex {ncpu}T", "x", "tetrace obj rays 1T",

@@ -2,13 +2,19 @@
 
 Runs scenes x mesher settings x methods x layouts x precisions x threads (x GPU kernels
 with ``--gpu``) on the same camera rays (three orbit views), with embreex and, when
-installed, Open3D's ``RaycastingScene`` as peers timed in the same run, and writes:
+installed, Open3D's ``RaycastingScene`` as peers timed in the same run. Every caster gets the
+same float32 rays (widened exactly for float64 walks), the same thread count with dynamic
+chunks, one untimed warm-up and the best of ``repeat`` (:mod:`tetrace.bench.casters`). It
+writes:
 
 * ``matrix.csv`` and ``matrix.json``: one row per (scene, setting, caster, method, layout,
-  precision, threads, device): Mrays/s and the ratio to embreex at the same thread count;
-  agreement with embreex on the input mesh (same outcome and triangle; "plane": or a
-  triangle in the same plane at the hit point; "hit": the same hit/miss outcome), p50/p99
-  |dt| over the diagonal on every ray both hit (the position error), FAILED rays; the
+  precision, threads, device): ``label`` (exactly what the caster is: library, version,
+  call, flags) and ``schedule`` (threads and chunks); Mrays/s and the ratio to embreex at
+  the same thread count; agreement with embreex on the input mesh (same outcome and
+  triangle; "plane": or a triangle in the same plane at the hit point; "hit": the same
+  hit/miss outcome), p50/p99 |dt| over the diagonal on every ray both hit (the position
+  error), FAILED rays; the exact referee's judgement (:mod:`tetrace.referee`): the
+  fraction of rays ``right`` and the counts ``leaked``, ``late`` and ``wrong``; the
   build (mesher and Rust seconds, tets, points, weight, memory per part, and for
   fTetWild how far its surface lies from the input over the diagonal) and tets per ray;
 * ``speed_accuracy.png``: throughput (x embreex) against disagreement, per scene;
@@ -16,8 +22,8 @@ installed, Open3D's ``RaycastingScene`` as peers timed in the same run, and writ
 * ``weight_time.png``: time per ray against weight across settings (Lagae & Dutre's
   heuristic), both relative to the ``quality`` preset of the same scene;
 
-and prints the table of Pareto-best settings per scene (no other row is both faster and
-more accurate). ``--quick`` runs the bundled scene with a few settings in a few minutes.
+and prints the peers (label, schedule, speed, referee's judgement) and the table of
+Pareto-best settings per scene (no other row is both faster and more accurate). ``--quick`` runs the bundled scene with a few settings in a few minutes.
 """
 
 from __future__ import annotations
@@ -34,7 +40,8 @@ import numpy as np
 from ..camera import orbit_views, pinhole
 from ..compare import compare, same_plane
 from ..hits import FAILED, HIT
-from .scene_bench import _best, _table, configurations
+from .casters import EmbreexCaster, Open3DCaster, TetraceCaster, open3d_module, rays_for, timed
+from .scene_bench import _table, configurations
 
 #: Mesher settings by name: keyword arguments of :meth:`tetrace.Scene.from_mesh`.
 SETTINGS = {
@@ -59,7 +66,9 @@ QUICK = dict(settings=["constrained", "quality", "quality3", "graded", "ftetwild
 
 
 def _ncpu():
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    from ..reference import cpu_count
+
+    return cpu_count()
 
 
 def camera_rays(vertices, res):
@@ -82,42 +91,40 @@ def hardware_gpu():
 
 
 def open3d_peer():
-    """Open3D's ``RaycastingScene`` class, or None with the reason it cannot run."""
-    try:
-        import open3d as o3d
-    except Exception as exc:  # ImportError, or OSError for a missing libusb-1.0
-        return None, f"open3d not available ({type(exc).__name__}: {exc})"
-    return o3d, None
+    """The ``open3d`` module, or None with the reason it cannot run (the Open3D peer)."""
+    return open3d_module()
 
 
-def _open3d_cast(o3d, v, f, o32, d32, threads, repeat):
-    scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(o3d.core.Tensor(np.asarray(v, np.float32)),
-                        o3d.core.Tensor(np.asarray(f, np.uint32)))
-    rays = o3d.core.Tensor(np.ascontiguousarray(np.hstack([o32, d32])))
-    seconds, r = _best(lambda: scene.cast_rays(rays, nthreads=threads), repeat)
-    t = r["t_hit"].numpy()
-    return seconds, np.isfinite(t), r["primitive_ids"].numpy().astype(np.int64), t
+def _accuracy(hits, ref, verdict, arithmetic, v, f, diagonal, d):
+    """Accuracy columns of one row: against embreex's hits and against the exact referee."""
+    from ..referee import judge
 
-
-def _accuracy(hits, ref, v, f, diagonal, d):
     a = compare(hits, ref, v, f, diagonal=diagonal)
     plane = a.agree + same_plane(hits, ref, v, f, diagonal=diagonal)
     both = (hits.status == HIT) & (ref.status == HIT)
     # |dt| over every ray both hit, on whichever triangle: the position error.
-    dt = np.abs(hits.t[both] - ref.t[both]) * np.linalg.norm(d[both], axis=1) / diagonal
+    dt = (np.abs(hits.t[both].astype(np.float64) - ref.t[both])
+          * np.linalg.norm(d[both], axis=1) / diagonal)
+    j = judge(hits, verdict, arithmetic)
     return dict(agreement=a.agree / a.rays, plane_agreement=plane / a.rays,
                 hit_agreement=float((hits.status == ref.status).mean()),
                 p50_dt=float(np.median(dt)) if len(dt) else 0.0,
                 p99_dt=float(np.quantile(dt, 0.99)) if len(dt) else 0.0,
-                failed=int((hits.status == FAILED).sum()))
+                failed=int((hits.status == FAILED).sum()),
+                right=float(j["right"].mean()), leaked=int(j["leaked"].sum()),
+                late=int(j["late"].sum()), wrong=int(j["wrong"].sum()))
 
 
 def run_scene_settings(path, settings, *, methods, layouts, precisions, threads, res, repeat,
                        gpu=False, out=print):
-    """Rows of one scene: peers first, then every setting x configuration."""
+    """Rows of one scene: peers first, then every setting x configuration.
+
+    Every caster gets the same float32 camera rays (widened exactly for float64 walks), the
+    same thread counts and the same timing (:func:`tetrace.bench.casters.timed`); every row
+    is judged by the exact referee on those rays.
+    """
     from ..meshing import MeshingError, load_triangles
-    from ..reference import embree_scene
+    from ..referee import Referee
     from ..scene import Scene
 
     name = Path(path).name
@@ -125,39 +132,38 @@ def run_scene_settings(path, settings, *, methods, layouts, precisions, threads,
     diagonal = float(np.linalg.norm(v.max(0) - v.min(0)))
     o64, d64 = camera_rays(v, res)
     o32, d32 = o64.astype(np.float32), d64.astype(np.float32)
-    n = len(o64)
+    n = len(o32)
     counts = {"1": 1, "all": _ncpu()}
     base = dict(scene=name, triangles=int(len(f)), rays=n)
-    rows, embree_rate = [], {}
-    ref_scene = embree_scene((v, f))
-    ref = ref_scene.cast(o32, d32)
-    for label in threads:
-        k = counts[label]
-        t, _ = _best(lambda: ref_scene.intersect(o32, d32, threads=k), repeat)
-        embree_rate[label] = n / t / 1e6
-        rows.append(dict(base, setting="-", caster="embreex", method="bvh", layout="-",
-                         precision="f32", threads=k, device="cpu", mrays=embree_rate[label],
-                         ratio=1.0, agreement=1.0, plane_agreement=1.0, hit_agreement=1.0,
-                         p50_dt=0.0, p99_dt=0.0,
-                         failed=0, mesher_s=ref_scene.build_seconds))
+    verdict = Referee(v, f).first_hits(o32, d32)
+    rows, embree_rate, ref = [], {}, None
+
+    def row(caster, label, k, seconds, hits, **extra):
+        o, d = rays_for(caster.precision, o32, d32)
+        mrays = n / seconds / 1e6
+        if caster.name == "embreex":
+            embree_rate[label] = mrays
+        return dict(base, **extra, caster=caster.name, label=caster.label,
+                    schedule=caster.schedule(k), threads=k if k is not None else 0,
+                    mrays=mrays, ratio=mrays / embree_rate[label],
+                    **_accuracy(hits, ref, verdict, caster.arithmetic, v, f, diagonal, d))
+
+    peers = [EmbreexCaster(v, f)]
     o3d, why = open3d_peer()
     if o3d is None:
         out(f"  {name}: Open3D peer skipped: {why}")
     else:
-        ref_hit = ref.status == HIT
+        peers.append(Open3DCaster(o3d, v, f))
+    for peer in peers:
         for label in threads:
             k = counts[label]
-            t, hit, prim, th = _open3d_cast(o3d, v, f, o32, d32, k, repeat)
-            same = (hit == ref_hit) & (~hit | (prim == ref.triangle))
-            both = hit & ref_hit
-            dt = np.abs(th[both] - ref.t[both]) * np.linalg.norm(d32[both], axis=1) / diagonal
-            rows.append(dict(base, setting="-", caster="open3d", method="bvh", layout="-",
-                             precision="f32", threads=k, device="cpu", mrays=n / t / 1e6,
-                             ratio=n / t / 1e6 / embree_rate[label],
-                             agreement=float(same.mean()), plane_agreement=float(same.mean()),
-                             hit_agreement=float((hit == ref_hit).mean()),
-                             p50_dt=float(np.median(dt)) if len(dt) else 0.0,
-                             p99_dt=float(np.quantile(dt, 0.99)) if len(dt) else 0.0, failed=0))
+            seconds, raw = timed(peer, o32, d32, k, repeat)
+            hits = peer.hits(raw, o32, d32)
+            if ref is None:  # embreex, the first peer: the reference of the agreement columns
+                ref = hits
+            rows.append(row(peer, label, k, seconds, hits, setting="-", method="bvh",
+                            layout="-", precision="f32", device="cpu",
+                            mesher_s=peer.build_seconds))
 
     for setting in settings:
         kwargs = SETTINGS[setting]
@@ -180,34 +186,27 @@ def run_scene_settings(path, settings, *, methods, layouts, precisions, threads,
         out(f"  {name} / {setting}{chosen}: {scene.n_tets:,} tets, weight {build['weight']:.4g}, "
             f"mesher {mesher_s:.2f} s, rust {bt['rust']:.2f} s")
         for method, layout, prec, label in configurations(methods, layouts, precisions, threads):
-            o, d = (o32, d32) if prec == "f32" else (o64, d64)
+            caster = TetraceCaster(scene, method, layout, prec)
             k = counts[label]
-            t, hits = _best(lambda: scene.cast(o, d, threads=k, method=method,
-                                               layout=layout, precision=prec), repeat)
+            seconds, hits = timed(caster, *rays_for(prec, o32, d32), k, repeat)
             mem = scene.memory()
-            rows.append(dict(
-                base, **build, caster="tetrace", method=method, layout=layout,
-                precision=prec, threads=k, device="cpu", mrays=n / t / 1e6,
-                ratio=n / t / 1e6 / embree_rate[label],
-                tets_per_ray=float(hits.steps.mean()),
-                mem_mb=(mem["points_f64"] + mem["points_f32"] + mem["constrained"]
-                        + mem["locator"] + mem[f"tets_{layout}"]) / 1e6,
-                mem_layout_mb=mem[f"tets_{layout}"] / 1e6,
-                **_accuracy(hits, ref, v, f, diagonal, d)))
+            rows.append(row(caster, label, k, seconds, hits, **build, method=method,
+                            layout=layout, precision=prec, device="cpu",
+                            tets_per_ray=float(hits.steps.mean()),
+                            mem_mb=(mem["points_f64"] + mem["points_f32"] + mem["constrained"]
+                                    + mem["locator"] + mem[f"tets_{layout}"]) / 1e6,
+                            mem_layout_mb=mem[f"tets_{layout}"] / 1e6))
         if gpu:
             from .. import gpu as tgpu
 
             for method, layout in tgpu.kernels():
-                scene.cast(o32[:1], d32[:1], method=method, layout=layout, device="gpu")
-                t, hits = _best(lambda: scene.cast(o32, d32, method=method, layout=layout,
-                                                   device="gpu"), repeat)
-                rows.append(dict(base, **build, caster="tetrace", method=method, layout=layout,
-                                 precision="f32", threads=0, device="gpu", mrays=n / t / 1e6,
-                                 ratio=n / t / 1e6 / embree_rate[threads[-1]],
-                                 kernel_mrays=scene.gpu_timings["walked"]
-                                 / scene.gpu_timings["kernel"] / 1e6,
-                                 tets_per_ray=float(hits.steps.mean()),
-                                 **_accuracy(hits, ref, v, f, diagonal, d32)))
+                caster = TetraceCaster(scene, method, layout, "f32", device="gpu")
+                seconds, hits = timed(caster, o32, d32, None, repeat)
+                rows.append(row(caster, threads[-1], None, seconds, hits, **build,
+                                method=method, layout=layout, precision="f32", device="gpu",
+                                kernel_mrays=scene.gpu_timings["walked"]
+                                / scene.gpu_timings["kernel"] / 1e6,
+                                tets_per_ray=float(hits.steps.mean())))
         del scene
     return rows
 
@@ -263,7 +262,9 @@ def charts(rows, folder):
                            edgecolors="k" if r["device"] == "gpu" else "none")
             else:
                 ax.scatter(r["ratio"], _disagreement(r), color="k", marker="*", s=80)
-                ax.annotate(r["caster"], (r["ratio"], _disagreement(r)), fontsize=7)
+                # The peer's exact label: library and version, then the call and its flag.
+                ax.annotate(r.get("label", r["caster"]).replace(": ", ":\n", 1),
+                            (r["ratio"], _disagreement(r)), fontsize=5)
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_title(f"{scene} ({top} threads)", fontsize=9)
@@ -352,7 +353,8 @@ def charts(rows, folder):
 COLUMNS = ["scene", "triangles", "rays", "setting", "chosen", "mesher", "tets", "points", "weight",
            "mesher_s", "rust_s", "surface_max", "mem_mb", "mem_layout_mb", "caster", "method", "layout",
            "precision", "threads", "device", "mrays", "kernel_mrays", "ratio", "tets_per_ray",
-           "agreement", "plane_agreement", "hit_agreement", "p50_dt", "p99_dt", "failed", "error"]
+           "agreement", "plane_agreement", "hit_agreement", "p50_dt", "p99_dt", "failed", "right",
+           "leaked", "late", "wrong", "label", "schedule", "error"]
 
 
 def run_matrix(scenes, *, settings, methods, layouts, precisions, threads, res, repeat,
@@ -397,6 +399,12 @@ def report(rows, out_dir, out=print):
     best = pareto([r for r in rows if r["caster"] == "tetrace" and "ratio" in r
                    and r["threads"] == max(x["threads"] for x in rows if "ratio" in x
                                            and x["scene"] == r["scene"])])
+    peers = [r for r in rows if r["caster"] != "tetrace" and "ratio" in r]
+    out("\nPeers (same rays, same threads, dynamic chunks; judged by the exact referee):")
+    out(_table([[r["scene"], r.get("label", r["caster"]), r.get("schedule", f"{r['threads']}"),
+                 f"{r['mrays']:.2f}", f"{r.get('right', float('nan')) * 100:.3f}%",
+                 r.get("leaked", "-"), r.get("late", "-"), r.get("wrong", "-")] for r in peers],
+               ["scene", "peer", "schedule", "Mrays/s", "right", "leaked", "late", "wrong"]))
     out("\nPareto-best tetrace settings per scene (no other is both faster and more accurate; "
         "most threads measured):")
     out(_table([[r["scene"], r["setting"] + (f" ({r['chosen']})" if r["chosen"] != r["setting"]

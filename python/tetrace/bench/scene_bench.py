@@ -128,8 +128,9 @@ def run_scene_bench(path=None, *, preset="quality", width=1024, height=1024, rep
         Everything printed, as numbers.
     """
     from .. import _native
-    from ..reference import embree_scene
+    from ..reference import cpu_count
     from ..scene import layouts as all_layouts, methods as all_methods
+    from .casters import EmbreexCaster, Open3DCaster, TetraceCaster, open3d_module, rays_for, timed
 
     methods_arg, layouts_arg = methods, layouts
     methods = all_methods() if methods in (["all"], "all") else (methods or [_native.DEFAULT_METHOD])
@@ -146,35 +147,49 @@ def run_scene_bench(path=None, *, preset="quality", width=1024, height=1024, rep
     eye, target, up = orbit_views(bounds, n=1, distance=distance)[0]
     o64, d64 = pinhole(eye, target, up, fov_deg=40.0, width=width, height=height, dtype=np.float64)
     n = len(o64)
-    ref_scene = embree_scene((v, f))
+    # Every caster gets these float32 rays (float64 walks: the same values, widened exactly).
     o32, d32 = o64.astype(np.float32), d64.astype(np.float32)
-    ncpu = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    thread_counts = {"1": 1, "all": None}
+    ncpu = cpu_count()
+    thread_counts = {"1": 1, "all": ncpu}
+    embreex = EmbreexCaster(v, f)
+    peers = [embreex]
+    o3d, why = open3d_module()
+    if o3d is not None:
+        peers.append(Open3DCaster(o3d, v, f))
 
     results = {"scene": name, "preset": preset, "rays": n, "triangles": int(len(f)),
                "tets": scene.n_tets, "points": scene.n_points,
                "build_seconds": {k: float(x) for k, x in bt.items()},
-               "embree_build_seconds": float(ref_scene.build_seconds), "runs": []}
+               "embree_build_seconds": float(embreex.build_seconds), "runs": [],
+               "peers_skipped": [] if o3d is not None else [why]}
     rows = []
     embree_rate = {}
-    for label in threads:
-        k = thread_counts[label]
-        te, _ = _best(lambda: ref_scene.intersect(o32, d32, threads=k or ncpu), repeat)
-        embree_rate[label] = n / te / 1e6
-        shown = "1" if k == 1 else f"all ({ncpu})"
-        rows.append(["embreex", "bvh", "-", "f32", "-", shown, f"{embree_rate[label]:.2f}", "1.00",
-                     "-", "-", "-"])
-        results["runs"].append({"caster": "embreex", "precision": "f32", "threads": k or ncpu,
-                                "mrays_per_s": embree_rate[label]})
-    ref = ref_scene.cast(o32, d32)
+    ref = None
+    for peer in peers:
+        for label in threads:
+            k = thread_counts[label]
+            te, raw = timed(peer, o32, d32, k, repeat)
+            rate = n / te / 1e6
+            hits = peer.hits(raw, o32, d32)
+            if peer is embreex:
+                embree_rate[label] = rate
+                ref = hits if ref is None else ref  # the reference of the agreement column
+            a = compare(hits, ref, v, f)
+            shown = "1" if k == 1 else f"all ({ncpu})"
+            rows.append([peer.name, "bvh", "-", "f32", "-", shown, f"{rate:.2f}",
+                         f"{rate / embree_rate[label]:.2f}", "-", "-", f"{a.fraction * 100:.3f}%"])
+            results["runs"].append({"caster": peer.name, "label": peer.label,
+                                    "schedule": peer.schedule(k), "precision": "f32",
+                                    "threads": k, "mrays_per_s": rate,
+                                    "ratio_to_embree": rate / embree_rate[label],
+                                    "agreement": a.fraction})
     last32 = None
     for order in (orders if "cpu" in devices else ()):
         sc = scenes[order]
         for method, layout, prec, label in configurations(methods, layouts, precisions, threads):
-            o, d = (o32, d32) if prec == "f32" else (o64, d64)
+            caster = TetraceCaster(sc, method, layout, prec)
             k = thread_counts[label]
-            tt, hits = _best(lambda: sc.cast(o, d, threads=k, method=method,
-                                             layout=layout, precision=prec), repeat)
+            tt, hits = timed(caster, *rays_for(prec, o32, d32), k, repeat)
             rate = n / tt / 1e6
             a = compare(hits, ref, v, f)
             shown = "1" if k == 1 else f"all ({ncpu})"
@@ -182,8 +197,9 @@ def run_scene_bench(path=None, *, preset="quality", width=1024, height=1024, rep
                          f"{rate / embree_rate[label]:.2f}", f"{hits.steps.mean():.1f}",
                          LAYOUT_BYTES[layout], f"{a.fraction * 100:.3f}%"])
             results["runs"].append({
-                "caster": "tetrace", "method": method, "layout": layout,
-                "precision": prec, "order": order, "threads": k or ncpu,
+                "caster": "tetrace", "label": caster.label, "schedule": caster.schedule(k),
+                "method": method, "layout": layout,
+                "precision": prec, "order": order, "threads": k,
                 "mrays_per_s": rate, "ratio_to_embree": rate / embree_rate[label],
                 "tets_per_ray": float(hits.steps.mean()),
                 "bytes_per_tet": LAYOUT_BYTES[layout], "agreement": a.fraction,
@@ -203,11 +219,17 @@ def run_scene_bench(path=None, *, preset="quality", width=1024, height=1024, rep
         f"{width}x{height} pinhole camera, {hit_frac * 100:.1f}% of rays hit, best of {repeat}")
     out(f"build: tetgen {bt.get('tetgen', 0):.2f} s (clean {bt.get('clean', 0):.2f} s, "
         f"repair {bt.get('repair', 0):.2f} s), rust construction {bt['rust']:.2f} s; "
-        f"embreex BVH {ref_scene.build_seconds:.2f} s")
+        f"embreex BVH {embreex.build_seconds:.2f} s")
     mem = scene.memory()
     results["memory"] = mem
     out(f"structure: {scene.n_tets:,} tets, {scene.n_points:,} points; memory MB: "
         + ", ".join(f"{k} {b / 1e6:.1f}" for k, b in mem.items()))
+    out("peers: " + "; ".join(f"{p.name} = {p.label}" for p in peers)
+        + "".join(f"; skipped: {w}" for w in results["peers_skipped"]))
+    out(f"every caster: the same float32 rays, the same threads, dynamic chunks (tetrace: "
+        f"{TetraceCaster(scene, '', '').schedule(ncpu).split(': ', 1)[1]}; "
+        + "; ".join(f"{p.name}: {p.schedule(ncpu).split(': ', 1)[1]}" for p in peers)
+        + "), one untimed warm-up, best of the timed casts")
     out(_table(rows, ["caster", "method", "layout", "precision", "order", "threads", "Mrays/s",
                       "x embreex", "tets/ray", "bytes/tet", "agree w/ embreex"]))
     if gpu_rows:
