@@ -4,6 +4,9 @@ The scenes are not in the repository. They sit in ``shared/scenes`` beside the
 checkout (``<repo>/../shared/scenes``) or wherever ``TETRACE_SCENES`` points.
 Locally a missing folder skips the tests that need it; under CI (``CI=true``)
 it fails them, so CI cannot pass by skipping.
+
+GPU tests are stricter: without a GPU adapter (Mesa's lavapipe counts) they fail,
+locally too, unless ``TETRACE_SKIP_GPU=1`` says to skip them (:func:`gpu_device`).
 """
 
 from __future__ import annotations
@@ -79,6 +82,36 @@ def skip_or_fail(reason: str):
     pytest.skip(reason)
 
 
+#: The one opt-out of the GPU tests: set to ``1``, a missing adapter skips them instead of
+#: failing them. Nothing else (not even ``CI``) makes a GPU test skip.
+SKIP_GPU_VARIABLE = "TETRACE_SKIP_GPU"
+
+
+def skip_gpu() -> bool:
+    """Return whether ``TETRACE_SKIP_GPU=1`` is set (exactly ``1``)."""
+    return os.environ.get(SKIP_GPU_VARIABLE, "").strip() == "1"
+
+
+def gpu_device() -> dict:
+    """The GPU adapter in use, for tests that need one.
+
+    Without an adapter the test fails, with the error and what to install, unless
+    ``TETRACE_SKIP_GPU=1`` is set: then it is skipped, saying so. An adapter that is
+    found is always used, whatever the variable says.
+    """
+    from tetrace import gpu
+
+    try:
+        return gpu.device()
+    except gpu.GpuError as e:
+        reason = f"no GPU adapter: {e}"
+        if skip_gpu():
+            pytest.skip(f"{reason} ({SKIP_GPU_VARIABLE}=1)")
+        pytest.fail(f"{reason}. Install a Vulkan driver (Mesa's lavapipe: apt-get install "
+                    f"mesa-vulkan-drivers libvulkan1), or set {SKIP_GPU_VARIABLE}=1 to skip "
+                    f"the GPU tests", pytrace=False)
+
+
 def pytest_configure(config):
     config.addinivalue_line("markers", "slow: long-running agreement tests on real scenes")
 
@@ -118,6 +151,18 @@ def scene_path(scenes_dir):
         return path
 
     return get
+
+
+@pytest.fixture(scope="session")
+def open3d():
+    """Require Open3D (``open3d-cpu`` in the ``test`` extra; it needs Debian's
+    ``libusb-1.0-0``): skip without it locally, fail under CI. Returns the module."""
+    from tetrace.bench.casters import open3d_module
+
+    o3d, why = open3d_module()
+    if o3d is None:
+        skip_or_fail(f"{why} (pip install open3d-cpu; apt-get install libusb-1.0-0)")
+    return o3d
 
 
 @pytest.fixture(scope="session")

@@ -4,7 +4,8 @@ The acceptance: on the bunny's camera rays (1024^2) and 10^5 random rays, each G
 returns the triangle ids of its CPU twin (the float32 walk with the same method and layout)
 on >= 99.99% of rays, t within 1e-6 relative, and no FAILED ray; the robust kernel returns
 exactly what the CPU robust walk returns. Tests that need a GPU adapter (Mesa's lavapipe is
-enough) skip locally without one and fail under CI=true, where .ci/run installs lavapipe.
+enough; .ci/run installs it) fail without one, unless TETRACE_SKIP_GPU=1 is set: then they
+skip, saying so (conftest.gpu_device).
 """
 
 import os
@@ -18,17 +19,12 @@ import tetrace
 from tetrace import gpu
 from tetrace.camera import orbit_views, pinhole, random_rays
 
-from conftest import skip_or_fail
+from conftest import gpu_device
 
 
 @pytest.fixture(scope="module")
 def device():
-    if not gpu.available():
-        try:
-            gpu.device()
-        except gpu.GpuError as e:
-            skip_or_fail(f"no GPU adapter: {e}")
-    return gpu.device()
+    return gpu_device()
 
 
 @pytest.fixture(scope="module")
@@ -163,3 +159,26 @@ def test_gpu_hits_fields_and_options(spot, device):
     assert hb.status[3] == tetrace.INVALID
     with pytest.raises(ValueError):
         spot.cast(bad, d, device="gpu")
+
+
+def test_no_adapter_fails_unless_tetrace_skip_gpu(monkeypatch):
+    # Nothing passes silently: without an adapter a GPU test fails, unless the one opt-out
+    # (TETRACE_SKIP_GPU=1, exactly) makes it skip; CI=true changes nothing.
+    import conftest
+
+    def no_adapter():
+        raise gpu.GpuError("no GPU adapter found (test)")
+
+    monkeypatch.setattr(gpu, "device", no_adapter)
+    for value in (None, "0", "", "yes"):
+        if value is None:
+            monkeypatch.delenv("TETRACE_SKIP_GPU", raising=False)
+        else:
+            monkeypatch.setenv("TETRACE_SKIP_GPU", value)
+        for ci in ("true", ""):
+            monkeypatch.setenv("CI", ci)
+            with pytest.raises(pytest.fail.Exception, match="TETRACE_SKIP_GPU=1 to skip"):
+                conftest.gpu_device()
+    monkeypatch.setenv("TETRACE_SKIP_GPU", "1")
+    with pytest.raises(pytest.skip.Exception, match=r"no GPU adapter.*\(TETRACE_SKIP_GPU=1\)"):
+        conftest.gpu_device()
