@@ -10,6 +10,7 @@ pub mod layout;
 pub mod locate;
 pub mod mesh;
 pub mod real;
+pub mod referee;
 pub mod scene;
 pub mod sort;
 pub mod traverse;

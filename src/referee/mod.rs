@@ -1,0 +1,633 @@
+//! The exact referee of `docs/referee.md`, Rust twin of `python/tetrace/referee.py`: what the
+//! right answer to a ray is, for the numbers passed in.
+//!
+//! A ray `(o, d)` meets the closed triangle `(a, b, c)` at one point when its three side
+//! products `S_ab = d · ((a − o) × (b − o))`, `S_bc`, `S_ca` are all `≥ 0` or all `≤ 0` and not
+//! all zero (all zero: the line lies in the triangle's plane, the triangle has no area or
+//! `d = 0`, and it is never hit). The crossing is at `t = num / den` with
+//! `num = (a − o) · ((b − o) × (c − o))`, `den = S_ab + S_bc + S_ca`. A hit is a crossing with
+//! `tmin ≤ t ≤ tmax`; a ray's answer is its smallest hit `t*` and every triangle hit there.
+//!
+//! Everything is decided exactly on the f64 inputs. A float64 evaluation with Shewchuk's
+//! certified error bound (`(7 + 56ε)ε` times the permanent) decides the clear cases; its
+//! operands are kept where no product can underflow or overflow (else it is skipped). What it
+//! cannot certify is evaluated in `BigInt`s: every finite f64 is `m · 2^e`, so all inputs of a
+//! ray–triangle pair scaled by one power of two are integers, and every sign and every ratio
+//! of two polynomials of the same degree keeps its value.
+//!
+//! This module reads the caller's numbers and nothing else: it shares no code with the walk
+//! (`traverse`, `layout`, `scene`, `dispatch`, `real`).
+
+use num_bigint::{BigInt, BigUint, Sign};
+use num_traits::{ToPrimitive, Zero};
+use std::cmp::Ordering;
+
+#[cfg(test)]
+mod tests;
+
+/// A point or vector.
+pub type P3 = [f64; 3];
+/// A triangle's three vertices.
+pub type Tri = [P3; 3];
+
+/// Unit roundoff of float64.
+const EPS: f64 = f64::EPSILON / 2.0;
+/// Shewchuk's bound on the error of a float64 3×3 determinant of rounded differences, times its
+/// permanent (orient3d's `errboundA`).
+const FILTER: f64 = (7.0 + 56.0 * EPS) * EPS;
+/// The filter's operands (the differences and `d`) must be zero or have a magnitude in
+/// [2^-300, 2^300]: products of three then lie in [2^-900, 2^900] (normal; a cross product's
+/// cancellation leaves a multiple of 2^-652, times `d` still normal), and their sums stay
+/// finite. Outside, an underflowed product's absolute error could exceed the relative bound
+/// (or a product overflow): the pair goes to the exact path.
+const OPERAND_MIN: f64 = 4.909093465297727e-91; // 2^-300
+const OPERAND_MAX: f64 = 2.037035976334486e90; // 2^300
+
+/// Where the ray's line meets a closed triangle at one point, exactly.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Crossing {
+    /// `t = num / den` exactly, `den > 0` (both scaled by the same power of two).
+    pub num: BigInt,
+    pub den: BigInt,
+    /// How many side products are exactly zero: 0 inside, 1 on an edge, 2 at a vertex.
+    pub zero_signs: u8,
+}
+
+impl Crossing {
+    /// The exact `t`, rounded to the nearest float64 (ties to even).
+    pub fn t(&self) -> f64 {
+        round_quotient(&self.num, &self.den)
+    }
+
+    /// The sign of `t − x`, exactly (`x` finite or infinite, not NaN).
+    pub fn cmp_t(&self, x: f64) -> Ordering {
+        if x == f64::INFINITY {
+            return Ordering::Less;
+        }
+        if x == f64::NEG_INFINITY {
+            return Ordering::Greater;
+        }
+        let (m, e) = decode(x);
+        // num / den vs m 2^e, den > 0: num 2^-e vs m den (or num vs m den 2^e).
+        let rhs = &self.den * BigInt::from(m);
+        if e >= 0 {
+            self.num.cmp(&(rhs << e as usize))
+        } else {
+            (&self.num << (-e) as usize).cmp(&rhs)
+        }
+    }
+
+    /// The sign of `t − other.t`, exactly.
+    pub fn cmp(&self, other: &Crossing) -> Ordering {
+        (&self.num * &other.den).cmp(&(&other.num * &self.den))
+    }
+}
+
+/// A ray's exact answer.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Verdict {
+    /// The exact first-hit `t*`, rounded to the nearest float64.
+    pub t: f64,
+    /// Every triangle hit at exactly `t*`, ascending (indices into the caller's slice).
+    pub ties: Vec<usize>,
+    /// Zero side products of the first tie's crossing (1: on an edge, 2: at a vertex).
+    pub zero_signs: u8,
+    /// `B` of docs/referee.md on the first tie ([`t_bound`]).
+    pub bound: f64,
+}
+
+impl Verdict {
+    /// Whether `triangle` is in the tie set.
+    pub fn ties_with(&self, triangle: usize) -> bool {
+        self.ties.binary_search(&triangle).is_ok()
+    }
+}
+
+/// How a cast of one ray compares with the referee (docs/referee.md), in order of precedence.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Outcome {
+    /// Hit exactly when the referee hits, on a tied triangle, `t` within `ulp(t*) + B`.
+    Right,
+    /// The caster gave up.
+    Failed,
+    /// The referee hits, the caster reports a miss.
+    Leaked,
+    /// Both hit; the caster's triangle is not tied and its `t` is past `t*` (beyond the bound):
+    /// the walk went through the first hit.
+    Late,
+    /// Anything else: a hit where the referee misses, another triangle before (or at) `t*`, or
+    /// `t` outside the bound.
+    Wrong,
+}
+
+/// Exact sign of `S = d · ((p − o) × (q − o))`: the side of the edge `p → q` seen along the
+/// line (positive: counter-clockwise around `d`). Inputs must be finite (panics otherwise).
+pub fn side(o: P3, d: P3, p: P3, q: P3) -> Ordering {
+    assert!(
+        [o, d, p, q].iter().flatten().all(|x| x.is_finite()),
+        "referee::side: non-finite input"
+    );
+    let (u, v) = (sub(p, o), sub(q, o));
+    if operands_ok(&[d, u, v]) {
+        let s = dot(d, cross(u, v));
+        let bound = FILTER * perm(d, u, v);
+        if s > bound {
+            return Ordering::Greater;
+        }
+        if s < -bound {
+            return Ordering::Less;
+        }
+    }
+    count_exact();
+    let x = Scaled::new(&[o, d, p, q]);
+    let (o, d, p, q) = (&x.v[0], &x.v[1], &x.v[2], &x.v[3]);
+    let s = bdot(d, &bcross(&bsub(p, o), &bsub(q, o)));
+    s.sign_ord()
+}
+
+/// Whether the line `o + t d` meets the closed triangle at one point, and where, exactly. `None`
+/// when it does not, when the line lies in the triangle's plane (or the triangle has no area,
+/// or `d = 0`), or when an input is not finite.
+pub fn crossing(o: P3, d: P3, tri: &Tri) -> Option<Crossing> {
+    if !finite(o, d, tri) {
+        return None;
+    }
+    if let Filtered::Miss = filter(o, d, tri) {
+        return None;
+    }
+    exact(o, d, tri).crossing()
+}
+
+/// The exact first hit of the ray among `tris` (brute force over all of them): the crossings
+/// with `tmin ≤ t ≤ tmax`, the smallest `t` and every triangle tied there. `None`: a miss, or a
+/// ray the referee refuses (a non-finite origin or direction, `d = 0`, a NaN bound).
+/// Triangles with a non-finite vertex are never hit.
+pub fn first_hit(o: P3, d: P3, tmin: f64, tmax: f64, tris: &[Tri]) -> Option<Verdict> {
+    first_hit_by(o, d, tmin, tmax, tris, |_| true)
+}
+
+/// [`first_hit`] among the crossings `accept` keeps (it sees each crossing's
+/// `zero_signs`; e.g. `|z| z == 0` for crossings strictly inside the triangles).
+pub fn first_hit_by(
+    o: P3,
+    d: P3,
+    tmin: f64,
+    tmax: f64,
+    tris: &[Tri],
+    accept: impl Fn(u8) -> bool,
+) -> Option<Verdict> {
+    let ray_ok = o.iter().chain(&d).all(|x| x.is_finite())
+        && d.iter().any(|&x| x != 0.0)
+        && !tmin.is_nan()
+        && !tmax.is_nan();
+    if !ray_ok {
+        return None;
+    }
+    struct Cand {
+        k: usize,
+        lo: f64,
+        hi: f64,
+        exact: Option<Crossing>,
+    }
+    let mut inside: Vec<Cand> = Vec::new();
+    for (k, tri) in tris.iter().enumerate() {
+        if !finite(o, d, tri) {
+            continue;
+        }
+        let mut c = match filter(o, d, tri) {
+            Filtered::Miss => continue,
+            Filtered::Meets { lo, hi } if accept(0) => Cand {
+                k,
+                lo,
+                hi,
+                exact: None,
+            },
+            _ => match exact(o, d, tri).crossing() {
+                Some(x) if accept(x.zero_signs) => {
+                    let t = x.t();
+                    Cand {
+                        k,
+                        lo: t.next_down(),
+                        hi: t.next_up(),
+                        exact: Some(x),
+                    }
+                }
+                _ => continue,
+            },
+        };
+        // In [tmin, tmax]: sure from the interval, else exactly.
+        if c.hi < tmin || c.lo > tmax {
+            continue;
+        }
+        if !(c.lo > tmin && c.hi < tmax) {
+            let x = c.exact.get_or_insert_with(|| {
+                exact(o, d, tri)
+                    .crossing()
+                    .expect("the filter certified a crossing")
+            });
+            if x.cmp_t(tmin) == Ordering::Less || x.cmp_t(tmax) == Ordering::Greater {
+                continue;
+            }
+        }
+        inside.push(c);
+    }
+    // The first hit has the smallest exact t; every hit whose interval reaches below the
+    // smallest upper end may be it (or tie with it): those are compared exactly.
+    let best_hi = inside.iter().map(|c| c.hi).fold(f64::INFINITY, f64::min);
+    let mut contenders: Vec<(usize, Crossing)> = inside
+        .into_iter()
+        .filter(|c| c.lo <= best_hi)
+        .map(|c| {
+            let x = c.exact.unwrap_or_else(|| {
+                exact(o, d, &tris[c.k])
+                    .crossing()
+                    .expect("the filter certified a crossing")
+            });
+            (c.k, x)
+        })
+        .collect();
+    let mut first: Option<&Crossing> = None;
+    for (_, x) in &contenders {
+        if first.is_none_or(|f| x.cmp(f) == Ordering::Less) {
+            first = Some(x);
+        }
+    }
+    let first = first?.clone();
+    // Contenders are in the order of `tris`: the ties come out ascending.
+    contenders.retain(|(_, x)| x.cmp(&first) == Ordering::Equal);
+    let (k0, x0) = &contenders[0];
+    let t = first.t();
+    Some(Verdict {
+        t,
+        ties: contenders.iter().map(|(k, _)| *k).collect(),
+        zero_signs: x0.zero_signs,
+        bound: t_bound(o, d, &tris[*k0], t),
+    })
+}
+
+/// The derived float64 forward-error bound `B` of docs/referee.md for a float64 evaluation of
+/// the ray–plane quotient on `tri` at `t_star`: the errors of `num` and `den` are at most
+/// `8ε P_num` and `8ε P_den` with `P` their permanents, anchored at the ray's origin and at the
+/// triangle's first vertex (both summed, so either evaluation is covered), and the quotient
+/// rounds twice (`2ε|t*|`): `B = (8ε P_num + |t*| 8ε P_den) / |den| + 2ε|t*|`, `|den|` the exact
+/// value (rounded). Infinite when `den = 0`.
+pub fn t_bound(o: P3, d: P3, tri: &Tri, t_star: f64) -> f64 {
+    let [a, b, c] = *tri;
+    let (u, v, w) = (sub(a, o), sub(b, o), sub(c, o));
+    let (e1, e2, tv) = (sub(b, a), sub(c, a), sub(o, a));
+    let p_num = perm(u, v, w) + perm(e2, tv, e1);
+    let p_den = perm(d, u, v) + perm(d, v, w) + perm(d, w, u) + perm(d, e1, e2);
+    let den = exact_den_abs(o, d, tri);
+    let t = t_star.abs();
+    (8.0 * EPS * p_num + t * 8.0 * EPS * p_den) / den + 2.0 * EPS * t
+}
+
+/// Judges one cast of a ray against the referee's verdict (`None`: the referee misses).
+/// `failed`: the caster gave up; `hit`: its triangle and `t` (as float64), `None` for a miss;
+/// `ulp`: the spacing of the caster's output float type at `t*` ([`ulp_f32`], [`ulp_f64`]).
+pub fn judge(
+    verdict: Option<&Verdict>,
+    failed: bool,
+    hit: Option<(usize, f64)>,
+    ulp: f64,
+) -> Outcome {
+    if failed {
+        return Outcome::Failed;
+    }
+    match (verdict, hit) {
+        (None, None) => Outcome::Right,
+        (Some(_), None) => Outcome::Leaked,
+        (None, Some(_)) => Outcome::Wrong,
+        (Some(v), Some((tri, t))) => {
+            let tol = ulp + v.bound;
+            if v.ties_with(tri) {
+                if (t - v.t).abs() <= tol {
+                    Outcome::Right
+                } else {
+                    Outcome::Wrong
+                }
+            } else if t > v.t + tol {
+                Outcome::Late
+            } else {
+                Outcome::Wrong
+            }
+        }
+    }
+}
+
+/// Spacing of float32 at `|t|` (rounded to float32), as float64.
+pub fn ulp_f32(t: f64) -> f64 {
+    let x = (t.abs() as f32).min(f32::MAX);
+    (x.next_up() - x) as f64
+}
+
+/// Spacing of float64 at `|t|`.
+pub fn ulp_f64(t: f64) -> f64 {
+    let x = t.abs().min(f64::MAX);
+    x.next_up() - x
+}
+
+// -- float64 filter --------------------------------------------------------------------------
+
+fn sub(a: P3, b: P3) -> P3 {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn cross(a: P3, b: P3) -> P3 {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+fn dot(a: P3, b: P3) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// The permanent of `d · (u × v)`: the same sum with every term's magnitude.
+fn perm(d: P3, u: P3, v: P3) -> f64 {
+    let (d, u, v) = (d.map(f64::abs), u.map(f64::abs), v.map(f64::abs));
+    d[0] * (u[1] * v[2] + u[2] * v[1])
+        + d[1] * (u[2] * v[0] + u[0] * v[2])
+        + d[2] * (u[0] * v[1] + u[1] * v[0])
+}
+
+fn operands_ok(vs: &[P3]) -> bool {
+    vs.iter()
+        .flatten()
+        .all(|&x| x == 0.0 || (OPERAND_MIN..=OPERAND_MAX).contains(&x.abs()))
+}
+
+fn finite(o: P3, d: P3, tri: &Tri) -> bool {
+    o.iter()
+        .chain(&d)
+        .chain(tri.iter().flatten())
+        .all(|x| x.is_finite())
+}
+
+enum Filtered {
+    /// Two side products of certified opposite signs.
+    Miss,
+    /// Three certified side products of one sign, and an interval surely holding `t`.
+    Meets { lo: f64, hi: f64 },
+    /// Undecided: evaluate exactly.
+    Unsure,
+}
+
+fn filter(o: P3, d: P3, tri: &Tri) -> Filtered {
+    let [a, b, c] = *tri;
+    let (u, v, w) = (sub(a, o), sub(b, o), sub(c, o));
+    if !operands_ok(&[d, u, v, w]) {
+        return Filtered::Unsure;
+    }
+    let s = [
+        dot(d, cross(u, v)),
+        dot(d, cross(v, w)),
+        dot(d, cross(w, u)),
+    ];
+    let p = [perm(d, u, v), perm(d, v, w), perm(d, w, u)];
+    let sign = |k: usize| {
+        if s[k] > FILTER * p[k] {
+            1
+        } else if s[k] < -FILTER * p[k] {
+            -1
+        } else {
+            0
+        }
+    };
+    let g = [sign(0), sign(1), sign(2)];
+    if g.contains(&1) && g.contains(&-1) {
+        return Filtered::Miss;
+    }
+    if g[0] == 0 || g[0] != g[1] || g[1] != g[2] {
+        return Filtered::Unsure;
+    }
+    // t = num / den with certified errors: |Δnum| ≤ en (the determinant's bound), |Δden| ≤ ed
+    // (three bounds, plus the two additions' rounding). Then
+    // |t − num~/den~| ≤ (en + |num~/den~| ed) / (|den~| − ed), and the quotient rounds once.
+    let num = dot(u, cross(v, w));
+    let en = FILTER * perm(u, v, w);
+    let den = s[0] + s[1] + s[2];
+    let ed = FILTER * (p[0] + p[1] + p[2]) + 3.0 * EPS * (s[0].abs() + s[1].abs() + s[2].abs());
+    if !(den.abs() > ed) {
+        return Filtered::Unsure;
+    }
+    let tf = num / den;
+    // The float evaluation of dt itself rounds a few times: inflate it by far more.
+    let dt = (en + tf.abs() * ed) / (den.abs() - ed) * (1.0 + 1e-9)
+        + 4.0 * EPS * tf.abs()
+        + 2.0 * f64::from_bits(1); // a subnormal quotient's absolute rounding
+    if !dt.is_finite() || !tf.is_finite() {
+        return Filtered::Unsure;
+    }
+    Filtered::Meets {
+        lo: (tf - dt).next_down(),
+        hi: (tf + dt).next_up(),
+    }
+}
+
+// -- exact evaluation ------------------------------------------------------------------------
+
+/// A finite f64 as `m · 2^e` (m odd, or 0).
+fn decode(x: f64) -> (i64, i64) {
+    debug_assert!(x.is_finite());
+    let bits = x.to_bits();
+    let exp = ((bits >> 52) & 0x7ff) as i64;
+    let frac = (bits & ((1u64 << 52) - 1)) as i64;
+    let (m, e) = if exp == 0 {
+        (frac, -1074)
+    } else {
+        (frac | (1 << 52), exp - 1075)
+    };
+    if m == 0 {
+        return (0, 0);
+    }
+    let tz = m.trailing_zeros() as i64;
+    let m = m >> tz;
+    (if bits >> 63 == 1 { -m } else { m }, e + tz)
+}
+
+/// Points scaled by one power of two into integers: `v[i][k] = p[i][k] · 2^-low`.
+struct Scaled {
+    v: Vec<[BigInt; 3]>,
+    /// The power of two taken out: inputs are `v · 2^low`.
+    low: i64,
+}
+
+impl Scaled {
+    fn new(points: &[P3]) -> Scaled {
+        let dec: Vec<[(i64, i64); 3]> = points.iter().map(|p| p.map(decode)).collect();
+        let low = dec
+            .iter()
+            .flatten()
+            .filter(|(m, _)| *m != 0)
+            .map(|(_, e)| *e)
+            .min()
+            .unwrap_or(0);
+        let v = dec
+            .iter()
+            .map(|p| p.map(|(m, e)| BigInt::from(m) << (e - low) as usize))
+            .collect();
+        Scaled { v, low }
+    }
+}
+
+type B3 = [BigInt; 3];
+
+fn bsub(a: &B3, b: &B3) -> B3 {
+    [&a[0] - &b[0], &a[1] - &b[1], &a[2] - &b[2]]
+}
+
+fn bcross(a: &B3, b: &B3) -> B3 {
+    [
+        &a[1] * &b[2] - &a[2] * &b[1],
+        &a[2] * &b[0] - &a[0] * &b[2],
+        &a[0] * &b[1] - &a[1] * &b[0],
+    ]
+}
+
+fn bdot(a: &B3, b: &B3) -> BigInt {
+    &a[0] * &b[0] + &a[1] * &b[1] + &a[2] * &b[2]
+}
+
+trait SignOrd {
+    fn sign_ord(&self) -> Ordering;
+}
+
+impl SignOrd for BigInt {
+    fn sign_ord(&self) -> Ordering {
+        match self.sign() {
+            Sign::Minus => Ordering::Less,
+            Sign::NoSign => Ordering::Equal,
+            Sign::Plus => Ordering::Greater,
+        }
+    }
+}
+
+/// A pair's exact side products and `t = num / den` (scaled alike).
+struct Exact {
+    signs: [Ordering; 3],
+    num: BigInt,
+    den: BigInt,
+}
+
+impl Exact {
+    fn crossing(self) -> Option<Crossing> {
+        let pos = self.signs.iter().all(|s| s.is_ge());
+        let neg = self.signs.iter().all(|s| s.is_le());
+        let zero_signs = self.signs.iter().filter(|s| s.is_eq()).count() as u8;
+        if !(pos || neg) || zero_signs == 3 {
+            return None;
+        }
+        // Not all zero and of one sign: den is their sum, nonzero.
+        let (num, den) = if self.den.sign() == Sign::Minus {
+            (-self.num, -self.den)
+        } else {
+            (self.num, self.den)
+        };
+        Some(Crossing {
+            num,
+            den,
+            zero_signs,
+        })
+    }
+}
+
+#[cfg(test)]
+thread_local! {
+    /// Exact evaluations on this thread (tests check which path decided).
+    static EXACT_CALLS: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
+fn count_exact() {
+    #[cfg(test)]
+    EXACT_CALLS.with(|c| c.set(c.get() + 1));
+}
+
+fn exact(o: P3, d: P3, tri: &Tri) -> Exact {
+    count_exact();
+    let x = Scaled::new(&[o, d, tri[0], tri[1], tri[2]]);
+    let [o, d, a, b, c] = [0, 1, 2, 3, 4].map(|i| &x.v[i]);
+    let (u, v, w) = (bsub(a, o), bsub(b, o), bsub(c, o));
+    let (uv, vw, wu) = (bcross(&u, &v), bcross(&v, &w), bcross(&w, &u));
+    let s = [bdot(d, &uv), bdot(d, &vw), bdot(d, &wu)];
+    let num = bdot(&u, &vw);
+    let den = &s[0] + &s[1] + &s[2];
+    Exact {
+        signs: [s[0].sign_ord(), s[1].sign_ord(), s[2].sign_ord()],
+        num,
+        den,
+    }
+}
+
+/// `|d · ((b − a) × (c − a))|`, exactly, rounded to the nearest float64 (twice at worst, when
+/// it is subnormal: this feeds an error bound).
+fn exact_den_abs(o: P3, d: P3, tri: &Tri) -> f64 {
+    let x = Scaled::new(&[o, d, tri[0], tri[1], tri[2]]);
+    let [d, a, b, c] = [1, 2, 3, 4].map(|i| &x.v[i]);
+    let den = bdot(d, &bcross(&bsub(b, a), &bsub(c, a)));
+    // den is of degree 3 in the scaled inputs: the true value is den · 2^(3 low).
+    ldexp(round_quotient(&den, &BigInt::from(1)), 3 * x.low).abs()
+}
+
+/// `x · 2^e` (exact whenever the result is representable).
+fn ldexp(mut x: f64, mut e: i64) -> f64 {
+    let pow2 = |k: i64| f64::from_bits(((k + 1023) as u64) << 52);
+    while e > 1000 {
+        x *= pow2(1000);
+        e -= 1000;
+        if x.is_infinite() || x == 0.0 {
+            return x;
+        }
+    }
+    while e < -1000 {
+        x *= pow2(-1000);
+        e += 1000;
+        if x == 0.0 {
+            return x;
+        }
+    }
+    x * pow2(e)
+}
+
+/// `num / den` rounded to the nearest float64, ties to even (`±inf` beyond the range, signed
+/// zero below it). `den` must not be zero.
+pub fn round_quotient(num: &BigInt, den: &BigInt) -> f64 {
+    assert!(!den.is_zero(), "round_quotient: zero denominator");
+    let negative = (num.sign() == Sign::Minus) != (den.sign() == Sign::Minus);
+    let signed = |x: f64| if negative { -x } else { x };
+    if num.is_zero() {
+        return 0.0;
+    }
+    let (n, d): (&BigUint, &BigUint) = (num.magnitude(), den.magnitude());
+    // q = floor(n 2^k / d) has 55 or 56 bits: two more than float64's 53 and a sticky bit.
+    let k = d.bits() as i64 - n.bits() as i64 + 55;
+    let (nn, dd) = if k >= 0 {
+        (n << k as usize, d.clone())
+    } else {
+        (n.clone(), d << (-k) as usize)
+    };
+    let q_big = &nn / &dd;
+    let sticky = !(&nn - &q_big * &dd).is_zero();
+    let q = q_big.to_u64().expect("56 bits at most");
+    let qb = 64 - q.leading_zeros() as i64;
+    // The value is (q + frac) 2^-k, with floor(log2) = qb - 1 - k.
+    let e = qb - 1 - k;
+    if e > 1023 {
+        return signed(f64::INFINITY);
+    }
+    // Significant bits available at that exponent (fewer for subnormals).
+    let p = if e >= -1022 { 53 } else { 53 - (-1022 - e) };
+    let drop = qb - p; // ≥ 2
+    let m = if drop >= 64 {
+        0 // q < 2^56 ≤ half an ulp: rounds to zero
+    } else {
+        let m = q >> drop;
+        let rest = q & ((1u64 << drop) - 1);
+        let half = 1u64 << (drop - 1);
+        let up = rest > half || (rest == half && (sticky || m & 1 == 1));
+        m + up as u64
+    };
+    signed(ldexp(m as f64, drop - k))
+}
