@@ -226,10 +226,9 @@ def run_scene_bench(path=None, *, preset="quality", width=1024, height=1024, rep
         + ", ".join(f"{k} {b / 1e6:.1f}" for k, b in mem.items()))
     out("peers: " + "; ".join(f"{p.name} = {p.label}" for p in peers)
         + "".join(f"; skipped: {w}" for w in results["peers_skipped"]))
-    out(f"every caster: the same float32 rays, the same threads, dynamic chunks (tetrace: "
-        f"{TetraceCaster(scene, '', '').schedule(ncpu).split(': ', 1)[1]}; "
-        + "; ".join(f"{p.name}: {p.schedule(ncpu).split(': ', 1)[1]}" for p in peers)
-        + "), one untimed warm-up, best of the timed casts")
+    ours = TetraceCaster(scene, methods[0], layouts[0])
+    out("every caster: the same float32 rays, an untimed warm-up, the best of the timed casts; "
+        "at 'all': " + "; ".join(f"{c.name} on {c.schedule(ncpu)}" for c in [ours] + peers))
     out(_table(rows, ["caster", "method", "layout", "precision", "order", "threads", "Mrays/s",
                       "x embreex", "tets/ray", "bytes/tet", "agree w/ embreex"]))
     if gpu_rows:
