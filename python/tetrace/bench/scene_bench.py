@@ -14,16 +14,6 @@ from ..hits import HIT
 from ..scene import LAYOUT_BYTES, Scene, default_scene_path
 
 
-def _best(fn, repeat):
-    """Best wall time of `repeat` calls, and the last result."""
-    best, out = np.inf, None
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t0)
-    return best, out
-
-
 def configurations(methods, layouts, precisions, threads):
     """Every (method, layout, precision, threads) of a bench run, but tet80 in float64
     (its records hold float32 coordinates: there is no such walk)."""
