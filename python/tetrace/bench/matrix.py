@@ -31,6 +31,7 @@ from __future__ import annotations
 import argparse
 import csv
 import json
+import textwrap
 import time
 from pathlib import Path
 
@@ -261,9 +262,7 @@ def charts(rows, folder):
                            edgecolors="k" if r["device"] == "gpu" else "none")
             else:
                 ax.scatter(r["ratio"], _disagreement(r), color="k", marker="*", s=80)
-                # The peer's exact label: library and version, then the call and its flag.
-                ax.annotate(r.get("label", r["caster"]).replace(": ", ":\n", 1),
-                            (r["ratio"], _disagreement(r)), fontsize=5)
+                ax.annotate(r["caster"], (r["ratio"], _disagreement(r)), fontsize=7)
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_title(f"{scene} ({top} threads)", fontsize=9)
@@ -274,8 +273,18 @@ def charts(rows, folder):
     handles = [plt.Line2D([], [], marker="o", ls="", color=colors[s], label=s) for s in settings]
     handles += [plt.Line2D([], [], marker="o", ls="", color="gray", label="f32"),
                 plt.Line2D([], [], marker="^", ls="", color="gray", label="f64")]
-    fig.legend(handles=handles, loc="lower center", ncol=min(len(handles), 6), fontsize=8)
-    fig.tight_layout(rect=(0, 0.08, 1, 1))
+    # What each peer is, exactly (its label), under the legend, wrapped to the figure.
+    peers = dict.fromkeys((r["caster"], r.get("label", r["caster"]))
+                          for r in ok if r["caster"] != "tetrace")
+    width = int(fig.get_figwidth() * 20)  # characters of 6-point text per line
+    notes = [line for caster, label in peers
+             for line in textwrap.wrap(f"{caster}: {label}", width, subsequent_indent="    ")]
+    line_h = 0.12 / fig.get_figheight()  # 6-point lines, in figure fractions
+    for i, note in enumerate(notes):
+        fig.text(0.01, 0.01 + line_h * (len(notes) - 1 - i), note, fontsize=6)
+    fig.legend(handles=handles, loc="lower center", bbox_to_anchor=(0.5, line_h * len(notes)),
+               ncol=min(len(handles), 6), fontsize=8)
+    fig.tight_layout(rect=(0, 0.08 + line_h * len(notes), 1, 1))
     paths["speed_accuracy"] = folder / "speed_accuracy.png"
     fig.savefig(paths["speed_accuracy"], dpi=110)
     plt.close(fig)
