@@ -94,6 +94,8 @@ pub struct Verdict {
     pub zero_signs: u8,
     /// `B` of docs/referee.md on the first tie ([`t_bound`]).
     pub bound: f64,
+    /// The first tie's crossing: `t*` exactly.
+    pub exact: Crossing,
 }
 
 impl Verdict {
@@ -255,13 +257,14 @@ pub fn first_hit_by(
     let first = first?.clone();
     // Contenders are in the order of `tris`: the ties come out ascending.
     contenders.retain(|(_, x)| x.cmp(&first) == Ordering::Equal);
-    let (k0, x0) = &contenders[0];
+    let k0 = contenders[0].0;
     let t = first.t();
     Some(Verdict {
         t,
         ties: contenders.iter().map(|(k, _)| *k).collect(),
-        zero_signs: x0.zero_signs,
-        bound: t_bound(o, d, &tris[*k0], t),
+        zero_signs: contenders[0].1.zero_signs,
+        bound: t_bound(o, d, &tris[k0], t),
+        exact: contenders.swap_remove(0).1,
     })
 }
 

@@ -308,6 +308,11 @@ fn judge_precedence() {
         ties: vec![3, 5],
         zero_signs: 1,
         bound: 1e-15,
+        exact: Crossing {
+            num: BigInt::from(2),
+            den: BigInt::from(1),
+            zero_signs: 1,
+        },
     };
     let u = ulp_f64(2.0);
     let j = |failed, h| judge(Some(&v), failed, h, u);
