@@ -128,14 +128,14 @@ fn exact_faces(v: &[V3<f64>; 4], p: V3<f64>, d: V3<f64>) -> Option<(u8, u8)> {
         .enumerate()
         .filter_map(|(i, f)| referee::crossing(p, d, &f.map(|k| v[k])).map(|x| (i, x)))
         .collect();
-    let first = met.iter().map(|m| &m.1).min_by(|x, y| x.cmp(y))?;
-    let last = met.iter().map(|m| &m.1).max_by(|x, y| x.cmp(y))?;
-    if first.cmp(last) == Ordering::Equal {
+    let first = met.iter().map(|m| &m.1).min_by(|x, y| x.cmp_t_of(y))?;
+    let last = met.iter().map(|m| &m.1).max_by(|x, y| x.cmp_t_of(y))?;
+    if first.cmp_t_of(last) == Ordering::Equal {
         return None;
     }
     let mask = |at: &referee::Crossing| {
         met.iter()
-            .filter(|(_, x)| x.cmp(at) == Ordering::Equal)
+            .filter(|(_, x)| x.cmp_t_of(at) == Ordering::Equal)
             .fold(0u8, |m, (i, _)| m | 1 << i)
     };
     Some((mask(first), mask(last)))
@@ -151,7 +151,13 @@ fn bounds(v: &[V3<f64>; 4]) -> [V3<f64>; 2] {
 /// Nanoseconds per decision (best of `repeat` passes) and how many decisions are not among
 /// the exact exit faces.
 pub fn time_method<R: Real, M: ExitMethod<R>>(cases: &[Case], repeat: usize) -> (f64, usize) {
-    let prepared: Vec<(M::Ray, [M::Vert; 3], [V3<R>; 4])> = cases
+    // Per case: the prepared ray, the entry face's vertex data and the four corners.
+    type Prepared<R, M> = (
+        <M as ExitMethod<R>>::Ray,
+        [<M as ExitMethod<R>>::Vert; 3],
+        [V3<R>; 4],
+    );
+    let prepared: Vec<Prepared<R, M>> = cases
         .iter()
         .map(|c| {
             let ray = M::prepare(c.origin, c.dir, &bounds(&c.corners));

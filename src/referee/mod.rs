@@ -78,7 +78,7 @@ impl Crossing {
     }
 
     /// The sign of `t − other.t`, exactly.
-    pub fn cmp(&self, other: &Crossing) -> Ordering {
+    pub fn cmp_t_of(&self, other: &Crossing) -> Ordering {
         (&self.num * &other.den).cmp(&(&other.num * &self.den))
     }
 }
@@ -250,13 +250,13 @@ pub fn first_hit_by(
         .collect();
     let mut first: Option<&Crossing> = None;
     for (_, x) in &contenders {
-        if first.is_none_or(|f| x.cmp(f) == Ordering::Less) {
+        if first.is_none_or(|f| x.cmp_t_of(f) == Ordering::Less) {
             first = Some(x);
         }
     }
     let first = first?.clone();
     // Contenders are in the order of `tris`: the ties come out ascending.
-    contenders.retain(|(_, x)| x.cmp(&first) == Ordering::Equal);
+    contenders.retain(|(_, x)| x.cmp_t_of(&first) == Ordering::Equal);
     let k0 = contenders[0].0;
     let t = first.t();
     Some(Verdict {
@@ -413,7 +413,7 @@ fn filter(o: P3, d: P3, tri: &Tri) -> Filtered {
     let en = FILTER * perm(u, v, w);
     let den = s[0] + s[1] + s[2];
     let ed = FILTER * (p[0] + p[1] + p[2]) + 3.0 * EPS * (s[0].abs() + s[1].abs() + s[2].abs());
-    if !(den.abs() > ed) {
+    if den.abs().partial_cmp(&ed) != Some(Ordering::Greater) {
         return Filtered::Unsure;
     }
     let tf = num / den;

@@ -317,8 +317,7 @@ pub(crate) fn check_exact_exit_faces<R: Real, M: ExitMethod<R>>() {
     }
     // Enter through face e (its outward order reversed is counter-clockwise around the ray),
     // leave through each other face x.
-    for e in 0..4 {
-        let f = OUTWARD_FACES[e];
+    for (e, &f) in OUTWARD_FACES.iter().enumerate() {
         let (a, b, c, d) = (f[0], f[2], f[1], e);
         let entry = centroid(f);
         for (target, want) in [
@@ -666,11 +665,24 @@ fn robust_survives_rays_through_vertices_and_edges() {
             continue;
         }
         assert_eq!(failed, 0, "robust: {failed} of {n} degenerate rays FAILED");
-        assert_eq!(c.wrong, 0, "robust: a hit the referee rules out (or off its t)");
+        assert_eq!(
+            c.wrong, 0,
+            "robust: a hit the referee rules out (or off its t)"
+        );
         for k in 0..n {
             let ok = [0, 1, 2].map(|a| o[3 * k + a]);
             let dk = [0, 1, 2].map(|a| d[3 * k + a]);
-            assert_between_touch_and_inside(k, res.status[k], res.tri[k], res.t[k], ok, dk, &tris);
+            let (status, tri, t) = (res.status[k], res.tri[k], res.t[k]);
+            assert_between_touch_and_inside(
+                k,
+                status,
+                tri,
+                Some(t),
+                ok,
+                dk,
+                &tris,
+                want[k].as_ref(),
+            );
         }
     }
 }
@@ -678,35 +690,43 @@ fn robust_survives_rays_through_vertices_and_edges() {
 /// Where a ray touches a triangle only on its boundary, hit and miss are both right (a line
 /// nudged either way does one or the other); a hit strictly inside a triangle is not
 /// optional. So a hit lies at t_touch <= t <= t_inside, and a miss has no t_inside: t_touch
-/// is the referee's first hit (closed triangles), t_inside its first crossing strictly inside
-/// a triangle (no zero side product), both exact. The hit's triangle must be one the ray's
-/// line crosses, at t within ulp(t) + B of the crossing (as [`agreement`]).
-fn assert_between_touch_and_inside(
+/// is the referee's first hit (closed triangles; `touch`, the ray's verdict), t_inside its
+/// first crossing strictly inside a triangle (no zero side product), both exact. The hit's
+/// triangle must be one the ray's line crosses, at `t` (of the output type R; `None`: not
+/// checked) within ulp_R + B of the crossing (as [`agreement`]).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn assert_between_touch_and_inside<R: Real>(
     k: usize,
     status: u8,
     tri: i32,
-    t: f64,
+    t: Option<R>,
     o: [f64; 3],
     d: [f64; 3],
     tris: &[[[f64; 3]; 3]],
+    touch: Option<&Verdict>,
 ) {
-    let inf = f64::INFINITY;
-    let touch = referee::first_hit(o, d, 0.0, inf, tris);
-    let inside = referee::first_hit_by(o, d, 0.0, inf, tris, |zeros| zeros == 0);
+    let inside = referee::first_hit_by(o, d, 0.0, f64::INFINITY, tris, |zeros| zeros == 0);
     if status == HIT {
         let tri = tris[tri as usize];
         let c = referee::crossing(o, d, &tri)
             .unwrap_or_else(|| panic!("ray {k}: its line does not cross triangle {tri:?}"));
         let tc = c.t();
-        let tol = referee::ulp_f64(tc) + referee::t_bound(o, d, &tri, tc);
-        assert!((t - tc).abs() <= tol, "ray {k}: t {t} vs crossing {tc}");
-        let touch = touch.unwrap_or_else(|| panic!("ray {k}: hit at {t}, no triangle touched"));
+        if let Some(t) = t.map(R::to_f64) {
+            let ulp = if R::NAME == "f32" {
+                referee::ulp_f32(tc)
+            } else {
+                referee::ulp_f64(tc)
+            };
+            let tol = ulp + referee::t_bound(o, d, &tri, tc);
+            assert!((t - tc).abs() <= tol, "ray {k}: t {t} vs crossing {tc}");
+        }
+        let touch = touch.unwrap_or_else(|| panic!("ray {k}: hit at {tc}, no triangle touched"));
         assert!(
-            c.cmp(&touch.exact).is_ge(),
+            c.cmp_t_of(&touch.exact).is_ge(),
             "ray {k}: crossing at {tc} before any triangle {touch:?}"
         );
         assert!(
-            inside.as_ref().is_none_or(|b| c.cmp(&b.exact).is_le()),
+            inside.as_ref().is_none_or(|b| c.cmp_t_of(&b.exact).is_le()),
             "ray {k}: crossing at {tc} after a sure hit {inside:?}"
         );
     } else {
@@ -765,9 +785,10 @@ fn robust_rays_from_the_domain_boundary() {
     // need not hit; the bracket below is what robust guarantees, and it never reports a hit
     // the contract rules out (0 `wrong` in float64). The float32 rays are the float64 ones
     // rounded: they need not pass through the grid points, so only recorded.
+    let want64 = verdicts(&o, &d, &tris);
     let c64 = tally(
         "boundary robust f64",
-        &verdicts(&o, &d, &tris),
+        &want64,
         &res.status,
         &res.tri,
         &res.t,
@@ -782,7 +803,10 @@ fn robust_rays_from_the_domain_boundary() {
         &res32.t,
     );
     eprintln!("boundary robust of {n} rays: f64 {c64:?}, f32 {c32:?}");
-    assert_eq!(c64.wrong, 0, "robust f64: a hit the referee rules out (or off its t)");
+    assert_eq!(
+        c64.wrong, 0,
+        "robust f64: a hit the referee rules out (or off its t)"
+    );
     let on_scene: std::collections::HashSet<u32> = faces.iter().flatten().copied().collect();
     let mut from_scene = 0;
     for k in 0..n {
@@ -791,7 +815,8 @@ fn robust_rays_from_the_domain_boundary() {
         // Starts on a scene triangle's vertex: a hit at t = 0 and none are both right, as the
         // bracket allows (t_touch = 0).
         from_scene += (k % 2 == 0 && on_scene.contains(&((k / 8) as u32))) as usize;
-        assert_between_touch_and_inside(k, res.status[k], res.tri[k], res.t[k], ok, dk, &tris);
+        let (status, tri, t) = (res.status[k], res.tri[k], res.t[k]);
+        assert_between_touch_and_inside(k, status, tri, Some(t), ok, dk, &tris, want64[k].as_ref());
     }
     assert!(from_scene > 0, "no ray starts on a scene triangle");
 }
