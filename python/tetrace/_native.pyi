@@ -20,6 +20,18 @@ def exitface_bench(
     n_tets: int = 10_000, rays_per_tet: int = 16, seed: int = 1, repeat: int = 5
 ) -> list[tuple[str, str, float, int]]: ...
 
+# The Rust twin of the exact referee (src/referee), brute force over every triangle: "hit"
+# (bool), "t" (float64, inf on a miss), "triangle" (int64, smallest tied id, -1 on a miss),
+# "ties" (int64, size of the tie set). tmin/tmax: (N,) or (1,).
+def referee_first_hit(
+    vertices: npt.NDArray[np.float64],
+    faces: npt.NDArray[np.integer],
+    origins: npt.NDArray[np.float64],
+    directions: npt.NDArray[np.float64],
+    tmin: npt.NDArray[np.float64],
+    tmax: npt.NDArray[np.float64],
+) -> dict[str, np.ndarray]: ...
+
 def gpu_adapters() -> list[dict[str, Any]]: ...
 def gpu_device() -> dict[str, Any]: ...
 def gpu_kernels() -> list[tuple[str, str]]: ...
