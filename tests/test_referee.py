@@ -182,3 +182,33 @@ def test_judge_outcomes():
 def test_ulp():
     assert ulp(1.0, np.float32) == 2.0 ** -23
     assert ulp(1.0, np.float64) == 2.0 ** -52
+
+
+def test_python_and_rust_twins_agree():
+    """The two referees are written independently (numpy + Python integers; Rust + BigInt):
+    on random and deliberately degenerate rays they must give the same hit, t, first triangle
+    and tie count, bit for bit."""
+    from tetrace import _native
+
+    rng = np.random.default_rng(12)
+    g = np.stack(np.meshgrid(*[np.arange(4.0)] * 3, indexing="ij"), -1).reshape(-1, 3)
+    v = g * 0.25 + rng.integers(-2, 3, g.shape) / 64.0  # dyadic, with exact coplanar runs
+    f = rng.integers(0, len(v), (300, 3))
+    f = f[(f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])]
+    n = 6000
+    o = rng.integers(-4, 20, (n, 3)) / 16.0
+    aim = v[rng.integers(0, len(v), n)]  # exactly through vertices: ties and zero signs
+    other = v[f[rng.integers(0, len(f), n)]].mean(1)
+    d = np.where(rng.random((n, 1)) < 0.5, aim - o, other - o)
+    free = rng.random(n) < 0.1
+    d[free] = rng.standard_normal((free.sum(), 3))
+    d[np.all(d == 0, axis=1)] = 1.0
+    tmin = np.where(rng.random(n) < 0.2, rng.random(n), 0.0)
+    tmax = np.full(n, np.inf)
+    py = Referee(v, f).first_hits(o, d, tmin, tmax)
+    rs = _native.referee_first_hit(v, f.astype(np.int64), o, d, tmin, tmax)
+    np.testing.assert_array_equal(py.hit, rs["hit"])
+    np.testing.assert_array_equal(py.t, rs["t"])
+    np.testing.assert_array_equal(py.triangle, rs["triangle"])
+    np.testing.assert_array_equal(py.ties, rs["ties"])
+    assert (py.ties > 1).sum() > 100 and py.hit.sum() > n // 4  # the rays are the hard kind
