@@ -398,8 +398,9 @@ pub fn default_max_steps(n_tets: usize) -> u32 {
     (n_tets as u64 + 1).min(1 << 20) as u32
 }
 
-/// The exit-face micro-benchmark: (method, precision, ns per decision, decisions that differ
-/// from the float64 reference) for every method and precision, one thread.
+/// The exit-face micro-benchmark: (method, precision, ns per decision, decisions that are not
+/// among the exact exit faces of the line, decided by the referee) for every method and
+/// precision, one thread.
 #[pyfunction]
 #[pyo3(signature = (n_tets=10_000, rays_per_tet=16, seed=1, repeat=5))]
 fn exitface_bench(

@@ -10,7 +10,7 @@ def agreement_main(argv):
     from .agreement import run_agreement
 
     p = argparse.ArgumentParser(prog="python -m tetrace.bench agreement",
-                                description="Agreement with embreex on the acceptance rays.")
+                                description="tetrace and embreex judged by the exact referee on the acceptance rays.")
     p.add_argument("scenes", nargs="*", help="mesh files (default: the bundled scene)")
     p.add_argument("--res", type=int, default=1024)
     p.add_argument("--random", type=int, default=100_000)
@@ -66,7 +66,7 @@ def exitface_main(argv):
     print(f"exit-face decisions: {args.tets:,} random tets x {args.rays_per_tet} rays = {n:,} "
           f"decisions per method, best of {args.repeat}, one thread")
     print(_table([[m, p, f"{ns:.2f}", f"{wrong}"] for m, p, ns, wrong in rows],
-                 ["method", "precision", "ns/decision", "differ from f64 ref"]))
+                 ["method", "precision", "ns/decision", "not an exact exit face"]))
     return 0
 
 
