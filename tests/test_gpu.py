@@ -1,16 +1,25 @@
-"""GPU casting (issue 6): every kernel against its CPU twin, device selection, errors.
+"""GPU casting (issue 6): every kernel judged by the exact referee and against its CPU twin,
+device selection, errors.
 
-The acceptance: on the bunny's camera rays (1024^2) and 10^5 random rays, each GPU kernel
-returns the triangle ids of its CPU twin (the float32 walk with the same method and layout)
-on >= 99.99% of rays, t within 1e-6 relative, and no FAILED ray; the robust kernel returns
-exactly what the CPU robust walk returns. Tests that need a GPU adapter (Mesa's lavapipe is
-enough; .ci/run installs it) fail without one, unless TETRACE_SKIP_GPU=1 is set: then they
-skip, saying so (conftest.gpu_device).
+On the bunny's camera rays (1024^2) and 10^5 random rays, each GPU kernel's answers are judged
+by the exact referee (docs/referee.md) on the numbers passed in: the caller's triangles and the
+float32 rays. The GPU walks the float32 rays on the mesh rounded to float32, as its CPU twin
+(the float32 walk with the same method and layout) does, so neither is exact for the mesh
+passed in; the referee's counts (right, leaked, late, wrong) are printed for both, and what can
+be derived is asserted: no FAILED ray, and ``t`` on a tied triangle within the referee's bound
+(0 ``t off``). Against the twin: the robust kernel returns exactly what the CPU robust walk
+returns (certified signs, deferral to the CPU otherwise: docs/gpu.md); the float32 kernels run
+the twin's operations in the twin's order, so on a driver that neither fuses multiply-adds nor
+meets a subnormal they make the twin's decisions on every ray (``_NO_FMA_DRIVERS``, derived in
+``_twin_must_match``). Tests that need a GPU adapter (Mesa's lavapipe is enough; .ci/run
+installs it) fail without one, unless TETRACE_SKIP_GPU=1 is set: then they skip, saying so
+(conftest.gpu_device).
 """
 
 import os
 import subprocess
 import sys
+import warnings
 
 import numpy as np
 import pytest
@@ -18,6 +27,8 @@ import pytest
 import tetrace
 from tetrace import gpu
 from tetrace.camera import orbit_views, pinhole, random_rays
+from tetrace.compare import agreement
+from tetrace.referee import Referee
 
 from conftest import gpu_device
 
@@ -81,46 +92,89 @@ def test_no_adapter_is_a_clear_error():
     assert lines["AUTO"] == "AUTO True float32"
 
 
-def _parity(scene, o, d, method, layout, **kw):
-    """GPU and CPU-twin hits, and the agreement numbers."""
-    cpu = scene.cast(o, d, method=method, layout=layout, precision="f32", **kw)
-    hits = scene.cast(o, d, method=method, layout=layout, device="gpu", **kw)
-    same = (cpu.triangle == hits.triangle) & (cpu.status == hits.status)
-    both = same & (cpu.status == tetrace.HIT)
-    rel = np.abs(cpu.t[both].astype(np.float64) - hits.t[both]) / np.abs(cpu.t[both])
-    return cpu, hits, same, rel
+#: Drivers known to evaluate WGSL's float32 arithmetic as written: Mesa's llvmpipe (lavapipe)
+#: lowers every fused multiply-add NIR could form back to a multiply and an add
+#: (``lower_ffma32 = true`` in gallivm's ``nir_shader_compiler_options``) and emits LLVM IR
+#: without the ``contract`` fast-math flag, so LLVM fuses nothing either.
+_NO_FMA_DRIVERS = ("llvmpipe",)
 
 
-def _check(scene, o, d, what):
+def _twin_must_match(device):
+    """Whether the float32 kernels must make their twin's decision on every ray here.
+
+    Derivation: each kernel performs the twin's float32 operations in the twin's order
+    (docs/gpu.md: the host prepares the ray with the twin's own ``prepare``, products are
+    written out, the walk is a line-by-line translation), and the CPU finishes both (t, u, v
+    on the caller's triangle). WGSL's accuracy rules leave a driver two ways to differ:
+    contracting ``a*b + c`` into a fused multiply-add, and flushing subnormals. On a driver in
+    ``_NO_FMA_DRIVERS`` the first cannot happen. A flush changes a result only where a
+    subnormal (below 2^-126, about 1.2e-38) occurs: in a sign test of a 2D determinant
+    ``x_p y_q - y_p x_q`` a nonzero difference of two float32 products is at least the ulp of
+    the smaller one, so a flush needs a product below about 2^-103 (1e-31), a vertex whose
+    projection is within about 1e-30 of the ray for coordinates of order 0.1 (the bunny's);
+    a vertex exactly on the ray's plane gives an exact 0, not a subnormal. The rays here are
+    not built to pass that close, and if one did, this test would fail on it and print
+    it, not absorb it. Elsewhere (a driver that may contract) the kernels may differ from
+    the twin where a sign is within an ulp of zero: the differences are counted, judged by
+    the referee and reported with a warning, not bounded by a number from a run.
+    """
+    return device.get("driver") in _NO_FMA_DRIVERS
+
+
+def _verdict(scene, o, d):
+    """The exact referee's answers for float32 rays on the caller's triangles (taken exactly)."""
+    hint = scene.cast(o, d, method="robust", precision="f32").triangle  # speeds it up only
+    return Referee(scene.vertices, scene.faces).first_hits(o, d, hint=hint)
+
+
+def _check(scene, o, d, what, device):
+    verdict = _verdict(scene, o, d)
+    # The rays are worth judging: the referee (not the code under test) finds hits on more
+    # than a tenth of them, so the judgement below cannot pass vacuously.
+    assert verdict.hit.mean() > 0.1, f"{what}: the referee finds {verdict.hit.sum()} hits"
+    exact_twin = _twin_must_match(device)
     for method, layout in gpu.kernels():
-        cpu, hits, same, rel = _parity(scene, o, d, method, layout)
+        cpu = scene.cast(o, d, method=method, layout=layout, precision="f32")
+        hits = scene.cast(o, d, method=method, layout=layout, device="gpu")
         t = scene.gpu_timings
-        msg = (f"{what} {method}/{layout}: {(~same).sum()} of {len(o)} rays differ, "
-               f"max rel dt {rel.max(initial=0):.1e}, timings {t}")
+        g, c = agreement(hits, verdict), agreement(cpu, verdict)
+        differ = np.flatnonzero((cpu.triangle != hits.triangle) | (cpu.status != hits.status)
+                                | (cpu.tet != hits.tet) | (cpu.steps != hits.steps))
+        msg = (f"{what} {method}/{layout}: GPU against the referee: {g}; CPU twin: {c}; "
+               f"{len(differ)} of {len(o)} rays differ from the twin {differ[:10].tolist()}; "
+               f"timings {t}")
         print(msg)
         assert hits.t.dtype == np.float32
-        assert (hits.status == tetrace.HIT).mean() > 0.1, msg
-        assert not (hits.status == tetrace.FAILED).any(), msg
-        assert same.mean() >= 0.9999, msg
-        assert rel.max(initial=0) <= 1e-6, msg
         assert t["walked"] > 0 and t["kernel"] > 0, msg
-        if method == "robust":
-            # Certified signs on the GPU, exact ones on the CPU: the same walk, ray for ray.
-            assert same.all(), msg
-            np.testing.assert_array_equal(cpu.tet, hits.tet)
-            np.testing.assert_array_equal(cpu.steps, hits.steps)
-            np.testing.assert_array_equal(cpu.t, hits.t)
+        # Derived bounds, every kernel: no ray gives up (a FAILED ray is a cycle or the step
+        # guard: the walk's contract is to end on a face or the box), and on a tied triangle t
+        # is the float64 Moller-Trumbore quotient on the caller's triangle rounded to float32,
+        # within ulp_f32(t*) + B of the exact t* (docs/referee.md): no "t off".
+        assert g.failed == 0 and c.failed == 0, msg
+        assert g.t_off == 0 and c.t_off == 0, msg
+        if method == "robust" or exact_twin:
+            # robust: certified signs on the GPU, exact ones on the CPU, deferral when unsure:
+            # the same walk, ray for ray (docs/gpu.md). The float32 kernels on a driver that
+            # does not contract: the twin's operations in its order (_twin_must_match).
+            assert len(differ) == 0, msg
+            for f in ("status", "triangle", "tet", "steps", "t", "u", "v"):
+                np.testing.assert_array_equal(getattr(cpu, f), getattr(hits, f), err_msg=f)
+        elif len(differ):
+            warnings.warn(f"{msg}: driver {device.get('driver')!r} may fuse multiply-adds, "
+                          f"which WGSL allows; the differing rays are judged above")
+    return verdict
 
 
 def test_bunny_camera_and_random_rays_match_cpu_twin(scene_path, device):
+    """Judged by the referee, and against the CPU twin (see _check)."""
     scene = tetrace.Scene.from_mesh(scene_path("bunny.obj"))
     v = scene.vertices
     bounds = np.array([v.min(0), v.max(0)])
     eye, target, up = orbit_views(bounds, n=1, distance=1.6)[0]
     o, d = pinhole(eye, target, up, fov_deg=40.0, width=1024, height=1024, dtype=np.float32)
-    _check(scene, o, d, "bunny camera 1024^2")
+    _check(scene, o, d, "bunny camera 1024^2", device)
     o, d = random_rays(bounds, 100_000, seed=1234, grow=0.25, dtype=np.float32)
-    _check(scene, o, d, "bunny 10^5 random")
+    _check(scene, o, d, "bunny 10^5 random", device)
 
 
 def test_gpu_hits_fields_and_options(spot, device):
@@ -131,6 +185,10 @@ def test_gpu_hits_fields_and_options(spot, device):
     for f in ("t", "u", "v", "point", "triangle", "tet", "steps", "status"):
         np.testing.assert_array_equal(getattr(h, f), getattr(ref, f), err_msg=f)
     assert (h.status == tetrace.HIT).any()
+    # Judged by the referee too (the twin is no judge): bounds as in _check.
+    score = agreement(h, _verdict(spot, o, d))
+    print(f"spot 64^2 GPU against the referee: {score}")
+    assert score.failed == 0 and score.t_off == 0, score
     assert spot.memory()["gpu_tet20"] > 0
     # float64 rays walk in float32 on the GPU; float64 walks are refused there.
     h64 = spot.cast(o.astype(np.float64), d.astype(np.float64), device="gpu")
