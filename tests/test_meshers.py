@@ -4,7 +4,8 @@ time limits, the snap-rounding ladder, fTetWild (``pytetwild``) and the fallback
 fTetWild tests need ``pytetwild`` (in the ``test`` extra): they skip without it locally
 and fail under CI. A fTetWild mesh is checked like a TetGen one except that its
 constrained faces lie within the envelope of the input instead of on it, and its box is
-fTetWild's own; rays cast through it are compared with Embree.
+fTetWild's own; rays cast through it are judged by the exact referee, on the surface the walk
+sees and on the input, with what the envelope guarantees (``_judge_ftetwild``).
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ import pytest
 import tetrace
 from tetrace import meshing, synthetic
 from tetrace.camera import orbit_views, pinhole, random_rays
-from tetrace.compare import compare, same_plane
+from tetrace.compare import agreement
 from tetrace.meshing import (
     PRESETS,
     MeshingError,
@@ -36,7 +37,7 @@ from tetrace.meshing import (
     tetgen_options,
     tetrahedralize,
 )
-from tetrace.reference import embree_scene
+from tetrace.referee import Referee
 
 from conftest import skip_or_fail
 from test_meshing import check_ct, face_keys
@@ -372,21 +373,160 @@ def test_exact_orientations_decide_what_float64_cannot():
                zip(vol, want, err))
 
 
-def _agreement(scene, n_res=256):
-    v, f = scene.vertices, scene.faces
-    bounds = np.array([v.min(0), v.max(0)])
-    ref = embree_scene((v, f))
+def _ray_sets(vertices, n_res, n_random=50_000):
+    """A pinhole camera (1.6 bounding radii, 40 degrees, ``n_res``^2) and ``n_random`` rays in
+    and around the scene, float64: the rays every scene check below casts."""
+    bounds = np.array([vertices.min(0), vertices.max(0)])
     eye, target, up = orbit_views(bounds, n=1, distance=1.6)[0]
-    sets = [pinhole(eye, target, up, fov_deg=40.0, width=n_res, height=n_res, dtype=np.float64),
-            random_rays(bounds, 50_000, seed=7, grow=0.25)]
-    out = []
-    for o, d in sets:
-        h = scene.cast(o, d)
-        r = ref.cast(o.astype(np.float32), d.astype(np.float32))
-        a = compare(h, r, v, f, origins=o, directions=d)
-        hit_differ = int(((h.status == tetrace.HIT) != (r.status == tetrace.HIT)).sum())
-        out.append((a, hit_differ, (a.agree + same_plane(h, r, v, f)) / a.rays))
-    return out
+    return [("camera", *pinhole(eye, target, up, fov_deg=40.0, width=n_res, height=n_res,
+                                dtype=np.float64)),
+            ("random", *random_rays(bounds, n_random, seed=7, grow=0.25))]
+
+
+def _named_outside(hits, surface, face_triangle, offsets, ids):
+    """Rays hit by the cast whose triangle no face of the surface referee's tie set may name.
+
+    A hit on a constrained face names the triangle the face names or one of that triangle's
+    vertex neighbours (``Scene``'s alternatives: :func:`tetrace.meshing.neighbour_triangles`).
+    """
+    hit = np.flatnonzero((hits.status == tetrace.HIT) & surface.hit)
+    tri = hits.triangle[hit]
+    # Most rays name the triangle of the face they cross: settled without the loop.
+    rest = hit[tri != face_triangle[surface.triangle[hit]]]
+    bad = []
+    for i in rest:
+        t = hits.triangle[i]
+        names = [face_triangle[f] for f in surface.tie_set(i)]
+        if not any(t == n or t in ids[offsets[n]:offsets[n + 1]] for n in names):
+            bad.append(int(i))
+    return bad
+
+
+#: Generous bound on float64 rounding, relative to the largest coordinate involved (M): the
+#: crossing point o + t* d is within 3u M of exact per coordinate, a point-to-segment distance
+#: and sin/cot of the crossing angle within a few tens of u (u = 2^-53); 2^-40 = 8192 u.
+SLACK = 2.0 ** -40
+
+
+def _must_hit(o, d, vertices, faces, inp, surface, eps_abs):
+    """Rays the surface must stop, and those it does not stop in time (derivation below).
+
+    Premise: the surface contains the image of the input under a continuous map moving no
+    point farther than ``eps_abs``. fTetWild (envelope ``eps_abs``): its guarantee, with its
+    surface being the input's triangles as inserted, moved only within the envelope,
+    connections kept, and tetrace recovering all of it (every face within the envelope and
+    parallel to its triangle); a hole fTetWild or the recovery leaves shows up here. Snap
+    rounding (``eps_abs`` = how far it moves a point): by construction.
+
+    Let the input referee's first hit be at ``t*`` on one triangle T (one tie, no side product
+    zero: strictly inside), at P* = o + t* d, the ray making angle a with T's plane. Take the
+    disc U of T about P* of radius r = dist(P*, edges of T), and the ray's segment s where it
+    is within ``eps_abs`` of T's plane: |t - t*| <= eps_abs / (sin a |d|). The image of U's
+    rim stays within ``eps_abs`` of the rim, so if r > eps_abs (1 + cot a) it never meets s (s
+    stays within eps_abs cot a of P* along the plane); the loop s closed far above and below
+    the plane then links the image of U's rim exactly as it links the rim itself, once, so s
+    crosses the image of U: the surface is crossed at some t <= t* + eps_abs / (sin a |d|).
+    If that segment also starts after the ray's origin (t* > eps_abs / (sin a |d|)), the cast
+    must hit there or earlier. No other surface needs to be far: it could only be hit first.
+
+    Returns ``(must, late)``: the rays meeting the condition, and those whose first crossing
+    of the surface (the surface referee's, exact) is missing or after t* + eps_abs/(sin a |d|).
+    """
+    k = np.flatnonzero(inp.hit & (inp.ties == 1) & (inp.zero_signs == 0))
+    a, b, c = (vertices[faces[inp.triangle[k]]][:, i] for i in range(3))
+    t = inp.t[k]
+    p = o[k] + t[:, None] * d[k]
+    n = np.cross(b - a, c - a)
+    dn = np.linalg.norm(d[k], axis=1)
+    sin = np.minimum(np.abs(np.einsum("ij,ij->i", n, d[k])) / (np.linalg.norm(n, axis=1) * dn),
+                     1.0)
+    with np.errstate(divide="ignore"):
+        cot = np.sqrt(1.0 - sin * sin) / sin
+        reach = eps_abs / (sin * dn)  # half-length of s, in t
+
+    def seg(p, x, y):
+        e = y - x
+        w = np.clip(np.einsum("ij,ij->i", p - x, e) / np.einsum("ij,ij->i", e, e), 0.0, 1.0)
+        return np.linalg.norm(p - (x + w[:, None] * e), axis=1)
+
+    r = np.minimum(np.minimum(seg(p, a, b), seg(p, b, c)), seg(p, c, a))
+    m = np.max(np.abs(np.stack([o[k], p, a, b, c], axis=1)), axis=(1, 2))
+    with np.errstate(invalid="ignore"):
+        cond = ((r > eps_abs * (1.0 + cot) * (1.0 + SLACK) + SLACK * m)
+                & (t - reach * (1.0 + SLACK) > SLACK * t))
+    must = k[cond]
+    bound = (t + reach * (1.0 + SLACK) + SLACK * t)[cond]
+    late = must[~(surface.hit[must] & (surface.t[must] <= bound))]
+    return must, late
+
+
+def _judge_ftetwild(scene, n_res, n_random=50_000):
+    """Casts through a fTetWild scene, judged by what fTetWild and tetrace's naming guarantee.
+
+    On every ray of :func:`_ray_sets`, for the default method and ``robust`` (float64 walks):
+
+    * no ray FAILED (bound 0: the walk ends on a face or the box);
+    * against the exact referee on the surface the walk sees (the recovered constrained faces,
+      ``tz.points``/``tz.faces``): the same hit/miss on every ray, and every hit names a
+      triangle that a face of the tie set may name (``_named_outside``). Bound 0: robust is
+      exact on the mesh's float64 points (docs/robust_walk.md), and every float64 walk is held
+      to the same on exact scenes (tests/test_agreement.py);
+    * the rays ``_must_hit`` derives the surface must stop are stopped in time (bound 0);
+    * against the exact referee on the input: on a tied triangle t is the float64
+      Moller-Trumbore quotient on the caller's triangle, within ulp + B (0 ``t off``,
+      docs/referee.md). The rest of that judgement (right, leaked, late, wrong) is printed:
+      a remeshed surface need not agree with the input exactly.
+
+    Printed for information, not asserted (neither is guaranteed: the recovery tests ten
+    points per face against the envelope, and a face names the triangle nearest its
+    centroid): how far the crossings of the surface lie from the input, and how many hits
+    name a triangle farther than the envelope from where the ray crosses the surface.
+    """
+    import igl
+
+    from tetrace.meshing import _point_triangle_distance
+
+    tz = scene.tetrahedralization
+    v, f = scene.vertices, scene.faces
+    eps_abs = tz.options["epsilon"]
+    tol = eps_abs * 1.001  # meshing's recovery tolerance
+    offsets, ids = (x.astype(np.int64) for x in meshing.neighbour_triangles(tz.clean, len(f)))
+    face_triangle = tz.face_triangle.astype(np.int64)
+    on_input = Referee(v, f)
+    on_surface = Referee(tz.points, tz.faces)
+    for kind, o, d in _ray_sets(v, n_res, n_random):
+        surface = on_surface.first_hits(o, d)
+        inp = None
+        for method in (None, "robust"):
+            h = scene.cast(o, d, method=method)
+            name = f"{kind} {method or 'default'}"
+            if inp is None:
+                inp = on_input.first_hits(o, d, hint=h.triangle)
+                must, late = _must_hit(o, d, v, f, inp, surface, eps_abs)
+                print(f"\n{kind}: {len(o)} rays, the input referee hits {inp.hit.sum()}, the "
+                      f"surface referee {surface.hit.sum()}; {len(must)} must be stopped by "
+                      f"the surface, {len(late)} are not (in time): {late[:10].tolist()}")
+                assert len(must) > 0, "the must-hit check would be vacuous"
+                assert len(late) == 0, (kind, late[:10].tolist())
+            score = agreement(h, inp)
+            print(f"{name} against the input: {score}")
+            assert score.failed == 0, (name, score)
+            assert score.t_off == 0, (name, score)
+            hit = h.status == tetrace.HIT
+            mismatch = np.flatnonzero(hit != surface.hit)
+            assert len(mismatch) == 0, (name, "hit/miss differs from the surface referee",
+                                        mismatch[:10].tolist())
+            outside = _named_outside(h, surface, face_triangle, offsets, ids)
+            assert not outside, (name, "names a triangle its face may not name", outside[:10])
+        k = np.flatnonzero(surface.hit)
+        x = o[k] + surface.t[k][:, None] * d[k]
+        to_input = np.sqrt(igl.point_mesh_squared_distance(x, v, f)[0])
+        tri = v[f[h.triangle[k]]]
+        to_named = _point_triangle_distance(x, tri[:, 0], tri[:, 1], tri[:, 2])
+        print(f"{kind}: crossings of the surface lie within {to_input.max() / eps_abs:.3g} "
+              f"envelopes of the input; {(to_named > tol).sum()} of {len(k)} hits name a "
+              f"triangle farther than the envelope from the crossing (at most "
+              f"{to_named.max() / eps_abs:.3g} envelopes)")
 
 
 def test_ftetwild_synthetic(ftetwild):
@@ -394,35 +534,34 @@ def test_ftetwild_synthetic(ftetwild):
     tz = tetrahedralize((vertices, faces), mesher="ftetwild", epsilon=1e-3)
     check_ftetwild(tz, vertices, faces, 1e-3)
     assert tz.options["epsilon_rel"] == 1e-3 and not tz.options["optimize"]
-    # closed spheres: the input is covered by the recovered surface
-    assert tz.surface_distance["input_max"] <= 2e-3 * tz.surface_distance["diagonal"]
-    # both spheres' triangles are named
+    # Closed spheres: the input is covered by the recovered surface. Derived from the premise
+    # of _must_hit (the surface holds the input moved by at most the envelope): every input
+    # point has a surface point within epsilon x diagonal; the bound adds the recovery's 0.1%,
+    # far above the float64 rounding of the sampled distances.
+    sd = tz.surface_distance
+    assert sd["input_max"] <= 1e-3 * sd["diagonal"] * 1.001, sd
+    # Both spheres' triangles are named. The bound is from a run (all 2,560 are named here),
+    # kept as it was: no count follows from the envelope, since a face names the triangle
+    # nearest its centroid and fTetWild's faces are not bounded by epsilon in size. The rays
+    # below check that both spheres stop rays where they must (inside the inner one too).
     assert len(np.unique(tz.face_triangle)) > 0.8 * len(faces)
+    _judge_ftetwild(tetrace.Scene(tz, vertices, faces), 96, 10_000)
 
 
-def test_ftetwild_scene_agrees_with_embree(ftetwild, embree):
-    """Spot through fTetWild: hits are where Embree's are (hit/miss and t) and name the
-    same triangle. A face of fTetWild's surface names the input triangle nearest its
-    centroid and can span several; the cast names the neighbour the ray crosses
-    (``neighbour_triangles``).
+def test_ftetwild_scene_hits_where_ftetwild_guarantees(ftetwild):
+    """Spot through fTetWild, judged by what fTetWild guarantees (its surface within the
+    envelope of the input) and what tetrace's naming promises (a hit names the triangle of
+    the face it crosses or one of that triangle's vertex neighbours): ``_judge_ftetwild``.
+    No Embree: a remeshed surface is judged against the exact referee, on the input (t on a
+    tied triangle, and the rays the envelope cannot hide) and on the surface the walk sees.
 
-    Measured (epsilon 1e-3, 256^2 camera + 5e4 random rays): 99.998% of camera rays and
-    99.994% of random rays name Embree's triangle (97.6-98.3% and 99.1% when each face
-    named only its nearest triangle); 1-2 rays differ in hit/miss (grazing the
-    silhouette); p99 |dt| 2e-7 of the diagonal.
+    A face of fTetWild's surface names the input triangle nearest its centroid and can span
+    several; the cast names the neighbour the ray crosses (``neighbour_triangles``).
     """
     scene = tetrace.Scene.from_mesh(SPOT, mesher="ftetwild")
     tz = scene.tetrahedralization
     check_ftetwild(tz, scene.vertices, scene.faces, 1e-3)
-    for a, hit_differ, plane in _agreement(scene):
-        assert a.failed == 0, a
-        assert hit_differ <= 1e-3 * a.rays, (hit_differ, a)
-        assert a.fraction >= 0.999, a
-        assert plane >= a.fraction
-        assert a.p99_dt <= 1e-5, a
-        # t is evaluated on the named triangle: wherever Embree's triangle is named
-        # too, the two agree as for TetGen.
-        assert a.dt_over_unexplained == 0, a
+    _judge_ftetwild(scene, 256)
 
 
 def test_ftetwild_contain(ftetwild):
@@ -474,31 +613,32 @@ def test_mesher_argument():
 # --------------------------------------------------------------------------- real scenes
 
 
-def test_teapot_through_ftetwild(scene_path, ftetwild, embree):
-    """A small shared scene with 161 intersecting triangle pairs, through fTetWild.
+def test_teapot_through_ftetwild(scene_path, ftetwild):
+    """A small shared scene with 161 intersecting triangle pairs, through fTetWild, judged
+    as Spot is (``_judge_ftetwild``).
 
     The teapot's quads are split in coplanar triangle pairs, which fTetWild's surface
-    does not separate; the cast names the one the ray crosses. Measured: 99.973% of
-    camera rays and 99.982% of random rays name Embree's triangle (87-89% and 95.5%
-    when each face named only its nearest triangle); 8 of 36,864 camera rays differ in
-    hit/miss.
+    does not separate; the cast names the one the ray crosses.
     """
     path = scene_path("teapot.obj")
     scene = tetrace.Scene.from_mesh(path, mesher="ftetwild")
     check_ftetwild(scene.tetrahedralization, scene.vertices, scene.faces, 1e-3)
-    for a, hit_differ, plane in _agreement(scene, 192):
-        assert a.failed == 0, a
-        assert hit_differ <= 2e-3 * a.rays, (hit_differ, a)
-        assert a.fraction >= 0.998, a
-        assert plane >= a.fraction, (plane, a)
-        assert a.p99_dt <= 1e-5, a
+    _judge_ftetwild(scene, 192)
 
 
-def test_happy_buddha_builds_after_snap_rounding(scene_path, embree):
+def test_happy_buddha_builds_after_snap_rounding(scene_path):
     """happy_buddha (100k triangles, 59 intersecting pairs): TetGen rejects the exactly
     repaired scene ("self-intersections": pieces closer than its tolerance); the first
     snap-rounding rung builds it, exactly up to the snap (2.4e-7, 1.2e-7 of the
-    diagonal). Measured: 10 s, 975k tets."""
+    diagonal). Measured: 10 s, 975k tets.
+
+    Its casts are judged by the exact referee twice: on the scene TetGen meshed (the
+    snapped, repaired ``tz.clean``, whose faces map to the caller's triangles), where the
+    float64 walks must be right on every ray (bound 0, as on every exact scene); and on the
+    input, which the snap moved by at most ``delta`` (below): t on a tied triangle within
+    ulp + B (0 ``t off``), and every ray that ``_must_hit`` derives the moved surface must
+    stop is stopped in time (0). The input judgement's other counts are printed.
+    """
     path = scene_path("happy_buddha.obj")
     vertices, faces = load_triangles(path)
     tz = tetrahedralize((vertices, faces))
@@ -508,10 +648,38 @@ def test_happy_buddha_builds_after_snap_rounding(scene_path, embree):
     assert len(tz.attempts) == 1 and "TetGen after exact repair of" in tz.attempts[0]
     check_ct(tz, vertices, faces, tiles=False)
     scene = tetrace.Scene(tz, vertices, faces)
-    for a, hit_differ, _ in _agreement(scene, 256):
-        assert a.failed == 0, a
-        assert a.fraction >= 0.999, a
-        assert a.far_from_edges <= 1e-4 * a.rays, a
+    cm = tz.clean
+    # How far the snap moved the input: each coordinate to the nearest multiple of the cell
+    # (at most cell/2, sqrt(3)/2 cell in all; a point inside a triangle moves by a convex
+    # combination of its corners' moves, no more), and the exact repair's cut points rounded
+    # to float64 (at most sqrt(3) ulp of the largest coordinate): the premise of _must_hit,
+    # true here by construction.
+    big = float(np.abs(np.vstack([vertices, cm.vertices])).max())
+    delta = np.sqrt(3.0) / 2.0 * tz.snap + np.sqrt(3.0) * np.spacing(big)
+    on_input, on_clean = Referee(vertices, faces), Referee(cm.vertices, cm.faces)
+    ids = np.asarray(cm.triangle_ids, np.int64)
+    for kind, o, d in _ray_sets(vertices, 256):
+        clean = on_clean.first_hits(o, d)
+        inp = None
+        for method in (None, "robust"):
+            h = scene.cast(o, d, method=method)
+            name = f"happy_buddha {kind} {method or 'default'}"
+            hit = h.status == tetrace.HIT
+            if inp is None:
+                inp = on_input.first_hits(o, d, hint=h.triangle)
+                must, late = _must_hit(o, d, vertices, faces, inp, clean, delta)
+                print(f"\n{name}: {len(must)} rays the snapped surface must stop, "
+                      f"{len(late)} it does not (in time): {late[:10].tolist()}")
+                assert len(must) > 0 and len(late) == 0, late[:10].tolist()
+            score = agreement(h, inp)
+            print(f"{name} against the input: {score}")
+            assert score.failed == 0 and score.t_off == 0, (name, score)
+            # On the scene meshed: the same hit/miss, a triangle of the tie set (its faces
+            # mapped to the caller's triangles).
+            assert np.array_equal(hit, clean.hit), (name, np.flatnonzero(hit != clean.hit)[:10])
+            outside = [int(i) for i in np.flatnonzero(hit & clean.hit)
+                       if h.triangle[i] not in ids[clean.tie_set(i)]]
+            assert not outside, (name, "triangle outside the tie set", outside[:10])
 
 
 def test_neighbour_triangles_share_a_vertex_across_merged_copies():
