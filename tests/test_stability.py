@@ -33,8 +33,9 @@ LOCAL = [f for f in FAMILIES if f not in SHARED_SCENES]
 
 # -- where the robust walk is wrong today, and why --------------------------------------------
 
-TOUCH = ("touching contacts: the exact line touches the closed surface at a vertex or edge "
-         "without crossing it (along an edge; in a face's plane). The referee counts the touch "
+TOUCH = ("touching contacts: the exact line meets the surface at a vertex or edge without "
+         "passing from one side to the other (along an edge; in a face's plane; at a vertex on "
+         "an open surface's border). The referee counts the touch "
          "(closed triangles) and never an in-plane triangle; the robust walk follows its "
          "symbolically perturbed line, which passes the contact on one side (leaked, late) or "
          "crosses the in-plane triangle (wrong)")

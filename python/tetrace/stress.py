@@ -692,7 +692,7 @@ def fam_far(rng, n, offset, name):
     _aimed(r, rng, n, v, f, _interior(rng, n, max(grid, 2.0 ** -6)), INSIDE_KINDS,
            offset=np.array([c, c, c]))
     return r.case(name, v + c, f,
-                  f"unit sphere at offset {offset:g} on float32's grid there (2^{e}): through "
+                  f"unit sphere at offset {name[3:]} on float32's grid there (2^{e}): through "
                   "vertices/edges/faces at t=1, random directions; every ray hits")
 
 
