@@ -4,7 +4,8 @@ Lagae & Dutré (2008) claim that a constrained-tetrahedralization ray caster's c
 the geometry near the ray, not on the scene's size. This bench keeps one object and one camera
 and grows the world around them: far copies of the object (out of the camera's view) and a big
 low-poly bowl that catches every ray missing the object. tetrace and embreex cast the same rays
-in every world.
+in every world, and the exact referee (:mod:`tetrace.referee`) judges tetrace's answers and says
+which rays hit the object: the object's rays are the referee's, not either caster's.
 """
 
 from __future__ import annotations
@@ -17,7 +18,8 @@ import re
 import numpy as np
 
 from ..camera import orbit_views, pinhole
-from ..compare import compare
+from ..compare import agreement, compare
+from ..referee import Referee
 from ..scene import Scene, default_scene_path
 from .casters import EmbreexCaster, TetraceCaster, timed
 from .scene_bench import _table
@@ -164,7 +166,11 @@ def run_growth(path=None, worlds=QUICK, *, preset="quality", res=512, repeat=3, 
         te1, tta = rate(embreex, o32, d32, 1), rate(ours, o32, d32, ncpu)
         hits = ours.cast(o32, d32, ncpu)
         ref = embreex.hits(embreex.cast(o32, d32, ncpu), o32, d32)
-        on = (hits.triangle >= 0) & (hits.triangle < n_obj)
+        # The exact answers for the float32 rays on this world's triangles: the object's rays
+        # (first hit on one of its triangles, ids below n_obj) and the judgement of tetrace.
+        exact = Referee(wv, wf).first_hits(o32, d32, hint=hits.triangle)
+        score = agreement(hits, exact)
+        on = exact.hit & (exact.triangle < n_obj)
         # The same timings on the object's rays alone: the rays whose surroundings never change.
         oo, od = np.ascontiguousarray(o32[on]), np.ascontiguousarray(d32[on])
         to1 = eo1 = float("nan")
@@ -179,12 +185,16 @@ def run_growth(path=None, worlds=QUICK, *, preset="quality", res=512, repeat=3, 
                    clean_repair_s=float(bt.get("clean", 0.0) + bt.get("repair", 0.0)),
                    rust_s=float(bt["rust"]), embree_build_s=float(embreex.build_seconds),
                    rays=n, object_fraction=float(on.mean()),
-                   nothing_fraction=float((ref.triangle < 0).mean()),
+                   nothing_fraction=float((~exact.hit).mean()),
+                   tetrace_object_fraction=float(((hits.triangle >= 0)
+                                                  & (hits.triangle < n_obj)).mean()),
                    tets_per_ray=float(steps.mean()), tets_per_object_ray=mean(on),
                    tets_per_miss_ray=mean(~on), tetrace_mrays_1=tt1, embreex_mrays_1=te1,
                    ratio_1=tt1 / te1, threads_all=ncpu, tetrace_mrays_all=tta,
                    embreex_mrays_all=tea, ratio_all=tta / tea, tetrace_object_mrays_1=to1,
-                   embreex_object_mrays_1=eo1, agreement=a.fraction, failed=a.failed,
+                   embreex_object_mrays_1=eo1, embreex_agreement=a.fraction,
+                   right=score.fraction, leaked=score.leaked, late=score.late,
+                   wrong=score.wrong, t_off=score.t_off, failed=score.failed,
                    tetrace_label=ours.label, embreex_label=embreex.label,
                    tetrace_schedule=ours.schedule(ncpu), embreex_schedule=embreex.schedule(ncpu))
         rows.append(row)
@@ -193,19 +203,24 @@ def run_growth(path=None, worlds=QUICK, *, preset="quality", res=512, repeat=3, 
                       f"{row['nothing_fraction'] * 100:.1f}", f"{row['tets_per_ray']:.1f}",
                       f"{row['tets_per_object_ray']:.1f}", f"{row['tets_per_miss_ray']:.1f}",
                       f"{tt1:.2f}", f"{te1:.2f}", f"{tt1 / te1:.2f}", f"{tta:.2f}", f"{tea:.2f}",
-                      f"{tta / tea:.2f}", f"{to1:.2f}", f"{eo1:.2f}", f"{a.fraction * 100:.3f}%"])
-        del scene, ours, embreex, hits, ref  # the next world may be 100x bigger: free this one first
+                      f"{tta / tea:.2f}", f"{to1:.2f}", f"{eo1:.2f}", f"{score.fraction * 100:.3f}%",
+                      f"{score.leaked}/{score.late}/{score.wrong}", f"{a.fraction * 100:.3f}%"])
+        # the next world may be 100x bigger: free this one first
+        del scene, ours, embreex, hits, ref, exact
     out(f"local complexity: {os.path.basename(str(path or default_scene_path()))} ({n_obj:,} "
         f"triangles), preset {preset!r}, {res}x{res} camera at 1.6 bounding radii, copies at "
         f"{spacing:g} diagonals, stadium {stadium_size:g} diagonals across, best of {repeat}; "
-        f"Mrays/s on 1 thread and on all {ncpu}; 'obj rays' = only the rays that hit the object")
+        f"Mrays/s on 1 thread and on all {ncpu}; 'obj rays' = only the rays whose first hit the "
+        f"exact referee finds on the object; 'right' and 'leaked/late/wrong': tetrace judged by "
+        f"the referee; 'same as embreex': same outcome and triangle id")
     if rows:
         out(f"tetrace = {rows[0]['tetrace_label']}; {rows[0]['tetrace_schedule']} (at {ncpu})")
         out(f"embreex = {rows[0]['embreex_label']}; {rows[0]['embreex_schedule']} (at {ncpu})")
     out(_table(table, ["world", "triangles", "tets", "mesh s", "rust s", "obj %", "nothing %",
                        "tets/ray", "tets/obj ray", "tets/miss ray", "tetrace 1T", "embreex 1T",
                        "x", f"tetrace {ncpu}T", f"embreex {ncpu}T", "x", "tetrace obj rays 1T",
-                       "embreex obj rays 1T", "agree"]))
+                       "embreex obj rays 1T", "right", "leaked/late/wrong",
+                       "same as embreex"]))
     out(verdict(rows))
     if json_path:
         with open(json_path, "w") as fh:
@@ -234,8 +249,8 @@ def verdict(rows):
         f"embreex's {ch('embreex_object_mrays_1', 2)}. Over all rays tetrace went "
         f"x{x('tetrace_mrays_1'):.2f} and embreex x{x('embreex_mrays_1'):.2f}: the rays that "
         f"miss the object walked {ch('tets_per_miss_ray')} tets, their surroundings having "
-        f"changed. Agreement with embreex stayed >= "
-        f"{min(r['agreement'] for r in rows) * 100:.3f}%. "
+        f"changed. tetrace was right (exact referee) on >= "
+        f"{min(r['right'] for r in rows) * 100:.3f}% of rays in every world. "
         + ("Consistent with Lagae & Dutré: where a ray's neighbourhood is unchanged, tetrace's "
            "cost did not follow the scene's size."
            if local else
@@ -293,7 +308,8 @@ def growth_main(argv):
         prog="python -m tetrace.bench growth",
         description="Local complexity (Lagae & Dutre 2008): one object and one camera in ever "
                     "bigger worlds (far copies, a stadium bowl); tetrace and embreex rates, "
-                    "tets per ray on the object's rays and the others, agreement.")
+                    "tets per ray on the object's rays and the others, tetrace judged by the "
+                    "exact referee.")
     p.add_argument("--scene", default=None, help="object mesh (default: the bundled Spot)")
     p.add_argument("--worlds", default=None,
                    help=f"comma-separated (default: {','.join(WORLDS)})")
