@@ -8,7 +8,11 @@ random rays with tetrace and embreex, and prints one row per scene:
 * the mesher and preset that built it (``+snap`` when snap-rounded, ``+repair`` when
   self-intersections were cut) and why the earlier attempts failed;
 * tets, seconds in the mesher (repair and failed attempts included) and in Rust;
-* agreement with embreex on hit/miss and on the triangle id; "same plane": the rays
+* the exact referee's judgement of tetrace's casts on the input (:mod:`tetrace.referee`,
+  ``docs/referee.md``): the fraction of rays right and the counts leaked, late and wrong
+  (for fTetWild, how its remeshed surface answers for the input);
+* for information about fTetWild's naming, agreement with embreex on hit/miss and on the
+  triangle id; "same plane": the rays
   that name Embree's triangle or a neighbour in the same plane at the hit point (within
   1e-5 of the diagonal, normals within 1 degree) - fTetWild's surface faces can span
   several coplanar input triangles and name only one; rays that differ away from
@@ -63,10 +67,11 @@ def _mesher_label(tz):
 def run_scene(path, *, mesher="fallback", preset="quality", res=512, n_random=100_000,
               timeout=None, epsilon=None, accuracy=None):
     """Build one scene and compare it with embreex; returns a dict (see the module doc)."""
-    from ..compare import compare
+    from ..compare import agreement, compare
     from ..hits import HIT
     from ..meshing import MeshingError, load_triangles
     from ..reference import embree_scene
+    from ..referee import Referee
     from ..scene import Scene
     from .agreement import ray_sets
 
@@ -94,11 +99,16 @@ def run_scene(path, *, mesher="fallback", preset="quality", res=512, n_random=10
                                    if k != "diagonal"}
     ref_scene = embree_scene((v, f))
     bounds = np.array([v.min(0), v.max(0)])
+    referee = Referee(v, f)
     totals = dict(rays=0, agree=0, coincident=0, same_plane=0, hit_differ=0, unexplained=0,
                   failed=0)
+    judged = dict(right=0, leaked=0, late=0, wrong=0, t_off=0)
     dts = []
     for _, o, d in ray_sets(bounds, res, n_random):
         hits = scene.cast(o, d)
+        score = agreement(hits, referee.first_hits(o, d, hint=hits.triangle))
+        for k in ("right", "leaked", "late", "wrong", "t_off"):
+            judged[k] += getattr(score, k)
         ref = ref_scene.cast(o.astype(np.float32), d.astype(np.float32))
         a = compare(hits, ref, v, f, origins=o, directions=d)
         totals["rays"] += a.rays
@@ -113,6 +123,9 @@ def run_scene(path, *, mesher="fallback", preset="quality", res=512, n_random=10
     diag = float(np.linalg.norm(bounds[1] - bounds[0]))
     dt = np.concatenate(dts) / diag
     row.update(totals)
+    row["right"] = judged["right"] / totals["rays"]
+    row.update(leaked=judged["leaked"], late=judged["late"], wrong=judged["wrong"],
+               t_off=judged["t_off"])
     row["agreement"] = (totals["agree"] + totals["coincident"]) / totals["rays"]
     row["hit_agreement"] = 1 - totals["hit_differ"] / totals["rays"]
     row["plane_agreement"] = (totals["agree"] + totals["same_plane"]) / totals["rays"]
@@ -128,29 +141,30 @@ def run_scenes(paths, *, mesher="fallback", preset="quality", res=512, n_random=
     from .scene_bench import _table
 
     rows, table = [], []
-    header = ["scene", "tris", "mesher", "tets", "mesher s", "rust s", "rays", "hit agree",
-              "id agree", "same plane", "differ off edges", "failed", "p99 |dt|/diag",
-              "surface max/mean", "note"]
+    header = ["scene", "tris", "mesher", "tets", "mesher s", "rust s", "rays", "right",
+              "leaked", "late", "wrong", "failed", "embreex: hit agree", "id agree",
+              "same plane", "differ off edges", "p99 |dt|/diag", "surface max/mean", "note"]
     for path in paths:
         row = run_scene(path, mesher=mesher, preset=preset, res=res, n_random=n_random,
                         timeout=timeout, epsilon=epsilon, accuracy=accuracy)
         rows.append(row)
         if not row["ok"]:
             table.append([row["scene"], f"{row['triangles']:,}", "FAILED", "-",
-                          f"{row['seconds']:.1f}", "-", "-", "-", "-", "-", "-", "-", "-", "-",
-                          row["error"]])
+                          f"{row['seconds']:.1f}"] + ["-"] * (len(header) - 6) + [row["error"]])
         else:
             sd = row.get("surface_distance")
             note = " | ".join(row["attempts"])
             table.append([
                 row["scene"], f"{row['triangles']:,}", row["mesher"], f"{row['tets']:,}",
                 f"{row['mesher_seconds']:.1f}", f"{row['rust_seconds']:.2f}", f"{row['rays']:,}",
-                f"{row['hit_agreement'] * 100:.3f}%", f"{row['agreement'] * 100:.3f}%",
-                f"{row['plane_agreement'] * 100:.3f}%", row["unexplained"], row["failed"], f"{row['p99_dt']:.1e}",
+                f"{row['right'] * 100:.3f}%", row["leaked"], row["late"], row["wrong"],
+                row["failed"], f"{row['hit_agreement'] * 100:.3f}%",
+                f"{row['agreement'] * 100:.3f}%", f"{row['plane_agreement'] * 100:.3f}%",
+                row["unexplained"], f"{row['p99_dt']:.1e}",
                 f"{sd['max']:.1e}/{sd['mean']:.1e}" if sd else "-", note])
         # Progress on stderr: a full run takes a while.
         print(f"{row['scene']}: " + ("ok " if row["ok"] else "FAILED ")
-              + json.dumps({k: row[k] for k in ("mesher", "tets", "agreement", "error")
+              + json.dumps({k: row[k] for k in ("mesher", "tets", "right", "agreement", "error")
                             if k in row}), file=sys.stderr, flush=True)
         if json_path:
             with open(json_path, "w") as fh:
