@@ -10,11 +10,17 @@ Exactness is built in. Every synthetic scene lies on a grid of small integers sc
 power of two (a sphere's vertices rounded to the grid and checked convex in integers, a box,
 a height field), placed with an exact offset or power-of-two scaling; rays are built from grid
 points by differences and dyadic combinations whose every bit fits float32's 24: the float32
-rays are the same numbers as the float64 ones. Real meshes (Spot, a shared scene) have their
-vertices rounded to a dyadic grid of 2^-19 of their size for the same reason; the two families
-whose rays cannot be float32 numbers (``long``: an origin 10^4 sizes away and a target on the
-surface) claim only what survives rounding (a hit, on the aimed-at triangle) and are judged on
-the float32 rays as passed.
+rays are the same numbers as the float64 ones. Real meshes (Spot; fandisk and the bunny from
+``$TETRACE_SCENES``) have their vertices rounded to a dyadic grid of 2^-19 of their largest
+coordinate for the same reason (rays built from them that still miss a float32 bit do not
+certify). The one family whose rays cannot be float32 numbers (``long``: an origin 10^4 sizes
+away and a target on the surface) claims only what survives rounding (a hit, on the aimed-at
+triangle) and is judged on the float32 rays as passed.
+
+The verdicts are computed once per family and precision when the rays are certified, before
+any cast (the referee's hint only speeds its search up; the verdict does not depend on it):
+every method, layout and precision is judged against the same verdict. :func:`cast_case`
+computes one with the cast's triangles as the hint for a case that has none.
 
 Then every ray is **certified**: the exact referee (:mod:`tetrace.referee`) computes its verdict
 in each precision, exact integer arithmetic checks the geometric claims, and only rays whose
