@@ -26,7 +26,34 @@ def layouts_for(precision, layouts):
     return [lay for lay in layouts if not (lay == "tet80" and precision == "f64")]
 
 
-def run_family(case, methods, layouts, precisions, *, scene=None, threads=None, n_examples=3):
+#: The ``method`` name of Embree's rows: the peer, judged by the same referee on the same rays.
+EMBREE = "embreex"
+
+
+def embree_row(case, precision):
+    """Embree's row for one certified case and precision (``None`` without embreex).
+
+    embreex has no ``tnear``: a ray with ``tmin > 0`` is cast from ``origin + tmin * direction``
+    (``tetrace.reference.embree_cast``), which is what a user of embreex can do; its ``t`` is
+    float32 arithmetic (``judge(..., arithmetic="f32")``), and it has no walk to audit.
+    """
+    from ..reference import embree_available, embree_cast
+    from ..referee import judge
+
+    if not embree_available():
+        return None
+    o, d = case.rays(precision)
+    h = embree_cast((case.vertices, case.faces), o, d, tmin=case.tmin, tmax=case.tmax)
+    masks = judge(h, case.verdicts[precision], "f32")
+    masks["wrong_exit"] = masks["no_exit"] = np.zeros(len(o), bool)
+    row = dict(family=case.family, method=EMBREE, layout="-", precision=precision, tets=0,
+               **count(masks))
+    row.update({k: int(masks[k].sum()) for k in WRONG_PARTS})
+    return row
+
+
+def run_family(case, methods, layouts, precisions, *, scene=None, threads=None, n_examples=3,
+               embree=True):
     """Cast one certified case with every method, layout and precision; one row each.
 
     Returns
@@ -55,6 +82,10 @@ def run_family(case, methods, layouts, precisions, *, scene=None, threads=None, 
                         row["bad_kinds"][k] = {str(a): int(b) for a, b in zip(kinds, n)}
                         row["examples"][k] = examples(case, h, masks, case.verdicts[precision],
                                                       k, n_examples)
+                rows.append(row)
+        if embree:
+            row = embree_row(case, precision)
+            if row is not None:
                 rows.append(row)
     return rows
 
