@@ -100,11 +100,11 @@ def test_auto_rejects_bad_targets():
 
 
 def test_pareto_keeps_only_undominated_rows():
-    rows = [dict(scene="a", ratio=r, plane_agreement=a, rays=10)
+    rows = [dict(scene="a", ratio=r, right=a, rays=10)
             for r, a in [(1.0, 0.9), (0.5, 1.0), (0.4, 0.95), (0.8, 0.99), (0.8, 0.98)]]
-    rows.append(dict(scene="b", ratio=0.1, plane_agreement=0.5, rays=10))
+    rows.append(dict(scene="b", ratio=0.1, right=0.5, rays=10))
     best = matrix.pareto(rows)
-    assert [(r["scene"], r["ratio"], r["plane_agreement"]) for r in best] == [
+    assert [(r["scene"], r["ratio"], r["right"]) for r in best] == [
         ("a", 1.0, 0.9), ("a", 0.8, 0.99), ("a", 0.5, 1.0), ("b", 0.1, 0.5)]
 
 
@@ -203,8 +203,7 @@ def test_matrix_writes_rows_files_and_charts(run):
     assert len(csv_lines) == len(rows) + 1 and csv_lines[0].startswith("scene,")
     assert {"label", "schedule", "right", "leaked", "late", "wrong"} <= set(csv_lines[0].split(","))
     for r in res["pareto"]:
-        assert not any(o["ratio"] > r["ratio"] and o["plane_agreement"] > r["plane_agreement"]
-                       for o in ours)
+        assert not any(o["ratio"] > r["ratio"] and o["right"] > r["right"] for o in ours)
     # The weight against tets per ray: the reported Pearson r is that of the rows (1 thread,
     # the first method/layout/precision, relative to quality), and sorting the settings by
     # weight sorts them by tets per ray (Crofton: a line crosses faces in proportion to

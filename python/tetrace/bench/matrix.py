@@ -214,22 +214,24 @@ def run_scene_settings(path, settings, *, methods, layouts, precisions, threads,
 def pareto(rows):
     """Rows no other row of the same scene beats on both speed (ratio) and accuracy.
 
-    Accuracy is ``plane_agreement``; rows equal on both keep the first.
+    Accuracy is ``right``, the share of rays the exact referee finds right; rows equal on both
+    keep the first.
     """
     best = []
     for scene in dict.fromkeys(r["scene"] for r in rows):
         rs = [r for r in rows if r["scene"] == scene and "ratio" in r]
-        rs.sort(key=lambda r: (-r["ratio"], -r["plane_agreement"]))
+        rs.sort(key=lambda r: (-r["ratio"], -r["right"]))
         top = -1.0
         for r in rs:
-            if r["plane_agreement"] > top:
+            if r["right"] > top:
                 best.append(r)
-                top = r["plane_agreement"]
+                top = r["right"]
     return best
 
 
 def _disagreement(r):
-    return max(1.0 - r["plane_agreement"], 0.5 / r["rays"])
+    """Share of rays not right by the referee, floored at half a ray for the log axis."""
+    return max(1.0 - r["right"], 0.5 / r["rays"])
 
 
 def charts(rows, folder):
@@ -267,7 +269,7 @@ def charts(rows, folder):
         ax.set_yscale("log")
         ax.set_title(f"{scene} ({top} threads)", fontsize=9)
         ax.set_xlabel("throughput / embreex")
-        ax.set_ylabel("disagreement with embreex")
+        ax.set_ylabel("not right (exact referee)")
     for ax in list(axes.flat)[len(scenes):]:
         ax.axis("off")
     handles = [plt.Line2D([], [], marker="o", ls="", color=colors[s], label=s) for s in settings]
@@ -418,10 +420,10 @@ def report(rows, out_dir, out=print):
     out(_table([[r["scene"], r["setting"] + (f" ({r['chosen']})" if r["chosen"] != r["setting"]
                                              else ""),
                  r["method"], r["layout"], r["precision"], r["device"], f"{r['tets']:,}",
-                 f"{r['mrays']:.2f}", f"{r['ratio']:.2f}", f"{r['plane_agreement'] * 100:.3f}%",
+                 f"{r['mrays']:.2f}", f"{r['ratio']:.2f}", f"{r['right'] * 100:.3f}%",
                  f"{r['p99_dt']:.1e}"] for r in best],
                ["scene", "setting", "method", "layout", "prec", "device", "tets", "Mrays/s",
-                "x embreex", "agree (plane)", "p99 |dt|/diag"]))
+                "x embreex", "right (referee)", "p99 |dt|/diag"]))
     out(f"weight against time per ray (1 thread, relative to quality): Pearson r = {r_time:.3f}; "
         f"against tets per ray: r = {r_steps:.3f}")
     out(f"wrote into {out_dir}: " + ", ".join(p.name for p in paths.values()))
