@@ -362,6 +362,15 @@ def test_counts_are_recorded(results, capsys):
                 r = _row(rows, m, _native.DEFAULT_LAYOUT, p)
                 assert r["right"] + sum(r[k] for k in ("late", "leaked", "failed", "wrong")) \
                     == r["rays"], (family, m, p)
+    # The families are adversarial: every method that decides exit faces in floating point is
+    # caught taking a wrong exit face, and answering some ray wrong, in both precisions.
+    for m in tetrace.methods():
+        if m == "robust":
+            continue
+        for p in PRECISIONS:
+            rs = [_row(rows, m, _native.DEFAULT_LAYOUT, p) for rows in results.values()]
+            assert any(r["wrong_exit"] for r in rs), (m, p)
+            assert any(r["rays"] - r["right"] for r in rs), (m, p)
 
 
 # -- the audit ------------------------------------------------------------------------------
