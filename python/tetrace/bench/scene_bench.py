@@ -9,8 +9,7 @@ import time
 import numpy as np
 
 from ..camera import orbit_views, pinhole
-from ..compare import compare
-from ..hits import HIT
+from ..compare import agreement
 from ..scene import LAYOUT_BYTES, Scene, default_scene_path
 
 
@@ -26,6 +25,22 @@ def configurations(methods, layouts, precisions, threads):
                     yield method, layout, prec, label
 
 
+class _Judge:
+    """Scores casts of one set of rays against the exact referee (``docs/referee.md``); the
+    verdict is computed once, on the first cast's triangles as a hint (it only speeds up the
+    search: the verdict does not depend on it)."""
+
+    def __init__(self, v, f, o, d):
+        from ..referee import Referee
+
+        self.referee, self.o, self.d, self.verdict = Referee(v, f), o, d, None
+
+    def __call__(self, hits, arithmetic="f64"):
+        if self.verdict is None:
+            self.verdict = self.referee.first_hits(self.o, self.d, hint=hits.triangle)
+        return agreement(hits, self.verdict, arithmetic)
+
+
 def _table(rows, header):
     widths = [max(len(str(r[i])) for r in rows + [header]) for i in range(len(header))]
     line = lambda r: "| " + " | ".join(str(c).rjust(w) for c, w in zip(r, widths)) + " |"
@@ -33,7 +48,7 @@ def _table(rows, header):
     return "\n".join([line(header), sep] + [line(r) for r in rows])
 
 
-def _gpu_runs(scene, o32, d32, ref, v, f, methods, layouts, repeat, results):
+def _gpu_runs(scene, o32, d32, judge, methods, layouts, repeat, results):
     """GPU rows of the bench table, and the last kernel's hits."""
     from .. import gpu
 
@@ -59,7 +74,7 @@ def _gpu_runs(scene, o32, d32, ref, v, f, methods, layouts, repeat, results):
             t = dict(scene.gpu_timings, wall=wall)
             if best is None or t["kernel"] < best["kernel"]:
                 best = t
-        a = compare(hits, ref, v, f)
+        a = judge(hits)
         kernel_rate = best["walked"] / best["kernel"] / 1e6
         e2e = n / best["wall"] / 1e6
         rows.append([method, layout, f"{kernel_rate:.2f}", f"{e2e:.2f}", f"{best['kernel']:.3f}",
@@ -70,8 +85,8 @@ def _gpu_runs(scene, o32, d32, ref, v, f, methods, layouts, repeat, results):
             "caster": "tetrace-gpu", "method": method, "layout": layout, "precision": "f32",
             "device": results["gpu_device"]["name"], "kernel_mrays_per_s": kernel_rate,
             "mrays_per_s": e2e, "seconds": best, "scene_upload_seconds": scene_upload,
-            "tets_per_ray": float(hits.steps.mean()), "agreement": a.fraction,
-            "failed": a.failed, "unexplained": a.far_from_edges})
+            "tets_per_ray": float(hits.steps.mean()), "right": a.fraction,
+            "failed": a.failed, "leaked": a.leaked, "late": a.late, "wrong": a.wrong})
     return rows, hits
 
 
@@ -154,7 +169,7 @@ def run_scene_bench(path=None, *, preset="quality", width=1024, height=1024, rep
                "peers_skipped": [] if o3d is not None else [why]}
     rows = []
     embree_rate = {}
-    ref = None
+    judge = _Judge(v, f, o32, d32)
     for peer in peers:
         for label in threads:
             k = thread_counts[label]
@@ -163,8 +178,7 @@ def run_scene_bench(path=None, *, preset="quality", width=1024, height=1024, rep
             hits = peer.hits(raw, o32, d32)
             if peer is embreex:
                 embree_rate[label] = rate
-                ref = hits if ref is None else ref  # the reference of the agreement column
-            a = compare(hits, ref, v, f)
+            a = judge(hits, peer.arithmetic)
             shown = "1" if k == 1 else f"all ({ncpu})"
             rows.append([peer.name, "bvh", "-", "f32", "-", shown, f"{rate:.2f}",
                          f"{rate / embree_rate[label]:.2f}", "-", "-", f"{a.fraction * 100:.3f}%"])
@@ -172,7 +186,8 @@ def run_scene_bench(path=None, *, preset="quality", width=1024, height=1024, rep
                                     "schedule": peer.schedule(k), "precision": "f32",
                                     "threads": k, "mrays_per_s": rate,
                                     "ratio_to_embree": rate / embree_rate[label],
-                                    "agreement": a.fraction})
+                                    "right": a.fraction, "leaked": a.leaked,
+                                    "late": a.late, "wrong": a.wrong})
     last32 = None
     for order in (orders if "cpu" in devices else ()):
         sc = scenes[order]
@@ -181,7 +196,7 @@ def run_scene_bench(path=None, *, preset="quality", width=1024, height=1024, rep
             k = thread_counts[label]
             tt, hits = timed(caster, *rays_for(prec, o32, d32), k, repeat)
             rate = n / tt / 1e6
-            a = compare(hits, ref, v, f)
+            a = judge(hits, caster.arithmetic)
             shown = "1" if k == 1 else f"all ({ncpu})"
             rows.append(["tetrace", method, layout, prec, order, shown, f"{rate:.2f}",
                          f"{rate / embree_rate[label]:.2f}", f"{hits.steps.mean():.1f}",
@@ -192,19 +207,19 @@ def run_scene_bench(path=None, *, preset="quality", width=1024, height=1024, rep
                 "precision": prec, "order": order, "threads": k,
                 "mrays_per_s": rate, "ratio_to_embree": rate / embree_rate[label],
                 "tets_per_ray": float(hits.steps.mean()),
-                "bytes_per_tet": LAYOUT_BYTES[layout], "agreement": a.fraction,
-                "failed": a.failed, "unexplained": a.far_from_edges,
-                "max_dt": a.max_dt})
+                "bytes_per_tet": LAYOUT_BYTES[layout], "right": a.fraction,
+                "failed": a.failed, "leaked": a.leaked, "late": a.late, "wrong": a.wrong,
+                "max_t_ulps": a.max_t_ulps})
             if prec == "f32" and last32 is None:
                 last32 = hits
 
     gpu_rows = []
     if "gpu" in devices:
-        gpu_rows, gpu_hits = _gpu_runs(scene, o32, d32, ref, v, f, methods_arg, layouts_arg,
+        gpu_rows, gpu_hits = _gpu_runs(scene, o32, d32, judge, methods_arg, layouts_arg,
                                        repeat, results)
         last32 = gpu_hits if last32 is None else last32
 
-    hit_frac = float((ref.status == HIT).mean())
+    hit_frac = float(judge.verdict.hit.mean())  # the exact share, not a caster's
     out(f"tetrace bench: {name} ({len(f):,} triangles), preset {preset!r}, "
         f"{width}x{height} pinhole camera, {hit_frac * 100:.1f}% of rays hit, best of {repeat}")
     out(f"build: tetgen {bt.get('tetgen', 0):.2f} s (clean {bt.get('clean', 0):.2f} s, "
@@ -220,7 +235,7 @@ def run_scene_bench(path=None, *, preset="quality", width=1024, height=1024, rep
     out("every caster: the same float32 rays, an untimed warm-up, the best of the timed casts; "
         "at 'all': " + "; ".join(f"{c.name} on {c.schedule(ncpu)}" for c in [ours] + peers))
     out(_table(rows, ["caster", "method", "layout", "precision", "order", "threads", "Mrays/s",
-                      "x embreex", "tets/ray", "bytes/tet", "agree w/ embreex"]))
+                      "x embreex", "tets/ray", "bytes/tet", "right (referee)"]))
     if gpu_rows:
         dev = results["gpu_device"]
         out(f"GPU: {dev['name']} ({dev['backend']}, {dev['device_type']}); kernel Mrays/s = rays "
@@ -228,7 +243,7 @@ def run_scene_bench(path=None, *, preset="quality", width=1024, height=1024, rep
             f"and hit finishing; seconds are the best run's")
         out(_table(gpu_rows, ["method", "layout", "kernel Mrays/s", "end-to-end Mrays/s",
                               "kernel s", "upload s", "readback s", "locate s", "finish s",
-                              "scene upload s", "tets/ray", "agree w/ embreex"]))
+                              "scene upload s", "tets/ray", "right (referee)"]))
     if image and last32 is not None:
         from ..image import lambert, save_png
         save_png(image, lambert(last32, d32, v, f, width, height), cmap="gray", vmin=0, vmax=1)
