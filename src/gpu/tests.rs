@@ -532,11 +532,36 @@ fn check_kernel(kernel: Kernel) {
             assert_eq!(cpu.tet, gpu.tet, "{test}: end tets");
             assert_eq!(cpu.steps, gpu.steps, "{test}: steps");
         } else {
-            assert!(
-                differ * 10_000 <= n,
-                "{test}: {differ} of {n} rays differ (> 0.01%)"
-            );
+            float_kernel_parity(&test, differ, n);
         }
+    }
+}
+
+/// Drivers that evaluate WGSL's float32 arithmetic as written: Mesa's llvmpipe (lavapipe)
+/// lowers every fused multiply-add back to a multiply and an add (`lower_ffma32` in gallivm's
+/// NIR options) and emits LLVM IR without the `contract` flag (tests/test_gpu.py says more).
+const NO_FMA_DRIVERS: &[&str] = &["llvmpipe"];
+
+/// The float32 kernels against their CPU twin. Each kernel does the twin's float32 operations
+/// in the twin's order; a driver can differ only by contracting `a*b + c` into an FMA or by
+/// flushing subnormals. On a driver in [`NO_FMA_DRIVERS`] the first cannot happen and the
+/// second needs a product below ~1e-31, which these rays do not produce: the bound is 0.
+/// Elsewhere a sign within an ulp of zero may flip: the differing rays are printed (and the
+/// referee judges the GPU's answers above), with no bound from a run.
+fn float_kernel_parity(test: &str, differ: usize, n: usize) {
+    let name = super::gpu()
+        .map(|g| g.adapter.name.clone())
+        .unwrap_or_default();
+    let exact = NO_FMA_DRIVERS
+        .iter()
+        .any(|d| name.to_lowercase().contains(d));
+    if exact {
+        assert_eq!(
+            differ, 0,
+            "{test}: {differ} of {n} rays differ from the twin on {name}"
+        );
+    } else {
+        eprintln!("{test}: {differ} of {n} rays differ from the CPU twin on {name} (may fuse)");
     }
 }
 
@@ -706,7 +731,7 @@ fn gpu_prepares_rays_as_the_cpu_cast() {
                 let failed = gpu.status.iter().filter(|&&s| s == FAILED).count();
                 assert_eq!(failed, 0, "{test}: {failed} failed");
             } else {
-                assert!(differ * 10_000 <= n, "{test}: {differ} of {n} rays differ");
+                float_kernel_parity(&test, differ, n);
             }
         }
     }
