@@ -40,13 +40,19 @@ impl Case {
     }
 }
 
-struct Rng(u64);
+/// Deterministic xorshift (the bench's cases and the tests need no rand crate).
+pub(crate) struct Rng(pub u64);
 impl Rng {
-    fn f(&mut self) -> f64 {
+    pub fn f(&mut self) -> f64 {
         self.0 ^= self.0 << 13;
         self.0 ^= self.0 >> 7;
         self.0 ^= self.0 << 17;
         (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+    /// Three uniforms in [0, 1) (the tests' points).
+    #[cfg(test)]
+    pub fn p3(&mut self) -> [f64; 3] {
+        [self.f(), self.f(), self.f()]
     }
 }
 

@@ -510,15 +510,4 @@ fn oracle(o: P3, d: P3, tmin: f64, tmax: f64, tris: &[Tri]) -> Option<(BigRation
     best
 }
 
-struct Rng(u64);
-impl Rng {
-    fn f(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn p3(&mut self) -> P3 {
-        [self.f(), self.f(), self.f()]
-    }
-}
+use crate::bench::Rng;

@@ -6,16 +6,7 @@ use crate::mesh::build::orient;
 use crate::referee::{self, Outcome, Verdict};
 use crate::scene::{CastOptions, HitsOut, Rays, Scene, FAILED, HIT, MISS};
 
-/// Deterministic xorshift so tests need no rand crate.
-pub(crate) struct Rng(pub u64);
-impl Rng {
-    pub fn f(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
+pub(crate) use crate::bench::Rng;
 
 /// An n³ grid of cubes over [0,1]³, each cut into 6 Kuhn tets (conforming across cubes),
 /// interior points jittered so no two faces are coplanar by accident. Every coordinate is a
