@@ -336,7 +336,7 @@ class Referee:
         out_tri = np.full(n, -1, np.int64)
         zeros = np.zeros(n, np.uint8)
         bound = np.zeros(n)
-        ties = [None] * n
+        ties = []  # per chunk: (rays, triangles) of every tie
         exact_pairs = 0
         for s in range(0, n, chunk):
             idx = np.arange(s, min(s + chunk, n))
@@ -344,11 +344,12 @@ class Referee:
             if not len(idx):
                 continue
             exact_pairs += self._chunk(o, d, tmin, tmax, idx, hint, out_t, out_tri, zeros, bound, ties)
-        counts = np.array([0 if x is None else len(x) for x in ties], np.int64)
+        rays = np.concatenate([x[0] for x in ties] + [np.zeros(0, np.int64)])
+        ids = np.concatenate([x[1] for x in ties] + [np.zeros(0, np.int64)]).astype(np.int64)
+        order = np.lexsort((ids, rays))  # by ray, then ascending triangle id
+        ids = ids[order]
         ptr = np.zeros(n + 1, np.int64)
-        np.cumsum(counts, out=ptr[1:])
-        ids = (np.concatenate([x for x in ties if x is not None]) if counts.any()
-               else np.zeros(0, np.int64)).astype(np.int64)
+        np.cumsum(np.bincount(rays, minlength=n), out=ptr[1:])
         return Verdict(hit=out_tri >= 0, t=out_t, triangle=out_tri, tie_ptr=ptr, tie_ids=ids,
                        zero_signs=zeros, t_bound=bound, invalid=invalid, exact_pairs=exact_pairs)
 
@@ -383,33 +384,35 @@ class Referee:
         best_hi = np.repeat(t_hi[h[first]], np.diff(np.r_[first, len(h)]))
         contend = t_lo[h] <= best_hi
         hc = h[contend]
-        fill(np.isin(np.arange(len(r)), hc))  # exact t for the winner (and any tie)
+        want = np.zeros(len(r), bool)
+        want[hc] = True
+        fill(want)  # exact t for the winner (and any tie)
         rc = r[hc]
         starts = np.flatnonzero(np.r_[True, rc[1:] != rc[:-1]])
         sizes = np.diff(np.r_[starts, len(hc)])
-        win = hc[starts[sizes == 1]]  # one contender: it wins alone
-        groups = [hc[a:a + n] for a, n in zip(starts[sizes > 1], sizes[sizes > 1])]
-        tie_lists = [[j] for j in win]
-        for group in groups:
-            # exact minimum of num/den over the contenders (denominators made positive)
+        tied = [hc[starts[sizes == 1]]]  # one contender: it wins alone
+        for a, k in zip(starts[sizes > 1], sizes[sizes > 1]):
+            # several contenders (rare: rays near a tie): the exact minimum of num/den over
+            # them, denominators made positive
             best, best_js = None, []
-            for j in group:
+            for j in hc[a:a + k]:
                 nm, dn = (enum[j], eden_[j]) if eden_[j] > 0 else (-enum[j], -eden_[j])
                 if best is None or nm * best[1] < best[0] * dn:
                     best, best_js = (nm, dn), [j]
                 elif nm * best[1] == best[0] * dn:
                     best_js.append(j)
-            best_js.sort(key=lambda j: f[j])
-            tie_lists.append(best_js)
-        first = np.array([js[0] for js in tie_lists], np.int64)
+            tied.append(np.asarray(best_js, np.int64))
+        tied = np.concatenate(tied)
+        ties.append((r[tied], f[tied]))
+        # each ray's first tie: its smallest triangle id
+        tied = tied[np.lexsort((f[tied], r[tied]))]
+        first = tied[np.r_[True, r[tied][1:] != r[tied][:-1]]]
         rays = r[first]
         with np.errstate(all="ignore"):
             out_t[rays] = _exact_t(enum[first], eden_[first])
         out_tri[rays] = f[first]
         zeros[rays] = (esign[first] == 0).sum(1)
         bound[rays] = _t_bound(O[first], D[first], A[first], B[first], C[first], out_t[rays])
-        for ray, js in zip(rays, tie_lists):
-            ties[ray] = f[np.asarray(js)]
         return exact_pairs + int(pairs.have.sum())
 
 
