@@ -1,10 +1,17 @@
-// Shared by every traversal kernel: src/gpu/shaders.rs puts this file in front of each
-// kernel's own file. Every struct here is mirrored by a #[repr(C)] Pod struct in
-// src/gpu/structs.rs whose size and field offsets are asserted there.
+// Shared by every traversal kernel. src/gpu/kernels.rs assembles a kernel from this file,
+// its layout's records (shaders/layouts/), its exit method (shaders/methods/) and its layout's
+// walk (shaders/walks/), joined in that order. Every struct here is mirrored by a #[repr(C)]
+// Pod struct in src/gpu/structs.rs whose size and field offsets are asserted there.
 //
-// One invocation walks one ray, from the start tet the host located (src/scene.rs,
-// `locate_one`), to the first constrained face or the domain boundary; the host then finishes
-// the hit on the caller's triangle in float64 (`Scene::finish`), as the CPU cast does.
+// One invocation walks one ray, from the start tet the host located (`Scene::locate_one`), to
+// the first constrained face or the domain boundary; the host then finishes the hit on the
+// caller's triangle in float64 (`Scene::finish`), as the CPU cast does.
+//
+// What each part provides (WGSL resolves module-scope names in any order):
+// - layout: `tets` (binding 3) and its accessors; id layouts also `points` (binding 4);
+// - method: `alias Vert` (a vertex as the exit test takes it), `vertex(ray, p)` (a position
+//   made a Vert), `start_exit(ray, &verts)` and `step_exit(ray, a, b, c, d)`;
+// - walk: the one `main`, the walk of src/traverse/mod.rs for its kind of layout.
 
 // Links, as in src/mesh/build.rs: a neighbour tet id, the domain BOUNDARY, or
 // CONSTRAINED_BIT | index into the constrained-side table.
@@ -24,6 +31,9 @@ const END_DEFERRED: u32 = 3u;
 const EXIT_ABD: u32 = 0u;
 const EXIT_BCD: u32 = 1u;
 const EXIT_CAD: u32 = 2u;
+// What start_exit and step_exit return when a sign is too close to call (the robust filter):
+// the walk stops with END_DEFERRED. Not a face (0..3) nor an exit (0..2).
+const EXIT_UNSURE: u32 = 4u;
 
 const WORKGROUP: u32 = 64u;
 
@@ -101,4 +111,45 @@ fn finish(i: u32, end: u32, link: u32, tet: u32, steps: u32, a: u32, b: u32, c: 
 // The end of a walk that reached a link with CONSTRAINED_BIT set (BOUNDARY has it too).
 fn link_end(link: u32) -> u32 {
     return select(END_HIT, END_BOUNDARY, link == BOUNDARY);
+}
+
+// One step of the walk: the tet was entered by face (a, b, c), counter-clockwise around the
+// ray, and is left by exit e; d is its fourth vertex. Makes (a, b, c) the exit face, again
+// counter-clockwise, and returns the vertex opposite it (which names the next link).
+fn turn(
+    e: u32,
+    d: u32,
+    pd: Vert,
+    a: ptr<function, u32>,
+    b: ptr<function, u32>,
+    c: ptr<function, u32>,
+    pa: ptr<function, Vert>,
+    pb: ptr<function, Vert>,
+    pc: ptr<function, Vert>,
+) -> u32 {
+    var opposite: u32;
+    if e == EXIT_ABD {
+        opposite = *c;
+        *c = d;
+        *pc = pd;
+    } else if e == EXIT_BCD {
+        opposite = *a;
+        *a = *b;
+        *pa = *pb;
+        *b = *c;
+        *pb = *pc;
+        *c = d;
+        *pc = pd;
+    } else {
+        opposite = *b;
+        let a0 = *a;
+        let pa0 = *pa;
+        *a = *c;
+        *pa = *pc;
+        *b = a0;
+        *pb = pa0;
+        *c = d;
+        *pc = pd;
+    }
+    return opposite;
 }

@@ -1,105 +1,171 @@
-//! The traversal kernels: which method × layout each one is, and its WGSL source (the common
-//! file in front of the kernel's own file, joined at compile time).
+//! The traversal kernels, one table row each. A kernel is one exit method on one layout,
+//! walking in float32; its WGSL module is joined at compile time from four files:
+//! `shaders/common.wgsl`, the layout's records (`shaders/layouts/`), the method's exit test
+//! (`shaders/methods/`) and the layout's walk (`shaders/walks/`, one `main` per kind of
+//! layout). Each kernel has a CPU twin, `walk::<f32, L, M>` on the same layout and method.
+//!
+//! Adding a kernel: a method file in `shaders/methods/` declaring what
+//! `shaders/common.wgsl` lists, a [`GpuRay`] impl for the CPU twin's prepared ray (if it is
+//! a new kind of ray), and one row in [`KERNELS`]. Adding a layout: its records file, a walk
+//! (or an existing one, if the layout provides the same accessors), an upload function in
+//! `device_scene.rs`, and one row in [`GPU_LAYOUTS`].
 
+use super::device_scene::{upload_tet20, upload_tet80, LayoutBuffers};
+use super::structs::{RayIn, NO_ENTRY};
+use super::Gpu;
 use crate::error::{Error, Result};
+use crate::mesh::TetMesh;
+use crate::scene::{Scene, WalkStart};
+use crate::traverse::aman2022::BasisRay;
+use crate::traverse::lagae2008_plucker::PluckerRay;
+use crate::traverse::robust::LineRay;
+use crate::traverse::{walk, Aman2022, ExitMethod, Maria2017, Robust, Walk};
+
+/// One WGSL file: its path under `shaders/` and its text, embedded at compile time.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Wgsl {
+    pub path: &'static str,
+    pub source: &'static str,
+}
+
+macro_rules! wgsl {
+    ($path:literal) => {
+        Wgsl {
+            path: $path,
+            source: include_str!(concat!("../../shaders/", $path)),
+        }
+    };
+}
 
 /// Shared structs, bindings and helpers of every kernel.
-pub const COMMON_WGSL: &str = include_str!("../../shaders/common.wgsl");
+pub const COMMON: Wgsl = wgsl!("common.wgsl");
+
+/// A layout the GPU walks.
+pub struct GpuLayout {
+    /// The layout's name (`tetrace.layouts()`).
+    pub name: &'static str,
+    /// Its records and their accessors (`shaders/layouts/`).
+    pub wgsl: Wgsl,
+    /// The walk for its kind of layout (`shaders/walks/`).
+    pub walk: Wgsl,
+    /// Whether the walk names a face's vertices by their slot 0..3 in the tet (inline
+    /// layouts) rather than by id (`Walk::slots`).
+    pub slots: bool,
+    /// Fills the scene's device buffers for it (records, and points for id layouts).
+    pub(crate) upload: fn(&Gpu, &Scene) -> Result<LayoutBuffers>,
+}
+
+/// Every layout a kernel walks.
+pub static GPU_LAYOUTS: [GpuLayout; 2] = [
+    GpuLayout {
+        name: "tet20",
+        wgsl: wgsl!("layouts/tet20.wgsl"),
+        walk: wgsl!("walks/by_id.wgsl"),
+        slots: false,
+        upload: upload_tet20,
+    },
+    GpuLayout {
+        name: "tet80",
+        wgsl: wgsl!("layouts/tet80.wgsl"),
+        walk: wgsl!("walks/inline.wgsl"),
+        slots: true,
+        upload: upload_tet80,
+    },
+];
+
+/// The CPU walk of a ray its kernel deferred, from the same start, up to a step guard.
+pub(crate) type CpuWalk<'a> = Box<dyn Fn(&WalkStart, u32) -> Walk + Sync + 'a>;
 
 /// A GPU kernel: one exit method on one layout, walking in float32.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Kernel {
-    /// Aman et al. 2022 on Tet20; CPU twin `walk::<f32, Tet20, Aman2022>`.
-    Aman2022Tet20,
-    /// Maria et al. 2017 on Tet80; CPU twin `walk::<f32, Tet80, Maria2017>`.
-    Maria2017Tet80,
-    /// The robust walk's filter on Tet20; uncertain rays go back to `walk::<f32, Tet20, Robust>`.
-    RobustTet20,
+pub struct KernelSpec {
+    /// The exit method's name (`tetrace.methods()`; the CPU twin's `ExitMethod::NAME`).
+    pub method: &'static str,
+    pub layout: &'static GpuLayout,
+    /// The method's exit test (`shaders/methods/`).
+    pub wgsl: Wgsl,
+    /// Whether the CPU twin's walk starts in the tet holding the perturbed start point
+    /// (`ExitMethod::PERTURBED_START`): the host then locates as the twin's cast does.
+    pub perturbed_start: bool,
+    /// The ray as the CPU twin prepares it (`WalkStart::prepare`), as the kernel reads it.
+    pub(crate) prepare: fn(&WalkStart, &TetMesh) -> RayIn,
+    /// For kernels that may end a ray with `END_DEFERRED`: the CPU walk that decides it.
+    pub(crate) deferred_to: Option<fn(&Scene) -> Result<CpuWalk<'_>>>,
 }
 
 /// Every kernel, the default (Aman et al. on Tet20, their GPU design) first.
-pub const KERNELS: [Kernel; 3] = [
-    Kernel::Aman2022Tet20,
-    Kernel::Maria2017Tet80,
-    Kernel::RobustTet20,
+pub static KERNELS: [KernelSpec; 3] = [
+    KernelSpec::of::<Aman2022>(&GPU_LAYOUTS[0], wgsl!("methods/aman2022.wgsl"), None),
+    KernelSpec::of::<Maria2017>(&GPU_LAYOUTS[1], wgsl!("methods/maria2017.wgsl"), None),
+    // The robust walk's float32 filter; rays it cannot certify go back to
+    // `walk::<f32, Tet20, Robust>`.
+    KernelSpec::of::<Robust>(
+        &GPU_LAYOUTS[0],
+        wgsl!("methods/robust.wgsl"),
+        Some(robust_tet20_on_cpu),
+    ),
 ];
 
-impl Kernel {
-    /// The exit method's name (`tetrace.methods()`).
-    pub fn method(self) -> &'static str {
-        match self {
-            Kernel::Aman2022Tet20 => "aman2022",
-            Kernel::Maria2017Tet80 => "maria2017",
-            Kernel::RobustTet20 => "robust",
+impl KernelSpec {
+    /// The kernel of method M (its CPU twin's method) on `layout`.
+    const fn of<M: ExitMethod<f32>>(
+        layout: &'static GpuLayout,
+        wgsl: Wgsl,
+        deferred_to: Option<fn(&Scene) -> Result<CpuWalk<'_>>>,
+    ) -> KernelSpec
+    where
+        M::Ray: GpuRay,
+    {
+        KernelSpec {
+            method: M::NAME,
+            layout,
+            wgsl,
+            perturbed_start: M::PERTURBED_START,
+            prepare: prepare_as::<M>,
+            deferred_to,
         }
     }
 
-    /// The layout's name (`tetrace.layouts()`).
-    pub fn layout(self) -> &'static str {
-        match self {
-            Kernel::Aman2022Tet20 | Kernel::RobustTet20 => "tet20",
-            Kernel::Maria2017Tet80 => "tet80",
+    /// `method/layout`, as error messages and labels name a kernel.
+    pub fn name(&self) -> String {
+        format!("{}/{}", self.method, self.layout.name)
+    }
+
+    /// The parts of the WGSL module, in the order they are joined.
+    pub fn parts(&self) -> [Wgsl; 4] {
+        [COMMON, self.layout.wgsl, self.wgsl, self.layout.walk]
+    }
+
+    /// The full WGSL module the device compiles.
+    pub fn source(&self) -> String {
+        let mut s = String::new();
+        for (k, p) in self.parts().iter().enumerate() {
+            if k > 0 {
+                s.push_str(&format!("\n// ---- {} ----\n", p.path));
+            }
+            s.push_str(p.source);
         }
+        s
     }
 
-    /// Whether the CPU twin's walk starts in the tet holding the perturbed start point
-    /// (`ExitMethod::PERTURBED_START`): the host then locates as the twin's cast does.
-    pub fn perturbed_start(self) -> bool {
-        use crate::traverse::{Aman2022, ExitMethod, Maria2017, Robust};
-        match self {
-            Kernel::Aman2022Tet20 => <Aman2022 as ExitMethod<f32>>::PERTURBED_START,
-            Kernel::Maria2017Tet80 => <Maria2017 as ExitMethod<f32>>::PERTURBED_START,
-            Kernel::RobustTet20 => <Robust as ExitMethod<f32>>::PERTURBED_START,
-        }
-    }
-
-    /// The kernel's own file under shaders/.
-    pub fn file(self) -> &'static str {
-        match self {
-            Kernel::Aman2022Tet20 => "aman2022_tet20.wgsl",
-            Kernel::Maria2017Tet80 => "maria2017_tet80.wgsl",
-            Kernel::RobustTet20 => "robust_tet20.wgsl",
-        }
-    }
-
-    fn own_source(self) -> &'static str {
-        match self {
-            Kernel::Aman2022Tet20 => include_str!("../../shaders/aman2022_tet20.wgsl"),
-            Kernel::Maria2017Tet80 => include_str!("../../shaders/maria2017_tet80.wgsl"),
-            Kernel::RobustTet20 => include_str!("../../shaders/robust_tet20.wgsl"),
-        }
-    }
-
-    /// The full WGSL module: the common file, then the kernel's.
-    pub fn source(self) -> String {
-        format!(
-            "{COMMON_WGSL}\n// ---- {} ----\n{}",
-            self.file(),
-            self.own_source()
-        )
-    }
-
-    /// Whether the kernel reads the point array (id layouts) besides the tet records.
-    pub fn uses_points(self) -> bool {
-        !matches!(self, Kernel::Maria2017Tet80)
-    }
-
-    /// The kernel for a method and layout, or an error listing those that exist. `None`
-    /// picks the default kernel's.
-    pub fn find(method: Option<&str>, layout: Option<&str>) -> Result<Kernel> {
-        let method = method.unwrap_or(KERNELS[0].method());
-        let layout = layout.unwrap_or(match method {
-            "maria2017" => "tet80",
-            _ => "tet20",
+    /// The kernel for a method and layout, or an error listing those that exist. A missing
+    /// method means the default kernel's; a missing layout, the layout of the first kernel
+    /// with that method (the default kernel's for a method with none).
+    pub fn find(method: Option<&str>, layout: Option<&str>) -> Result<&'static KernelSpec> {
+        let default = &KERNELS[0];
+        let method = method.unwrap_or(default.method);
+        let layout = layout.unwrap_or_else(|| {
+            KERNELS
+                .iter()
+                .find(|k| k.method == method)
+                .unwrap_or(default)
+                .layout
+                .name
         });
         KERNELS
-            .into_iter()
-            .find(|k| k.method() == method && k.layout() == layout)
+            .iter()
+            .find(|k| k.method == method && k.layout.name == layout)
             .ok_or_else(|| {
-                let have: Vec<String> = KERNELS
-                    .iter()
-                    .map(|k| format!("{}/{}", k.method(), k.layout()))
-                    .collect();
+                let have: Vec<String> = KERNELS.iter().map(KernelSpec::name).collect();
                 Error::InvalidOption(format!(
                     "no GPU kernel for method {method:?} on layout {layout:?}; GPU kernels \
                      (method/layout, float32): {}",
@@ -107,4 +173,93 @@ impl Kernel {
                 ))
             })
     }
+}
+
+impl std::fmt::Debug for KernelSpec {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "KernelSpec({})", self.name())
+    }
+}
+
+/// A CPU twin's prepared ray, as `RayIn` carries it to the kernel (`origin`, `e0`, `e1`,
+/// `slack`; what each means is the method file's to say).
+pub(crate) trait GpuRay {
+    fn fill(&self, ray: RayIn) -> RayIn;
+}
+
+/// Aman et al.: the start point and the 2D basis (u, w).
+impl GpuRay for BasisRay<f32> {
+    fn fill(&self, ray: RayIn) -> RayIn {
+        RayIn {
+            origin: self.origin,
+            e0: self.u,
+            e1: self.w,
+            ..ray
+        }
+    }
+}
+
+/// Maria et al.: the direction and the moment o × u.
+impl GpuRay for PluckerRay<f32> {
+    fn fill(&self, ray: RayIn) -> RayIn {
+        RayIn {
+            e0: self.u,
+            e1: self.v,
+            ..ray
+        }
+    }
+}
+
+/// The robust walk's exact line: s (already float32, so the slack is 0 unless that changes)
+/// and b = s + k d; the kernel projects on the basis built from b − s.
+impl GpuRay for LineRay<f32> {
+    fn fill(&self, ray: RayIn) -> RayIn {
+        RayIn {
+            origin: self.sr,
+            e0: self.u,
+            e1: self.w,
+            slack: slack(self.s, self.sr),
+            ..ray
+        }
+    }
+}
+
+/// The ray as method M's CPU twin prepares it (`WalkStart::prepare`, as the CPU cast does).
+fn prepare_as<M: ExitMethod<f32>>(s: &WalkStart, mesh: &TetMesh) -> RayIn
+where
+    M::Ray: GpuRay,
+{
+    let base = RayIn {
+        tet: s.tet,
+        entry: s.entry.map_or(NO_ENTRY, |i| i as u32),
+        verts: mesh.tets[s.tet as usize],
+        ..Default::default()
+    };
+    s.prepare::<f32, M>(mesh).fill(base)
+}
+
+/// |s − s̃|₁ rounded up to float32: how far the float32 start point the kernel subtracts is
+/// from the exact start point of the robust walk's line (docs/gpu.md).
+pub fn slack(s: [f64; 3], sr: [f32; 3]) -> f32 {
+    // Each difference is exact in f64 (s̃ is s rounded); the sum and the conversion round by
+    // far less than the 1e-6 margin.
+    let e: f64 = (0..3).map(|k| (s[k] - sr[k] as f64).abs()).sum();
+    (e * (1.0 + 1e-6)) as f32
+}
+
+/// The CPU robust walk on Tet20, which decides the rays the robust kernel defers.
+fn robust_tet20_on_cpu(scene: &Scene) -> Result<CpuWalk<'_>> {
+    let tet20 = crate::dispatch::get(&scene.layouts.tet20, &scene.mesh)?;
+    Ok(Box::new(move |s: &WalkStart, max_steps: u32| {
+        let ray = s.prepare::<f32, Robust>(&scene.mesh);
+        walk::<f32, _, Robust>(
+            tet20,
+            &scene.points_f32,
+            &ray,
+            s.tet,
+            scene.mesh.tets[s.tet as usize],
+            s.entry,
+            max_steps,
+        )
+    }))
 }

@@ -1,4 +1,5 @@
-//! Traversal on the GPU through wgpu compute shaders (`shaders/*.wgsl`).
+//! Traversal on the GPU through wgpu compute shaders (`shaders/`, assembled in
+//! `kernels.rs`).
 //!
 //! Start-tet location and the hit on the caller's triangle stay on the CPU (the same code as
 //! the CPU cast); the walk from tet to tet runs on the device, one invocation per ray. Each
@@ -9,12 +10,19 @@
 
 pub mod cast;
 pub mod context;
+pub mod device_scene;
 pub mod kernels;
+pub mod launch;
 pub mod structs;
 
-pub use cast::{GpuCache, GpuTimings};
+pub use cast::GpuTimings;
 pub use context::{adapters, gpu, AdapterSummary, Gpu};
-pub use kernels::{Kernel, KERNELS};
+pub use device_scene::DeviceScene;
+pub use kernels::{KernelSpec, GPU_LAYOUTS, KERNELS};
+pub use launch::{Batching, MAX_BATCH};
+
+/// The scene's field until the binding holds the [`DeviceScene`] itself.
+pub type GpuCache = DeviceScene;
 
 #[cfg(test)]
 mod tests;

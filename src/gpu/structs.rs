@@ -1,4 +1,4 @@
-//! Rust mirrors of the WGSL structs in `shaders/`: `#[repr(C)]`, Pod (uploaded and read back
+//! Rust mirrors of the WGSL structs in `shaders/common.wgsl` and `shaders/layouts/`: `#[repr(C)]`, Pod (uploaded and read back
 //! with bytemuck), with their sizes and field offsets asserted at compile time against the
 //! WGSL layout rules (vec3<f32> aligns to 16 bytes and takes 12, so a u32 may follow it).
 
@@ -39,7 +39,7 @@ pub struct RayOut {
     pub face: [u32; 4],
 }
 
-/// `Tet20` of shaders/aman2022_tet20.wgsl and robust_tet20.wgsl (layout::tet20::Tet20Record).
+/// `Tet20` of shaders/layouts/tet20.wgsl (layout::tet20::Tet20Record).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
 pub struct Tet20 {
@@ -47,7 +47,7 @@ pub struct Tet20 {
     pub links: [u32; 4],
 }
 
-/// `Face80` of shaders/maria2017_tet80.wgsl (layout::tet80::Tet80Face).
+/// `Face80` of shaders/layouts/tet80.wgsl (layout::tet80::Tet80Face).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
 pub struct Face80 {
@@ -55,7 +55,7 @@ pub struct Face80 {
     pub neighbor: u32,
 }
 
-/// `Tet80` of shaders/maria2017_tet80.wgsl (layout::tet80::Tet80Record).
+/// `Tet80` of shaders/layouts/tet80.wgsl (layout::tet80::Tet80Record).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct Tet80 {
@@ -63,10 +63,9 @@ pub struct Tet80 {
     pub faces: [Face80; 4],
 }
 
-/// `END_*` of shaders/common.wgsl.
+/// `END_*` of shaders/common.wgsl (any other end is END_STEP_LIMIT).
 pub const END_BOUNDARY: u32 = 0;
 pub const END_HIT: u32 = 1;
-pub const END_STEP_LIMIT: u32 = 2;
 pub const END_DEFERRED: u32 = 3;
 /// `NO_ENTRY` of shaders/common.wgsl.
 pub const NO_ENTRY: u32 = 4;

@@ -5,7 +5,8 @@
 //! also judged by the exact referee (`crate::referee`): the GPU's twin on the CPU is no
 //! judge of either, and `t` is finished on the CPU from the same triangle on both.
 
-use super::kernels::{Kernel, COMMON_WGSL, KERNELS};
+use super::kernels::{KernelSpec, KERNELS};
+use super::launch::Batching;
 use super::structs::*;
 use crate::scene::{CastOptions, HitsOut, Rays, Scene, FAILED, HIT};
 use crate::traverse::tests::{
@@ -30,46 +31,52 @@ fn parse_and_validate(name: &str, source: &str) -> (naga::Module, naga::valid::M
     (module, info)
 }
 
-/// Every file in shaders/ is the common file or one kernel's, and every kernel, joined to the
-/// common file as the device gets it, parses and validates with one compute entry point.
+/// The kernel named `method`/`layout` (it must exist).
+fn kernel(method: &str, layout: &str) -> &'static KernelSpec {
+    KernelSpec::find(Some(method), Some(layout)).unwrap()
+}
+
+/// Every .wgsl file under `dir`, as paths relative to shaders/.
+fn wgsl_files(dir: &std::path::Path, out: &mut Vec<String>) {
+    for e in std::fs::read_dir(dir).unwrap() {
+        let path = e.unwrap().path();
+        if path.is_dir() {
+            wgsl_files(&path, out);
+        } else if path.extension().is_some_and(|x| x == "wgsl") {
+            let rel = path.strip_prefix(shaders_dir()).unwrap();
+            out.push(rel.to_string_lossy().replace('\\', "/"));
+        }
+    }
+}
+
+/// Every file under shaders/ is a part of some kernel (no stray copies), each part embedded is
+/// the file on disk, and every kernel, assembled as the device gets it, parses and validates
+/// with one compute entry point.
 #[test]
 fn every_shader_validates_with_naga() {
-    let mut files: Vec<String> = std::fs::read_dir(shaders_dir())
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .filter(|n| n.ends_with(".wgsl"))
-        .collect();
+    let mut files = Vec::new();
+    wgsl_files(&shaders_dir(), &mut files);
     files.sort();
-    let mut expected: Vec<String> = KERNELS.iter().map(|k| k.file().to_string()).collect();
-    expected.push("common.wgsl".into());
-    expected.sort();
-    assert_eq!(
-        files, expected,
-        "shaders/ holds exactly common.wgsl and one file per kernel"
-    );
-    // The embedded sources are the files on disk.
-    let common = std::fs::read_to_string(shaders_dir().join("common.wgsl")).unwrap();
-    assert_eq!(common, COMMON_WGSL);
-    for k in KERNELS {
-        let own = std::fs::read_to_string(shaders_dir().join(k.file())).unwrap();
-        let src = k.source();
-        assert!(
-            src.ends_with(&own),
-            "{}: embedded source is stale",
-            k.file()
-        );
-        let (module, _) = parse_and_validate(k.file(), &src);
+    let mut used: Vec<String> = KERNELS
+        .iter()
+        .flat_map(|k| k.parts().map(|p| p.path.to_string()))
+        .collect();
+    used.sort();
+    used.dedup();
+    assert_eq!(files, used, "shaders/ holds exactly the kernels' parts");
+    for k in &KERNELS {
+        for part in k.parts() {
+            let disk = std::fs::read_to_string(shaders_dir().join(part.path)).unwrap();
+            assert_eq!(disk, part.source, "{}: embedded source is stale", part.path);
+        }
+        let name = k.name();
+        let (module, _) = parse_and_validate(&name, &k.source());
         let entries: Vec<_> = module
             .entry_points
             .iter()
             .map(|e| (e.name.as_str(), e.stage))
             .collect();
-        assert_eq!(
-            entries,
-            [("main", naga::ShaderStage::Compute)],
-            "{}",
-            k.file()
-        );
+        assert_eq!(entries, [("main", naga::ShaderStage::Compute)], "{name}");
         assert_eq!(module.entry_points[0].workgroup_size, [WORKGROUP, 1, 1]);
     }
 }
@@ -77,7 +84,7 @@ fn every_shader_validates_with_naga() {
 /// A broken kernel is caught: the check above can fail.
 #[test]
 fn naga_rejects_a_broken_kernel() {
-    let bad = format!("{COMMON_WGSL}\nfn f() -> u32 {{ return 1.0; }}\n");
+    let bad = format!("{}\nfn f() -> u32 {{ return 1.0; }}\n", KERNELS[0].source());
     let module = naga::front::wgsl::parse_str(&bad);
     let invalid = match module {
         Err(_) => true,
@@ -155,8 +162,9 @@ fn rust_mirrors_match_wgsl_layouts() {
         ),
     ];
     let mut seen = std::collections::HashSet::new();
-    for k in KERNELS {
-        let (module, _) = parse_and_validate(k.file(), &k.source());
+    for k in &KERNELS {
+        let file = k.name();
+        let (module, _) = parse_and_validate(&file, &k.source());
         let mut layouter = naga::proc::Layouter::default();
         layouter.update(module.to_ctx()).unwrap();
         for (h, ty) in module.types.iter() {
@@ -169,13 +177,13 @@ fn rust_mirrors_match_wgsl_layouts() {
             let (_, size, fields) = expect
                 .iter()
                 .find(|e| e.0 == name)
-                .unwrap_or_else(|| panic!("{}: struct {name} has no Rust mirror here", k.file()));
-            assert_eq!(*span as usize, *size, "{}: size of {name}", k.file());
+                .unwrap_or_else(|| panic!("{file}: struct {name} has no Rust mirror here"));
+            assert_eq!(*span as usize, *size, "{}: size of {name}", file);
             assert_eq!(
                 layouter[h].size as usize,
                 *size,
                 "{}: size of {name}",
-                k.file()
+                file
             );
             for (f, off) in fields {
                 let m = members
@@ -186,7 +194,7 @@ fn rust_mirrors_match_wgsl_layouts() {
                     m.offset as usize,
                     *off,
                     "{}: offset of {name}.{f}",
-                    k.file()
+                    file
                 );
             }
             // Storage arrays of it have the Rust stride.
@@ -463,7 +471,7 @@ fn run(
 #[allow(clippy::type_complexity)]
 fn parity(
     scene: &Scene,
-    kernel: Kernel,
+    kernel: &KernelSpec,
     o: &[f32],
     d: &[f32],
 ) -> (usize, usize, f64, usize, Out, Out, super::GpuTimings) {
@@ -472,11 +480,11 @@ fn parity(
         max_steps: scene.mesh.len() as u32 + 1,
     };
     let cpu = run(scene, o, d, |r, out| {
-        scene.cast_named(kernel.method(), kernel.layout(), r, out, &opts)
+        scene.cast_named(kernel.method, kernel.layout.name, r, out, &opts)
     });
     let mut timings = Default::default();
     let gpu = run(scene, o, d, |r, out| {
-        timings = scene.cast_gpu(Some(kernel.method()), Some(kernel.layout()), r, out, &opts)?;
+        timings = scene.cast_gpu(Some(kernel.method), Some(kernel.layout.name), r, out, &opts)?;
         Ok(())
     });
     let n = cpu.t.len();
@@ -494,8 +502,8 @@ fn parity(
     (n, differ, worst, failed, cpu, gpu, timings)
 }
 
-fn check_kernel(kernel: Kernel) {
-    let test = format!("gpu parity {}/{}", kernel.method(), kernel.layout());
+fn check_kernel(kernel: &KernelSpec) {
+    let test = format!("gpu parity {}", kernel.name());
     if !device_or_skip(&test) {
         return;
     }
@@ -519,14 +527,14 @@ fn check_kernel(kernel: Kernel) {
         let want = verdicts32(&o, &d, &tris);
         judged(&format!("{test} offset {offset}"), &want, &gpu);
         judged(&format!("{test} offset {offset}, CPU twin"), &want, &cpu);
-        if kernel == Kernel::RobustTet20 {
+        if kernel.method == "robust" {
             // Exact on the line it walks: asserted. Against the ray itself only recorded
             // (above): a ray entering the box is walked from its entry point rounded to
             // float32, up to an ulp off the ray's line, so a ray crossing a triangle that
             // close to an edge can come out late, leaked or wrong (a finding, not a bound).
             assert_robust_bracket(&scene, &o, &d, &tris, &gpu);
         }
-        if kernel == Kernel::RobustTet20 {
+        if kernel.method == "robust" {
             // Exact signs on both sides: the same walk, ray for ray.
             assert_eq!(differ, 0, "{test}");
             assert_eq!(cpu.tet, gpu.tet, "{test}: end tets");
@@ -567,17 +575,17 @@ fn float_kernel_parity(test: &str, differ: usize, n: usize) {
 
 #[test]
 fn gpu_aman2022_tet20_matches_cpu_twin() {
-    check_kernel(Kernel::Aman2022Tet20);
+    check_kernel(kernel("aman2022", "tet20"));
 }
 
 #[test]
 fn gpu_maria2017_tet80_matches_cpu_twin() {
-    check_kernel(Kernel::Maria2017Tet80);
+    check_kernel(kernel("maria2017", "tet80"));
 }
 
 #[test]
 fn gpu_robust_tet20_matches_cpu_robust() {
-    check_kernel(Kernel::RobustTet20);
+    check_kernel(kernel("robust", "tet20"));
 }
 
 /// Batching and the 2D dispatch: small batches and a grid of at most 7 workgroups a row give
@@ -598,7 +606,11 @@ fn gpu_batches_do_not_change_results() {
     });
     let mut timings = None;
     let many = run(&scene, &o, &d, |r, out| {
-        timings = Some(scene.cast_gpu_with(None, None, r, out, &opts, 1000, Some(7))?);
+        let batching = Batching {
+            max_batch: 1000,
+            max_groups: Some(7),
+        };
+        timings = Some(scene.gpu.cast_with(&scene, &KERNELS[0], r, out, &opts, batching)?);
         Ok(())
     });
     let t = timings.unwrap();
@@ -691,15 +703,15 @@ fn gpu_prepares_rays_as_the_cpu_cast() {
     for scale in [1e-30f32, 1e-3, 1.0, 1e30] {
         let d: Vec<f32> = d0.iter().map(|x| x * scale).collect();
         let want = verdicts32(&o, &d, &tris);
-        for kernel in KERNELS {
+        for kernel in &KERNELS {
             let cpu = run(&scene, &o, &d, |r, out| {
-                scene.cast_named(kernel.method(), kernel.layout(), r, out, &opts)
+                scene.cast_named(kernel.method, kernel.layout.name, r, out, &opts)
             });
             let mut timings = None;
             let gpu = run(&scene, &o, &d, |r, out| {
                 timings = Some(scene.cast_gpu(
-                    Some(kernel.method()),
-                    Some(kernel.layout()),
+                    Some(kernel.method),
+                    Some(kernel.layout.name),
                     r,
                     out,
                     &opts,
@@ -711,7 +723,7 @@ fn gpu_prepares_rays_as_the_cpu_cast() {
                 .filter(|&i| cpu.tri[i] != gpu.tri[i] || cpu.status[i] != gpu.status[i])
                 .count();
             let hits = gpu.status.iter().filter(|&&s| s == HIT).count();
-            let test = format!("{}/{} |d| x {scale:e}", kernel.method(), kernel.layout());
+            let test = format!("{} |d| x {scale:e}", kernel.name());
             eprintln!(
                 "gpu ray preparation {test}: {n} rays, {hits} hits, {differ} differ, {:?} \
                  deferred",
@@ -719,7 +731,7 @@ fn gpu_prepares_rays_as_the_cpu_cast() {
             );
             assert!(hits > n / 10, "{test}: {hits} hits");
             judged(&format!("gpu ray preparation {test}"), &want, &gpu);
-            if kernel == Kernel::RobustTet20 {
+            if kernel.method == "robust" {
                 assert_robust_bracket(&scene, &o, &d, &tris, &gpu);
                 assert_eq!(cpu.status, gpu.status, "{test}");
                 assert_eq!(cpu.tri, gpu.tri, "{test}");
@@ -753,8 +765,8 @@ fn robust_entries_are_settled_without_an_entry_face() {
     };
     let [lo, hi] = scene.mesh.bounds;
     let outside = |i: usize| (0..3).any(|a| !(lo[a]..=hi[a]).contains(&(o[3 * i + a] as f64)));
-    for kernel in KERNELS {
-        let settle = kernel.perturbed_start().then_some(&scene.points_f32[..]);
+    for kernel in &KERNELS {
+        let settle = kernel.perturbed_start.then_some(&scene.points_f32[..]);
         let (mut hint, mut camera, mut entry_hint, mut rng) = (None, None, None, 1);
         let (mut entering, mut with_face) = (0, 0);
         for i in 0..n {
@@ -769,15 +781,15 @@ fn robust_entries_are_settled_without_an_entry_face() {
             );
             if let (crate::scene::Start::Walk(s), true) = (start, outside(i)) {
                 entering += 1;
-                let r = super::cast::prepare(kernel, &s, &scene.mesh);
+                let r = (kernel.prepare)(&s, &scene.mesh);
                 assert_eq!(r.entry, s.entry.map_or(NO_ENTRY, |f| f as u32));
                 assert_eq!(r.tet, s.tet);
                 with_face += usize::from(r.entry != NO_ENTRY);
             }
         }
-        let name = format!("{}/{}", kernel.method(), kernel.layout());
+        let name = kernel.name();
         assert!(entering > n / 10, "{name}: {entering} entering rays");
-        if kernel == Kernel::RobustTet20 {
+        if kernel.method == "robust" {
             assert_eq!(
                 with_face, 0,
                 "{name}: {with_face} of {entering} with an entry face"
@@ -825,13 +837,15 @@ fn gpu_cast_refuses_the_audit() {
 
 #[test]
 fn unknown_kernel_is_a_clear_error() {
-    let e = Kernel::find(Some("ms06"), Some("tet32")).unwrap_err();
+    let e = KernelSpec::find(Some("ms06"), Some("tet32")).unwrap_err();
     assert!(e.to_string().contains("aman2022/tet20"), "{e}");
-    assert_eq!(Kernel::find(None, None).unwrap(), Kernel::Aman2022Tet20);
-    assert_eq!(
-        Kernel::find(Some("maria2017"), None).unwrap(),
-        Kernel::Maria2017Tet80
-    );
+    let e = KernelSpec::find(Some("ms06"), None).unwrap_err();
+    assert!(e.to_string().contains(r#"method "ms06" on layout "tet20""#), "{e}");
+    let found = |m, l| KernelSpec::find(m, l).unwrap().name();
+    assert_eq!(found(None, None), "aman2022/tet20");
+    assert_eq!(found(Some("maria2017"), None), "maria2017/tet80");
+    assert_eq!(found(Some("robust"), None), "robust/tet20");
+    assert_eq!(found(None, Some("tet20")), "aman2022/tet20");
 }
 
 /// The robust kernel's slack: an upper bound on |s − s̃|₁.
@@ -842,7 +856,7 @@ fn slack_bounds_the_start_point_rounding() {
         let s = [0, 1, 2].map(|_| (rng.f() - 0.5) * 10f64.powi((rng.f() * 12.0) as i32 - 6));
         let sr = s.map(|x| x as f32);
         let e: f64 = (0..3).map(|k| (s[k] - sr[k] as f64).abs()).sum();
-        assert!(super::cast::slack(s, sr) as f64 >= e);
+        assert!(super::kernels::slack(s, sr) as f64 >= e);
     }
 }
 
@@ -850,10 +864,10 @@ fn slack_bounds_the_start_point_rounding() {
 #[test]
 fn oversized_scene_is_too_large() {
     let limits = wgpu::Limits::default();
-    let ok = super::cast::check_fits("tet20 records", 1 << 20, &limits, "test device");
+    let ok = super::device_scene::check_fits("tet20 records", 1 << 20, &limits, "test device");
     assert!(ok.is_ok());
     let big = limits.max_storage_buffer_binding_size + 20;
-    let e = super::cast::check_fits("tet20 records", big, &limits, "test device").unwrap_err();
+    let e = super::device_scene::check_fits("tet20 records", big, &limits, "test device").unwrap_err();
     assert!(matches!(e, crate::Error::TooLarge(_)), "{e}");
     let m = e.to_string();
     assert!(

@@ -1,0 +1,254 @@
+//! Running a kernel over prepared rays: the ray buffers, the bind group, then per batch an
+//! upload, a dispatch (a 2D grid when one row of workgroups is not enough) and a readback.
+
+use super::cast::GpuTimings;
+use super::context::Gpu;
+use super::device_scene::LayoutBuffers;
+use super::structs::{Params, RayIn, RayOut, WORKGROUP};
+use crate::error::{Error, Result};
+use std::time::Instant;
+use wgpu::util::DeviceExt;
+
+/// Rays per batch at most: bounds the ray buffers (64 + 2 × 32 bytes a ray).
+pub const MAX_BATCH: usize = 1 << 20;
+
+/// How rays are cut into dispatches.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Batching {
+    /// Rays per dispatch at most (the device's binding limit may lower it).
+    pub max_batch: usize,
+    /// Workgroups per dispatch dimension at most, below the device's own limit (None: the
+    /// device's). Tests use small values to exercise batching and the 2D dispatch.
+    pub max_groups: Option<u32>,
+}
+
+impl Default for Batching {
+    fn default() -> Self {
+        Batching {
+            max_batch: MAX_BATCH,
+            max_groups: None,
+        }
+    }
+}
+
+/// One kernel's run over a cast's rays.
+pub(crate) struct Launch<'a> {
+    pub g: &'a Gpu,
+    pub pipeline: &'a wgpu::ComputePipeline,
+    pub scene: &'a LayoutBuffers,
+    pub max_steps: u32,
+    pub batching: Batching,
+}
+
+/// The device buffers of a run, sized for one batch.
+struct RayBuffers {
+    rays: wgpu::Buffer,
+    hits: wgpu::Buffer,
+    readback: wgpu::Buffer,
+    params: wgpu::Buffer,
+}
+
+impl Launch<'_> {
+    /// Walks the rays of `parts` (all chunks' rays, in order: `walked` in all), as one
+    /// sequence cut into batches; returns their results in the same order.
+    pub fn run(
+        &self,
+        parts: &[&[RayIn]],
+        walked: usize,
+        timings: &mut GpuTimings,
+    ) -> Result<Vec<RayOut>> {
+        let g = self.g;
+        let mut results: Vec<RayOut> = Vec::with_capacity(walked);
+        let ray_bytes = std::mem::size_of::<RayIn>() as u64;
+        let cap = (g
+            .limits
+            .max_storage_buffer_binding_size
+            .min(g.limits.max_buffer_size)
+            / ray_bytes)
+            .min(self.batching.max_batch as u64) as usize;
+        let batch = walked.min(cap).max(1);
+        let bufs = self.allocate(batch)?;
+        let bind = self.bind(&bufs)?;
+        let mut staged: Vec<RayIn> = Vec::with_capacity(batch);
+        let mut iter = parts.iter().flat_map(|p| p.iter());
+        let max_dim = self
+            .batching
+            .max_groups
+            .unwrap_or(u32::MAX)
+            .min(g.limits.max_compute_workgroups_per_dimension)
+            .max(1);
+        loop {
+            staged.clear();
+            staged.extend(iter.by_ref().take(batch).copied());
+            if staged.is_empty() {
+                break;
+            }
+            timings.batches += 1;
+            self.upload(&bufs, &staged, timings)?;
+            self.dispatch(&bind, staged.len(), max_dim, timings)?;
+            read_back(g, &bufs, staged.len(), &mut results, timings)?;
+        }
+        Ok(results)
+    }
+
+    fn allocate(&self, batch: usize) -> Result<RayBuffers> {
+        let g = self.g;
+        let ray_bytes = std::mem::size_of::<RayIn>() as u64;
+        let out_bytes = std::mem::size_of::<RayOut>() as u64;
+        g.scoped("allocating ray buffers", || {
+            let mk = |label, size, usage| {
+                g.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size,
+                    usage,
+                    mapped_at_creation: false,
+                })
+            };
+            use wgpu::BufferUsages as U;
+            RayBuffers {
+                rays: mk("rays", batch as u64 * ray_bytes, U::STORAGE | U::COPY_DST),
+                hits: mk("hits", batch as u64 * out_bytes, U::STORAGE | U::COPY_SRC),
+                readback: mk(
+                    "hits readback",
+                    batch as u64 * out_bytes,
+                    U::MAP_READ | U::COPY_DST,
+                ),
+                params: g
+                    .device
+                    .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                        label: Some("params"),
+                        contents: bytemuck::bytes_of(&Params::default()),
+                        usage: U::UNIFORM | U::COPY_DST,
+                    }),
+            }
+        })
+    }
+
+    fn bind(&self, bufs: &RayBuffers) -> Result<wgpu::BindGroup> {
+        let layout = self.pipeline.get_bind_group_layout(0);
+        let mut entries = vec![
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: bufs.params.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: bufs.rays.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 2,
+                resource: bufs.hits.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 3,
+                resource: self.scene.tets.as_entire_binding(),
+            },
+        ];
+        if let Some(p) = &self.scene.points {
+            entries.push(wgpu::BindGroupEntry {
+                binding: 4,
+                resource: p.as_entire_binding(),
+            });
+        }
+        self.g.scoped("binding buffers", || {
+            self.g.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("tetrace"),
+                layout: &layout,
+                entries: &entries,
+            })
+        })
+    }
+
+    fn upload(&self, bufs: &RayBuffers, staged: &[RayIn], timings: &mut GpuTimings) -> Result<()> {
+        let g = self.g;
+        let t = Instant::now();
+        g.scoped("uploading rays", || {
+            g.queue
+                .write_buffer(&bufs.rays, 0, bytemuck::cast_slice(staged));
+            g.queue.write_buffer(
+                &bufs.params,
+                0,
+                bytemuck::bytes_of(&Params {
+                    n_rays: staged.len() as u32,
+                    max_steps: self.max_steps,
+                    ..Default::default()
+                }),
+            );
+            g.queue.submit([]);
+        })?;
+        g.wait()?;
+        timings.upload += t.elapsed().as_secs_f64();
+        Ok(())
+    }
+
+    fn dispatch(
+        &self,
+        bind: &wgpu::BindGroup,
+        n: usize,
+        max_dim: u32,
+        timings: &mut GpuTimings,
+    ) -> Result<()> {
+        let g = self.g;
+        let t = Instant::now();
+        let groups = (n as u32).div_ceil(WORKGROUP);
+        let (gx, gy) = if groups <= max_dim {
+            (groups, 1)
+        } else {
+            (max_dim, groups.div_ceil(max_dim))
+        };
+        g.scoped("running the traversal kernel", || {
+            let mut enc = g.device.create_command_encoder(&Default::default());
+            {
+                let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("walk"),
+                    timestamp_writes: None,
+                });
+                pass.set_pipeline(self.pipeline);
+                pass.set_bind_group(0, bind, &[]);
+                pass.dispatch_workgroups(gx, gy, 1);
+            }
+            g.queue.submit([enc.finish()]);
+        })?;
+        g.wait()?;
+        timings.kernel += t.elapsed().as_secs_f64();
+        Ok(())
+    }
+}
+
+/// Copies the first `n` results back and appends them to `results`.
+fn read_back(
+    g: &Gpu,
+    bufs: &RayBuffers,
+    n: usize,
+    results: &mut Vec<RayOut>,
+    timings: &mut GpuTimings,
+) -> Result<()> {
+    let t = Instant::now();
+    let size = n as u64 * std::mem::size_of::<RayOut>() as u64;
+    g.scoped("reading results back", || {
+        let mut enc = g.device.create_command_encoder(&Default::default());
+        enc.copy_buffer_to_buffer(&bufs.hits, 0, &bufs.readback, 0, size);
+        g.queue.submit([enc.finish()]);
+    })?;
+    let (tx, rx) = std::sync::mpsc::channel();
+    bufs.readback
+        .slice(..size)
+        .map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+    g.wait()?;
+    rx.recv()
+        .map_err(|_| Error::Gpu("the readback callback never ran".into()))?
+        .map_err(|e| Error::Gpu(format!("mapping the results: {e}")))?;
+    {
+        let view = bufs
+            .readback
+            .slice(..size)
+            .get_mapped_range()
+            .map_err(|e| Error::Gpu(format!("reading the results: {e}")))?;
+        results.extend_from_slice(bytemuck::cast_slice(&view[..]));
+    }
+    bufs.readback.unmap();
+    timings.readback += t.elapsed().as_secs_f64();
+    Ok(())
+}
