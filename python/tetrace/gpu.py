@@ -40,8 +40,9 @@ DEFAULT_KERNEL = kernels()[0]
 def kernel_for(method=None, layout=None):
     """Return the ``(method, layout)`` kernel a GPU cast uses, or None if there is none.
 
-    A missing method means the default kernel's; a missing layout means the kernel's layout
-    for that method (tet80 for ``maria2017``, tet20 otherwise), as in ``src/gpu/kernels.rs``.
+    A missing method means the default kernel's; a missing layout means the layout of the
+    first kernel for that method (tet80 for ``maria2017``, tet20 otherwise). The rule is the
+    core's (``KernelSpec::find`` in ``src/gpu/kernels.rs``), which a GPU cast applies too.
 
     Parameters
     ----------
@@ -51,10 +52,10 @@ def kernel_for(method=None, layout=None):
     -------
     tuple of str or None
     """
-    method = DEFAULT_KERNEL[0] if method is None else method
-    if layout is None:
-        layout = "tet80" if method == "maria2017" else "tet20"
-    return (method, layout) if (method, layout) in kernels() else None
+    try:
+        return tuple(_native.gpu_kernel_for(method, layout))
+    except (ValueError, TypeError):  # no such kernel; a name that is not a str names none
+        return None
 
 
 def info():

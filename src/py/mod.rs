@@ -566,8 +566,20 @@ fn gpu_device<'py>(py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
 fn gpu_kernels() -> Vec<(&'static str, &'static str)> {
     crate::gpu::KERNELS
         .iter()
-        .map(|k| (k.method(), k.layout()))
+        .map(|k| (k.method, k.layout.name))
         .collect()
+}
+
+/// The (method, layout) kernel a GPU cast with these names uses (None: the default kernel's
+/// method; the first layout with a kernel for the method); ValueError naming the kernels.
+#[pyfunction]
+#[pyo3(signature = (method=None, layout=None))]
+fn gpu_kernel_for(
+    method: Option<&str>,
+    layout: Option<&str>,
+) -> PyResult<(&'static str, &'static str)> {
+    let k = crate::gpu::KernelSpec::find(method, layout)?;
+    Ok((k.method, k.layout.name))
 }
 
 fn adapter_dict<'py>(
@@ -601,6 +613,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(gpu_adapters, m)?)?;
     m.add_function(wrap_pyfunction!(gpu_device, m)?)?;
     m.add_function(wrap_pyfunction!(gpu_kernels, m)?)?;
+    m.add_function(wrap_pyfunction!(gpu_kernel_for, m)?)?;
     m.add("DEFAULT_METHOD", crate::dispatch::DEFAULT_METHOD)?;
     m.add("DEFAULT_LAYOUT", crate::dispatch::DEFAULT_LAYOUT)?;
     m.add("MeshError", m.py().get_type::<MeshError>())?;
