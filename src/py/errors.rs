@@ -1,0 +1,58 @@
+//! The one mapping from core errors to Python exceptions, and the net that keeps a panic
+//! from crossing into Python.
+
+use crate::error::Error;
+use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+pyo3::create_exception!(
+    _native,
+    MeshError,
+    PyValueError,
+    "The tetrahedralization is unusable (flat tets, non-manifold faces, ...)."
+);
+pyo3::create_exception!(
+    _native,
+    TooLargeError,
+    PyValueError,
+    "A size limit of a layout would be exceeded."
+);
+
+pyo3::create_exception!(
+    _native,
+    GpuError,
+    PyRuntimeError,
+    "No usable GPU adapter, or the device failed."
+);
+
+/// The one mapping from core errors to Python exceptions.
+impl From<Error> for PyErr {
+    fn from(e: Error) -> PyErr {
+        let msg = e.to_string();
+        match e {
+            Error::InvalidInput(_) | Error::InvalidOption(_) => PyValueError::new_err(msg),
+            Error::InvalidMesh(_) => MeshError::new_err(msg),
+            Error::TooLarge(_) => TooLargeError::new_err(msg),
+            Error::Gpu(_) => GpuError::new_err(msg),
+        }
+    }
+}
+
+/// Runs core code with a net under it: a panic would be a bug, and it must reach Python as an
+/// exception that says so rather than abort the interpreter.
+pub(crate) fn guarded<T>(f: impl FnOnce() -> crate::Result<T>) -> PyResult<T> {
+    match catch_unwind(AssertUnwindSafe(f)) {
+        Ok(r) => r.map_err(PyErr::from),
+        Err(p) => {
+            let what = p
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_default();
+            Err(PyRuntimeError::new_err(format!(
+                "internal error in tetrace (please report): {what}"
+            )))
+        }
+    }
+}

@@ -1,0 +1,67 @@
+//! GPU introspection: adapters, the device, the kernels.
+
+use super::errors::guarded;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+/// Every adapter wgpu finds, best first, as dicts.
+#[pyfunction]
+pub(crate) fn gpu_adapters<'py>(py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
+    let found = py.detach(|| guarded(|| Ok(crate::gpu::adapters())))?;
+    found.iter().map(|a| adapter_dict(py, a)).collect()
+}
+
+/// The adapter GPU casts run on (opening the device on first use); GpuError without one.
+#[pyfunction]
+pub(crate) fn gpu_device<'py>(py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+    let g = py.detach(|| guarded(crate::gpu::gpu))?;
+    let d = adapter_dict(py, &g.adapter)?;
+    d.set_item(
+        "device_max_storage_buffer_binding_size",
+        g.limits.max_storage_buffer_binding_size,
+    )?;
+    d.set_item("device_max_buffer_size", g.limits.max_buffer_size)?;
+    Ok(d)
+}
+
+/// The GPU kernels as (method, layout) pairs, the default first.
+#[pyfunction]
+pub(crate) fn gpu_kernels() -> Vec<(&'static str, &'static str)> {
+    crate::gpu::KERNELS
+        .iter()
+        .map(|k| (k.method, k.layout.name))
+        .collect()
+}
+
+/// The (method, layout) kernel a GPU cast with these names uses (None: the default kernel's
+/// method; the first layout with a kernel for the method); ValueError naming the kernels.
+#[pyfunction]
+#[pyo3(signature = (method=None, layout=None))]
+pub(crate) fn gpu_kernel_for(
+    method: Option<&str>,
+    layout: Option<&str>,
+) -> PyResult<(&'static str, &'static str)> {
+    let k = crate::gpu::KernelSpec::find(method, layout)?;
+    Ok((k.method, k.layout.name))
+}
+
+fn adapter_dict<'py>(
+    py: Python<'py>,
+    a: &crate::gpu::AdapterSummary,
+) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("name", &a.name)?;
+    d.set_item("backend", &a.backend)?;
+    d.set_item("device_type", &a.device_type)?;
+    d.set_item("driver", &a.driver)?;
+    d.set_item("driver_info", &a.driver_info)?;
+    d.set_item("vendor", a.vendor)?;
+    d.set_item("device", a.device)?;
+    d.set_item("compute", a.compute)?;
+    d.set_item(
+        "max_storage_buffer_binding_size",
+        a.max_storage_buffer_binding_size,
+    )?;
+    d.set_item("max_buffer_size", a.max_buffer_size)?;
+    Ok(d)
+}

@@ -1,0 +1,322 @@
+//! `NativeScene`: building a scene and casting through it (CPU and GPU).
+
+use super::arrays::{check_cols, rows, slice};
+use super::errors::guarded;
+use crate::dispatch::Precision;
+use crate::scene::{CastOptions, HitsOut, Rays, Scene};
+use numpy::{
+    Element, IntoPyArray, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3,
+    PyUntypedArrayMethods,
+};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+#[pyclass(frozen, name = "NativeScene", module = "tetrace._native")]
+pub struct PyScene {
+    inner: Scene,
+}
+
+#[pymethods]
+impl PyScene {
+    /// Builds the traversal structures from a tetrahedralization (see tetrace.meshing).
+    #[new]
+    #[pyo3(signature = (points, tets, faces, face_triangle, triangles, hilbert=true, alternatives=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        py: Python<'_>,
+        points: PyReadonlyArray2<'_, f64>,
+        tets: PyReadonlyArray2<'_, u32>,
+        faces: PyReadonlyArray2<'_, u32>,
+        face_triangle: PyReadonlyArray1<'_, u32>,
+        triangles: PyReadonlyArray3<'_, f64>,
+        hilbert: bool,
+        alternatives: Option<(PyReadonlyArray1<'_, u32>, PyReadonlyArray1<'_, u32>)>,
+    ) -> PyResult<Self> {
+        check_cols(&points, 3, "points")?;
+        check_cols(&tets, 4, "tets")?;
+        check_cols(&faces, 3, "faces")?;
+        let ts = triangles.shape();
+        if ts[1] != 3 || ts[2] != 3 {
+            return Err(PyValueError::new_err(format!(
+                "triangles must have shape (F, 3, 3), got {ts:?}"
+            )));
+        }
+        let p: Vec<[f64; 3]> = rows(slice(&points, "points")?);
+        let t: Vec<[u32; 4]> = rows(slice(&tets, "tets")?);
+        let f: Vec<[u32; 3]> = rows(slice(&faces, "faces")?);
+        let ft = slice(&face_triangle, "face_triangle")?;
+        let tri: Vec<[[f64; 3]; 3]> = rows::<f64, 9>(slice(&triangles, "triangles")?)
+            .into_iter()
+            .map(|r| [[r[0], r[1], r[2]], [r[3], r[4], r[5]], [r[6], r[7], r[8]]])
+            .collect();
+        let alternatives = match &alternatives {
+            Some((offsets, ids)) => Some((
+                slice(offsets, "alternatives offsets")?.to_vec(),
+                slice(ids, "alternatives ids")?.to_vec(),
+            )),
+            None => None,
+        };
+        let inner = py.detach(|| {
+            guarded(|| {
+                let mut scene = Scene::build_with(p, &t, &f, ft, tri, hilbert)?;
+                if let Some((offsets, ids)) = alternatives {
+                    scene.set_alternatives(offsets, ids)?;
+                }
+                Ok(scene)
+            })
+        })?;
+        Ok(PyScene { inner })
+    }
+
+    /// Casts rays: origins and directions both float32 (the walk runs in float32) or both
+    /// float64. Returns a dict of the Hits fields, in that precision; with `audit`, also
+    /// "audit": (N, 2) uint32, per ray the exit faces taken that exact predicates reject and
+    /// the steps where the method found no exit face.
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method="aman2022", layout="tet32", audit=false))]
+    #[allow(clippy::too_many_arguments)]
+    fn cast<'py>(
+        &self,
+        py: Python<'py>,
+        origins: &Bound<'py, PyAny>,
+        directions: &Bound<'py, PyAny>,
+        tmin: PyReadonlyArray1<'py, f64>,
+        tmax: PyReadonlyArray1<'py, f64>,
+        threads: Option<usize>,
+        max_steps: Option<u32>,
+        method: &str,
+        layout: &str,
+        audit: bool,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let scene = &self.inner;
+        let f32s = (
+            origins.extract::<PyReadonlyArray2<'py, f32>>(),
+            directions.extract::<PyReadonlyArray2<'py, f32>>(),
+        );
+        if let (Ok(o), Ok(d)) = f32s {
+            return cast_any(
+                py, scene, o, d, tmin, tmax, threads, max_steps, method, layout, audit,
+            );
+        }
+        match (
+            origins.extract::<PyReadonlyArray2<'py, f64>>(),
+            directions.extract::<PyReadonlyArray2<'py, f64>>(),
+        ) {
+            (Ok(o), Ok(d)) => cast_any(
+                py, scene, o, d, tmin, tmax, threads, max_steps, method, layout, audit,
+            ),
+            _ => Err(pyo3::exceptions::PyTypeError::new_err(
+                "origins and directions must be 2-D arrays, both float32 or both float64",
+            )),
+        }
+    }
+
+    /// Casts float32 rays on the GPU (start location and hits on the CPU, the walk on the
+    /// device). Returns the Hits fields and the seconds of each phase.
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn cast_gpu<'py>(
+        &self,
+        py: Python<'py>,
+        origins: PyReadonlyArray2<'py, f32>,
+        directions: PyReadonlyArray2<'py, f32>,
+        tmin: PyReadonlyArray1<'py, f64>,
+        tmax: PyReadonlyArray1<'py, f64>,
+        threads: Option<usize>,
+        max_steps: Option<u32>,
+        method: Option<&str>,
+        layout: Option<&str>,
+    ) -> PyResult<(Bound<'py, PyDict>, Bound<'py, PyDict>)> {
+        let scene = &self.inner;
+        let mut timings = crate::gpu::GpuTimings::default();
+        let hits = cast_impl(
+            py,
+            scene,
+            origins,
+            directions,
+            tmin,
+            tmax,
+            threads,
+            max_steps,
+            false,
+            |rays, out, opts| {
+                timings = scene.cast_gpu(method, layout, rays, out, opts)?;
+                Ok(())
+            },
+        )?;
+        let t = PyDict::new(py);
+        for (k, v) in [
+            ("locate", timings.locate),
+            ("scene_upload", timings.scene_upload),
+            ("upload", timings.upload),
+            ("kernel", timings.kernel),
+            ("readback", timings.readback),
+            ("finish", timings.finish),
+        ] {
+            t.set_item(k, v)?;
+        }
+        t.set_item("walked", timings.walked)?;
+        t.set_item("deferred", timings.deferred)?;
+        t.set_item("batches", timings.batches)?;
+        Ok((hits, t))
+    }
+
+    /// Bytes used by each part of the structure (`gpu_<layout>`: on the device).
+    fn memory<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for (k, v) in self.inner.memory() {
+            d.set_item(k, v)?;
+        }
+        for (k, v) in self.inner.gpu.bytes() {
+            d.set_item(format!("gpu_{k}"), v)?;
+        }
+        Ok(d)
+    }
+
+    #[getter]
+    fn n_tets(&self) -> usize {
+        self.inner.mesh.len()
+    }
+    #[getter]
+    fn n_points(&self) -> usize {
+        self.inner.mesh.points.len()
+    }
+    #[getter]
+    fn n_constrained(&self) -> usize {
+        self.inner.mesh.constrained.len()
+    }
+    /// Builds a traversal layout now instead of at its first cast; returns its bytes.
+    fn prepare_layout(&self, py: Python<'_>, layout: &str) -> PyResult<usize> {
+        py.detach(|| guarded(|| self.inner.layouts.prepare(layout, &self.inner.mesh)))
+    }
+    #[getter]
+    fn bounds(&self) -> [[f64; 3]; 2] {
+        self.inner.mesh.bounds
+    }
+    /// The points (P, 3) in the scene's order (Hilbert order unless disabled).
+    fn points<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, numpy::PyArray2<f64>>> {
+        let flat: Vec<f64> = self.inner.mesh.points.iter().flatten().copied().collect();
+        Ok(flat
+            .into_pyarray(py)
+            .reshape([self.inner.mesh.points.len(), 3])?)
+    }
+
+    /// The positively oriented tets (T, 4), for inspection and plotting.
+    fn tets<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, numpy::PyArray2<u32>>> {
+        let flat: Vec<u32> = self.inner.mesh.tets.iter().flatten().copied().collect();
+        Ok(flat.into_pyarray(py).reshape([self.inner.mesh.len(), 4])?)
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn cast_any<'py, R: Precision + Element>(
+    py: Python<'py>,
+    scene: &Scene,
+    origins: PyReadonlyArray2<'py, R>,
+    directions: PyReadonlyArray2<'py, R>,
+    tmin: PyReadonlyArray1<'py, f64>,
+    tmax: PyReadonlyArray1<'py, f64>,
+    threads: Option<usize>,
+    max_steps: Option<u32>,
+    method: &str,
+    layout: &str,
+    audit: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    cast_impl(
+        py,
+        scene,
+        origins,
+        directions,
+        tmin,
+        tmax,
+        threads,
+        max_steps,
+        audit,
+        |rays, out, opts| scene.cast_named(method, layout, rays, out, opts),
+    )
+}
+
+/// Validates, allocates the outputs (with `audit`, two counts per ray), runs `cast` with the
+/// GIL released, returns the fields.
+#[allow(clippy::too_many_arguments)]
+fn cast_impl<'py, R: Precision + Element>(
+    py: Python<'py>,
+    scene: &Scene,
+    origins: PyReadonlyArray2<'py, R>,
+    directions: PyReadonlyArray2<'py, R>,
+    tmin: PyReadonlyArray1<'py, f64>,
+    tmax: PyReadonlyArray1<'py, f64>,
+    threads: Option<usize>,
+    max_steps: Option<u32>,
+    audit: bool,
+    cast: impl FnOnce(&Rays<R>, HitsOut<R>, &CastOptions) -> crate::Result<()> + Send,
+) -> PyResult<Bound<'py, PyDict>> {
+    let n = check_cols(&origins, 3, "origins")?;
+    if check_cols(&directions, 3, "directions")? != n {
+        return Err(PyValueError::new_err(
+            "origins and directions must have the same number of rows",
+        ));
+    }
+    if threads == Some(0) {
+        return Err(PyValueError::new_err(
+            "threads must be at least 1 (or None for all cores)",
+        ));
+    }
+    let (o, d) = (
+        slice(&origins, "origins")?,
+        slice(&directions, "directions")?,
+    );
+    let (lo, hi) = (slice(&tmin, "tmin")?, slice(&tmax, "tmax")?);
+    let max_steps = max_steps.unwrap_or_else(|| default_max_steps(scene.mesh.len()));
+    let opts = CastOptions { threads, max_steps };
+    let (mut t, mut u, mut v, mut p) = (
+        vec![R::ZERO; n],
+        vec![R::ZERO; n],
+        vec![R::ZERO; n],
+        vec![R::ZERO; 3 * n],
+    );
+    let (mut tri, mut tet, mut steps, mut status) =
+        (vec![0i32; n], vec![0i32; n], vec![0u32; n], vec![0u8; n]);
+    let mut audit_counts = vec![0u32; if audit { 2 * n } else { 0 }];
+    py.detach(|| {
+        guarded(|| {
+            let rays = Rays {
+                origins: o,
+                directions: d,
+                tmin: lo,
+                tmax: hi,
+            };
+            let out = HitsOut {
+                t: &mut t,
+                u: &mut u,
+                v: &mut v,
+                point: &mut p,
+                triangle: &mut tri,
+                tet: &mut tet,
+                steps: &mut steps,
+                status: &mut status,
+                audit: &mut audit_counts,
+            };
+            cast(&rays, out, &opts)
+        })
+    })?;
+    let out = PyDict::new(py);
+    out.set_item("t", t.into_pyarray(py))?;
+    out.set_item("u", u.into_pyarray(py))?;
+    out.set_item("v", v.into_pyarray(py))?;
+    out.set_item("point", p.into_pyarray(py).reshape([n, 3])?)?;
+    out.set_item("triangle", tri.into_pyarray(py))?;
+    out.set_item("tet", tet.into_pyarray(py))?;
+    out.set_item("steps", steps.into_pyarray(py))?;
+    out.set_item("status", status.into_pyarray(py))?;
+    if audit {
+        out.set_item("audit", audit_counts.into_pyarray(py).reshape([n, 2])?)?;
+    }
+    Ok(out)
+}
+
+/// A valid walk visits each tet at most once, so the tet count bounds it; the cap keeps a
+/// cycling ray in a huge mesh from costing seconds.
+pub fn default_max_steps(n_tets: usize) -> u32 {
+    (n_tets as u64 + 1).min(1 << 20) as u32
+}
