@@ -5,6 +5,7 @@
 pub mod bench;
 pub mod dispatch;
 pub mod error;
+#[cfg(feature = "gpu")]
 pub mod gpu;
 pub mod layout;
 pub mod locate;

@@ -24,8 +24,6 @@ pub struct Scene {
     pub entry: BoundaryLocator,
     /// Traversal layouts, built on first use (see dispatch.rs).
     pub layouts: crate::dispatch::Layouts,
-    /// Device copies of the layouts, uploaded by the first GPU cast of each kernel.
-    pub gpu: crate::gpu::GpuCache,
     pub points_f32: Vec<[f32; 3]>,
     /// The caller's triangles (three corners each), indexed by the ids constrained faces carry.
     pub triangles: Vec<[[f64; 3]; 3]>,
@@ -314,7 +312,6 @@ impl Scene {
             locator,
             entry,
             layouts: Default::default(),
-            gpu: Default::default(),
             points_f32,
             triangles,
             alternatives: Alternatives::default(),

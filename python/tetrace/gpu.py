@@ -9,6 +9,10 @@ filter hands the rays it cannot certify back to the CPU robust walk. Design: ``d
 Any Vulkan, Metal, DX12 or OpenGL adapter with compute shaders works; on a Linux machine
 without a GPU, Mesa's software Vulkan driver (lavapipe, ``apt-get install
 mesa-vulkan-drivers``) provides one. ``WGPU_BACKEND`` (e.g. ``vulkan``) narrows the search.
+
+An extension built without the ``gpu`` cargo feature (the wheel has it) has no kernels: there
+:func:`info`, :func:`device` and ``device="gpu"`` raise :class:`GpuError` saying so, and
+:func:`available` is False.
 """
 
 from __future__ import annotations
@@ -19,7 +23,8 @@ from . import _native
 
 __all__ = ["GpuError", "info", "device", "available", "kernels", "DEFAULT_KERNEL"]
 
-#: Raised when no adapter can run the kernels, or the device fails.
+#: Raised when no adapter can run the kernels, the device fails, or the extension was built
+#: without GPU support.
 GpuError = _native.GpuError
 
 
@@ -33,8 +38,9 @@ def kernels():
     return [tuple(k) for k in _native.gpu_kernels()]
 
 
-#: The kernel ``device="gpu"`` uses when neither method nor layout is given.
-DEFAULT_KERNEL = kernels()[0]
+#: The kernel ``device="gpu"`` uses when neither method nor layout is given (None in a build
+#: without GPU support: there :func:`kernels` is empty and the rest raise :class:`GpuError`).
+DEFAULT_KERNEL = (kernels() or [None])[0]
 
 
 def kernel_for(method=None, layout=None):

@@ -226,20 +226,3 @@ fn gpu_walk(kernel: &KernelSpec, o: &RayOut) -> Walk {
         steps: o.steps,
     }
 }
-
-// Until the binding holds its own DeviceScene beside the scene (after the split of src/py/):
-// the scene's field, and the method the binding calls.
-impl Scene {
-    /// Casts float32 rays on the GPU through the scene's own device copies
-    /// ([`DeviceScene::cast`]).
-    pub fn cast_gpu(
-        &self,
-        method: Option<&str>,
-        layout: Option<&str>,
-        rays: &Rays<f32>,
-        out: HitsOut<f32>,
-        opts: &CastOptions,
-    ) -> Result<GpuTimings> {
-        self.gpu.cast(self, method, layout, rays, out, opts)
-    }
-}

@@ -21,8 +21,5 @@ pub use device_scene::DeviceScene;
 pub use kernels::{KernelSpec, GPU_LAYOUTS, KERNELS};
 pub use launch::{Batching, MAX_BATCH};
 
-/// The scene's field until the binding holds the [`DeviceScene`] itself.
-pub type GpuCache = DeviceScene;
-
 #[cfg(test)]
 mod tests;

@@ -15,6 +15,9 @@ use pyo3::types::PyDict;
 #[pyclass(frozen, name = "NativeScene", module = "tetrace._native")]
 pub struct PyScene {
     inner: Scene,
+    /// The scene's buffers on the GPU, uploaded per layout by the first GPU cast with it.
+    #[cfg(feature = "gpu")]
+    device: crate::gpu::DeviceScene,
 }
 
 #[pymethods]
@@ -66,7 +69,11 @@ impl PyScene {
                 Ok(scene)
             })
         })?;
-        Ok(PyScene { inner })
+        Ok(PyScene {
+            inner,
+            #[cfg(feature = "gpu")]
+            device: Default::default(),
+        })
     }
 
     /// Casts rays: origins and directions both float32 (the walk runs in float32) or both
@@ -127,38 +134,33 @@ impl PyScene {
         method: Option<&str>,
         layout: Option<&str>,
     ) -> PyResult<(Bound<'py, PyDict>, Bound<'py, PyDict>)> {
-        let scene = &self.inner;
-        let mut timings = crate::gpu::GpuTimings::default();
-        let hits = cast_impl(
-            py,
-            scene,
-            origins,
-            directions,
-            tmin,
-            tmax,
-            threads,
-            max_steps,
-            false,
-            |rays, out, opts| {
-                timings = scene.cast_gpu(method, layout, rays, out, opts)?;
-                Ok(())
-            },
-        )?;
-        let t = PyDict::new(py);
-        for (k, v) in [
-            ("locate", timings.locate),
-            ("scene_upload", timings.scene_upload),
-            ("upload", timings.upload),
-            ("kernel", timings.kernel),
-            ("readback", timings.readback),
-            ("finish", timings.finish),
-        ] {
-            t.set_item(k, v)?;
+        #[cfg(not(feature = "gpu"))]
+        {
+            let _ = (py, origins, directions, tmin, tmax, threads, max_steps);
+            let _ = (method, layout);
+            Err(super::gpu::not_built())
         }
-        t.set_item("walked", timings.walked)?;
-        t.set_item("deferred", timings.deferred)?;
-        t.set_item("batches", timings.batches)?;
-        Ok((hits, t))
+        #[cfg(feature = "gpu")]
+        {
+            let scene = &self.inner;
+            let mut timings = crate::gpu::GpuTimings::default();
+            let hits = cast_impl(
+                py,
+                scene,
+                origins,
+                directions,
+                tmin,
+                tmax,
+                threads,
+                max_steps,
+                false,
+                |rays, out, opts| {
+                    timings = self.device.cast(scene, method, layout, rays, out, opts)?;
+                    Ok(())
+                },
+            )?;
+            Ok((hits, super::gpu::timings_dict(py, &timings)?))
+        }
     }
 
     /// Bytes used by each part of the structure (`gpu_<layout>`: on the device).
@@ -167,7 +169,8 @@ impl PyScene {
         for (k, v) in self.inner.memory() {
             d.set_item(k, v)?;
         }
-        for (k, v) in self.inner.gpu.bytes() {
+        #[cfg(feature = "gpu")]
+        for (k, v) in self.device.bytes() {
             d.set_item(format!("gpu_{k}"), v)?;
         }
         Ok(d)

@@ -1,0 +1,314 @@
+//! Each kernel against its CPU twin and the referee, on lavapipe or any adapter.
+
+use crate::gpu::kernels::{KernelSpec, KERNELS};
+use crate::gpu::launch::Batching;
+use super::*;
+use crate::scene::{FAILED, HIT};
+
+/// A GPU cast against its CPU twin's.
+struct Parity {
+    /// Rays cast.
+    n: usize,
+    /// Rays with a different triangle or status.
+    differ: usize,
+    /// The worst relative t error over rays with the same triangle.
+    worst: f64,
+    /// Rays FAILED on the GPU.
+    failed: usize,
+    cpu: Out,
+    gpu: Out,
+    timings: crate::gpu::GpuTimings,
+}
+
+/// GPU against its CPU twin.
+fn parity(scene: &Scene, kernel: &KernelSpec, o: &[f32], d: &[f32]) -> Parity {
+    let opts = CastOptions {
+        threads: None,
+        max_steps: scene.mesh.len() as u32 + 1,
+    };
+    let cpu = run(scene, o, d, |r, out| {
+        scene.cast_named(kernel.method, kernel.layout.name, r, out, &opts)
+    });
+    let mut timings = Default::default();
+    let gpu = run(scene, o, d, |r, out| {
+        timings = cast_gpu(scene, Some(kernel.method), Some(kernel.layout.name), r, out, &opts)?;
+        Ok(())
+    });
+    let n = cpu.t.len();
+    let mut differ = 0;
+    let mut worst = 0f64;
+    for i in 0..n {
+        if cpu.tri[i] != gpu.tri[i] || cpu.status[i] != gpu.status[i] {
+            differ += 1;
+        } else if cpu.status[i] == HIT {
+            let (a, b) = (cpu.t[i] as f64, gpu.t[i] as f64);
+            worst = worst.max((a - b).abs() / a.abs().max(f64::MIN_POSITIVE));
+        }
+    }
+    let failed = gpu.status.iter().filter(|&&s| s == FAILED).count();
+    Parity {
+        n,
+        differ,
+        worst,
+        failed,
+        cpu,
+        gpu,
+        timings,
+    }
+}
+
+fn check_kernel(kernel: &KernelSpec) {
+    let test = format!("gpu parity {}", kernel.name());
+    if !device_or_skip(&test) {
+        return;
+    }
+    for (offset, seed) in [(0.0, 3u64), (10.0, 5)] {
+        let (scene, tris) = grid_scene(10, 0.05, offset, seed);
+        let (o, d) = rays(40_000, offset, seed + 1);
+        let Parity {
+            n,
+            differ,
+            worst,
+            failed,
+            cpu,
+            gpu,
+            timings: t,
+        } = parity(&scene, kernel, &o, &d);
+        let hits = gpu.status.iter().filter(|&&s| s == HIT).count();
+        eprintln!(
+            "{test} offset {offset}: {n} rays, {hits} hits, {differ} differ from the CPU twin, \
+             worst relative t {worst:.2e}, {failed} failed, {} walked on the GPU, {} deferred",
+            t.walked, t.deferred
+        );
+        assert!(
+            hits > n / 10,
+            "{test}: too few hits ({hits}) to mean anything"
+        );
+        assert_eq!(failed, 0, "{test}");
+        assert!(worst <= 1e-6, "{test}: t differs by {worst:e}");
+        // The GPU's answers against the referee; the CPU twin's, printed beside them.
+        let want = verdicts32(&o, &d, &tris);
+        judged(&format!("{test} offset {offset}"), &want, &gpu);
+        judged(&format!("{test} offset {offset}, CPU twin"), &want, &cpu);
+        if kernel.method == "robust" {
+            // Exact on the line it walks: asserted. Against the ray itself only recorded
+            // (above): a ray entering the box is walked from its entry point rounded to
+            // float32, up to an ulp off the ray's line, so a ray crossing a triangle that
+            // close to an edge can come out late, leaked or wrong (a finding, not a bound).
+            assert_robust_bracket(&scene, &o, &d, &tris, &gpu);
+        }
+        if kernel.method == "robust" {
+            // Exact signs on both sides: the same walk, ray for ray.
+            assert_eq!(differ, 0, "{test}");
+            assert_eq!(cpu.tet, gpu.tet, "{test}: end tets");
+            assert_eq!(cpu.steps, gpu.steps, "{test}: steps");
+        } else {
+            float_kernel_parity(&test, differ, n);
+        }
+    }
+}
+
+/// Drivers that evaluate WGSL's float32 arithmetic as written: Mesa's llvmpipe (lavapipe)
+/// lowers every fused multiply-add back to a multiply and an add (`lower_ffma32` in gallivm's
+/// NIR options) and emits LLVM IR without the `contract` flag (tests/test_gpu.py says more).
+const NO_FMA_DRIVERS: &[&str] = &["llvmpipe"];
+
+/// The float32 kernels against their CPU twin. Each kernel does the twin's float32 operations
+/// in the twin's order; a driver can differ only by contracting `a*b + c` into an FMA or by
+/// flushing subnormals. On a driver in [`NO_FMA_DRIVERS`] the first cannot happen and the
+/// second needs a product below ~1e-31, which these rays do not produce: the bound is 0.
+/// Elsewhere a sign within an ulp of zero may flip: the differing rays are printed (and the
+/// referee judges the GPU's answers above), with no bound from a run.
+fn float_kernel_parity(test: &str, differ: usize, n: usize) {
+    let name = crate::gpu::gpu()
+        .map(|g| g.adapter.name.clone())
+        .unwrap_or_default();
+    let exact = NO_FMA_DRIVERS
+        .iter()
+        .any(|d| name.to_lowercase().contains(d));
+    if exact {
+        assert_eq!(
+            differ, 0,
+            "{test}: {differ} of {n} rays differ from the twin on {name}"
+        );
+    } else {
+        eprintln!("{test}: {differ} of {n} rays differ from the CPU twin on {name} (may fuse)");
+    }
+}
+
+#[test]
+fn gpu_aman2022_tet20_matches_cpu_twin() {
+    check_kernel(kernel("aman2022", "tet20"));
+}
+
+#[test]
+fn gpu_maria2017_tet80_matches_cpu_twin() {
+    check_kernel(kernel("maria2017", "tet80"));
+}
+
+#[test]
+fn gpu_robust_tet20_matches_cpu_robust() {
+    check_kernel(kernel("robust", "tet20"));
+}
+
+/// Batching and the 2D dispatch: small batches and a grid of at most 7 workgroups a row give
+/// the results of one dispatch.
+#[test]
+fn gpu_batches_do_not_change_results() {
+    if !device_or_skip("gpu batches") {
+        return;
+    }
+    let (scene, tris) = grid_scene(6, 0.1, 0.0, 9);
+    let (o, d) = rays(20_000, 0.0, 11);
+    let opts = CastOptions {
+        threads: None,
+        max_steps: 1 << 20,
+    };
+    let one = run(&scene, &o, &d, |r, out| {
+        cast_gpu(&scene, None, None, r, out, &opts).map(|_| ())
+    });
+    let mut timings = None;
+    let many = run(&scene, &o, &d, |r, out| {
+        let batching = Batching {
+            max_batch: 1000,
+            max_groups: Some(7),
+        };
+        let device = DeviceScene::default();
+        timings = Some(device.cast_with(&scene, &KERNELS[0], r, out, &opts, batching)?);
+        Ok(())
+    });
+    let t = timings.unwrap();
+    assert_eq!(t.batches, t.walked.div_ceil(1000), "{t:?}");
+    assert!(t.batches > 10, "{t:?}");
+    assert_eq!(one.tri, many.tri);
+    assert_eq!(one.status, many.status);
+    assert_eq!(one.steps, many.steps);
+    judged("gpu batches", &verdicts32(&o, &d, &tris), &one);
+}
+
+/// Rays the float32 filter cannot decide (along grid lines and in the box's face planes,
+/// where orientations are exactly zero) are deferred, walked by the CPU robust walk, and end
+/// exactly where the CPU robust cast ends.
+#[test]
+fn gpu_robust_defers_degenerate_rays() {
+    if !device_or_skip("gpu robust deferral") {
+        return;
+    }
+    let n = 8;
+    let (scene, tris) = grid_scene(n, 0.05, 0.0, 21);
+    let (mut o, mut d) = (Vec::new(), Vec::new());
+    for i in 0..=n {
+        for j in 0..=n {
+            let (x, y) = (i as f32 / n as f32, j as f32 / n as f32);
+            // Along a boundary grid line, from outside the box and from inside it.
+            o.extend([x, 0.0, -0.5]);
+            d.extend([0.0, 0.0, 1.0]);
+            o.extend([0.0, y, 0.25]);
+            d.extend([0.0, 1.0, 0.5]);
+            // In the face plane x = 0, through its vertices.
+            o.extend([0.0, x, y]);
+            d.extend([0.0, 0.5 - x, 0.5 - y]);
+        }
+    }
+    let opts = CastOptions {
+        threads: None,
+        max_steps: scene.mesh.len() as u32 + 1,
+    };
+    let cpu = run(&scene, &o, &d, |r, out| {
+        scene.cast_named("robust", "tet20", r, out, &opts)
+    });
+    let mut timings = None;
+    let gpu = run(&scene, &o, &d, |r, out| {
+        timings = Some(cast_gpu(&scene, Some("robust"), Some("tet20"), r, out, &opts)?);
+        Ok(())
+    });
+    let t = timings.unwrap();
+    eprintln!(
+        "gpu robust deferral: {} rays walked, {} deferred",
+        t.walked, t.deferred
+    );
+    assert!(t.deferred > 0, "{t:?}");
+    assert_eq!(cpu.status, gpu.status);
+    assert_eq!(cpu.tri, gpu.tri);
+    assert_eq!(cpu.tet, gpu.tet);
+    assert_eq!(cpu.steps, gpu.steps);
+    assert_eq!(cpu.t, gpu.t);
+    assert!(!gpu.status.contains(&FAILED));
+    let want = verdicts32(&o, &d, &tris);
+    judged("gpu robust deferral", &want, &gpu);
+    assert_robust_bracket(&scene, &o, &d, &tris, &gpu);
+}
+
+/// The host prepares each kernel's rays as the CPU cast does: directions of any length
+/// (scaled exactly by `real::unit_scale` before `prepare`), and robust starts on mesh vertices
+/// and box faces settled in the perturbed start point's tet (`robust::settle_start`). Robust
+/// ends exactly where the CPU robust cast ends, ray for ray; the float32 kernels keep parity.
+#[test]
+fn gpu_prepares_rays_as_the_cpu_cast() {
+    if !device_or_skip("gpu ray preparation") {
+        return;
+    }
+    let (scene, tris) = grid_scene(8, 0.05, 0.0, 31);
+    let mut rng = Rng(32);
+    let (mut o, mut d0) = (Vec::new(), Vec::new());
+    // From every mesh vertex (float32, as the walk reads them): the start is on a vertex.
+    for p in &scene.points_f32 {
+        o.extend(p);
+        d0.extend([0, 1, 2].map(|_| (rng.f() - 0.5) as f32));
+    }
+    // And a camera from outside, and random rays from around the box.
+    let (ro, rd) = rays(5_000, 0.0, 33);
+    o.extend(ro);
+    d0.extend(rd);
+    let opts = CastOptions {
+        threads: None,
+        max_steps: scene.mesh.len() as u32 + 1,
+    };
+    for scale in [1e-30f32, 1e-3, 1.0, 1e30] {
+        let d: Vec<f32> = d0.iter().map(|x| x * scale).collect();
+        let want = verdicts32(&o, &d, &tris);
+        for kernel in &KERNELS {
+            let cpu = run(&scene, &o, &d, |r, out| {
+                scene.cast_named(kernel.method, kernel.layout.name, r, out, &opts)
+            });
+            let mut timings = None;
+            let gpu = run(&scene, &o, &d, |r, out| {
+                timings = Some(cast_gpu(&scene, 
+                    Some(kernel.method),
+                    Some(kernel.layout.name),
+                    r,
+                    out,
+                    &opts,
+                )?);
+                Ok(())
+            });
+            let n = cpu.status.len();
+            let differ = (0..n)
+                .filter(|&i| cpu.tri[i] != gpu.tri[i] || cpu.status[i] != gpu.status[i])
+                .count();
+            let hits = gpu.status.iter().filter(|&&s| s == HIT).count();
+            let test = format!("{} |d| x {scale:e}", kernel.name());
+            eprintln!(
+                "gpu ray preparation {test}: {n} rays, {hits} hits, {differ} differ, {:?} \
+                 deferred",
+                timings.map(|t| t.deferred)
+            );
+            assert!(hits > n / 10, "{test}: {hits} hits");
+            judged(&format!("gpu ray preparation {test}"), &want, &gpu);
+            if kernel.method == "robust" {
+                assert_robust_bracket(&scene, &o, &d, &tris, &gpu);
+                assert_eq!(cpu.status, gpu.status, "{test}");
+                assert_eq!(cpu.tri, gpu.tri, "{test}");
+                assert_eq!(cpu.tet, gpu.tet, "{test}");
+                assert_eq!(cpu.steps, gpu.steps, "{test}");
+                assert_eq!(cpu.t, gpu.t, "{test}");
+                // Starts on the box's sides (the box-face vertices) perturb inward
+                // (`robust::start_delta`): no ray fails, on the CPU or the GPU.
+                let failed = gpu.status.iter().filter(|&&s| s == FAILED).count();
+                assert_eq!(failed, 0, "{test}: {failed} failed");
+            } else {
+                float_kernel_parity(&test, differ, n);
+            }
+        }
+    }
+}
