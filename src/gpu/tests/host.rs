@@ -1,9 +1,9 @@
 //! The host's side of a GPU cast, no GPU needed: where rays start and how they are prepared,
 //! the kernel table's names, refusals and limits.
 
+use super::*;
 use crate::gpu::kernels::{KernelSpec, KERNELS};
 use crate::gpu::structs::NO_ENTRY;
-use super::*;
 
 /// Rays entering the box from outside: the aman/maria kernels start them from the entry face,
 /// the robust kernel from the settled tet with no entry face (its start-tet search decides the
@@ -96,7 +96,10 @@ fn unknown_kernel_is_a_clear_error() {
     let e = KernelSpec::find(Some("ms06"), Some("tet32")).unwrap_err();
     assert!(e.to_string().contains("aman2022/tet20"), "{e}");
     let e = KernelSpec::find(Some("ms06"), None).unwrap_err();
-    assert!(e.to_string().contains(r#"method "ms06" on layout "tet20""#), "{e}");
+    assert!(
+        e.to_string().contains(r#"method "ms06" on layout "tet20""#),
+        "{e}"
+    );
     let found = |m, l| KernelSpec::find(m, l).unwrap().name();
     assert_eq!(found(None, None), "aman2022/tet20");
     assert_eq!(found(Some("maria2017"), None), "maria2017/tet80");
@@ -123,7 +126,8 @@ fn oversized_scene_is_too_large() {
     let ok = crate::gpu::device_scene::check_fits("tet20 records", 1 << 20, &limits, "test device");
     assert!(ok.is_ok());
     let big = limits.max_storage_buffer_binding_size + 20;
-    let e = crate::gpu::device_scene::check_fits("tet20 records", big, &limits, "test device").unwrap_err();
+    let e = crate::gpu::device_scene::check_fits("tet20 records", big, &limits, "test device")
+        .unwrap_err();
     assert!(matches!(e, crate::Error::TooLarge(_)), "{e}");
     let m = e.to_string();
     assert!(
@@ -131,4 +135,3 @@ fn oversized_scene_is_too_large() {
         "{m}"
     );
 }
-

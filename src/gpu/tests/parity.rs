@@ -1,8 +1,8 @@
 //! Each kernel against its CPU twin and the referee, on lavapipe or any adapter.
 
+use super::*;
 use crate::gpu::kernels::{KernelSpec, KERNELS};
 use crate::gpu::launch::Batching;
-use super::*;
 use crate::scene::{FAILED, HIT};
 
 /// A GPU cast against its CPU twin's.
@@ -31,7 +31,14 @@ fn parity(scene: &Scene, kernel: &KernelSpec, o: &[f32], d: &[f32]) -> Parity {
     });
     let mut timings = Default::default();
     let gpu = run(scene, o, d, |r, out| {
-        timings = cast_gpu(scene, Some(kernel.method), Some(kernel.layout.name), r, out, &opts)?;
+        timings = cast_gpu(
+            scene,
+            Some(kernel.method),
+            Some(kernel.layout.name),
+            r,
+            out,
+            &opts,
+        )?;
         Ok(())
     });
     let n = cpu.t.len();
@@ -219,7 +226,14 @@ fn gpu_robust_defers_degenerate_rays() {
     });
     let mut timings = None;
     let gpu = run(&scene, &o, &d, |r, out| {
-        timings = Some(cast_gpu(&scene, Some("robust"), Some("tet20"), r, out, &opts)?);
+        timings = Some(cast_gpu(
+            &scene,
+            Some("robust"),
+            Some("tet20"),
+            r,
+            out,
+            &opts,
+        )?);
         Ok(())
     });
     let t = timings.unwrap();
@@ -273,7 +287,8 @@ fn gpu_prepares_rays_as_the_cpu_cast() {
             });
             let mut timings = None;
             let gpu = run(&scene, &o, &d, |r, out| {
-                timings = Some(cast_gpu(&scene, 
+                timings = Some(cast_gpu(
+                    &scene,
                     Some(kernel.method),
                     Some(kernel.layout.name),
                     r,

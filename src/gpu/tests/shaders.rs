@@ -165,23 +165,13 @@ fn rust_mirrors_match_wgsl_layouts() {
                 .find(|e| e.0 == name)
                 .unwrap_or_else(|| panic!("{file}: struct {name} has no Rust mirror here"));
             assert_eq!(*span as usize, *size, "{}: size of {name}", file);
-            assert_eq!(
-                layouter[h].size as usize,
-                *size,
-                "{}: size of {name}",
-                file
-            );
+            assert_eq!(layouter[h].size as usize, *size, "{}: size of {name}", file);
             for (f, off) in fields {
                 let m = members
                     .iter()
                     .find(|m| m.name.as_deref() == Some(f))
                     .unwrap_or_else(|| panic!("{name}.{f} missing in WGSL"));
-                assert_eq!(
-                    m.offset as usize,
-                    *off,
-                    "{}: offset of {name}.{f}",
-                    file
-                );
+                assert_eq!(m.offset as usize, *off, "{}: offset of {name}.{f}", file);
             }
             // Storage arrays of it have the Rust stride.
             seen.insert(name.to_string());
