@@ -8,9 +8,11 @@ use super::context::{gpu, Gpu};
 use super::kernels::Kernel;
 use super::structs::*;
 use crate::error::{Error, Result};
+use crate::locate::{LocateState, Start, WalkStart};
 use crate::mesh::TetMesh;
+use crate::query::RayHit;
 use crate::scene::CastOptions;
-use crate::scene::{check_lengths, chunk_seed, HitsOut, Rays, Scene, Start, WalkStart, CHUNK};
+use crate::scene::{check_lengths, HitsOut, Rays, Scene, CHUNK};
 use crate::traverse::{walk, Aman2022, Maria2017, Robust, Walk, WalkEnd};
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -145,7 +147,7 @@ impl Scene {
         let mesh = &self.mesh;
         let b = match kernel {
             Kernel::Aman2022Tet20 | Kernel::RobustTet20 => {
-                let l = crate::dispatch::get(&self.layouts.tet20, mesh)?;
+                let l = crate::layout::get(&self.layouts.tet20, mesh)?;
                 let tets = upload_records(g, "tet20 records", l.records.len(), |i| {
                     let r = &l.records[i];
                     Tet20 {
@@ -163,7 +165,7 @@ impl Scene {
                 }
             }
             Kernel::Maria2017Tet80 => {
-                let l = crate::dispatch::get(&self.layouts.tet80, mesh)?;
+                let l = crate::layout::get(&self.layouts.tet80, mesh)?;
                 let tets = upload_records(g, "tet80 records", l.records.len(), |i| {
                     let r = &l.records[i];
                     let mut v = [0f32; 12];
@@ -242,7 +244,7 @@ impl Scene {
 
         // 1. Locate and prepare, chunk by chunk as the CPU cast does (same hints and seeds).
         let t0 = Instant::now();
-        let mut chunks = out.chunks(CHUNK);
+        let mut chunks = crate::query::chunks(out, CHUNK);
         let located: Vec<Located> = {
             let mut run = || {
                 chunks
@@ -286,7 +288,7 @@ impl Scene {
             acc += s.len();
         }
         let tet20 = if kernel == Kernel::RobustTet20 {
-            Some(crate::dispatch::get(&self.layouts.tet20, &self.mesh)?)
+            Some(crate::layout::get(&self.layouts.tet20, &self.mesh)?)
         } else {
             None
         };
@@ -306,16 +308,15 @@ impl Scene {
                                 tet20.expect("deferred rays come from the robust kernel"),
                                 &self.points_f32,
                                 &ray,
-                                s.tet,
-                                self.mesh.tets[s.tet as usize],
+                                (s.tet, self.mesh.tets[s.tet as usize]),
                                 s.entry,
-                                opts.max_steps,
+                                opts.max_steps_for(self.mesh.len()),
                             )
                         } else {
                             gpu_walk(kernel, o)
                         };
                         let r = self.finish(s, &w);
-                        chunk.set(*j as usize, &r, rays, k * CHUNK + *j as usize);
+                        chunk.set(*j as usize, &r, &rays.ray(k * CHUNK + *j as usize));
                     }
                     deferred
                 })
@@ -337,27 +338,15 @@ impl Scene {
         k: usize,
         chunk: &mut HitsOut<f32>,
     ) -> Located {
-        let mut hint = None;
-        let mut rng = chunk_seed(k);
-        let mut camera = None;
-        let mut entry_hint = None;
+        let mut st = LocateState::for_chunk(k);
         let mut starts = Vec::with_capacity(chunk.len());
         let mut prepared = Vec::with_capacity(chunk.len());
         // As the CPU twin's cast: the robust walk starts in the perturbed start point's tet.
         let settle = kernel.perturbed_start().then_some(&self.points_f32[..]);
         for j in 0..chunk.len() {
             let i = k * CHUNK + j;
-            let start = self.locate_one(
-                rays,
-                i,
-                settle,
-                &mut hint,
-                &mut camera,
-                &mut entry_hint,
-                &mut rng,
-            );
-            match start {
-                Start::Done(r) => chunk.set(j, &r, rays, i),
+            match self.locate_one(rays, i, settle, &mut st) {
+                Start::Done(status) => chunk.set(j, &RayHit::nothing(status), &rays.ray(i)),
                 Start::Walk(s) => {
                     prepared.push(prepare(kernel, &s, &self.mesh));
                     starts.push((j as u32, s));
@@ -473,7 +462,7 @@ impl Scene {
                     0,
                     bytemuck::bytes_of(&Params {
                         n_rays: n as u32,
-                        max_steps: opts.max_steps,
+                        max_steps: opts.max_steps_for(self.mesh.len()),
                         ..Default::default()
                     }),
                 );

@@ -7,7 +7,8 @@
 
 use super::kernels::{Kernel, COMMON_WGSL, KERNELS};
 use super::structs::*;
-use crate::scene::{CastOptions, HitsOut, Rays, Scene, FAILED, HIT};
+use crate::scene::{CastOptions, HitsOut, Rays, Scene};
+use crate::status::{FAILED, HIT};
 use crate::traverse::tests::{
     assert_between_touch_and_inside, kuhn_grid, tally, verdicts, Rng, Tally,
 };
@@ -259,21 +260,13 @@ fn walked_lines(scene: &Scene, o: &[f32], d: &[f32]) -> (Vec<f64>, usize) {
         tmax: &[f64::INFINITY],
     };
     let points = Some(&scene.points_f32[..]);
-    let (mut hint, mut camera, mut entry_hint, mut rng) = (None, None, None, 1);
+    let mut st = crate::locate::LocateState::seeded(1);
     let (mut out, mut inexact) = (Vec::with_capacity(o.len()), 0);
     for i in 0..o.len() / 3 {
-        let start = scene.locate_one(
-            &rays,
-            i,
-            points,
-            &mut hint,
-            &mut camera,
-            &mut entry_hint,
-            &mut rng,
-        );
+        let start = scene.locate_one(&rays, i, points, &mut st);
         let own = [0, 1, 2].map(|a| o[3 * i + a] as f64);
         let origin = match start {
-            crate::scene::Start::Walk(w) => {
+            crate::locate::Start::Walk(w) => {
                 let (s, b) =
                     crate::traverse::robust::exact_line::<f32>(w.point, w.dir, &scene.mesh.bounds);
                 let dir = [0, 1, 2].map(|a| d[3 * i + a] as f64);
@@ -333,7 +326,7 @@ fn assert_robust_bracket(scene: &Scene, o: &[f32], d: &[f32], tris: &[[[f64; 3];
     (0..want.len()).into_par_iter().for_each(|k| {
         let p = |v: &[f64]| [0, 1, 2].map(|a| v[3 * k + a]);
         if d[3 * k..3 * k + 3] == [0.0; 3] {
-            assert_eq!(out.status[k], crate::scene::INVALID, "ray {k}: d = 0");
+            assert_eq!(out.status[k], crate::status::INVALID, "ray {k}: d = 0");
             return;
         }
         // `t` is on the ray, not on the walked line: judged() checks it on the ray.
@@ -469,7 +462,7 @@ fn parity(
 ) -> (usize, usize, f64, usize, Out, Out, super::GpuTimings) {
     let opts = CastOptions {
         threads: None,
-        max_steps: scene.mesh.len() as u32 + 1,
+        max_steps: Some(scene.mesh.len() as u32 + 1),
     };
     let cpu = run(scene, o, d, |r, out| {
         scene.cast_named(kernel.method(), kernel.layout(), r, out, &opts)
@@ -591,7 +584,7 @@ fn gpu_batches_do_not_change_results() {
     let (o, d) = rays(20_000, 0.0, 11);
     let opts = CastOptions {
         threads: None,
-        max_steps: 1 << 20,
+        max_steps: Some(1 << 20),
     };
     let one = run(&scene, &o, &d, |r, out| {
         scene.cast_gpu(None, None, r, out, &opts).map(|_| ())
@@ -636,7 +629,7 @@ fn gpu_robust_defers_degenerate_rays() {
     }
     let opts = CastOptions {
         threads: None,
-        max_steps: scene.mesh.len() as u32 + 1,
+        max_steps: Some(scene.mesh.len() as u32 + 1),
     };
     let cpu = run(&scene, &o, &d, |r, out| {
         scene.cast_named("robust", "tet20", r, out, &opts)
@@ -686,7 +679,7 @@ fn gpu_prepares_rays_as_the_cpu_cast() {
     d0.extend(rd);
     let opts = CastOptions {
         threads: None,
-        max_steps: scene.mesh.len() as u32 + 1,
+        max_steps: Some(scene.mesh.len() as u32 + 1),
     };
     for scale in [1e-30f32, 1e-3, 1.0, 1e30] {
         let d: Vec<f32> = d0.iter().map(|x| x * scale).collect();
@@ -755,19 +748,11 @@ fn robust_entries_are_settled_without_an_entry_face() {
     let outside = |i: usize| (0..3).any(|a| !(lo[a]..=hi[a]).contains(&(o[3 * i + a] as f64)));
     for kernel in KERNELS {
         let settle = kernel.perturbed_start().then_some(&scene.points_f32[..]);
-        let (mut hint, mut camera, mut entry_hint, mut rng) = (None, None, None, 1);
+        let mut st = crate::locate::LocateState::seeded(1);
         let (mut entering, mut with_face) = (0, 0);
         for i in 0..n {
-            let start = scene.locate_one(
-                &rays,
-                i,
-                settle,
-                &mut hint,
-                &mut camera,
-                &mut entry_hint,
-                &mut rng,
-            );
-            if let (crate::scene::Start::Walk(s), true) = (start, outside(i)) {
+            let start = scene.locate_one(&rays, i, settle, &mut st);
+            if let (crate::locate::Start::Walk(s), true) = (start, outside(i)) {
                 entering += 1;
                 let r = super::cast::prepare(kernel, &s, &scene.mesh);
                 assert_eq!(r.entry, s.entry.map_or(NO_ENTRY, |f| f as u32));
@@ -817,7 +802,7 @@ fn gpu_cast_refuses_the_audit() {
     };
     let opts = CastOptions {
         threads: Some(1),
-        max_steps: 100,
+        max_steps: Some(100),
     };
     let e = scene.cast_gpu(None, None, &rays, out, &opts).unwrap_err();
     assert!(matches!(e, crate::Error::InvalidOption(_)), "{e}");

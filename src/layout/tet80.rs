@@ -110,7 +110,8 @@ impl Layout for Tet80 {
     fn inline_face(&self, t: u32, i: usize) -> (Link, usize) {
         let f = self.record(t).faces[i];
         if f.constrained != u32::MAX {
-            (CONSTRAINED_BIT | f.constrained, 0)
+            // The face index beyond rides along: a query may walk on through the face.
+            (CONSTRAINED_BIT | f.constrained, (f.neighbor & 3) as usize)
         } else if f.neighbor == u32::MAX {
             (BOUNDARY, 0)
         } else {

@@ -5,7 +5,8 @@
 //! probability one even in non-Delaunay meshes. A hint tet (the previous ray's) replaces the
 //! grid seed for coherent rays. A step guard falls back to a scan so that location always ends.
 
-use crate::mesh::build::{orient, OUTWARD_FACES};
+use crate::geom::predicates::orient;
+use crate::mesh::build::OUTWARD_FACES;
 use crate::mesh::{TetMesh, BOUNDARY};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
