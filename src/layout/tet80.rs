@@ -65,8 +65,7 @@ impl Layout for Tet80 {
                     vertices: tet.map(|v| mesh.points[v as usize].map(|x| x as f32)),
                     faces: [Tet80Face::default(); 4],
                 };
-                for i in 0..4 {
-                    let l = mesh.links[t][i];
+                for (i, &l) in mesh.links[t].iter().enumerate() {
                     let (constrained, beyond) = if l != BOUNDARY && l & CONSTRAINED_BIT != 0 {
                         let c = l & !CONSTRAINED_BIT;
                         (c, mesh.constrained[c as usize].beyond)

@@ -46,8 +46,8 @@ impl GridLocator {
         for (t, tet) in mesh.tets.iter().enumerate() {
             let mut c = [0.0; 3];
             for &v in tet {
-                for a in 0..3 {
-                    c[a] += 0.25 * mesh.points[v as usize][a];
+                for (ca, p) in c.iter_mut().zip(mesh.points[v as usize]) {
+                    *ca += 0.25 * p;
                 }
             }
             seeds[g.cell(c)] = t as u32;

@@ -25,7 +25,7 @@ impl PyScene {
     /// Builds the traversal structures from a tetrahedralization (see tetrace.meshing).
     #[new]
     #[pyo3(signature = (points, tets, faces, face_triangle, triangles, hilbert=true, alternatives=None))]
-    #[allow(clippy::too_many_arguments)]
+    #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
     fn new(
         py: Python<'_>,
         points: PyReadonlyArray2<'_, f64>,
@@ -199,15 +199,14 @@ impl PyScene {
     /// The points (P, 3) in the scene's order (Hilbert order unless disabled).
     fn points<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, numpy::PyArray2<f64>>> {
         let flat: Vec<f64> = self.inner.mesh.points.iter().flatten().copied().collect();
-        Ok(flat
-            .into_pyarray(py)
-            .reshape([self.inner.mesh.points.len(), 3])?)
+        flat.into_pyarray(py)
+            .reshape([self.inner.mesh.points.len(), 3])
     }
 
     /// The positively oriented tets (T, 4), for inspection and plotting.
     fn tets<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, numpy::PyArray2<u32>>> {
         let flat: Vec<u32> = self.inner.mesh.tets.iter().flatten().copied().collect();
-        Ok(flat.into_pyarray(py).reshape([self.inner.mesh.len(), 4])?)
+        flat.into_pyarray(py).reshape([self.inner.mesh.len(), 4])
     }
 }
 

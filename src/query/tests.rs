@@ -83,7 +83,7 @@ fn any_hit_agrees_with_closest_hit_and_the_referee() {
             "{method:?}: any hit differs from closest hit"
         );
         let mut judged = 0;
-        for i in 0..n {
+        for (i, &occluded) in any.iter().enumerate() {
             let ray = rays.ray(i);
             let v = referee::first_hit(ray.o, ray.d, 0.0, ray.tmax, &tris);
             // Rays through an edge or vertex of the scene are judged elsewhere (issue 14's
@@ -94,9 +94,8 @@ fn any_hit_agrees_with_closest_hit_and_the_referee() {
             judged += 1;
             let want = if v.is_some() { HIT } else { MISS };
             assert_eq!(
-                any[i], want,
-                "{method:?} ray {i}: occluded {} referee {want}",
-                any[i]
+                occluded, want,
+                "{method:?} ray {i}: occluded {occluded} referee {want}"
             );
         }
         assert!(judged > n * 9 / 10, "only {judged} rays judged");

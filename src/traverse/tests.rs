@@ -1,5 +1,8 @@
 //! Walk tests on synthetic tetrahedralizations, judged by the exact referee
 //! (`crate::referee`, docs/referee.md), which shares no code with the walk.
+//!
+//! Over 500 lines on purpose: every method's tests use the scenes and the referee-judged
+//! assertions defined here (the GPU tests too); split per method they would import each other.
 
 use super::*;
 use crate::geom::predicates::orient;
@@ -640,7 +643,7 @@ fn robust_survives_rays_through_vertices_and_edges() {
 /// first crossing strictly inside a triangle (no zero side product), both exact. The hit's
 /// triangle must be one the ray's line crosses, at `t` (of the output type R; `None`: not
 /// checked) within ulp_R + B of the crossing (as [`agreement`]).
-#[allow(clippy::too_many_arguments)]
+#[allow(clippy::too_many_arguments)] // one ray's fields, as the tests hold them; a struct would only rename them
 pub(crate) fn assert_between_touch_and_inside<R: Real>(
     k: usize,
     status: u8,
