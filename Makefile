@@ -12,7 +12,7 @@ NOTEBOOKS := $(wildcard notebooks)
 # rustup installs cargo in ~/.cargo/bin, which non-login shells often lack.
 export PATH := $(HOME)/.cargo/bin:$(PATH)
 
-.PHONY: setup demo test test-rust test-python
+.PHONY: setup demo lint test test-rust test-python
 
 # Editable install: maturin builds the Rust extension (tetrace._native) into python/tetrace/.
 setup:
@@ -20,6 +20,22 @@ setup:
 
 demo: setup
 	$(PY) -m tetrace.demo
+
+# Style and static checks, all of which must pass in CI: rustfmt, clippy with warnings as
+# errors (every allow is named, with its reason beside it), the CPU-only build (no wgpu/naga),
+# ruff (lint and format) and stubtest (the hand-written _native.pyi against the built
+# extension, so the stub cannot drift). Runs every check and fails if any failed.
+lint: setup
+	@status=0; \
+	for cmd in "$(CARGO) fmt --check" \
+	           "$(CARGO) clippy --all-targets --features python -- -D warnings" \
+	           "$(CARGO) check --no-default-features" \
+	           "$(PY) -m ruff check python tests" \
+	           "$(PY) -m ruff format --check python tests" \
+	           "$(PY) -m mypy.stubtest tetrace._native"; do \
+		echo "+ $$cmd"; $$cmd || status=1; \
+	done; \
+	exit $$status
 
 # Runs the Rust tests and the Python tests (and notebooks) even if the first part
 # fails, so one run reports everything; exits non-zero if either failed. pytest's

@@ -31,4 +31,14 @@ impl fmt::Display for Error {
 
 impl std::error::Error for Error {}
 
+impl Error {
+    /// An unknown name for an option, listing the known ones.
+    pub fn unknown(what: &str, name: &str, known: &[&str]) -> Error {
+        Error::InvalidOption(format!(
+            "unknown {what} {name:?}; known: {}",
+            known.join(", ")
+        ))
+    }
+}
+
 pub type Result<T> = std::result::Result<T, Error>;

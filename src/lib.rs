@@ -1,23 +1,31 @@
 //! tetrace: ray casting through constrained tetrahedralizations.
 //!
-//! The core is plain Rust over slices; the Python bindings live in `py` only.
+//! The core is plain Rust over slices; the Python bindings live in `py` only. A ray goes
+//! `scene::cast` → `accel` (the tet walk) → `locate` (start tet) → `traverse` (the walk, exit
+//! method × `layout`) with a `query` policy deciding at constrained faces → the answer, written
+//! to `scene::buffers`. docs/architecture.md has the map.
 
+pub mod accel;
 pub mod bench;
-pub mod dispatch;
 pub mod error;
+pub mod geom;
 #[cfg(feature = "gpu")]
 pub mod gpu;
 pub mod layout;
 pub mod locate;
 pub mod mesh;
-pub mod real;
+pub mod query;
 pub mod referee;
 pub mod scene;
-pub mod sort;
+pub mod status;
 pub mod traverse;
+
+#[cfg(test)]
+pub(crate) mod testing;
 
 #[cfg(feature = "python")]
 mod py;
 
 pub use error::{Error, Result};
-pub use scene::{CastOptions, HitsOut, Rays, Scene, FAILED, HIT, INVALID, MISS};
+pub use scene::{CastOptions, HitBuffers, HitsOut, Rays, Scene};
+pub use status::{FAILED, HIT, INVALID, MISS};

@@ -10,8 +10,10 @@ use super::kernels::KernelSpec;
 use super::launch::{Batching, Launch};
 use super::structs::{RayIn, RayOut, END_BOUNDARY, END_DEFERRED, END_HIT};
 use crate::error::{Error, Result};
+use crate::locate::{LocateState, Start, WalkStart};
+use crate::query::RayHit;
 use crate::scene::CastOptions;
-use crate::scene::{check_lengths, chunk_seed, HitsOut, Rays, Scene, Start, WalkStart, CHUNK};
+use crate::scene::{check_lengths, HitsOut, Rays, Scene, CHUNK};
 use crate::traverse::{Walk, WalkEnd};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -94,8 +96,9 @@ impl DeviceScene {
         };
 
         // 1. Locate and prepare, chunk by chunk as the CPU cast does (same hints and seeds).
+        let max_steps = opts.max_steps_for(scene.mesh.len());
         let t0 = Instant::now();
-        let mut chunks = out.chunks(CHUNK);
+        let mut chunks = crate::query::chunks(out, CHUNK);
         let located: Vec<Located> = {
             let mut run = || {
                 chunks
@@ -120,7 +123,7 @@ impl DeviceScene {
                 g: &g,
                 pipeline: &pipeline,
                 scene: &scene_buffers,
-                max_steps: opts.max_steps,
+                max_steps,
                 batching,
             };
             launch.run(&all, walked, &mut timings)?
@@ -151,12 +154,12 @@ impl DeviceScene {
                             let cpu_walk = cpu_walk
                                 .as_ref()
                                 .expect("only kernels with a CPU walk defer rays");
-                            cpu_walk(s, opts.max_steps)
+                            cpu_walk(s, max_steps)
                         } else {
                             gpu_walk(kernel, o)
                         };
                         let r = scene.finish(s, &w);
-                        chunk.set(*j as usize, &r, rays, k * CHUNK + *j as usize);
+                        chunk.set(*j as usize, &r, &rays.ray(k * CHUNK + *j as usize));
                     }
                     deferred
                 })
@@ -179,27 +182,15 @@ fn locate_chunk(
     k: usize,
     chunk: &mut HitsOut<f32>,
 ) -> Located {
-    let mut hint = None;
-    let mut rng = chunk_seed(k);
-    let mut camera = None;
-    let mut entry_hint = None;
+    let mut st = LocateState::for_chunk(k);
     let mut starts = Vec::with_capacity(chunk.len());
     let mut prepared = Vec::with_capacity(chunk.len());
     // As the CPU twin's cast: the robust walk starts in the perturbed start point's tet.
     let settle = kernel.perturbed_start.then_some(&scene.points_f32[..]);
     for j in 0..chunk.len() {
         let i = k * CHUNK + j;
-        let start = scene.locate_one(
-            rays,
-            i,
-            settle,
-            &mut hint,
-            &mut camera,
-            &mut entry_hint,
-            &mut rng,
-        );
-        match start {
-            Start::Done(r) => chunk.set(j, &r, rays, i),
+        match scene.locate_one(rays, i, settle, &mut st) {
+            Start::Done(status) => chunk.set(j, &RayHit::nothing(status), &rays.ray(i)),
             Start::Walk(s) => {
                 prepared.push((kernel.prepare)(&s, &scene.mesh));
                 starts.push((j as u32, s));

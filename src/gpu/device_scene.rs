@@ -65,7 +65,7 @@ impl DeviceScene {
 
 /// Tet20: its records, and the points in float32.
 pub(crate) fn upload_tet20(g: &Gpu, scene: &Scene) -> Result<LayoutBuffers> {
-    let l = crate::dispatch::get(&scene.layouts.tet20, &scene.mesh)?;
+    let l = crate::layout::get(&scene.layouts.tet20, &scene.mesh)?;
     let tets = upload_records(g, "tet20 records", l.records.len(), |i| {
         let r = &l.records[i];
         Tet20 {
@@ -85,7 +85,7 @@ pub(crate) fn upload_tet20(g: &Gpu, scene: &Scene) -> Result<LayoutBuffers> {
 
 /// Tet80: its records alone (the vertices are in them).
 pub(crate) fn upload_tet80(g: &Gpu, scene: &Scene) -> Result<LayoutBuffers> {
-    let l = crate::dispatch::get(&scene.layouts.tet80, &scene.mesh)?;
+    let l = crate::layout::get(&scene.layouts.tet80, &scene.mesh)?;
     let tets = upload_records(g, "tet80 records", l.records.len(), |i| {
         let r = &l.records[i];
         let mut v = [0f32; 12];

@@ -14,8 +14,9 @@ use super::device_scene::{upload_tet20, upload_tet80, LayoutBuffers};
 use super::structs::{RayIn, NO_ENTRY};
 use super::Gpu;
 use crate::error::{Error, Result};
+use crate::locate::WalkStart;
 use crate::mesh::TetMesh;
-use crate::scene::{Scene, WalkStart};
+use crate::scene::Scene;
 use crate::traverse::aman2022::BasisRay;
 use crate::traverse::lagae2008_plucker::PluckerRay;
 use crate::traverse::robust::LineRay;
@@ -249,15 +250,14 @@ pub fn slack(s: [f64; 3], sr: [f32; 3]) -> f32 {
 
 /// The CPU robust walk on Tet20, which decides the rays the robust kernel defers.
 fn robust_tet20_on_cpu(scene: &Scene) -> Result<CpuWalk<'_>> {
-    let tet20 = crate::dispatch::get(&scene.layouts.tet20, &scene.mesh)?;
+    let tet20 = crate::layout::get(&scene.layouts.tet20, &scene.mesh)?;
     Ok(Box::new(move |s: &WalkStart, max_steps: u32| {
         let ray = s.prepare::<f32, Robust>(&scene.mesh);
         walk::<f32, _, Robust>(
             tet20,
             &scene.points_f32,
             &ray,
-            s.tet,
-            scene.mesh.tets[s.tet as usize],
+            (s.tet, scene.mesh.tets[s.tet as usize]),
             s.entry,
             max_steps,
         )

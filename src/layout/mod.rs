@@ -18,8 +18,9 @@ pub mod tet20;
 pub mod tet32;
 pub mod tet80;
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::mesh::{Link, TetMesh};
+use std::sync::OnceLock;
 
 pub use plain::Plain;
 pub use tet16::Tet16;
@@ -27,14 +28,110 @@ pub use tet20::Tet20;
 pub use tet32::Tet32;
 pub use tet80::Tet80;
 
-/// The names `tetrace.layouts()` lists, in the order of the table above.
-pub const LAYOUTS: [&str; 5] = [
-    Plain::NAME,
-    Tet80::NAME,
-    Tet32::NAME,
-    Tet20::NAME,
-    Tet16::NAME,
-];
+/// The layout table: one row per layout (its field in [`Layouts`] and its type), in the order
+/// `tetrace.layouts()` lists them. Adding a layout is a row here plus its own file.
+macro_rules! layout_table {
+    ($($field:ident: $ty:ident),* $(,)?) => {
+        /// A layout, as Python names it.
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+        pub enum LayoutKind {
+            $($ty),*
+        }
+
+        /// The names `tetrace.layouts()` lists, in the order of the table.
+        pub const LAYOUTS: &[&str] = &[$(<$ty as Layout>::NAME),*];
+
+        impl LayoutKind {
+            pub const ALL: &'static [LayoutKind] = &[$(LayoutKind::$ty),*];
+
+            pub fn name(self) -> &'static str {
+                match self {
+                    $(LayoutKind::$ty => <$ty as Layout>::NAME),*
+                }
+            }
+
+            pub fn bytes_per_tet(self) -> usize {
+                match self {
+                    $(LayoutKind::$ty => <$ty as Layout>::BYTES_PER_TET),*
+                }
+            }
+        }
+
+        /// The traversal layouts of a scene, each built the first time a cast asks for it.
+        #[derive(Default)]
+        pub struct Layouts {
+            $(pub $field: OnceLock<Result<$ty>>),*
+        }
+
+        impl Layouts {
+            /// Bytes of the records of each layout built so far.
+            pub fn built(&self) -> Vec<(&'static str, usize)> {
+                let mut out = Vec::new();
+                $(if let Some(Ok(l)) = self.$field.get() {
+                    out.push((<$ty as Layout>::NAME, l.bytes()));
+                })*
+                out
+            }
+
+            /// Calls `v` with layout `kind` of `mesh`, built now if it was not yet.
+            pub fn visit<V: LayoutVisitor>(&self, kind: LayoutKind, mesh: &TetMesh, v: V) -> Result<V::Out> {
+                match kind {
+                    $(LayoutKind::$ty => Ok(v.visit(get(&self.$field, mesh)?))),*
+                }
+            }
+        }
+    };
+}
+
+layout_table! {
+    plain: Plain,
+    tet80: Tet80,
+    tet32: Tet32,
+    tet20: Tet20,
+    tet16: Tet16,
+}
+
+impl LayoutKind {
+    /// The default: Aman et al.'s 32-byte record (see `traverse::Method::DEFAULT` for why).
+    pub const DEFAULT: LayoutKind = LayoutKind::Tet32;
+
+    /// The layout named `name`, or an error listing the known ones.
+    pub fn from_name(name: &str) -> Result<LayoutKind> {
+        LayoutKind::ALL
+            .iter()
+            .copied()
+            .find(|k| k.name() == name)
+            .ok_or_else(|| Error::unknown("layout", name, LAYOUTS))
+    }
+}
+
+impl Layouts {
+    /// Builds a layout now (so its cost is not paid by the first cast, and its errors show);
+    /// returns its bytes.
+    pub fn prepare(&self, kind: LayoutKind, mesh: &TetMesh) -> Result<usize> {
+        struct Bytes;
+        impl LayoutVisitor for Bytes {
+            type Out = usize;
+            fn visit<L: Layout>(self, layout: &L) -> usize {
+                layout.bytes()
+            }
+        }
+        self.visit(kind, mesh, Bytes)
+    }
+}
+
+/// Something to do with a layout of any type: [`Layouts::visit`] calls it with the one a
+/// [`LayoutKind`] names (monomorphized per layout).
+pub trait LayoutVisitor {
+    type Out;
+    fn visit<L: Layout>(self, layout: &L) -> Self::Out;
+}
+
+pub fn get<'a, L: Layout>(cell: &'a OnceLock<Result<L>>, mesh: &TetMesh) -> Result<&'a L> {
+    cell.get_or_init(|| L::build(mesh))
+        .as_ref()
+        .map_err(Clone::clone)
+}
 
 pub trait Layout: Sized + Sync + Send {
     const NAME: &'static str;
@@ -117,8 +214,8 @@ mod tests {
     /// Every layout answers the same questions the same way on a real mesh.
     #[test]
     fn layouts_agree_with_the_topology() {
-        let mut rng = crate::traverse::tests::Rng(17);
-        let (p, t) = crate::traverse::tests::kuhn_grid(3, 0.3, &mut rng);
+        let mut rng = crate::testing::Rng(17);
+        let (p, t) = crate::testing::kuhn_grid(3, 0.3, &mut rng);
         let m = TetMesh::build(p, &t, &[], &[]).unwrap();
         let (plain, t32, t20, t16, t80) = (
             Plain::build(&m).unwrap(),

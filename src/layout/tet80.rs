@@ -65,8 +65,7 @@ impl Layout for Tet80 {
                     vertices: tet.map(|v| mesh.points[v as usize].map(|x| x as f32)),
                     faces: [Tet80Face::default(); 4],
                 };
-                for i in 0..4 {
-                    let l = mesh.links[t][i];
+                for (i, &l) in mesh.links[t].iter().enumerate() {
                     let (constrained, beyond) = if l != BOUNDARY && l & CONSTRAINED_BIT != 0 {
                         let c = l & !CONSTRAINED_BIT;
                         (c, mesh.constrained[c as usize].beyond)
@@ -110,7 +109,8 @@ impl Layout for Tet80 {
     fn inline_face(&self, t: u32, i: usize) -> (Link, usize) {
         let f = self.record(t).faces[i];
         if f.constrained != u32::MAX {
-            (CONSTRAINED_BIT | f.constrained, 0)
+            // The face index beyond rides along: a query may walk on through the face.
+            (CONSTRAINED_BIT | f.constrained, (f.neighbor & 3) as usize)
         } else if f.neighbor == u32::MAX {
             (BOUNDARY, 0)
         } else {

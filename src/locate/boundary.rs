@@ -36,10 +36,15 @@ pub struct BoundaryLocator {
     sides: Vec<Side>,
 }
 
+/// A boundary face: its tet, the face's index in it, and its corners (in 3D, then projected
+/// onto the box side's two axes).
+type SideFace = (u32, u8, [[f64; 3]; 3]);
+type ProjectedFace = (u32, u8, [[f64; 2]; 3]);
+
 impl BoundaryLocator {
     pub fn build(mesh: &TetMesh) -> BoundaryLocator {
         let [lo, hi] = mesh.bounds;
-        let mut per_side: Vec<Vec<(u32, u8, [[f64; 3]; 3])>> = vec![Vec::new(); 6];
+        let mut per_side: Vec<Vec<SideFace>> = vec![Vec::new(); 6];
         for (t, tet) in mesh.tets.iter().enumerate() {
             for (i, f) in OUTWARD_FACES.iter().enumerate() {
                 if mesh.links[t][i] != BOUNDARY {
@@ -69,7 +74,7 @@ impl BoundaryLocator {
                 let cell = |x: f64, d: usize| -> usize {
                     (((x - slo[d]) * inv_cell[d]) as usize).min(dims[d] - 1)
                 };
-                let mut buckets: Vec<Vec<(u32, u8, [[f64; 2]; 3])>> = vec![Vec::new(); n * n];
+                let mut buckets: Vec<Vec<ProjectedFace>> = vec![Vec::new(); n * n];
                 for (t, i, p) in faces {
                     let q = p.map(|v| [v[axes[0]], v[axes[1]]]);
                     let (mut x0, mut x1, mut y0, mut y1) = (usize::MAX, 0, usize::MAX, 0);

@@ -5,7 +5,8 @@
 //! probability one even in non-Delaunay meshes. A hint tet (the previous ray's) replaces the
 //! grid seed for coherent rays. A step guard falls back to a scan so that location always ends.
 
-use crate::mesh::build::{orient, OUTWARD_FACES};
+use crate::geom::predicates::orient;
+use crate::mesh::build::OUTWARD_FACES;
 use crate::mesh::{TetMesh, BOUNDARY};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -45,8 +46,8 @@ impl GridLocator {
         for (t, tet) in mesh.tets.iter().enumerate() {
             let mut c = [0.0; 3];
             for &v in tet {
-                for a in 0..3 {
-                    c[a] += 0.25 * mesh.points[v as usize][a];
+                for (ca, p) in c.iter_mut().zip(mesh.points[v as usize]) {
+                    *ca += 0.25 * p;
                 }
             }
             seeds[g.cell(c)] = t as u32;

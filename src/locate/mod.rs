@@ -2,6 +2,8 @@
 
 pub mod boundary;
 pub mod grid;
+pub mod start;
 
 pub use boundary::BoundaryLocator;
 pub use grid::{GridLocator, Located};
+pub use start::{LocateState, Locators, Start, WalkStart};

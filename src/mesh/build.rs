@@ -5,6 +5,7 @@
 //! both tets that share them, and the result is validated so that the walk can trust it.
 
 use crate::error::{Error, Result};
+use crate::geom::predicates::orient;
 use rayon::prelude::*;
 
 /// Marks a face on the domain boundary: nothing lies beyond it.
@@ -44,19 +45,6 @@ pub struct TetMesh {
     /// rays from outside can enter by clipping against it.
     pub domain_is_box: bool,
     pub boundary_faces: usize,
-}
-
-/// Exact orientation with the sign convention used everywhere in tetrace:
-/// positive when d lies on the side of plane (a,b,c) that det(b-a, c-a, d-a) > 0 points to.
-#[inline]
-pub fn orient(a: [f64; 3], b: [f64; 3], c: [f64; 3], d: [f64; 3]) -> f64 {
-    let p = |v: [f64; 3]| robust::Coord3D {
-        x: v[0],
-        y: v[1],
-        z: v[2],
-    };
-    // robust::orient3d is positive when d is *below* (a,b,c); ours is the opposite sign.
-    -robust::orient3d(p(a), p(b), p(c), p(d))
 }
 
 pub fn bounds_of(points: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {

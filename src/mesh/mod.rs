@@ -1,5 +1,9 @@
-//! The tetrahedralization as the core sees it: oriented tets, face adjacency, constrained faces.
+//! The tetrahedralization as the core sees it: oriented tets, face adjacency, constrained faces,
+//! the Hilbert order the walk reads them in, and the caller's triangles hits are evaluated on.
 
 pub mod build;
+pub mod hilbert;
+pub mod surface;
 
 pub use build::{Link, TetMesh, BOUNDARY};
+pub use surface::{Alternatives, Surface};

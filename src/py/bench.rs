@@ -28,7 +28,7 @@ pub(crate) fn exitface_bench(
         guarded(|| {
             let cases = crate::bench::cases(n_tets, rays_per_tet, seed);
             let mut out = Vec::new();
-            for m in crate::dispatch::METHODS {
+            for &m in crate::traverse::METHODS {
                 for p in ["f32", "f64"] {
                     let (ns, wrong) = crate::bench::exitface(m, p, &cases, repeat)?;
                     out.push((m, p, ns, wrong));

@@ -21,8 +21,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(gpu::gpu_device, m)?)?;
     m.add_function(wrap_pyfunction!(gpu::gpu_kernels, m)?)?;
     m.add_function(wrap_pyfunction!(gpu::gpu_kernel_for, m)?)?;
-    m.add("DEFAULT_METHOD", crate::dispatch::DEFAULT_METHOD)?;
-    m.add("DEFAULT_LAYOUT", crate::dispatch::DEFAULT_LAYOUT)?;
+    m.add("DEFAULT_METHOD", crate::traverse::Method::DEFAULT.name())?;
+    m.add("DEFAULT_LAYOUT", crate::layout::LayoutKind::DEFAULT.name())?;
     m.add("MeshError", m.py().get_type::<errors::MeshError>())?;
     m.add("TooLargeError", m.py().get_type::<errors::TooLargeError>())?;
     m.add("GpuError", m.py().get_type::<errors::GpuError>())?;

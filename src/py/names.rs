@@ -1,22 +1,44 @@
-//! The names Python can pass, read from the core's tables.
+//! The names Python can pass, read from the core's tables: a method or layout argument is
+//! checked against the table as it is extracted, and the lists Python shows come from the same
+//! tables.
 
+use crate::layout::LayoutKind;
+use crate::traverse::{Method, METHODS};
 use pyo3::prelude::*;
 
-/// Exit-face methods, in the order of the papers.
+/// An exit-method argument (`method="aman2022"`), checked against the method table.
+pub(crate) struct MethodArg(pub Method);
+
+impl<'a, 'py> FromPyObject<'a, 'py> for MethodArg {
+    type Error = PyErr;
+    fn extract(obj: pyo3::Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
+        let name: String = obj.extract()?;
+        Ok(MethodArg(Method::from_name(&name)?))
+    }
+}
+
+/// A layout argument (`layout="tet32"`), checked against the layout table.
+pub(crate) struct LayoutArg(pub LayoutKind);
+
+impl<'a, 'py> FromPyObject<'a, 'py> for LayoutArg {
+    type Error = PyErr;
+    fn extract(obj: pyo3::Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
+        let name: String = obj.extract()?;
+        Ok(LayoutArg(LayoutKind::from_name(&name)?))
+    }
+}
+
+/// Exit methods, in the order of the papers.
 #[pyfunction]
 pub(crate) fn methods() -> Vec<&'static str> {
-    crate::dispatch::METHODS.to_vec()
+    METHODS.to_vec()
 }
 
 /// Traversal layouts, with their bytes per tet.
 #[pyfunction]
 pub(crate) fn layouts() -> Vec<(&'static str, usize)> {
-    use crate::layout::*;
-    vec![
-        (Plain::NAME, Plain::BYTES_PER_TET),
-        (Tet80::NAME, Tet80::BYTES_PER_TET),
-        (Tet32::NAME, Tet32::BYTES_PER_TET),
-        (Tet20::NAME, Tet20::BYTES_PER_TET),
-        (Tet16::NAME, Tet16::BYTES_PER_TET),
-    ]
+    LayoutKind::ALL
+        .iter()
+        .map(|k| (k.name(), k.bytes_per_tet()))
+        .collect()
 }

@@ -2,8 +2,11 @@
 
 use super::arrays::{check_cols, rows, slice};
 use super::errors::guarded;
-use crate::dispatch::Precision;
-use crate::scene::{CastOptions, HitsOut, Rays, Scene};
+use super::names::{LayoutArg, MethodArg};
+use crate::geom::real::Real;
+use crate::layout::LayoutKind;
+use crate::scene::{CastOptions, HitBuffers, HitsOut, Rays, Scene};
+use crate::traverse::Method;
 use numpy::{
     Element, IntoPyArray, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3,
     PyUntypedArrayMethods,
@@ -25,7 +28,7 @@ impl PyScene {
     /// Builds the traversal structures from a tetrahedralization (see tetrace.meshing).
     #[new]
     #[pyo3(signature = (points, tets, faces, face_triangle, triangles, hilbert=true, alternatives=None))]
-    #[allow(clippy::too_many_arguments)]
+    #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
     fn new(
         py: Python<'_>,
         points: PyReadonlyArray2<'_, f64>,
@@ -79,9 +82,10 @@ impl PyScene {
     /// Casts rays: origins and directions both float32 (the walk runs in float32) or both
     /// float64. Returns a dict of the Hits fields, in that precision; with `audit`, also
     /// "audit": (N, 2) uint32, per ray the exit faces taken that exact predicates reject and
-    /// the steps where the method found no exit face.
-    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method="aman2022", layout="tet32", audit=false))]
-    #[allow(clippy::too_many_arguments)]
+    /// the steps where the method found no exit face. `method`, `layout`: None for the core's
+    /// defaults.
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, audit=false))]
+    #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
     fn cast<'py>(
         &self,
         py: Python<'py>,
@@ -91,27 +95,34 @@ impl PyScene {
         tmax: PyReadonlyArray1<'py, f64>,
         threads: Option<usize>,
         max_steps: Option<u32>,
-        method: &str,
-        layout: &str,
+        method: Option<MethodArg>,
+        layout: Option<LayoutArg>,
         audit: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
         let scene = &self.inner;
+        let opts = CastOptions { threads, max_steps };
+        let method = method.map_or(Method::DEFAULT, |m| m.0);
+        let layout = layout.map_or(LayoutKind::DEFAULT, |l| l.0);
         let f32s = (
             origins.extract::<PyReadonlyArray2<'py, f32>>(),
             directions.extract::<PyReadonlyArray2<'py, f32>>(),
         );
         if let (Ok(o), Ok(d)) = f32s {
-            return cast_any(
-                py, scene, o, d, tmin, tmax, threads, max_steps, method, layout, audit,
-            );
+            let rays = RayArrays::new(o, d, tmin, tmax);
+            return cast_impl(py, rays, &opts, audit, |r, out, opts| {
+                scene.cast_with(method, layout, r, out, opts)
+            });
         }
         match (
             origins.extract::<PyReadonlyArray2<'py, f64>>(),
             directions.extract::<PyReadonlyArray2<'py, f64>>(),
         ) {
-            (Ok(o), Ok(d)) => cast_any(
-                py, scene, o, d, tmin, tmax, threads, max_steps, method, layout, audit,
-            ),
+            (Ok(o), Ok(d)) => {
+                let rays = RayArrays::new(o, d, tmin, tmax);
+                cast_impl(py, rays, &opts, audit, |r, out, opts| {
+                    scene.cast_with(method, layout, r, out, opts)
+                })
+            }
             _ => Err(pyo3::exceptions::PyTypeError::new_err(
                 "origins and directions must be 2-D arrays, both float32 or both float64",
             )),
@@ -121,7 +132,7 @@ impl PyScene {
     /// Casts float32 rays on the GPU (start location and hits on the CPU, the walk on the
     /// device). Returns the Hits fields and the seconds of each phase.
     #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None))]
-    #[allow(clippy::too_many_arguments)]
+    #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
     fn cast_gpu<'py>(
         &self,
         py: Python<'py>,
@@ -131,8 +142,8 @@ impl PyScene {
         tmax: PyReadonlyArray1<'py, f64>,
         threads: Option<usize>,
         max_steps: Option<u32>,
-        method: Option<&str>,
-        layout: Option<&str>,
+        method: Option<MethodArg>,
+        layout: Option<LayoutArg>,
     ) -> PyResult<(Bound<'py, PyDict>, Bound<'py, PyDict>)> {
         #[cfg(not(feature = "gpu"))]
         {
@@ -143,22 +154,14 @@ impl PyScene {
         #[cfg(feature = "gpu")]
         {
             let scene = &self.inner;
+            let opts = CastOptions { threads, max_steps };
+            let (method, layout) = (method.map(|m| m.0.name()), layout.map(|l| l.0.name()));
             let mut timings = crate::gpu::GpuTimings::default();
-            let hits = cast_impl(
-                py,
-                scene,
-                origins,
-                directions,
-                tmin,
-                tmax,
-                threads,
-                max_steps,
-                false,
-                |rays, out, opts| {
-                    timings = self.device.cast(scene, method, layout, rays, out, opts)?;
-                    Ok(())
-                },
-            )?;
+            let rays = RayArrays::new(origins, directions, tmin, tmax);
+            let hits = cast_impl(py, rays, &opts, false, |r, out, opts| {
+                timings = self.device.cast(scene, method, layout, r, out, opts)?;
+                Ok(())
+            })?;
             Ok((hits, super::gpu::timings_dict(py, &timings)?))
         }
     }
@@ -189,8 +192,8 @@ impl PyScene {
         self.inner.mesh.constrained.len()
     }
     /// Builds a traversal layout now instead of at its first cast; returns its bytes.
-    fn prepare_layout(&self, py: Python<'_>, layout: &str) -> PyResult<usize> {
-        py.detach(|| guarded(|| self.inner.layouts.prepare(layout, &self.inner.mesh)))
+    fn prepare_layout(&self, py: Python<'_>, layout: LayoutArg) -> PyResult<usize> {
+        py.detach(|| guarded(|| self.inner.layouts.prepare(layout.0, &self.inner.mesh)))
     }
     #[getter]
     fn bounds(&self) -> [[f64; 3]; 2] {
@@ -199,88 +202,63 @@ impl PyScene {
     /// The points (P, 3) in the scene's order (Hilbert order unless disabled).
     fn points<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, numpy::PyArray2<f64>>> {
         let flat: Vec<f64> = self.inner.mesh.points.iter().flatten().copied().collect();
-        Ok(flat
-            .into_pyarray(py)
-            .reshape([self.inner.mesh.points.len(), 3])?)
+        flat.into_pyarray(py)
+            .reshape([self.inner.mesh.points.len(), 3])
     }
 
     /// The positively oriented tets (T, 4), for inspection and plotting.
     fn tets<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, numpy::PyArray2<u32>>> {
         let flat: Vec<u32> = self.inner.mesh.tets.iter().flatten().copied().collect();
-        Ok(flat.into_pyarray(py).reshape([self.inner.mesh.len(), 4])?)
+        flat.into_pyarray(py).reshape([self.inner.mesh.len(), 4])
     }
 }
 
-#[allow(clippy::too_many_arguments)]
-fn cast_any<'py, R: Precision + Element>(
-    py: Python<'py>,
-    scene: &Scene,
+/// A cast's ray arrays as numpy passed them.
+struct RayArrays<'py, R: Element> {
     origins: PyReadonlyArray2<'py, R>,
     directions: PyReadonlyArray2<'py, R>,
     tmin: PyReadonlyArray1<'py, f64>,
     tmax: PyReadonlyArray1<'py, f64>,
-    threads: Option<usize>,
-    max_steps: Option<u32>,
-    method: &str,
-    layout: &str,
-    audit: bool,
-) -> PyResult<Bound<'py, PyDict>> {
-    cast_impl(
-        py,
-        scene,
-        origins,
-        directions,
-        tmin,
-        tmax,
-        threads,
-        max_steps,
-        audit,
-        |rays, out, opts| scene.cast_named(method, layout, rays, out, opts),
-    )
+}
+
+impl<'py, R: Element> RayArrays<'py, R> {
+    fn new(
+        origins: PyReadonlyArray2<'py, R>,
+        directions: PyReadonlyArray2<'py, R>,
+        tmin: PyReadonlyArray1<'py, f64>,
+        tmax: PyReadonlyArray1<'py, f64>,
+    ) -> Self {
+        RayArrays {
+            origins,
+            directions,
+            tmin,
+            tmax,
+        }
+    }
 }
 
 /// Validates, allocates the outputs (with `audit`, two counts per ray), runs `cast` with the
-/// GIL released, returns the fields.
-#[allow(clippy::too_many_arguments)]
-fn cast_impl<'py, R: Precision + Element>(
+/// GIL released, returns the fields (the vectors become numpy arrays without a copy).
+fn cast_impl<'py, R: Real + Element>(
     py: Python<'py>,
-    scene: &Scene,
-    origins: PyReadonlyArray2<'py, R>,
-    directions: PyReadonlyArray2<'py, R>,
-    tmin: PyReadonlyArray1<'py, f64>,
-    tmax: PyReadonlyArray1<'py, f64>,
-    threads: Option<usize>,
-    max_steps: Option<u32>,
+    rays: RayArrays<'py, R>,
+    opts: &CastOptions,
     audit: bool,
     cast: impl FnOnce(&Rays<R>, HitsOut<R>, &CastOptions) -> crate::Result<()> + Send,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let n = check_cols(&origins, 3, "origins")?;
-    if check_cols(&directions, 3, "directions")? != n {
+    let n = check_cols(&rays.origins, 3, "origins")?;
+    if check_cols(&rays.directions, 3, "directions")? != n {
         return Err(PyValueError::new_err(
             "origins and directions must have the same number of rows",
         ));
     }
-    if threads == Some(0) {
-        return Err(PyValueError::new_err(
-            "threads must be at least 1 (or None for all cores)",
-        ));
-    }
+    opts.check()?;
     let (o, d) = (
-        slice(&origins, "origins")?,
-        slice(&directions, "directions")?,
+        slice(&rays.origins, "origins")?,
+        slice(&rays.directions, "directions")?,
     );
-    let (lo, hi) = (slice(&tmin, "tmin")?, slice(&tmax, "tmax")?);
-    let max_steps = max_steps.unwrap_or_else(|| default_max_steps(scene.mesh.len()));
-    let opts = CastOptions { threads, max_steps };
-    let (mut t, mut u, mut v, mut p) = (
-        vec![R::ZERO; n],
-        vec![R::ZERO; n],
-        vec![R::ZERO; n],
-        vec![R::ZERO; 3 * n],
-    );
-    let (mut tri, mut tet, mut steps, mut status) =
-        (vec![0i32; n], vec![0i32; n], vec![0u32; n], vec![0u8; n]);
-    let mut audit_counts = vec![0u32; if audit { 2 * n } else { 0 }];
+    let (lo, hi) = (slice(&rays.tmin, "tmin")?, slice(&rays.tmax, "tmax")?);
+    let mut buffers = HitBuffers::<R>::new(n, audit);
     py.detach(|| {
         guarded(|| {
             let rays = Rays {
@@ -289,37 +267,20 @@ fn cast_impl<'py, R: Precision + Element>(
                 tmin: lo,
                 tmax: hi,
             };
-            let out = HitsOut {
-                t: &mut t,
-                u: &mut u,
-                v: &mut v,
-                point: &mut p,
-                triangle: &mut tri,
-                tet: &mut tet,
-                steps: &mut steps,
-                status: &mut status,
-                audit: &mut audit_counts,
-            };
-            cast(&rays, out, &opts)
+            cast(&rays, buffers.out(), opts)
         })
     })?;
     let out = PyDict::new(py);
-    out.set_item("t", t.into_pyarray(py))?;
-    out.set_item("u", u.into_pyarray(py))?;
-    out.set_item("v", v.into_pyarray(py))?;
-    out.set_item("point", p.into_pyarray(py).reshape([n, 3])?)?;
-    out.set_item("triangle", tri.into_pyarray(py))?;
-    out.set_item("tet", tet.into_pyarray(py))?;
-    out.set_item("steps", steps.into_pyarray(py))?;
-    out.set_item("status", status.into_pyarray(py))?;
+    out.set_item("t", buffers.t.into_pyarray(py))?;
+    out.set_item("u", buffers.u.into_pyarray(py))?;
+    out.set_item("v", buffers.v.into_pyarray(py))?;
+    out.set_item("point", buffers.point.into_pyarray(py).reshape([n, 3])?)?;
+    out.set_item("triangle", buffers.triangle.into_pyarray(py))?;
+    out.set_item("tet", buffers.tet.into_pyarray(py))?;
+    out.set_item("steps", buffers.steps.into_pyarray(py))?;
+    out.set_item("status", buffers.status.into_pyarray(py))?;
     if audit {
-        out.set_item("audit", audit_counts.into_pyarray(py).reshape([n, 2])?)?;
+        out.set_item("audit", buffers.audit.into_pyarray(py).reshape([n, 2])?)?;
     }
     Ok(out)
-}
-
-/// A valid walk visits each tet at most once, so the tet count bounds it; the cap keeps a
-/// cycling ray in a huge mesh from costing seconds.
-pub fn default_max_steps(n_tets: usize) -> u32 {
-    (n_tets as u64 + 1).min(1 << 20) as u32
 }

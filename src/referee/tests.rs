@@ -1,5 +1,6 @@
 //! Hand-made cases with known answers, and a plain-rational brute force (no filter, no
-//! scaling: `BigRational` straight from the floats) on random and near-degenerate rays.
+//! scaling: `BigRational` straight from the floats) on random and near-degenerate rays. (Just
+//! over 500 lines: one case per function, sharing the brute force at the end.)
 
 use super::*;
 use num_rational::BigRational;

@@ -10,8 +10,9 @@
 //! Plücker side products, to which these determinants are proportional.
 
 use super::{Exit, ExitMethod};
+use crate::geom::onb::onb;
+use crate::geom::real::{sub3, Real, V3};
 use crate::mesh::build::OUTWARD_FACES;
-use crate::real::{sub3, Real, V3};
 
 pub struct Aman2022;
 
@@ -20,17 +21,6 @@ pub struct BasisRay<R> {
     pub origin: V3<R>,
     pub u: V3<R>,
     pub w: V3<R>,
-}
-
-/// Duff et al. 2017, "Building an Orthonormal Basis, Revisited": branchless, and
-/// (u, w, n) is right-handed, so counter-clockwise in (u, w) means "normal along n".
-pub fn onb(n: V3<f64>) -> (V3<f64>, V3<f64>) {
-    let sign = 1f64.copysign(n[2]);
-    let a = -1.0 / (sign + n[2]);
-    let b = n[0] * n[1] * a;
-    let u = [1.0 + sign * n[0] * n[0] * a, sign * b, -sign * n[0]];
-    let w = [b, sign + n[1] * n[1] * a, -n[1]];
-    (u, w)
 }
 
 #[inline(always)]

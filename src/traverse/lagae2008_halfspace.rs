@@ -25,7 +25,7 @@
 use super::lagae2008_plane::div;
 use super::lagae2008_plucker::{cross, exit_by_face_tests, found3, min2, pick3};
 use super::{Exit, ExitMethod};
-use crate::real::{dot3, sub3, Real, V3};
+use crate::geom::real::{dot3, sub3, Real, V3};
 
 pub struct Lagae2008Halfspace;
 

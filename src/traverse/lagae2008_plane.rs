@@ -18,8 +18,8 @@
 
 use super::lagae2008_plucker::cross;
 use super::{Exit, ExitMethod};
+use crate::geom::real::{dot3, sub3, Real, V3};
 use crate::mesh::build::OUTWARD_FACES;
-use crate::real::{dot3, sub3, Real, V3};
 
 pub struct Lagae2008Plane;
 

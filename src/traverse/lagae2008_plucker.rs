@@ -22,8 +22,8 @@
 //! a face from three "worst signs") are shared with the other Lagae methods and MS06.
 
 use super::{Exit, ExitMethod};
+use crate::geom::real::{dot3, sub3, Real, V3};
 use crate::mesh::build::OUTWARD_FACES;
-use crate::real::{dot3, sub3, Real, V3};
 
 pub struct Lagae2008Plucker;
 

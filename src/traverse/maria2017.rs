@@ -24,8 +24,8 @@
 
 use super::lagae2008_plucker::{cross, PluckerRay};
 use super::{Exit, ExitMethod};
+use crate::geom::real::{dot3, sub3, Real, V3};
 use crate::mesh::build::OUTWARD_FACES;
-use crate::real::{dot3, sub3, Real, V3};
 
 pub struct Maria2017;
 

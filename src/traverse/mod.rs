@@ -12,11 +12,10 @@ pub mod lagae2008_stp;
 pub mod maria2017;
 pub mod ms06;
 pub mod robust;
+pub mod walk;
 
-use crate::layout::Layout;
-use crate::mesh::build::{CONSTRAINED_BIT, OUTWARD_FACES};
-use crate::mesh::BOUNDARY;
-use crate::real::{Real, V3};
+use crate::error::{Error, Result};
+use crate::geom::real::{Real, V3};
 
 pub use aman2022::Aman2022;
 pub use lagae2008_halfspace::Lagae2008Halfspace;
@@ -26,6 +25,7 @@ pub use lagae2008_stp::Lagae2008Stp;
 pub use maria2017::Maria2017;
 pub use ms06::Ms06;
 pub use robust::Robust;
+pub use walk::{walk, walk_with, Walk, WalkEnd, WalkSetup};
 
 /// Which of the three candidate faces a ray leaves by (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -97,9 +97,13 @@ pub fn decide<R: Real, M: ExitMethod<R>>(ray: &M::Ray, p: &[V3<R>; 4]) -> Exit {
 /// it only when `ACTIVE`, so the plain walk compiles as if it did not exist.
 pub trait WalkObserver<R: Real> {
     const ACTIVE: bool;
+    /// A fresh observer for one ray's walk from `start` along `dir` in the box `domain`.
+    fn for_ray(start: V3<f64>, dir: V3<f64>, domain: &[V3<f64>; 2]) -> Self;
     /// The face the walk leaves a tet by, counter-clockwise around the ray, and whether the
     /// method's tests found it (see [`ExitMethod::exit_found`]).
     fn exit(&mut self, face: [V3<R>; 3], found: bool);
+    /// What it counted: exit faces the exact predicates reject, steps with no exit face found.
+    fn counts(&self) -> [u32; 2];
 }
 
 /// The plain walk's observer: nothing.
@@ -108,204 +112,83 @@ pub struct NoObserver;
 impl<R: Real> WalkObserver<R> for NoObserver {
     const ACTIVE: bool = false;
     #[inline(always)]
+    fn for_ray(_: V3<f64>, _: V3<f64>, _: &[V3<f64>; 2]) -> Self {
+        NoObserver
+    }
+    #[inline(always)]
     fn exit(&mut self, _face: [V3<R>; 3], _found: bool) {}
+    #[inline(always)]
+    fn counts(&self) -> [u32; 2] {
+        [0, 0]
+    }
 }
 
-/// How a walk ended.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum WalkEnd {
-    /// Crossed a constrained face: index into the constrained table.
-    Hit { constrained: u32 },
-    /// Left the domain.
-    Boundary,
-    /// The step guard fired (a cycle or a degenerate mesh): the ray is reported as FAILED.
-    StepLimit,
-}
+/// The method table: one row per exit method (its type), in the order of the papers, as
+/// `tetrace.methods()` lists them. Adding a method is a row here plus its own file.
+macro_rules! method_table {
+    ($($ty:ident),* $(,)?) => {
+        /// An exit method, as Python names it.
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+        pub enum Method {
+            $($ty),*
+        }
 
-#[derive(Clone, Copy, Debug)]
-pub struct Walk {
-    pub end: WalkEnd,
-    /// The tet the walk was in when it ended.
-    pub tet: u32,
-    /// The face it left by, ordered counter-clockwise around the ray: point ids, or with
-    /// `slots` the vertices' local indices in the tet (INLINE layouts know no ids).
-    pub face: [u32; 3],
-    pub slots: bool,
-    /// Tets visited, the start tet included.
-    pub steps: u32,
-}
+        /// The names `tetrace.methods()` lists (each is its type's `ExitMethod::NAME`).
+        pub const METHODS: &[&str] = &[$(<$ty as ExitMethod<f64>>::NAME),*];
 
-/// Walks from `start` (whose vertex ids are `start_tet`, positively oriented) until a
-/// constrained face, the domain boundary or `max_steps`. With `entry = Some(i)` the ray comes
-/// from outside through the tet's face i (opposite vertex i), which saves finding it.
-///
-/// Id layouts carry the entry face's vertex ids and their per-vertex data from tet to tet,
-/// fetching one new vertex per step; INLINE layouts (Tet80) carry the entry face's local index
-/// and read all four vertices from the record, as Maria et al. do. `a`, `b`, `c`, `d` hold
-/// ids in the first case and local slots in the second.
-#[inline]
-pub fn walk<R: Real, L: Layout, M: ExitMethod<R>>(
-    layout: &L,
-    points: &[[R; 3]],
-    ray: &M::Ray,
-    start: u32,
-    start_tet: [u32; 4],
-    entry: Option<usize>,
-    max_steps: u32,
-) -> Walk {
-    walk_observed::<R, L, M, NoObserver>(
-        layout,
-        points,
-        ray,
-        start,
-        start_tet,
-        entry,
-        max_steps,
-        &mut NoObserver,
-    )
-}
+        impl Method {
+            pub const ALL: &'static [Method] = &[$(Method::$ty),*];
 
-/// [`walk`], showing `observer` every exit face.
-#[allow(clippy::too_many_arguments)]
-#[inline]
-pub fn walk_observed<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>>(
-    layout: &L,
-    points: &[[R; 3]],
-    ray: &M::Ray,
-    start: u32,
-    start_tet: [u32; 4],
-    entry: Option<usize>,
-    max_steps: u32,
-    observer: &mut O,
-) -> Walk {
-    let position = |t: u32, v: u32| -> V3<R> {
-        if L::INLINE {
-            layout.inline_vertices(t)[v as usize].map(R::from_f32)
-        } else {
-            debug_assert!((v as usize) < points.len());
-            // SAFETY: v is a vertex id of a validated tet (ids, and xors of ids, were checked
-            // against the point count at build), so it indexes `points`.
-            unsafe { *points.get_unchecked(v as usize) }
+            pub fn name(self) -> &'static str {
+                match self {
+                    $(Method::$ty => <$ty as ExitMethod<f64>>::NAME),*
+                }
+            }
+
+            /// Calls `v` with the method's type, in precision R (monomorphized per method).
+            pub fn visit<R: Real, V: MethodVisitor<R>>(self, v: V) -> V::Out {
+                match self {
+                    $(Method::$ty => v.visit::<$ty>()),*
+                }
+            }
         }
     };
-    // Vertex names in the start tet: ids, or slots 0..4 for INLINE layouts.
-    let names = if L::INLINE { [0, 1, 2, 3] } else { start_tet };
-    let (mut a, mut b, mut c, mut pa, mut pb, mut pc, mut link, mut t, mut steps);
-    // INLINE layouts: the entered tet's face by which the walk came in.
-    let mut entry_face = 0usize;
-    if let Some(i) = entry {
-        // Entering through face i: reversed from its outward order it turns counter-clockwise
-        // around the ray, as the loop expects of an entry face.
-        let f = OUTWARD_FACES[i];
-        (a, b, c) = (names[f[0]], names[f[2]], names[f[1]]);
-        (pa, pb, pc) = (
-            M::vertex(ray, position(start, a)),
-            M::vertex(ray, position(start, b)),
-            M::vertex(ray, position(start, c)),
-        );
-        (link, t, steps, entry_face) = (start, start, 0u32, i);
-    } else {
-        let ps = names.map(|v| position(start, v));
-        let vs = ps.map(|p| M::vertex(ray, p));
-        let i = M::start_exit(ray, &vs, &ps);
-        let f = OUTWARD_FACES[i];
-        (a, b, c) = (names[f[0]], names[f[1]], names[f[2]]);
-        (pa, pb, pc) = (vs[f[0]], vs[f[1]], vs[f[2]]);
-        if O::ACTIVE {
-            observer.exit([ps[f[0]], ps[f[1]], ps[f[2]]], true);
-        }
-        if L::INLINE {
-            (link, entry_face) = layout.inline_face(start, i);
-        } else {
-            link = layout.link_opposite(start, start_tet[i], [a, b, c]);
-        }
-        (t, steps) = (start, 1u32);
+}
+
+method_table! {
+    Lagae2008Plane,
+    Lagae2008Halfspace,
+    Lagae2008Plucker,
+    Lagae2008Stp,
+    Ms06,
+    Maria2017,
+    Aman2022,
+    Robust,
+}
+
+impl Method {
+    /// The default: the fastest robust combination measured. Bunny, 1024² camera, f32, one
+    /// thread (python -m tetrace.bench bunny.obj --method all --layout all): aman2022 and
+    /// maria2017 on tet32 both ran at 0.62x embreex, ahead of tet20 (0.57-0.58x); aman2022
+    /// projects each vertex once per ray, so neighbouring tets agree bit for bit on every edge,
+    /// where maria2017 recomputes side products in each tet's frame.
+    pub const DEFAULT: Method = Method::Aman2022;
+
+    /// The method named `name`, or an error listing the known ones.
+    pub fn from_name(name: &str) -> Result<Method> {
+        Method::ALL
+            .iter()
+            .copied()
+            .find(|m| m.name() == name)
+            .ok_or_else(|| Error::unknown("method", name, METHODS))
     }
-    loop {
-        if link & CONSTRAINED_BIT != 0 {
-            let end = if link == BOUNDARY {
-                WalkEnd::Boundary
-            } else {
-                WalkEnd::Hit {
-                    constrained: link & !CONSTRAINED_BIT,
-                }
-            };
-            return Walk {
-                end,
-                tet: t,
-                face: [a, b, c],
-                slots: L::INLINE,
-                steps,
-            };
-        }
-        if steps >= max_steps {
-            return Walk {
-                end: WalkEnd::StepLimit,
-                tet: t,
-                face: [a, b, c],
-                slots: L::INLINE,
-                steps,
-            };
-        }
-        t = link;
-        steps += 1;
-        let d = if L::INLINE {
-            // Names are local to each tet: rename the entry face in this one and recompute
-            // its vertices' data from the record.
-            let f = OUTWARD_FACES[entry_face];
-            (a, b, c) = (f[0] as u32, f[2] as u32, f[1] as u32);
-            let v = layout.inline_vertices(t);
-            (pa, pb, pc) = (
-                M::vertex(ray, v[f[0]].map(R::from_f32)),
-                M::vertex(ray, v[f[2]].map(R::from_f32)),
-                M::vertex(ray, v[f[1]].map(R::from_f32)),
-            );
-            entry_face as u32
-        } else {
-            layout.new_vertex(t, a, b, c)
-        };
-        let pd = M::vertex(ray, position(t, d));
-        let exit = match M::step(ray, &pa, &pb, &pc, &pd) {
-            Some(e) => e,
-            // Cold: the filter of a robust method was uncertain. Names are ids, or slots of
-            // tet t for INLINE layouts, so `position` finds the four vertices either way.
-            None => M::step_exact(
-                ray,
-                &[
-                    position(t, a),
-                    position(t, b),
-                    position(t, c),
-                    position(t, d),
-                ],
-            ),
-        };
-        let found = O::ACTIVE && M::exit_found(ray, &pa, &pb, &pc, &pd);
-        let opposite = match exit {
-            Exit::Abd => {
-                let o = c;
-                (c, pc) = (d, pd);
-                o
-            }
-            Exit::Bcd => {
-                let o = a;
-                (a, pa, b, pb, c, pc) = (b, pb, c, pc, d, pd);
-                o
-            }
-            Exit::Cad => {
-                let o = b;
-                (a, pa, b, pb, c, pc) = (c, pc, a, pa, d, pd);
-                o
-            }
-        };
-        if O::ACTIVE {
-            observer.exit([position(t, a), position(t, b), position(t, c)], found);
-        }
-        if L::INLINE {
-            (link, entry_face) = layout.inline_face(t, opposite as usize);
-        } else {
-            link = layout.link_opposite(t, opposite, [a, b, c]);
-        }
-    }
+}
+
+/// Something to do with an exit method of any type: [`Method::visit`] calls it with the one a
+/// [`Method`] names.
+pub trait MethodVisitor<R: Real> {
+    type Out;
+    fn visit<M: ExitMethod<R>>(self) -> Self::Out;
 }
 
 #[cfg(test)]

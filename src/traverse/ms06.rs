@@ -21,7 +21,7 @@
 
 use super::lagae2008_plucker::{exit_by_face_tests, side_world, PluckerRay};
 use super::{Exit, ExitMethod};
-use crate::real::{Real, V3};
+use crate::geom::real::{Real, V3};
 
 pub struct Ms06;
 

@@ -20,9 +20,9 @@
 //! float32 points widened exactly (the mesh rounded to float32, which the f32 walk walks).
 
 use super::{Exit, ExitMethod, WalkObserver};
+use crate::geom::real::{abs, dot3, exponent, sub3, times_pow2, Real, V3};
 use crate::mesh::build::OUTWARD_FACES;
 use crate::mesh::{TetMesh, BOUNDARY};
-use crate::real::{abs, dot3, exponent, sub3, times_pow2, Real, V3};
 
 pub struct Robust;
 
@@ -187,7 +187,7 @@ fn perturbed_side(s: V3<f64>, b: V3<f64>, p: V3<f64>, q: V3<f64>, delta: V3<f64>
 /// The sign of orient(x, y, z, s + εδ) as ε → 0⁺ (tetrace's orientation convention): the
 /// start point moved as the perturbed line's start is.
 fn perturbed_orient(x: V3<f64>, y: V3<f64>, z: V3<f64>, s: V3<f64>, delta: V3<f64>) -> f64 {
-    let o = crate::mesh::build::orient(x, y, z, s);
+    let o = crate::geom::predicates::orient(x, y, z, s);
     if o != 0.0 {
         return o;
     }
@@ -245,7 +245,7 @@ impl<R: Real> ExitMethod<R> for Robust {
         let (s, b) = exact_line::<R>(origin, dir, domain);
         let bs = [0, 1, 2].map(|k| b[k] - s[k]);
         let inv = 1.0 / (bs[0] * bs[0] + bs[1] * bs[1] + bs[2] * bs[2]).sqrt();
-        let (u, w) = super::aman2022::onb(bs.map(|x| x * inv));
+        let (u, w) = crate::geom::onb::onb(bs.map(|x| x * inv));
         // N: the largest L1 distance from s of a point of the domain, rounded up (the f32
         // walk's vertices may sit an ulp outside the float64 box).
         let reach: f64 = (0..3)
@@ -356,6 +356,12 @@ impl ExactAudit {
 
 impl<R: Real> WalkObserver<R> for ExactAudit {
     const ACTIVE: bool = true;
+    fn for_ray(start: V3<f64>, dir: V3<f64>, domain: &[V3<f64>; 2]) -> Self {
+        ExactAudit::new::<R>(start, dir, domain)
+    }
+    fn counts(&self) -> [u32; 2] {
+        [self.wrong_exits, self.no_exit]
+    }
     fn exit(&mut self, face: [V3<R>; 3], found: bool) {
         let f = face.map(|p| p.map(R::to_f64));
         let wrong = (0..3).any(|k| orient_line(self.s, self.b, f[k], f[(k + 1) % 3]) < 0.0);

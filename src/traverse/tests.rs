@@ -1,61 +1,17 @@
 //! Walk tests on synthetic tetrahedralizations, judged by the exact referee
 //! (`crate::referee`, docs/referee.md), which shares no code with the walk.
+//!
+//! Over 500 lines on purpose: every method's tests use the scenes and the referee-judged
+//! assertions defined here (the GPU tests too); split per method they would import each other.
 
 use super::*;
-use crate::mesh::build::orient;
+use crate::geom::predicates::orient;
+use crate::mesh::build::OUTWARD_FACES;
 use crate::referee::{self, Outcome, Verdict};
-use crate::scene::{CastOptions, HitsOut, Rays, Scene, FAILED, HIT, MISS};
+use crate::scene::{CastOptions, HitsOut, Rays, Scene};
+use crate::status::{FAILED, HIT, MISS};
 
-pub(crate) use crate::bench::Rng;
-
-/// An n³ grid of cubes over [0,1]³, each cut into 6 Kuhn tets (conforming across cubes),
-/// interior points jittered so no two faces are coplanar by accident. Every coordinate is a
-/// multiple of 2^-24 (moved by at most 2^-25, far below the jitter): the points are exact in
-/// float32, so the float32 walk reads the very mesh whose triangles the referee judges, and
-/// sums like `p − 3 v` of a test's rays stay exact.
-pub(crate) fn kuhn_grid(n: usize, jitter: f64, rng: &mut Rng) -> (Vec<[f64; 3]>, Vec<[u32; 4]>) {
-    let m = n + 1;
-    let id = |x: usize, y: usize, z: usize| (x + m * (y + m * z)) as u32;
-    let mut pts = Vec::new();
-    for z in 0..m {
-        for y in 0..m {
-            for x in 0..m {
-                let mut p = [x, y, z].map(|c| c as f64 / n as f64);
-                for (a, c) in [x, y, z].into_iter().enumerate() {
-                    if c > 0 && c < n {
-                        p[a] += (rng.f() - 0.5) * jitter / n as f64;
-                    }
-                }
-                pts.push(p.map(|x| (x * 16_777_216.0).round() / 16_777_216.0));
-            }
-        }
-    }
-    let mut tets = Vec::new();
-    let perms = [
-        [0, 1, 2],
-        [0, 2, 1],
-        [1, 0, 2],
-        [1, 2, 0],
-        [2, 0, 1],
-        [2, 1, 0],
-    ];
-    for z in 0..n {
-        for y in 0..n {
-            for x in 0..n {
-                for p in perms {
-                    let mut c = [x, y, z];
-                    let mut t = [id(c[0], c[1], c[2]), 0, 0, 0];
-                    for (k, &a) in p.iter().enumerate() {
-                        c[a] += 1;
-                        t[k + 1] = id(c[0], c[1], c[2]);
-                    }
-                    tets.push(t);
-                }
-            }
-        }
-    }
-    (pts, tets)
-}
+pub(crate) use crate::testing::{kuhn_grid, Rng};
 
 /// The interior faces of the tets (sorted triples).
 fn all_faces(tets: &[[u32; 4]]) -> Vec<[u32; 3]> {
@@ -264,7 +220,7 @@ fn onb_is_right_handed() {
         }
         let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
         let n = n.map(|x| x / l);
-        let (u, w) = aman2022::onb(n);
+        let (u, w) = crate::geom::onb::onb(n);
         let (u, w, n) = (
             glam::DVec3::from(u),
             glam::DVec3::from(w),
@@ -403,7 +359,7 @@ pub(crate) fn check_agreement<M: ExitMethod<f32> + ExitMethod<f64>>(seed: u64) {
     fn on<L: Layout, M: ExitMethod<f32> + ExitMethod<f64>>(seed: u64, f64_too: bool) {
         let opts = CastOptions {
             threads: None,
-            max_steps: 100_000,
+            max_steps: Some(100_000),
         };
         // agreement() casts once per scene: the layout is built there, for that scene.
         let name = format!("{}/{}", <M as ExitMethod<f32>>::NAME, L::NAME);
@@ -430,13 +386,13 @@ fn aman2022_agrees_with_brute_force() {
 
 #[test]
 fn agrees_with_brute_force_f64() {
-    agreement::<f64>(11, crate::dispatch::DEFAULT_METHOD, |s, r, o| {
+    agreement::<f64>(11, crate::traverse::Method::DEFAULT.name(), |s, r, o| {
         s.cast(
             r,
             o,
             &CastOptions {
                 threads: Some(1),
-                max_steps: 100_000,
+                max_steps: Some(100_000),
             },
         )
     });
@@ -444,13 +400,13 @@ fn agrees_with_brute_force_f64() {
 
 #[test]
 fn agrees_with_brute_force_f32() {
-    agreement::<f32>(12, crate::dispatch::DEFAULT_METHOD, |s, r, o| {
+    agreement::<f32>(12, crate::traverse::Method::DEFAULT.name(), |s, r, o| {
         s.cast(
             r,
             o,
             &CastOptions {
                 threads: None,
-                max_steps: 100_000,
+                max_steps: Some(100_000),
             },
         )
     });
@@ -468,7 +424,7 @@ fn empty_scene_misses_and_counts_steps() {
             o,
             &CastOptions {
                 threads: Some(1),
-                max_steps: 1000,
+                max_steps: Some(1000),
             },
         )
     });
@@ -605,7 +561,8 @@ fn robust_exact_faces_and_agreement() {
 /// honour touches. The stricter contract would need a change to the walk, not to this test.
 #[test]
 fn robust_survives_rays_through_vertices_and_edges() {
-    use crate::scene::{CastOptions, FAILED};
+    use crate::scene::CastOptions;
+    use crate::status::FAILED;
     let mut rng = Rng(99);
     let GridScene { scene, tris, .. } = grid_scene(&mut rng, 4, 0.0, 0.15);
     let (mut o, mut d) = (Vec::new(), Vec::new());
@@ -635,7 +592,7 @@ fn robust_survives_rays_through_vertices_and_edges() {
     }
     let n = o.len() / 3;
     let want = verdicts(&o, &d, &tris);
-    for method in crate::dispatch::METHODS {
+    for &method in crate::traverse::METHODS {
         let res = cast::<f64>(&scene, &o, &d, |s, r, out| {
             s.cast_named(
                 method,
@@ -644,7 +601,7 @@ fn robust_survives_rays_through_vertices_and_edges() {
                 out,
                 &CastOptions {
                     threads: Some(1),
-                    max_steps: 10_000,
+                    max_steps: Some(10_000),
                 },
             )
         });
@@ -686,7 +643,7 @@ fn robust_survives_rays_through_vertices_and_edges() {
 /// first crossing strictly inside a triangle (no zero side product), both exact. The hit's
 /// triangle must be one the ray's line crosses, at `t` (of the output type R; `None`: not
 /// checked) within ulp_R + B of the crossing (as [`agreement`]).
-#[allow(clippy::too_many_arguments)]
+#[allow(clippy::too_many_arguments)] // one ray's fields, as the tests hold them; a struct would only rename them
 pub(crate) fn assert_between_touch_and_inside<R: Real>(
     k: usize,
     status: u8,
@@ -734,7 +691,8 @@ pub(crate) fn assert_between_touch_and_inside<R: Real>(
 /// in float64 every ray bracketed by the referee.
 #[test]
 fn robust_rays_from_the_domain_boundary() {
-    use crate::scene::{CastOptions, FAILED};
+    use crate::scene::CastOptions;
+    use crate::status::FAILED;
     let mut rng = Rng(31);
     let GridScene {
         scene,
@@ -758,7 +716,7 @@ fn robust_rays_from_the_domain_boundary() {
     let n = o.len() / 3;
     let opts = CastOptions {
         threads: Some(1),
-        max_steps: 100_000,
+        max_steps: Some(100_000),
     };
     let res = cast::<f64>(&scene, &o, &d, |s, r, out| {
         s.cast_named("robust", "tet32", r, out, &opts)
@@ -861,7 +819,7 @@ fn hits_name_the_alternative_the_ray_crosses() {
     }
     let opts = CastOptions {
         threads: None,
-        max_steps: 100_000,
+        max_steps: Some(100_000),
     };
     let want = verdicts(&o, &d, &tris);
     let hits = want.iter().flatten().count();
@@ -876,14 +834,20 @@ fn hits_name_the_alternative_the_ray_crosses() {
     }
     let score = |scene: &Scene, method: &str, when: &str| {
         let res = cast::<f64>(scene, &o, &d, |s, r, out| {
-            s.cast_named(method, crate::dispatch::DEFAULT_LAYOUT, r, out, &opts)
+            s.cast_named(
+                method,
+                crate::layout::LayoutKind::DEFAULT.name(),
+                r,
+                out,
+                &opts,
+            )
         });
         let name = format!("alternatives {method}, {when}");
         let c = tally(&name, &want, &res.status, &res.tri, &res.t);
         eprintln!("{name}: {c:?} ({hits} hits of {n} rays)");
         c
     };
-    let methods = ["robust", crate::dispatch::DEFAULT_METHOD];
+    let methods = ["robust", crate::traverse::Method::DEFAULT.name()];
     let before = methods.map(|m| score(&scene, m, "without"));
     scene
         .set_alternatives(offsets.clone(), ids.clone())

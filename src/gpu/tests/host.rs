@@ -23,19 +23,11 @@ fn robust_entries_are_settled_without_an_entry_face() {
     let outside = |i: usize| (0..3).any(|a| !(lo[a]..=hi[a]).contains(&(o[3 * i + a] as f64)));
     for kernel in &KERNELS {
         let settle = kernel.perturbed_start.then_some(&scene.points_f32[..]);
-        let (mut hint, mut camera, mut entry_hint, mut rng) = (None, None, None, 1);
+        let mut st = crate::locate::LocateState::seeded(1);
         let (mut entering, mut with_face) = (0, 0);
         for i in 0..n {
-            let start = scene.locate_one(
-                &rays,
-                i,
-                settle,
-                &mut hint,
-                &mut camera,
-                &mut entry_hint,
-                &mut rng,
-            );
-            if let (crate::scene::Start::Walk(s), true) = (start, outside(i)) {
+            let start = scene.locate_one(&rays, i, settle, &mut st);
+            if let (crate::locate::Start::Walk(s), true) = (start, outside(i)) {
                 entering += 1;
                 let r = (kernel.prepare)(&s, &scene.mesh);
                 assert_eq!(r.entry, s.entry.map_or(NO_ENTRY, |f| f as u32));
@@ -85,7 +77,7 @@ fn gpu_cast_refuses_the_audit() {
     };
     let opts = CastOptions {
         threads: Some(1),
-        max_steps: 100,
+        max_steps: Some(100),
     };
     let e = cast_gpu(&scene, None, None, &rays, out, &opts).unwrap_err();
     assert!(matches!(e, crate::Error::InvalidOption(_)), "{e}");

@@ -94,21 +94,13 @@ fn walked_lines(scene: &Scene, o: &[f32], d: &[f32]) -> (Vec<f64>, usize) {
         tmax: &[f64::INFINITY],
     };
     let points = Some(&scene.points_f32[..]);
-    let (mut hint, mut camera, mut entry_hint, mut rng) = (None, None, None, 1);
+    let mut st = crate::locate::LocateState::seeded(1);
     let (mut out, mut inexact) = (Vec::with_capacity(o.len()), 0);
     for i in 0..o.len() / 3 {
-        let start = scene.locate_one(
-            &rays,
-            i,
-            points,
-            &mut hint,
-            &mut camera,
-            &mut entry_hint,
-            &mut rng,
-        );
+        let start = scene.locate_one(&rays, i, points, &mut st);
         let own = [0, 1, 2].map(|a| o[3 * i + a] as f64);
         let origin = match start {
-            crate::scene::Start::Walk(w) => {
+            crate::locate::Start::Walk(w) => {
                 let (s, b) =
                     crate::traverse::robust::exact_line::<f32>(w.point, w.dir, &scene.mesh.bounds);
                 let dir = [0, 1, 2].map(|a| d[3 * i + a] as f64);
@@ -168,7 +160,7 @@ fn assert_robust_bracket(scene: &Scene, o: &[f32], d: &[f32], tris: &[[[f64; 3];
     (0..want.len()).into_par_iter().for_each(|k| {
         let p = |v: &[f64]| [0, 1, 2].map(|a| v[3 * k + a]);
         if d[3 * k..3 * k + 3] == [0.0; 3] {
-            assert_eq!(out.status[k], crate::scene::INVALID, "ray {k}: d = 0");
+            assert_eq!(out.status[k], crate::status::INVALID, "ray {k}: d = 0");
             return;
         }
         // `t` is on the ray, not on the walked line: judged() checks it on the ray.

@@ -3,7 +3,7 @@
 use super::*;
 use crate::gpu::kernels::{KernelSpec, KERNELS};
 use crate::gpu::launch::Batching;
-use crate::scene::{FAILED, HIT};
+use crate::status::{FAILED, HIT};
 
 /// A GPU cast against its CPU twin's.
 struct Parity {
@@ -24,7 +24,7 @@ struct Parity {
 fn parity(scene: &Scene, kernel: &KernelSpec, o: &[f32], d: &[f32]) -> Parity {
     let opts = CastOptions {
         threads: None,
-        max_steps: scene.mesh.len() as u32 + 1,
+        max_steps: Some(scene.mesh.len() as u32 + 1),
     };
     let cpu = run(scene, o, d, |r, out| {
         scene.cast_named(kernel.method, kernel.layout.name, r, out, &opts)
@@ -169,7 +169,7 @@ fn gpu_batches_do_not_change_results() {
     let (o, d) = rays(20_000, 0.0, 11);
     let opts = CastOptions {
         threads: None,
-        max_steps: 1 << 20,
+        max_steps: Some(1 << 20),
     };
     let one = run(&scene, &o, &d, |r, out| {
         cast_gpu(&scene, None, None, r, out, &opts).map(|_| ())
@@ -219,7 +219,7 @@ fn gpu_robust_defers_degenerate_rays() {
     }
     let opts = CastOptions {
         threads: None,
-        max_steps: scene.mesh.len() as u32 + 1,
+        max_steps: Some(scene.mesh.len() as u32 + 1),
     };
     let cpu = run(&scene, &o, &d, |r, out| {
         scene.cast_named("robust", "tet20", r, out, &opts)
@@ -276,7 +276,7 @@ fn gpu_prepares_rays_as_the_cpu_cast() {
     d0.extend(rd);
     let opts = CastOptions {
         threads: None,
-        max_steps: scene.mesh.len() as u32 + 1,
+        max_steps: Some(scene.mesh.len() as u32 + 1),
     };
     for scale in [1e-30f32, 1e-3, 1.0, 1e30] {
         let d: Vec<f32> = d0.iter().map(|x| x * scale).collect();

@@ -80,6 +80,9 @@ pub fn order(points: &[[f64; 3]], bounds: [[f64; 3]; 2], groups: Option<&[u32]>)
     keyed.into_iter().map(|(_, _, i)| i).collect()
 }
 
+/// Points, tets and faces renumbered, and the tet permutation (`tet_order[new] = old`).
+pub type Reordered = (Vec<[f64; 3]>, Vec<[u32; 4]>, Vec<[u32; 3]>, Vec<u32>);
+
 /// Reorders points, then tets by centroid (grouped by `regions` first when given: a ray stays
 /// in one region between two scene triangles, so its tets then sit together), rewriting every
 /// index; returns (points, tets, faces) and the permutation of tets (`tet_order[new] = old`).
@@ -89,7 +92,7 @@ pub fn reorder(
     faces: &[[u32; 3]],
     bounds: [[f64; 3]; 2],
     regions: Option<&[u32]>,
-) -> (Vec<[f64; 3]>, Vec<[u32; 4]>, Vec<[u32; 3]>, Vec<u32>) {
+) -> Reordered {
     let point_order = order(points, bounds, None);
     let mut new_id = vec![0u32; points.len()];
     for (new, &old) in point_order.iter().enumerate() {

@@ -6,12 +6,13 @@
 //! face's data are prepared beforehand, as a walk carries them. Memory effects are kept out:
 //! all cases sit in one array read in order.
 
-use crate::dispatch::with_method;
+use super::Rng;
 use crate::error::{Error, Result};
-use crate::mesh::build::{orient, OUTWARD_FACES};
-use crate::real::{Real, V3};
+use crate::geom::predicates::orient;
+use crate::geom::real::{Real, V3};
+use crate::mesh::build::OUTWARD_FACES;
 use crate::referee;
-use crate::traverse::{Exit, ExitMethod};
+use crate::traverse::{Exit, ExitMethod, Method, MethodVisitor};
 use std::cmp::Ordering;
 use std::hint::black_box;
 use std::time::Instant;
@@ -37,22 +38,6 @@ impl Case {
             Exit::Bcd => 1,
             Exit::Cad => 2,
         }]
-    }
-}
-
-/// Deterministic xorshift (the bench's cases and the tests need no rand crate).
-pub(crate) struct Rng(pub u64);
-impl Rng {
-    pub fn f(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
-    }
-    /// Three uniforms in [0, 1) (the tests' points).
-    #[cfg(test)]
-    pub fn p3(&mut self) -> [f64; 3] {
-        [self.f(), self.f(), self.f()]
     }
 }
 
@@ -200,9 +185,21 @@ pub fn exitface(
     cases: &[Case],
     repeat: usize,
 ) -> Result<(f64, usize)> {
+    struct Time<'a> {
+        cases: &'a [Case],
+        repeat: usize,
+    }
+    impl<R: Real> MethodVisitor<R> for Time<'_> {
+        type Out = (f64, usize);
+        fn visit<M: ExitMethod<R>>(self) -> (f64, usize) {
+            time_method::<R, M>(self.cases, self.repeat)
+        }
+    }
+    let method = Method::from_name(method)?;
+    let time = Time { cases, repeat };
     match precision {
-        "f32" => with_method!(method, M => Ok(time_method::<f32, M>(cases, repeat))),
-        "f64" => with_method!(method, M => Ok(time_method::<f64, M>(cases, repeat))),
+        "f32" => Ok(method.visit::<f32, _>(time)),
+        "f64" => Ok(method.visit::<f64, _>(time)),
         other => Err(Error::InvalidOption(format!(
             "precision must be f32 or f64, got {other:?}"
         ))),
@@ -235,7 +232,7 @@ mod tests {
             cs.len()
         );
         assert!(cs.iter().all(|c| c.exits.contains(&true)));
-        for m in crate::dispatch::METHODS {
+        for &m in crate::traverse::METHODS {
             for p in ["f32", "f64"] {
                 let (ns, wrong) = exitface(m, p, &cs, 1).unwrap();
                 eprintln!(

@@ -27,6 +27,8 @@ pub trait Real:
     fn from_f64(x: f64) -> Self;
     fn from_f32(x: f32) -> Self;
     fn to_f64(self) -> f64;
+    /// Of a point array kept in both precisions, the one in this precision.
+    fn pick<'a>(f32s: &'a [[f32; 3]], f64s: &'a [[f64; 3]]) -> &'a [[Self; 3]];
 }
 
 impl Real for f32 {
@@ -46,6 +48,9 @@ impl Real for f32 {
     fn to_f64(self) -> f64 {
         self as f64
     }
+    fn pick<'a>(f32s: &'a [[f32; 3]], _: &'a [[f64; 3]]) -> &'a [[f32; 3]] {
+        f32s
+    }
 }
 
 impl Real for f64 {
@@ -64,6 +69,9 @@ impl Real for f64 {
     #[inline(always)]
     fn to_f64(self) -> f64 {
         self
+    }
+    fn pick<'a>(_: &'a [[f32; 3]], f64s: &'a [[f64; 3]]) -> &'a [[f64; 3]] {
+        f64s
     }
 }
 

@@ -1,0 +1,8 @@
+//! Geometry shared by every stage: the scalar trait, exact orientation, the ray–box clip, the
+//! ray–triangle hit and the orthonormal basis. Nothing here knows about tets.
+
+pub mod onb;
+pub mod predicates;
+pub mod ray;
+pub mod real;
+pub mod triangle;

@@ -1,0 +1,49 @@
+//! One ray in float64, and the ray against the domain box.
+
+/// One ray as the caller gave it (in float64; float32 rays convert exactly) with its
+/// [tmin, tmax] as given (not yet clamped).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    pub o: [f64; 3],
+    pub d: [f64; 3],
+    pub tmin: f64,
+    pub tmax: f64,
+}
+
+/// Where a ray meets the domain box.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BoxSpan {
+    pub t0: f64,
+    pub t1: f64,
+    /// The side it enters by (axis, high side), or None when it starts inside.
+    pub side: Option<(usize, bool)>,
+}
+
+/// The parameter range where the ray o + t d is inside the box, within [tmin, tmax].
+pub fn clip_box(
+    o: [f64; 3],
+    d: [f64; 3],
+    lo: [f64; 3],
+    hi: [f64; 3],
+    tmin: f64,
+    tmax: f64,
+) -> Option<BoxSpan> {
+    let (mut t0, mut t1) = (tmin, tmax);
+    let mut side = None;
+    for a in 0..3 {
+        let inv = 1.0 / d[a];
+        let (mut n, mut f) = ((lo[a] - o[a]) * inv, (hi[a] - o[a]) * inv);
+        if n > f {
+            std::mem::swap(&mut n, &mut f);
+        }
+        // 0 * inf is NaN when the ray is parallel and on a slab plane: treat as inside.
+        if !n.is_nan() && n > t0 {
+            t0 = n;
+            side = Some((a, d[a] < 0.0));
+        }
+        if !f.is_nan() {
+            t1 = t1.min(f);
+        }
+    }
+    (t0 <= t1).then_some(BoxSpan { t0, t1, side })
+}

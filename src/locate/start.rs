@@ -1,0 +1,173 @@
+//! Where a ray's walk starts: o + tmin·d when that lies in the domain, else where the ray enters
+//! the box; the tet holding that point, found with hints carried between neighbouring rays.
+
+use super::{BoundaryLocator, GridLocator, Located};
+use crate::geom::ray::{clip_box, Ray};
+use crate::geom::real::{unit_scale, Real};
+use crate::mesh::TetMesh;
+use crate::status::{FAILED, INVALID, MISS};
+use crate::traverse::robust::settle_start;
+use crate::traverse::ExitMethod;
+
+/// Where a ray's walk starts, once located.
+#[derive(Clone, Copy, Debug)]
+pub struct WalkStart {
+    /// The ray as given (origin, direction) and its clamped [tmin, tmax].
+    pub o: [f64; 3],
+    pub d: [f64; 3],
+    /// `d` scaled by a power of two (`real::unit_scale`, exact): what the walk is prepared with.
+    pub dir: [f64; 3],
+    pub tmin: f64,
+    pub tmax: f64,
+    /// The point the walk starts from (o + tmin d, or the entry point on the box).
+    pub point: [f64; 3],
+    pub tet: u32,
+    /// The face of `tet` the ray enters by, when it comes from outside the box (never for a
+    /// method with a perturbed start: its entry is settled like an interior start).
+    pub entry: Option<usize>,
+}
+
+impl WalkStart {
+    /// The ray as method M's walk takes it (the CPU cast's and the GPU kernels' preparation).
+    #[inline]
+    pub fn prepare<R: Real, M: ExitMethod<R>>(&self, mesh: &TetMesh) -> M::Ray {
+        M::prepare(self.point, self.dir, &mesh.bounds)
+    }
+}
+
+/// A located ray: done already with a status (invalid, missing the box, ...) or ready to walk.
+#[derive(Clone, Copy, Debug)]
+pub enum Start {
+    Done(u8),
+    Walk(WalkStart),
+}
+
+/// What location carries from one ray to the next within a chunk of rays: the last start tet,
+/// the last camera origin's tet, the last box-entry cell, and the locator's random state. Reset
+/// for every chunk (seeded by its index), so results do not depend on scheduling.
+#[derive(Clone, Copy, Debug)]
+pub struct LocateState {
+    hint: Option<u32>,
+    camera: Option<([f64; 3], f64, u32)>,
+    entry_hint: Option<(usize, usize)>,
+    rng: u32,
+}
+
+impl LocateState {
+    /// The state at the start of chunk k (a fixed seed per chunk: casts are reproducible).
+    pub fn for_chunk(k: usize) -> LocateState {
+        LocateState::seeded(0x9E37_79B9u32 ^ (k as u32).wrapping_mul(0x85EB_CA6B) | 1)
+    }
+
+    /// No hints yet, the locator's random state at `rng` (non-zero).
+    pub fn seeded(rng: u32) -> LocateState {
+        LocateState {
+            hint: None,
+            camera: None,
+            entry_hint: None,
+            rng,
+        }
+    }
+}
+
+/// The structures location reads.
+#[derive(Clone, Copy)]
+pub struct Locators<'a> {
+    pub mesh: &'a TetMesh,
+    pub grid: &'a GridLocator,
+    pub entry: &'a BoundaryLocator,
+}
+
+impl Locators<'_> {
+    /// Where `ray`'s walk starts. `settle`: the points the walk reads, for a method whose walk
+    /// starts at the perturbed start point ([`ExitMethod::PERTURBED_START`]): the start, inside
+    /// the box or entering it, then moves to the tet holding that point (`settle_start`), with
+    /// no entry face (the method's start exit decides).
+    #[inline]
+    pub fn locate<R: Real>(
+        &self,
+        ray: &Ray,
+        settle: Option<&[[R; 3]]>,
+        st: &mut LocateState,
+    ) -> Start {
+        let Ray { o, d, tmin, tmax } = *ray;
+        let finite = o.iter().chain(&d).all(|x| x.is_finite());
+        if !finite || d == [0.0; 3] || tmin.is_nan() || tmax.is_nan() {
+            return Start::Done(INVALID);
+        }
+        let tmin = tmin.max(0.0);
+        if tmax < tmin {
+            return Start::Done(MISS);
+        }
+        let mesh = self.mesh;
+        // Where the walk starts: o + tmin d if that is inside, else where the ray enters the box.
+        let at = |s: f64| [0, 1, 2].map(|a| o[a] + s * d[a]);
+        let mut start_point = at(tmin);
+        let [lo, hi] = mesh.bounds;
+        let inside = (0..3).all(|a| start_point[a] >= lo[a] && start_point[a] <= hi[a]);
+        let mut entry_face = None;
+        let start = if inside {
+            match st.camera {
+                Some((co, ct, t)) if co == o && ct == tmin => Located::Inside(t),
+                _ => {
+                    let mut l = self.grid.locate(mesh, start_point, st.hint, &mut st.rng);
+                    if let (Some(points), Located::Inside(t)) = (settle, l) {
+                        // Depends on the start point only: cached with the camera's tet.
+                        l = Located::Inside(settle_start(mesh, points, t, start_point));
+                    }
+                    if let Located::Inside(t) = l {
+                        st.camera = Some((o, tmin, t));
+                    }
+                    l
+                }
+            }
+        } else {
+            let Some(entry) = clip_box(o, d, lo, hi, tmin, tmax) else {
+                return Start::Done(MISS);
+            };
+            // Clamp: rounding may leave the entry point a hair off the box side.
+            start_point = at(entry.t0);
+            for a in 0..3 {
+                start_point[a] = start_point[a].clamp(lo[a], hi[a]);
+            }
+            match entry.side {
+                Some((axis, high)) => {
+                    start_point[axis] = if high { hi[axis] } else { lo[axis] };
+                    match self
+                        .entry
+                        .locate(start_point, axis, high, &mut st.entry_hint)
+                    {
+                        Some((t, i)) => {
+                            entry_face = Some(i);
+                            Located::Inside(t)
+                        }
+                        None => self.grid.locate(mesh, start_point, st.hint, &mut st.rng),
+                    }
+                }
+                None => self.grid.locate(mesh, start_point, st.hint, &mut st.rng),
+            }
+        };
+        let Located::Inside(mut start) = start else {
+            // Inside the box but no tet holds the point: only a broken mesh can do this.
+            return Start::Done(if inside { FAILED } else { MISS });
+        };
+        st.hint = Some(start);
+        if let (Some(points), false) = (settle, inside) {
+            // Entering through the box: the perturbed start lies just inside it, in the tet
+            // settle_start finds; the exit from there is the method's to decide.
+            start = settle_start(mesh, points, start, start_point);
+            entry_face = None;
+        }
+        Start::Walk(WalkStart {
+            o,
+            d,
+            // The walk needs only the direction: scaled exactly, tiny and huge ones behave.
+            dir: unit_scale(d),
+            tmin,
+            tmax,
+            point: start_point,
+            tet: start,
+            entry: entry_face,
+        })
+    }
+}

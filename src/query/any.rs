@@ -1,0 +1,35 @@
+//! Any hit (occlusion): is there a scene triangle on the ray within [tmin, tmax]? The walk stops
+//! at the first constrained face; the ray is occluded when that crossing lies within tmax.
+
+use super::{ClosestHit, QueryKind, StopAtFirst};
+use crate::locate::WalkStart;
+use crate::status::HIT;
+use crate::traverse::Walk;
+
+/// The any-hit query; its answer is a status per ray (HIT: occluded, MISS, FAILED, INVALID).
+#[derive(Clone, Copy)]
+pub struct AnyHit<'a>(pub ClosestHit<'a>);
+
+impl QueryKind for AnyHit<'_> {
+    type Policy = StopAtFirst;
+    type Answer = u8;
+
+    #[inline(always)]
+    fn policy(&self, _: &WalkStart) -> StopAtFirst {
+        StopAtFirst
+    }
+
+    #[inline]
+    fn skipped(&self, status: u8) -> u8 {
+        status
+    }
+
+    /// The first face the walk meets is the nearest, so the ray is occluded exactly when the
+    /// closest hit lies within [tmin, tmax]: the same evaluation decides both.
+    #[inline]
+    fn answer(&self, s: &WalkStart, w: &Walk, _: StopAtFirst, _: [u32; 2]) -> u8 {
+        let hit = self.0.finish(s, w);
+        debug_assert!(hit.status != HIT || hit.t <= s.tmax);
+        hit.status
+    }
+}

@@ -1,0 +1,78 @@
+//! The question a walk answers. The walk (`traverse::walk`) is written once; at every
+//! constrained face it reaches, a [`Query`] policy (declared by the walk) decides whether it stops there or records the
+//! crossing and walks on through. A [`QueryKind`] turns a finished walk into one ray's answer,
+//! and a [`Sink`] stores answers. Closest hit and any hit live here; all hits, counts and
+//! containment are further policies of the same walk (they continue through faces).
+
+pub mod any;
+pub mod closest;
+
+use crate::geom::ray::Ray;
+use crate::locate::WalkStart;
+use crate::traverse::Walk;
+
+pub use any::AnyHit;
+pub use closest::{ClosestHit, RayHit};
+// The walk declares what it asks at constrained faces; the policies live here.
+pub use crate::traverse::walk::{Crossing, Decision, Query, StopAtFirst};
+
+/// A query as a cast answers it for each ray: the walk policy, and the answer made of the walk.
+pub trait QueryKind: Sync {
+    type Policy: Query;
+    type Answer: Copy + Send;
+    /// The policy for one ray's walk.
+    fn policy(&self, start: &WalkStart) -> Self::Policy;
+    /// The answer for a ray that never walked (invalid, missing the domain, no start tet).
+    fn skipped(&self, status: u8) -> Self::Answer;
+    /// The answer once the walk ended; `audit`: exit faces the exact predicates reject and
+    /// steps with no exit face found (zeros unless the cast audits).
+    fn answer(
+        &self,
+        start: &WalkStart,
+        walk: &Walk,
+        policy: Self::Policy,
+        audit: [u32; 2],
+    ) -> Self::Answer;
+}
+
+/// Where a cast writes answers of type A: split into chunks that threads fill independently.
+pub trait Sink<A>: Send + Sized {
+    fn len(&self) -> usize;
+    fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    /// The first `n` entries and the rest.
+    fn split_at(self, n: usize) -> (Self, Self);
+    /// Writes entry j, the answer for `ray`.
+    fn put(&mut self, j: usize, answer: &A, ray: &Ray);
+}
+
+/// Splits `sink` into pieces of `size` entries (the last may be shorter).
+pub fn chunks<A, S: Sink<A>>(sink: S, size: usize) -> Vec<S> {
+    let mut out = Vec::with_capacity(sink.len().div_ceil(size.max(1)));
+    let mut rest = sink;
+    while rest.len() > size {
+        let (a, b) = rest.split_at(size);
+        out.push(a);
+        rest = b;
+    }
+    out.push(rest);
+    out
+}
+
+/// Any-hit answers: one status per ray (HIT: something lies in [tmin, tmax]).
+impl Sink<u8> for &mut [u8] {
+    fn len(&self) -> usize {
+        <[u8]>::len(self)
+    }
+    fn split_at(self, n: usize) -> (Self, Self) {
+        self.split_at_mut(n)
+    }
+    #[inline]
+    fn put(&mut self, j: usize, answer: &u8, _: &Ray) {
+        self[j] = *answer;
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,216 @@
+//! A cast's inputs and outputs as flat slices (what numpy hands over), and the owned buffers
+//! a caller without numpy allocates.
+
+use crate::error::{Error, Result};
+use crate::geom::ray::Ray;
+use crate::geom::real::Real;
+use crate::query::{RayHit, Sink};
+use crate::status::HIT;
+
+/// Rays as flat slices of length 3N (origins, directions) in the walk's precision.
+pub struct Rays<'a, R> {
+    pub origins: &'a [R],
+    pub directions: &'a [R],
+    /// One value for all rays, or one per ray.
+    pub tmin: &'a [f64],
+    pub tmax: &'a [f64],
+}
+
+impl<R: Real> Rays<'_, R> {
+    /// Ray i in float64 (exact from float32).
+    #[inline]
+    pub fn ray(&self, i: usize) -> Ray {
+        let at = |b: &[f64]| b[if b.len() == 1 { 0 } else { i }];
+        Ray {
+            o: [0, 1, 2].map(|a| self.origins[3 * i + a].to_f64()),
+            d: [0, 1, 2].map(|a| self.directions[3 * i + a].to_f64()),
+            tmin: at(self.tmin),
+            tmax: at(self.tmax),
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.origins.len() / 3
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.origins.is_empty()
+    }
+}
+
+/// Output slices, one entry per ray (`point` has 3 per ray).
+pub struct HitsOut<'a, R> {
+    pub t: &'a mut [R],
+    pub u: &'a mut [R],
+    pub v: &'a mut [R],
+    pub point: &'a mut [R],
+    pub triangle: &'a mut [i32],
+    pub tet: &'a mut [i32],
+    pub steps: &'a mut [u32],
+    pub status: &'a mut [u8],
+    /// Empty, or two per ray to audit every step (see [`ExactAudit`]): exit faces taken that
+    /// the exact predicates reject, and steps where the method found no exit face.
+    pub audit: &'a mut [u32],
+}
+
+impl<'a, R> HitsOut<'a, R> {
+    pub fn len(&self) -> usize {
+        self.t.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.t.is_empty()
+    }
+
+    /// Writes entry j: the hit of `ray` (the point is o + t d in f64, then rounded).
+    #[inline]
+    pub fn set(&mut self, j: usize, r: &RayHit, ray: &Ray)
+    where
+        R: Real,
+    {
+        self.t[j] = R::from_f64(r.t);
+        self.u[j] = R::from_f64(r.u);
+        self.v[j] = R::from_f64(r.v);
+        for a in 0..3 {
+            self.point[3 * j + a] = R::from_f64(if r.status == HIT {
+                ray.o[a] + r.t * ray.d[a]
+            } else {
+                f64::NAN
+            });
+        }
+        self.triangle[j] = r.triangle;
+        self.tet[j] = r.tet;
+        self.steps[j] = r.steps;
+        self.status[j] = r.status;
+    }
+
+    pub fn split_at(self, n: usize) -> (Self, Self) {
+        let (t0, t1) = self.t.split_at_mut(n);
+        let (u0, u1) = self.u.split_at_mut(n);
+        let (v0, v1) = self.v.split_at_mut(n);
+        let (p0, p1) = self.point.split_at_mut(3 * n);
+        let (tr0, tr1) = self.triangle.split_at_mut(n);
+        let (te0, te1) = self.tet.split_at_mut(n);
+        let (s0, s1) = self.steps.split_at_mut(n);
+        let (st0, st1) = self.status.split_at_mut(n);
+        let (au0, au1) = self
+            .audit
+            .split_at_mut(if self.audit.is_empty() { 0 } else { 2 * n });
+        (
+            HitsOut {
+                t: t0,
+                u: u0,
+                v: v0,
+                point: p0,
+                triangle: tr0,
+                tet: te0,
+                steps: s0,
+                status: st0,
+                audit: au0,
+            },
+            HitsOut {
+                t: t1,
+                u: u1,
+                v: v1,
+                point: p1,
+                triangle: tr1,
+                tet: te1,
+                steps: s1,
+                status: st1,
+                audit: au1,
+            },
+        )
+    }
+}
+
+/// Closest-hit answers (and with a non-empty `audit`, the audit's two counts per ray).
+impl<R: Real + Send> Sink<RayHit> for HitsOut<'_, R> {
+    fn len(&self) -> usize {
+        self.t.len()
+    }
+    fn split_at(self, n: usize) -> (Self, Self) {
+        HitsOut::split_at(self, n)
+    }
+    #[inline]
+    fn put(&mut self, j: usize, r: &RayHit, ray: &Ray) {
+        self.set(j, r, ray);
+        if !self.audit.is_empty() {
+            self.audit[2 * j..2 * j + 2].copy_from_slice(&r.audit);
+        }
+    }
+}
+
+/// Owned output buffers for N rays: what tests and Rust callers allocate, and lend as
+/// [`HitsOut`] to a cast.
+#[derive(Clone, Debug)]
+pub struct HitBuffers<R> {
+    pub t: Vec<R>,
+    pub u: Vec<R>,
+    pub v: Vec<R>,
+    pub point: Vec<R>,
+    pub triangle: Vec<i32>,
+    pub tet: Vec<i32>,
+    pub steps: Vec<u32>,
+    pub status: Vec<u8>,
+    pub audit: Vec<u32>,
+}
+
+impl<R: Real> HitBuffers<R> {
+    /// Buffers for `n` rays; with `audit`, two audit counts per ray.
+    pub fn new(n: usize, audit: bool) -> Self {
+        HitBuffers {
+            t: vec![R::ZERO; n],
+            u: vec![R::ZERO; n],
+            v: vec![R::ZERO; n],
+            point: vec![R::ZERO; 3 * n],
+            triangle: vec![0; n],
+            tet: vec![0; n],
+            steps: vec![0; n],
+            status: vec![0; n],
+            audit: vec![0; if audit { 2 * n } else { 0 }],
+        }
+    }
+
+    pub fn out(&mut self) -> HitsOut<'_, R> {
+        HitsOut {
+            t: &mut self.t,
+            u: &mut self.u,
+            v: &mut self.v,
+            point: &mut self.point,
+            triangle: &mut self.triangle,
+            tet: &mut self.tet,
+            steps: &mut self.steps,
+            status: &mut self.status,
+            audit: &mut self.audit,
+        }
+    }
+}
+
+/// Rays and outputs of one cast have matching lengths (the audit: empty or 2 per ray).
+pub fn check_lengths<R>(rays: &Rays<R>, out: &HitsOut<R>) -> Result<()> {
+    let n = out.len();
+    if rays.origins.len() != 3 * n || rays.directions.len() != 3 * n || out.point.len() != 3 * n {
+        return Err(Error::InvalidInput(format!(
+            "{} rays expected 3N origin and direction values, got {} and {}",
+            n,
+            rays.origins.len(),
+            rays.directions.len()
+        )));
+    }
+    for (name, b) in [("tmin", rays.tmin), ("tmax", rays.tmax)] {
+        if b.len() != 1 && b.len() != n {
+            return Err(Error::InvalidInput(format!(
+                "{name} needs 1 or {n} values, got {}",
+                b.len()
+            )));
+        }
+    }
+    if !out.audit.is_empty() && out.audit.len() != 2 * n {
+        return Err(Error::InvalidInput(format!(
+            "the audit needs 2 values per ray ({}), got {}",
+            2 * n,
+            out.audit.len()
+        )));
+    }
+    Ok(())
+}

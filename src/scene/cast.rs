@@ -1,0 +1,264 @@
+//! Casting: from the names Python passes (through the method and layout tables) to one
+//! monomorphized walk, run over 4096-ray chunks on the threads asked for.
+
+use super::{check_lengths, HitsOut, Rays, Scene};
+use crate::accel::{Accel, TetWalk};
+use crate::error::{Error, Result};
+use crate::geom::real::Real;
+use crate::layout::{Layout, LayoutKind, LayoutVisitor};
+use crate::query::{chunks, AnyHit, QueryKind, Sink};
+use crate::traverse::robust::ExactAudit;
+use crate::traverse::{ExitMethod, Method, MethodVisitor, NoObserver, WalkObserver, WalkSetup};
+use rayon::prelude::*;
+
+/// How a cast runs; `CastOptions::default()` is what Python's defaults mean.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CastOptions {
+    /// None: all cores (rayon's global pool); Some(1): this thread only.
+    pub threads: Option<usize>,
+    /// The step guard; None: [`default_max_steps`] of the scene.
+    pub max_steps: Option<u32>,
+}
+
+impl CastOptions {
+    /// Refuses options no cast can run with.
+    pub fn check(&self) -> Result<()> {
+        if self.threads == Some(0) {
+            return Err(Error::InvalidOption(
+                "threads must be at least 1 (or None for all cores)".into(),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The step guard for a mesh of `n_tets` tets.
+    pub fn max_steps_for(&self, n_tets: usize) -> u32 {
+        self.max_steps.unwrap_or_else(|| default_max_steps(n_tets))
+    }
+}
+
+/// A valid walk visits each tet at most once, so the tet count bounds it; the cap keeps a
+/// cycling ray in a huge mesh from costing seconds.
+pub fn default_max_steps(n_tets: usize) -> u32 {
+    (n_tets as u64 + 1).min(1 << 20) as u32
+}
+
+/// Rays per parallel task: large enough to amortize, small enough to balance, and contiguous
+/// so coherent rays (a camera's) share their start-tet hints.
+pub const CHUNK: usize = 4096;
+
+/// Answers `query` for every ray of `rays` into `out` with `accel`, chunk by chunk on
+/// `threads` (see [`CastOptions::threads`]). Each chunk starts from fresh accelerator state, so
+/// answers do not depend on the thread count.
+pub fn cast_accel<R: Real, A: Accel<R>, K: QueryKind, S: Sink<K::Answer>>(
+    accel: &A,
+    query: &K,
+    rays: &Rays<R>,
+    out: S,
+    threads: Option<usize>,
+) -> Result<()> {
+    let run_chunk = |(k, mut chunk): (usize, S)| {
+        let mut state = accel.state(k);
+        let base = k * CHUNK;
+        for j in 0..chunk.len() {
+            let ray = rays.ray(base + j);
+            let answer = accel.trace(query, &ray, &mut state);
+            chunk.put(j, &answer, &ray);
+        }
+    };
+    let pieces: Vec<_> = chunks(out, CHUNK).into_iter().enumerate().collect();
+    match threads {
+        Some(1) => pieces.into_iter().for_each(run_chunk),
+        None => pieces.into_par_iter().for_each(run_chunk),
+        Some(k) => rayon::ThreadPoolBuilder::new()
+            .num_threads(k)
+            .build()
+            .map_err(|e| Error::InvalidOption(format!("cannot start {k} threads: {e}")))?
+            .install(|| pieces.into_par_iter().for_each(run_chunk)),
+    }
+    Ok(())
+}
+
+/// What a cast writes: closest hits, or any-hit statuses.
+enum Job<'a, R> {
+    Closest(HitsOut<'a, R>),
+    Any(&'a mut [u8]),
+}
+
+impl Scene {
+    /// Closest hits with the default method and layout.
+    pub fn cast<R: Real>(&self, rays: &Rays<R>, out: HitsOut<R>, opts: &CastOptions) -> Result<()> {
+        self.cast_with(Method::DEFAULT, LayoutKind::DEFAULT, rays, out, opts)
+    }
+
+    /// Closest hits with the method and layout named (the entry point of the bindings).
+    pub fn cast_named<R: Real>(
+        &self,
+        method: &str,
+        layout: &str,
+        rays: &Rays<R>,
+        out: HitsOut<R>,
+        opts: &CastOptions,
+    ) -> Result<()> {
+        self.cast_with(
+            Method::from_name(method)?,
+            LayoutKind::from_name(layout)?,
+            rays,
+            out,
+            opts,
+        )
+    }
+
+    /// Closest hits with an exit method and layout, in the rays' precision R.
+    pub fn cast_with<R: Real>(
+        &self,
+        method: Method,
+        layout: LayoutKind,
+        rays: &Rays<R>,
+        out: HitsOut<R>,
+        opts: &CastOptions,
+    ) -> Result<()> {
+        check_lengths(rays, &out)?;
+        self.dispatch(method, layout, rays, Job::Closest(out), opts)
+    }
+
+    /// Any hit (occlusion): per ray HIT when a scene triangle lies on it within [tmin, tmax],
+    /// else MISS (FAILED, INVALID as for closest hits).
+    pub fn occluded<R: Real>(
+        &self,
+        method: Method,
+        layout: LayoutKind,
+        rays: &Rays<R>,
+        out: &mut [u8],
+        opts: &CastOptions,
+    ) -> Result<()> {
+        if rays.origins.len() != 3 * out.len() || rays.directions.len() != 3 * out.len() {
+            return Err(Error::InvalidInput(format!(
+                "{} rays expected 3N origin and direction values, got {} and {}",
+                out.len(),
+                rays.origins.len(),
+                rays.directions.len()
+            )));
+        }
+        self.dispatch(method, layout, rays, Job::Any(out), opts)
+    }
+
+    fn dispatch<R: Real>(
+        &self,
+        method: Method,
+        layout: LayoutKind,
+        rays: &Rays<R>,
+        job: Job<R>,
+        opts: &CastOptions,
+    ) -> Result<()> {
+        opts.check()?;
+        let step = LayoutStep {
+            scene: self,
+            method,
+            rays,
+            job,
+            opts,
+        };
+        self.layouts.visit(layout, &self.mesh, step)?
+    }
+
+    /// Closest hits with an explicit precision, layout and exit method (what the dispatch
+    /// reaches, and what tests of one method call).
+    pub fn cast_generic<R: Real, L: Layout, M: ExitMethod<R>>(
+        &self,
+        points: &[[R; 3]],
+        layout: &L,
+        rays: &Rays<R>,
+        out: HitsOut<R>,
+        opts: &CastOptions,
+    ) -> Result<()> {
+        check_lengths(rays, &out)?;
+        let query = self.closest();
+        if out.audit.is_empty() {
+            self.run::<R, L, M, NoObserver, _, _>(points, layout, &query, rays, out, opts)
+        } else {
+            self.run::<R, L, M, ExactAudit, _, _>(points, layout, &query, rays, out, opts)
+        }
+    }
+
+    /// The tet walk (method M on layout L, observer O) answering `query` for every ray.
+    fn run<R, L, M, O, K, S>(
+        &self,
+        points: &[[R; 3]],
+        layout: &L,
+        query: &K,
+        rays: &Rays<R>,
+        out: S,
+        opts: &CastOptions,
+    ) -> Result<()>
+    where
+        R: Real,
+        L: Layout,
+        M: ExitMethod<R>,
+        O: WalkObserver<R>,
+        K: QueryKind,
+        S: Sink<K::Answer>,
+    {
+        let setup = WalkSetup {
+            layout,
+            points,
+            sides: &self.mesh.constrained,
+            max_steps: opts.max_steps_for(self.mesh.len()),
+        };
+        let walk = TetWalk::<R, L, M, O>::new(self.locators(), setup);
+        cast_accel(&walk, query, rays, out, opts.threads)
+    }
+}
+
+/// The dispatch's first half: the layout is known, now the method.
+struct LayoutStep<'a, R> {
+    scene: &'a Scene,
+    method: Method,
+    rays: &'a Rays<'a, R>,
+    job: Job<'a, R>,
+    opts: &'a CastOptions,
+}
+
+impl<R: Real> LayoutVisitor for LayoutStep<'_, R> {
+    type Out = Result<()>;
+    fn visit<L: Layout>(self, layout: &L) -> Result<()> {
+        if L::INLINE && R::NAME != "f32" {
+            return Err(Error::InvalidOption(format!(
+                "layout {} stores float32 vertices (Maria et al.'s design) and serves precision \
+                 f32 only",
+                L::NAME
+            )));
+        }
+        let step = MethodStep { step: self, layout };
+        step.step.method.visit::<R, _>(step)
+    }
+}
+
+/// The dispatch's second half: layout and method known, run the walk.
+struct MethodStep<'a, 'b, R, L> {
+    step: LayoutStep<'a, R>,
+    layout: &'b L,
+}
+
+impl<R: Real, L: Layout> MethodVisitor<R> for MethodStep<'_, '_, R, L> {
+    type Out = Result<()>;
+    fn visit<M: ExitMethod<R>>(self) -> Result<()> {
+        let LayoutStep {
+            scene,
+            rays,
+            job,
+            opts,
+            ..
+        } = self.step;
+        let points = scene.points::<R>();
+        match job {
+            Job::Closest(out) => {
+                scene.cast_generic::<R, L, M>(points, self.layout, rays, out, opts)
+            }
+            Job::Any(out) => {
+                let query = AnyHit(scene.closest());
+                scene.run::<R, L, M, NoObserver, _, _>(points, self.layout, &query, rays, out, opts)
+            }
+        }
+    }
+}

@@ -1,0 +1,195 @@
+//! A scene ready to cast: the topology, the locators, the traversal layouts (built on first
+//! use), the points in both precisions and the caller's triangles hits are evaluated on.
+//! Casting lives in `cast.rs`, the buffers it fills in `buffers.rs`.
+
+pub mod buffers;
+pub mod cast;
+
+use crate::error::{Error, Result};
+use crate::geom::real::Real;
+use crate::layout::{LayoutKind, Layouts};
+use crate::locate::{BoundaryLocator, GridLocator, Locators};
+#[cfg(feature = "gpu")]
+use crate::locate::{LocateState, Start, WalkStart};
+use crate::mesh::{Surface, TetMesh};
+use crate::query::ClosestHit;
+#[cfg(feature = "gpu")]
+use crate::query::RayHit;
+#[cfg(feature = "gpu")]
+use crate::traverse::Walk;
+
+pub use buffers::{check_lengths, HitBuffers, HitsOut, Rays};
+pub use cast::{CastOptions, CHUNK};
+
+pub struct Scene {
+    pub mesh: TetMesh,
+    pub locator: GridLocator,
+    pub entry: BoundaryLocator,
+    /// Traversal layouts, built on first use.
+    pub layouts: Layouts,
+    pub points_f32: Vec<[f32; 3]>,
+    /// The caller's triangles and the alternatives a hit may name.
+    pub surface: Surface,
+}
+
+impl Scene {
+    /// Builds with points and tets in Hilbert order (see [`Scene::build_with`]).
+    pub fn build(
+        points: Vec<[f64; 3]>,
+        tets: &[[u32; 4]],
+        faces: &[[u32; 3]],
+        face_triangle: &[u32],
+        triangles: Vec<[[f64; 3]; 3]>,
+    ) -> Result<Scene> {
+        Scene::build_with(points, tets, faces, face_triangle, triangles, true)
+    }
+
+    /// `hilbert`: renumber points along a Hilbert curve and tets by region, then along the
+    /// curve by centroid, so that the walk's memory accesses are local. Point and tet ids of the
+    /// scene are then the new ones.
+    pub fn build_with(
+        points: Vec<[f64; 3]>,
+        tets: &[[u32; 4]],
+        faces: &[[u32; 3]],
+        face_triangle: &[u32],
+        triangles: Vec<[[f64; 3]; 3]>,
+        hilbert: bool,
+    ) -> Result<Scene> {
+        if let Some(k) = face_triangle
+            .iter()
+            .position(|&t| t as usize >= triangles.len())
+        {
+            return Err(Error::InvalidInput(format!(
+                "constrained face {k} names triangle {} but only {} triangles were given",
+                face_triangle[k],
+                triangles.len()
+            )));
+        }
+        if let Some(k) = triangles
+            .iter()
+            .position(|t| !t.iter().flatten().all(|x| x.is_finite()))
+        {
+            return Err(Error::InvalidInput(format!(
+                "triangle {k} has a non-finite corner"
+            )));
+        }
+        let np = points.len() as u64;
+        let in_range = tets
+            .iter()
+            .flatten()
+            .chain(faces.iter().flatten())
+            .all(|&v| (v as u64) < np);
+        let mesh = if hilbert && in_range && points.iter().flatten().all(|x| x.is_finite()) {
+            // Build once unordered to find the regions, then again in Hilbert order within
+            // regions: construction is cheap next to meshing (bunny: ~0.1 s).
+            let unordered = TetMesh::build(points, tets, faces, face_triangle)?;
+            let regions = unordered.regions();
+            let (p, t, f, _) = crate::mesh::hilbert::reorder(
+                &unordered.points,
+                &unordered.tets,
+                faces,
+                unordered.bounds,
+                Some(&regions),
+            );
+            TetMesh::build(p, &t, &f, face_triangle)?
+        } else {
+            // Out-of-range or non-finite input: let build() name the problem.
+            TetMesh::build(points, tets, faces, face_triangle)?
+        };
+        if !mesh.domain_is_box {
+            return Err(Error::InvalidMesh(
+                "some boundary faces do not lie on the bounding box: the domain must be a box \
+                 (tetrace.meshing wraps scenes in one)"
+                    .into(),
+            ));
+        }
+        let locator = GridLocator::build(&mesh);
+        let entry = BoundaryLocator::build(&mesh);
+        let points_f32 = mesh.points.iter().map(|p| p.map(|x| x as f32)).collect();
+        let scene = Scene {
+            mesh,
+            locator,
+            entry,
+            layouts: Default::default(),
+            points_f32,
+            surface: Surface {
+                triangles,
+                alternatives: Default::default(),
+            },
+        };
+        scene.layouts.prepare(LayoutKind::DEFAULT, &scene.mesh)?;
+        Ok(scene)
+    }
+
+    /// See [`Surface::set_alternatives`].
+    pub fn set_alternatives(&mut self, offsets: Vec<u32>, ids: Vec<u32>) -> Result<()> {
+        self.surface.set_alternatives(offsets, ids)
+    }
+
+    /// Bytes of each part: points (both precisions), the constrained-side table, the locator
+    /// (seed grid, boundary grid and the topology location walks on), and the records of each
+    /// traversal layout built so far (as `tets_<name>`).
+    pub fn memory(&self) -> Vec<(String, usize)> {
+        let mut m = vec![
+            ("points_f64".to_string(), self.mesh.points.len() * 24),
+            ("points_f32".to_string(), self.points_f32.len() * 12),
+            (
+                "constrained".to_string(),
+                self.mesh.constrained.len() * 8 + self.surface.alternatives_bytes(),
+            ),
+            (
+                "locator".to_string(),
+                self.locator.bytes() + self.entry.bytes() + self.mesh.tets.len() * 32,
+            ),
+        ];
+        m.extend(
+            self.layouts
+                .built()
+                .into_iter()
+                .map(|(n, b)| (format!("tets_{n}"), b)),
+        );
+        m
+    }
+
+    /// The points in precision R.
+    pub fn points<R: Real>(&self) -> &[[R; 3]] {
+        R::pick(&self.points_f32, &self.mesh.points)
+    }
+
+    /// What location reads.
+    pub fn locators(&self) -> Locators<'_> {
+        Locators {
+            mesh: &self.mesh,
+            grid: &self.locator,
+            entry: &self.entry,
+        }
+    }
+
+    /// The closest-hit query over this scene's triangles.
+    pub fn closest(&self) -> ClosestHit<'_> {
+        ClosestHit {
+            mesh: &self.mesh,
+            surface: &self.surface,
+        }
+    }
+
+    /// Where ray i of `rays` starts (the GPU cast's first half, as the CPU cast locates).
+    #[cfg(feature = "gpu")]
+    #[inline]
+    pub(crate) fn locate_one<R: Real>(
+        &self,
+        rays: &Rays<R>,
+        i: usize,
+        settle: Option<&[[R; 3]]>,
+        st: &mut LocateState,
+    ) -> Start {
+        self.locators().locate(&rays.ray(i), settle, st)
+    }
+
+    /// The hit of a finished walk (the GPU cast's second half).
+    #[cfg(feature = "gpu")]
+    #[inline]
+    pub(crate) fn finish(&self, s: &WalkStart, w: &Walk) -> RayHit {
+        self.closest().finish(s, w)
+    }
+}

@@ -1,3 +1,0 @@
-//! Orderings of points and tets that make the walk touch memory in order.
-
-pub mod hilbert;

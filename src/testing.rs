@@ -1,0 +1,52 @@
+//! Fixtures shared by the tests of several modules (compiled only for `cargo test`).
+
+pub(crate) use crate::bench::Rng;
+
+/// An n³ grid of cubes over [0,1]³, each cut into 6 Kuhn tets (conforming across cubes),
+/// interior points jittered so no two faces are coplanar by accident. Every coordinate is a
+/// multiple of 2^-24 (moved by at most 2^-25, far below the jitter): the points are exact in
+/// float32, so the float32 walk reads the very mesh whose triangles the referee judges, and
+/// sums like `p − 3 v` of a test's rays stay exact.
+pub(crate) fn kuhn_grid(n: usize, jitter: f64, rng: &mut Rng) -> (Vec<[f64; 3]>, Vec<[u32; 4]>) {
+    let m = n + 1;
+    let id = |x: usize, y: usize, z: usize| (x + m * (y + m * z)) as u32;
+    let mut pts = Vec::new();
+    for z in 0..m {
+        for y in 0..m {
+            for x in 0..m {
+                let mut p = [x, y, z].map(|c| c as f64 / n as f64);
+                for (a, c) in [x, y, z].into_iter().enumerate() {
+                    if c > 0 && c < n {
+                        p[a] += (rng.f() - 0.5) * jitter / n as f64;
+                    }
+                }
+                pts.push(p.map(|x| (x * 16_777_216.0).round() / 16_777_216.0));
+            }
+        }
+    }
+    let mut tets = Vec::new();
+    let perms = [
+        [0, 1, 2],
+        [0, 2, 1],
+        [1, 0, 2],
+        [1, 2, 0],
+        [2, 0, 1],
+        [2, 1, 0],
+    ];
+    for z in 0..n {
+        for y in 0..n {
+            for x in 0..n {
+                for p in perms {
+                    let mut c = [x, y, z];
+                    let mut t = [id(c[0], c[1], c[2]), 0, 0, 0];
+                    for (k, &a) in p.iter().enumerate() {
+                        c[a] += 1;
+                        t[k + 1] = id(c[0], c[1], c[2]);
+                    }
+                    tets.push(t);
+                }
+            }
+        }
+    }
+    (pts, tets)
+}

@@ -1,0 +1,271 @@
+//! The walk from tet to tet, written once for every method, layout, precision and question.
+//! An [`ExitMethod`] decides which face a ray leaves a tet by, a [`Layout`] says what lies across
+//! it, and a [`Query`] decides at each constrained face whether the walk stops there or records
+//! it and walks on through (closest hit stops at the first; all hits and counts go on).
+
+use super::{Exit, ExitMethod, WalkObserver};
+use crate::geom::real::{Real, V3};
+use crate::layout::Layout;
+use crate::mesh::build::{ConstrainedSide, CONSTRAINED_BIT, OUTWARD_FACES};
+use crate::mesh::BOUNDARY;
+use crate::traverse::NoObserver;
+
+/// What the walk does at a constrained face.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Decision {
+    /// End the walk here (`WalkEnd::Hit`).
+    Stop,
+    /// Walk on into the tet beyond the face.
+    Continue,
+}
+
+/// A constrained face the walk reached.
+#[derive(Clone, Copy, Debug)]
+pub struct Crossing {
+    /// Index into the mesh's constrained-side table (which names the caller's triangle).
+    pub constrained: u32,
+    /// The tet the walk leaves, and the face it leaves by, counter-clockwise around the ray:
+    /// point ids, or with `slots` the vertices' local indices in the tet.
+    pub tet: u32,
+    pub face: [u32; 3],
+    pub slots: bool,
+}
+
+/// A walk policy (the query kinds in `crate::query` implement it): called at every
+/// constrained face the walk reaches, in order along the ray.
+pub trait Query {
+    fn crossed(&mut self, at: &Crossing) -> Decision;
+}
+
+/// Stops at the first constrained face: closest hit and any hit (the first face a walk meets
+/// is the nearest one, so both stop there).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct StopAtFirst;
+
+impl Query for StopAtFirst {
+    #[inline(always)]
+    fn crossed(&mut self, _: &Crossing) -> Decision {
+        Decision::Stop
+    }
+}
+
+/// How a walk ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WalkEnd {
+    /// Stopped at a constrained face (the query said so): index into the constrained table.
+    Hit { constrained: u32 },
+    /// Left the domain.
+    Boundary,
+    /// The step guard fired (a cycle or a degenerate mesh): the ray is reported as FAILED.
+    StepLimit,
+}
+
+#[derive(Clone, Copy, Debug)]
+pub struct Walk {
+    pub end: WalkEnd,
+    /// The tet the walk was in when it ended.
+    pub tet: u32,
+    /// The face it left by, ordered counter-clockwise around the ray: point ids, or with
+    /// `slots` the vertices' local indices in the tet (INLINE layouts know no ids).
+    pub face: [u32; 3],
+    pub slots: bool,
+    /// Tets visited, the start tet included.
+    pub steps: u32,
+}
+
+/// What a walk reads besides the ray: the layout's records, the points in the walk's precision,
+/// the constrained-side table (to walk on through a constrained face) and the step guard.
+pub struct WalkSetup<'a, R, L> {
+    pub layout: &'a L,
+    pub points: &'a [[R; 3]],
+    /// Read only when a query continues through a constrained face.
+    pub sides: &'a [ConstrainedSide],
+    pub max_steps: u32,
+}
+
+/// The closest-hit walk with no observer: from `start` (whose vertex ids are `start_tet`,
+/// positively oriented) to the first constrained face, the domain boundary or `max_steps`.
+#[inline]
+pub fn walk<R: Real, L: Layout, M: ExitMethod<R>>(
+    layout: &L,
+    points: &[[R; 3]],
+    ray: &M::Ray,
+    start: (u32, [u32; 4]),
+    entry: Option<usize>,
+    max_steps: u32,
+) -> Walk {
+    let setup = WalkSetup {
+        layout,
+        points,
+        sides: &[],
+        max_steps,
+    };
+    walk_with::<R, L, M, _, _>(&setup, ray, start, entry, &mut StopAtFirst, &mut NoObserver)
+}
+
+/// Walks from tet `start.0` (vertex ids `start.1`, positively oriented) until `query` stops at a
+/// constrained face, the walk leaves the domain, or `max_steps`; `observer` sees every exit
+/// face. With `entry = Some(i)` the ray comes from outside through the tet's face i (opposite
+/// vertex i), which saves finding it.
+///
+/// Id layouts carry the entry face's vertex ids and their per-vertex data from tet to tet,
+/// fetching one new vertex per step; INLINE layouts (Tet80) carry the entry face's local index
+/// and read all four vertices from the record, as Maria et al. do. `a`, `b`, `c`, `d` hold
+/// ids in the first case and local slots in the second.
+#[inline]
+pub fn walk_with<R: Real, L: Layout, M: ExitMethod<R>, Q: Query, O: WalkObserver<R>>(
+    setup: &WalkSetup<R, L>,
+    ray: &M::Ray,
+    (start, start_tet): (u32, [u32; 4]),
+    entry: Option<usize>,
+    query: &mut Q,
+    observer: &mut O,
+) -> Walk {
+    let (layout, points, max_steps) = (setup.layout, setup.points, setup.max_steps);
+    let position = |t: u32, v: u32| -> V3<R> {
+        if L::INLINE {
+            layout.inline_vertices(t)[v as usize].map(R::from_f32)
+        } else {
+            debug_assert!((v as usize) < points.len());
+            // SAFETY: v is a vertex id of a validated tet (ids, and xors of ids, were checked
+            // against the point count at build), so it indexes `points`.
+            unsafe { *points.get_unchecked(v as usize) }
+        }
+    };
+    // Vertex names in the start tet: ids, or slots 0..4 for INLINE layouts.
+    let names = if L::INLINE { [0, 1, 2, 3] } else { start_tet };
+    let (mut a, mut b, mut c, mut pa, mut pb, mut pc, mut link, mut t, mut steps);
+    // INLINE layouts: the entered tet's face by which the walk came in.
+    let mut entry_face = 0usize;
+    if let Some(i) = entry {
+        // Entering through face i: reversed from its outward order it turns counter-clockwise
+        // around the ray, as the loop expects of an entry face.
+        let f = OUTWARD_FACES[i];
+        (a, b, c) = (names[f[0]], names[f[2]], names[f[1]]);
+        (pa, pb, pc) = (
+            M::vertex(ray, position(start, a)),
+            M::vertex(ray, position(start, b)),
+            M::vertex(ray, position(start, c)),
+        );
+        (link, t, steps, entry_face) = (start, start, 0u32, i);
+    } else {
+        let ps = names.map(|v| position(start, v));
+        let vs = ps.map(|p| M::vertex(ray, p));
+        let i = M::start_exit(ray, &vs, &ps);
+        let f = OUTWARD_FACES[i];
+        (a, b, c) = (names[f[0]], names[f[1]], names[f[2]]);
+        (pa, pb, pc) = (vs[f[0]], vs[f[1]], vs[f[2]]);
+        if O::ACTIVE {
+            observer.exit([ps[f[0]], ps[f[1]], ps[f[2]]], true);
+        }
+        if L::INLINE {
+            (link, entry_face) = layout.inline_face(start, i);
+        } else {
+            link = layout.link_opposite(start, start_tet[i], [a, b, c]);
+        }
+        (t, steps) = (start, 1u32);
+    }
+    loop {
+        if link & CONSTRAINED_BIT != 0 {
+            let end = if link == BOUNDARY {
+                Some(WalkEnd::Boundary)
+            } else {
+                let constrained = link & !CONSTRAINED_BIT;
+                let at = Crossing {
+                    constrained,
+                    tet: t,
+                    face: [a, b, c],
+                    slots: L::INLINE,
+                };
+                match query.crossed(&at) {
+                    Decision::Stop => Some(WalkEnd::Hit { constrained }),
+                    // Walk on into the tet beyond; the entry face (and for INLINE layouts its
+                    // index there, which `inline_face` gave with the link) stays as it is.
+                    Decision::Continue => match setup.sides[constrained as usize].beyond {
+                        BOUNDARY => Some(WalkEnd::Boundary),
+                        beyond => {
+                            link = beyond;
+                            None
+                        }
+                    },
+                }
+            };
+            if let Some(end) = end {
+                return Walk {
+                    end,
+                    tet: t,
+                    face: [a, b, c],
+                    slots: L::INLINE,
+                    steps,
+                };
+            }
+        }
+        if steps >= max_steps {
+            return Walk {
+                end: WalkEnd::StepLimit,
+                tet: t,
+                face: [a, b, c],
+                slots: L::INLINE,
+                steps,
+            };
+        }
+        t = link;
+        steps += 1;
+        let d = if L::INLINE {
+            // Names are local to each tet: rename the entry face in this one and recompute
+            // its vertices' data from the record.
+            let f = OUTWARD_FACES[entry_face];
+            (a, b, c) = (f[0] as u32, f[2] as u32, f[1] as u32);
+            let v = layout.inline_vertices(t);
+            (pa, pb, pc) = (
+                M::vertex(ray, v[f[0]].map(R::from_f32)),
+                M::vertex(ray, v[f[2]].map(R::from_f32)),
+                M::vertex(ray, v[f[1]].map(R::from_f32)),
+            );
+            entry_face as u32
+        } else {
+            layout.new_vertex(t, a, b, c)
+        };
+        let pd = M::vertex(ray, position(t, d));
+        let exit = match M::step(ray, &pa, &pb, &pc, &pd) {
+            Some(e) => e,
+            // Cold: the filter of a robust method was uncertain. Names are ids, or slots of
+            // tet t for INLINE layouts, so `position` finds the four vertices either way.
+            None => M::step_exact(
+                ray,
+                &[
+                    position(t, a),
+                    position(t, b),
+                    position(t, c),
+                    position(t, d),
+                ],
+            ),
+        };
+        let found = O::ACTIVE && M::exit_found(ray, &pa, &pb, &pc, &pd);
+        let opposite = match exit {
+            Exit::Abd => {
+                let o = c;
+                (c, pc) = (d, pd);
+                o
+            }
+            Exit::Bcd => {
+                let o = a;
+                (a, pa, b, pb, c, pc) = (b, pb, c, pc, d, pd);
+                o
+            }
+            Exit::Cad => {
+                let o = b;
+                (a, pa, b, pb, c, pc) = (c, pc, a, pa, d, pd);
+                o
+            }
+        };
+        if O::ACTIVE {
+            observer.exit([position(t, a), position(t, b), position(t, c)], found);
+        }
+        if L::INLINE {
+            (link, entry_face) = layout.inline_face(t, opposite as usize);
+        } else {
+            link = layout.link_opposite(t, opposite, [a, b, c]);
+        }
+    }
+}
