@@ -870,3 +870,26 @@ fn hits_name_the_alternative_the_ray_crosses() {
     assert!(err(falling, ids.clone()).contains("must rise"));
     assert!(err(offsets, vec![n_tri; n]).contains(&format!("names triangle {n_tri}")));
 }
+
+/// The method table names each method by its type's `NAME`, and a name not in it is refused
+/// with the known ones listed.
+#[test]
+fn method_names_are_the_types_names() {
+    struct Name;
+    impl<R: Real> MethodVisitor<R> for Name {
+        type Out = &'static str;
+        fn visit<M: ExitMethod<R>>(self) -> &'static str {
+            M::NAME
+        }
+    }
+    assert_eq!(Method::ALL.len(), METHODS.len());
+    for (&m, &name) in Method::ALL.iter().zip(METHODS) {
+        assert_eq!(m.visit::<f32, _>(Name), name);
+        assert_eq!(m.visit::<f64, _>(Name), name);
+        assert_eq!(Method::from_name(name).unwrap(), m);
+    }
+    let e = Method::from_name("nope").unwrap_err();
+    assert!(matches!(e, crate::Error::InvalidOption(m) if m.contains("aman2022")));
+    let e = crate::layout::LayoutKind::from_name("tet99").unwrap_err();
+    assert!(matches!(e, crate::Error::InvalidOption(m) if m.contains("tet20")));
+}
