@@ -19,7 +19,7 @@ setup:
 	$(PIP) install -q -e ".[test]"
 
 demo: setup
-	$(PY) -m tetrace.demo
+	$(PY) -m tetrace.dev.demo
 
 # Style and static checks, all of which must pass in CI: rustfmt, clippy with warnings as
 # errors (every allow is named, with its reason beside it), the CPU-only build (no wgpu/naga),

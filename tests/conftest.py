@@ -11,10 +11,7 @@ locally too, unless ``TETRACE_SKIP_GPU=1`` says to skip them (:func:`gpu_device`
 
 from __future__ import annotations
 
-import importlib
 import os
-import sys
-import types
 from pathlib import Path
 
 import pytest
@@ -28,51 +25,10 @@ def in_ci() -> bool:
     return os.environ.get("CI", "").strip().lower() in ("true", "1", "yes")
 
 
-def _import_tetrace() -> str:
-    """Make ``import tetrace.<pure-python module>`` work; return how it was found.
+# The package must be installed (``make setup``): a tree that does not import is a failure.
+import tetrace  # noqa: E402
 
-    1. The installed package (``make setup`` / ``pip install -e .``).
-    2. The source tree ``python/`` when the package is not installed.
-    3. If the package ``__init__`` cannot be imported (the compiled extension
-       ``tetrace._native`` is not built, or a module it imports is not written
-       yet), a bare package object over ``python/tetrace``, so that the
-       numpy-only modules (``hits``, ``reference``, ``camera``, ``image``) still
-       import and their tests run. Tests that need the full package then fail
-       on their own imports, as they should; the report header says which case
-       applied. Under CI (``CI=true``) this case is an error instead.
-    """
-    try:
-        importlib.import_module("tetrace")
-        return "installed package"
-    except ImportError as exc:
-        if isinstance(exc, ModuleNotFoundError) and exc.name == "tetrace":
-            error = None
-        else:
-            error = exc
-    src = REPO / "python"
-    if error is None:
-        sys.path.insert(0, str(src))
-        try:
-            importlib.import_module("tetrace")
-            return f"source tree {src}"
-        except ImportError as exc:
-            error = exc
-    if in_ci():
-        # Under CI a package that does not import is a failure, not a reduced run.
-        raise ImportError(f"tetrace does not import (CI=true): {error}") from error
-    # Drop what the failed import left behind (submodules loaded before the failure).
-    for name in [m for m in sys.modules if m == "tetrace" or m.startswith("tetrace.")]:
-        del sys.modules[name]
-    pkg = types.ModuleType("tetrace")
-    pkg.__path__ = [str(src / "tetrace")]
-    sys.modules["tetrace"] = pkg
-    return (
-        f"PACKAGE DID NOT IMPORT ({type(error).__name__}: {error}); pure-Python modules "
-        f"only, from {src / 'tetrace'}"
-    )
-
-
-TETRACE_IMPORT = _import_tetrace()
+TETRACE_IMPORT = f"installed package {Path(tetrace.__file__).parent}"
 
 
 def skip_or_fail(reason: str):
@@ -107,13 +63,12 @@ def gpu_device() -> dict:
         reason = f"no GPU adapter: {e}"
         if skip_gpu():
             pytest.skip(f"{reason} ({SKIP_GPU_VARIABLE}=1)")
-        pytest.fail(f"{reason}. Install a Vulkan driver (Mesa's lavapipe: apt-get install "
-                    f"mesa-vulkan-drivers libvulkan1), or set {SKIP_GPU_VARIABLE}=1 to skip "
-                    f"the GPU tests", pytrace=False)
-
-
-def pytest_configure(config):
-    config.addinivalue_line("markers", "slow: long-running agreement tests on real scenes")
+        pytest.fail(
+            f"{reason}. Install a Vulkan driver (Mesa's lavapipe: apt-get install "
+            f"mesa-vulkan-drivers libvulkan1), or set {SKIP_GPU_VARIABLE}=1 to skip "
+            f"the GPU tests",
+            pytrace=False,
+        )
 
 
 def pytest_report_header(config):
@@ -168,7 +123,7 @@ def open3d():
 @pytest.fixture(scope="session")
 def embree():
     """Require the ``embreex`` reference: skip without it locally, fail under CI."""
-    from tetrace.reference import embree_available
+    from tetrace.baselines.embree import embree_available
 
     if not embree_available():
         skip_or_fail("embreex is not installed (pip install embreex)")

@@ -21,9 +21,9 @@ import numpy as np
 import pytest
 
 import tetrace
+from tetrace.baselines.embree import embree_scene
 from tetrace.bench.agreement import ray_sets
-from tetrace.compare import agreement
-from tetrace.reference import embree_scene
+from tetrace.dev.compare import agreement
 from tetrace.referee import Referee
 
 SCENES = ["bunny.obj", "armadillo.obj", "torus_knots_27.obj", "cornell_box.obj"]
@@ -33,8 +33,13 @@ N_RANDOM = 100_000
 
 def combos():
     """Every method x layout x precision that exists (tet80 stores float32 vertices)."""
-    return [(m, lay, p) for m in tetrace.methods() for lay in tetrace.layouts()
-            for p in ("f32", "f64") if not (lay == "tet80" and p == "f64")]
+    return [
+        (m, lay, p)
+        for m in tetrace.methods()
+        for lay in tetrace.layouts()
+        for p in ("f32", "f64")
+        if not (lay == "tet80" and p == "f64")
+    ]
 
 
 def _check(scene, name):
@@ -78,8 +83,11 @@ def test_shared_scene_agrees_with_referee(name, scene_path, embree):
     _check(tetrace.Scene.from_mesh(scene_path(name)), name)
 
 
-@pytest.mark.xfail(strict=True, reason="the float32 walk walks the mesh rounded to float32 "
-                   "(docs/robust_walk.md): exact for the rounded scene, not the one passed in")
+@pytest.mark.xfail(
+    strict=True,
+    reason="the float32 walk walks the mesh rounded to float32 "
+    "(docs/robust_walk.md): exact for the rounded scene, not the one passed in",
+)
 def test_robust_f32_answers_for_the_scene_passed_in(scene_path):
     scene = tetrace.Scene.from_mesh(scene_path("bunny.obj"))
     bounds = np.array([scene.vertices.min(0), scene.vertices.max(0)])

@@ -19,15 +19,14 @@ installs it) fail without one, unless TETRACE_SKIP_GPU=1 is set: then they skip,
 import os
 import subprocess
 import sys
-import warnings
 
 import numpy as np
 import pytest
 
 import tetrace
 from tetrace import gpu
-from tetrace.camera import orbit_views, pinhole, random_rays
-from tetrace.compare import agreement
+from tetrace.dev.camera import orbit_views, pinhole, random_rays
+from tetrace.dev.compare import agreement
 from tetrace.referee import Referee
 
 from conftest import gpu_device
@@ -81,8 +80,9 @@ def test_no_adapter_is_a_clear_error():
         "print('AUTO', s.gpu_timings is None, h.t.dtype)\n"
     )
     env = dict(os.environ, WGPU_BACKEND="dx12")
-    r = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
-                       timeout=300)
+    r = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300
+    )
     assert r.returncode == 0, r.stderr
     lines = {ln.split(" ", 1)[0]: ln for ln in r.stdout.splitlines()}
     for key in ("INFO", "CAST"):
@@ -138,11 +138,17 @@ def _check(scene, o, d, what, device):
         hits = scene.cast(o, d, method=method, layout=layout, device="gpu")
         t = scene.gpu_timings
         g, c = agreement(hits, verdict), agreement(cpu, verdict)
-        differ = np.flatnonzero((cpu.triangle != hits.triangle) | (cpu.status != hits.status)
-                                | (cpu.tet != hits.tet) | (cpu.steps != hits.steps))
-        msg = (f"{what} {method}/{layout}: GPU against the referee: {g}; CPU twin: {c}; "
-               f"{len(differ)} of {len(o)} rays differ from the twin {differ[:10].tolist()}; "
-               f"timings {t}")
+        differ = np.flatnonzero(
+            (cpu.triangle != hits.triangle)
+            | (cpu.status != hits.status)
+            | (cpu.tet != hits.tet)
+            | (cpu.steps != hits.steps)
+        )
+        msg = (
+            f"{what} {method}/{layout}: GPU against the referee: {g}; CPU twin: {c}; "
+            f"{len(differ)} of {len(o)} rays differ from the twin {differ[:10].tolist()}; "
+            f"timings {t}"
+        )
         print(msg)
         assert hits.t.dtype == np.float32
         assert t["walked"] > 0 and t["kernel"] > 0, msg
@@ -160,8 +166,11 @@ def _check(scene, o, d, what, device):
             for f in ("status", "triangle", "tet", "steps", "t", "u", "v"):
                 np.testing.assert_array_equal(getattr(cpu, f), getattr(hits, f), err_msg=f)
         elif len(differ):
-            warnings.warn(f"{msg}: driver {device.get('driver')!r} may fuse multiply-adds, "
-                          f"which WGSL allows; the differing rays are judged above")
+            # Information, not a failure (pytest turns warnings into errors): printed.
+            print(
+                f"{msg}: driver {device.get('driver')!r} may fuse multiply-adds, "
+                f"which WGSL allows; the differing rays are judged above"
+            )
     return verdict
 
 
@@ -204,13 +213,17 @@ def test_gpu_hits_fields_and_options(spot, device):
     spot.gpu_timings = None
     assert spot.cast(o, d, device="auto").t.dtype == np.float32 and spot.gpu_timings
     spot.gpu_timings = None
-    assert spot.cast(o.astype(np.float64), d.astype(np.float64), device="auto").t.dtype == np.float64
+    assert (
+        spot.cast(o.astype(np.float64), d.astype(np.float64), device="auto").t.dtype == np.float64
+    )
     assert spot.cast(o, d, device="auto", layout="tet32").t.dtype == np.float32
     assert spot.gpu_timings is None
     # Per-ray bounds and invalid rays go through the same CPU code as a CPU cast.
     tmax = np.linspace(0.0, 5.0, len(o))
-    np.testing.assert_array_equal(spot.cast(o, d, tmax=tmax, device="gpu").triangle,
-                                  spot.cast(o, d, tmax=tmax, layout="tet20").triangle)
+    np.testing.assert_array_equal(
+        spot.cast(o, d, tmax=tmax, device="gpu").triangle,
+        spot.cast(o, d, tmax=tmax, layout="tet20").triangle,
+    )
     bad = o.copy()
     bad[3] = np.nan
     hb = spot.cast(bad, d, device="gpu", invalid="mark")

@@ -16,10 +16,9 @@ import pytest
 
 import tetrace
 from tetrace import _native
-
 from tetrace.bench.growth import _parse_world, copy_offsets, make_world, run_growth, stadium_mesh
-from tetrace.camera import orbit_views, pinhole
-from tetrace.meshing import load_triangles
+from tetrace.dev.camera import orbit_views, pinhole
+from tetrace.mesh import load_triangles
 from tetrace.referee import Referee
 from tetrace.scene import default_scene_path
 
@@ -30,8 +29,15 @@ SPOT_TRIANGLES = 5856
 def rows(embree, tmp_path_factory):
     out = tmp_path_factory.mktemp("growth")
     lines = []
-    rows = run_growth(None, ["alone", "+1", "stadium"], res=64, repeat=1,
-                      json_path=out / "growth.json", png_path=out / "growth.png", out=lines.append)
+    rows = run_growth(
+        None,
+        ["alone", "+1", "stadium"],
+        res=64,
+        repeat=1,
+        json_path=out / "growth.json",
+        png_path=out / "growth.png",
+        out=lines.append,
+    )
     return {r["world"]: r for r in rows}, lines, out
 
 
@@ -61,7 +67,7 @@ def test_copies_are_far_and_out_of_view():
     wv, wf, n_stadium = make_world(v, f, "stadium+3", eye=eye)
     sv, sf = stadium_mesh(centre, 50 * diag)
     assert n_stadium == len(sf) == 360 and len(wf) == 4 * len(f) + 360
-    np.testing.assert_array_equal(wf[:len(f)], f)  # the original's triangle ids come first
+    np.testing.assert_array_equal(wf[: len(f)], f)  # the original's triangle ids come first
     np.testing.assert_allclose(np.linalg.norm(sv - centre, axis=1), 50 * diag)
 
 
@@ -88,9 +94,11 @@ def test_rows(rows):
     assert rows["+1"]["tets"] > rows["alone"]["tets"]
     for name, r in rows.items():
         assert r["rays"] == 64 * 64
-        print(f"\n{name}: right {r['right'] * 100:.3f}%, leaked {r['leaked']}, late {r['late']}, "
-              f"wrong {r['wrong']} (exact referee); same as embreex "
-              f"{r['embreex_agreement'] * 100:.3f}%")
+        print(
+            f"\n{name}: right {r['right'] * 100:.3f}%, leaked {r['leaked']}, late {r['late']}, "
+            f"wrong {r['wrong']} (exact referee); same as embreex "
+            f"{r['embreex_agreement'] * 100:.3f}%"
+        )
         # Derived bounds: no ray gives up (0 FAILED), and on a tied triangle t is the float64
         # Moller-Trumbore quotient on the caller's triangle, within ulp + B (0 't off').
         assert r["failed"] == 0 and r["t_off"] == 0, r
@@ -104,10 +112,15 @@ def test_rows(rows):
         assert r["tets_per_miss_ray"] > 0
         # tetrace's own count of object rays differs from the referee's only on rays it
         # does not answer right.
-        assert (abs(r["tetrace_object_fraction"] - r["object_fraction"]) * r["rays"]
-                <= round((1 - r["right"]) * r["rays"]))
-        for key in ("tetrace_mrays_1", "embreex_mrays_1", "tetrace_object_mrays_1",
-                    "embreex_object_mrays_1"):
+        assert abs(r["tetrace_object_fraction"] - r["object_fraction"]) * r["rays"] <= round(
+            (1 - r["right"]) * r["rays"]
+        )
+        for key in (
+            "tetrace_mrays_1",
+            "embreex_mrays_1",
+            "tetrace_object_mrays_1",
+            "embreex_object_mrays_1",
+        ):
             assert math.isfinite(r[key]) and r[key] > 0, key
     # The camera sees the same object in every world, exactly: the copies lie outside its
     # field (test_copies_are_far_and_out_of_view) and the bowl is 50 diagonals away, behind
@@ -123,13 +136,16 @@ def test_rows(rows):
     # rule and three rows), the verdict, the chart.
     assert len(lines) == 6 and len(lines[3].splitlines()) == 5
     ncpu = rows["alone"]["threads_all"]
-    assert lines[1] == (f"tetrace = tetrace {tetrace.__version__}: Scene.cast(method="
-                        f"{_native.DEFAULT_METHOD}, layout={_native.DEFAULT_LAYOUT}, precision=f32, "
-                        f"device=cpu); {ncpu} thread{'s' * (ncpu != 1)}: rayon work stealing over "
-                        f"4096-ray chunks (at {ncpu})")
+    assert lines[1] == (
+        f"tetrace = tetrace {tetrace.__version__}: Scene.cast(method="
+        f"{_native.DEFAULT_METHOD}, layout={_native.DEFAULT_LAYOUT}, precision=f32, "
+        f"device=cpu); {ncpu} thread{'s' * (ncpu != 1)}: rayon work stealing over "
+        f"4096-ray chunks (at {ncpu})"
+    )
     assert lines[2].startswith("embreex = embreex ") and lines[2].endswith(
         f"EmbreeScene.run, rtcIntersect1 one ray per call, RTC_SCENE_FLAG_ROBUST; {ncpu} "
-        f"thread{'s' * (ncpu != 1)}: 4096-ray chunks taken from one shared queue (at {ncpu})")
+        f"thread{'s' * (ncpu != 1)}: 4096-ray chunks taken from one shared queue (at {ncpu})"
+    )
     assert lines[4].startswith("verdict: from alone") and lines[5].startswith("chart:")
 
 

@@ -3,6 +3,9 @@
 The matrix runs here on the bundled scene at a tiny resolution: the tests check that
 every row, file and chart is produced and that the numbers in them are right (agreement
 of exact settings, Pareto rows not dominated), never how fast anything is.
+
+Over 500 lines on purpose: the tests of the weight, mesher="auto" and the matrix bench share
+the fixtures at the top.
 """
 
 from __future__ import annotations
@@ -16,23 +19,34 @@ import numpy as np
 import pytest
 
 import tetrace
-from conftest import gpu_device
-from tetrace import auto_mesher, reference, synthetic
+from tetrace.baselines import embree as reference
 from tetrace.bench import casters, matrix
-from tetrace.camera import random_rays
-from tetrace.meshing import MeshingError, Tetrahedralization, tetrahedralize
+from tetrace.dev import synthetic
+from tetrace.dev.camera import random_rays
+from tetrace.mesh import MeshingError, Tetrahedralization, tetrahedralize
+from tetrace.mesh import auto as auto_mesher
 from tetrace.referee import Referee, judge
 from tetrace.scene import default_scene_path
+
+from conftest import gpu_device
 
 PNG = b"\x89PNG\r\n\x1a\n"
 
 
 def _tz(points, tets):
     points = np.asarray(points, np.float64)
-    return Tetrahedralization(points=points, tets=np.asarray(tets, np.uint32),
-                              faces=np.zeros((0, 3), np.uint32), face_triangle=np.zeros(0, np.uint32),
-                              domain=np.array([points.min(0), points.max(0)]), preset="quality",
-                              n_input_triangles=0, clean=None, repaired=False, timings={})
+    return Tetrahedralization(
+        points=points,
+        tets=np.asarray(tets, np.uint32),
+        faces=np.zeros((0, 3), np.uint32),
+        face_triangle=np.zeros(0, np.uint32),
+        domain=np.array([points.min(0), points.max(0)]),
+        preset="quality",
+        n_input_triangles=0,
+        clean=None,
+        repaired=False,
+        timings={},
+    )
 
 
 def test_weight_counts_each_shared_face_once():
@@ -49,7 +63,12 @@ def test_weight_of_a_real_mesh_matches_a_direct_sum():
     tz = tetrahedralize(synthetic.cube(), "quality")
     seen = {}
     for t in tz.tets:
-        for face in ((t[1], t[2], t[3]), (t[0], t[2], t[3]), (t[0], t[1], t[3]), (t[0], t[1], t[2])):
+        for face in (
+            (t[1], t[2], t[3]),
+            (t[0], t[2], t[3]),
+            (t[0], t[1], t[3]),
+            (t[0], t[1], t[2]),
+        ):
             a, b, c = tz.points[list(face)]
             seen[tuple(sorted(face))] = 0.5 * np.linalg.norm(np.cross(b - a, c - a))
     assert tz.weight() == pytest.approx(sum(seen.values()), rel=1e-9)
@@ -85,11 +104,10 @@ def test_auto_measures_a_repaired_scene(embree):
 
 def test_auto_raises_when_no_setting_meets_the_target(monkeypatch, embree):
     monkeypatch.setattr(auto_mesher, "_exact", lambda tz: False)
-    monkeypatch.setattr(auto_mesher, "measure_accuracy", lambda *a, **k: 0.5)
     monkeypatch.setattr(auto_mesher, "AUTO_RATIOS", (5.0, 7.0))
     monkeypatch.setattr(auto_mesher, "AUTO_EPSILONS", (3e-3,))
     with pytest.raises(MeshingError, match=r"no setting reached accuracy 0.999 \(best 0.500000\)"):
-        tetrahedralize(synthetic.cube(), mesher="auto")
+        tetrahedralize(synthetic.cube(), mesher="auto", measure=lambda *a, **k: 0.5)
 
 
 def test_auto_rejects_bad_targets():
@@ -100,19 +118,30 @@ def test_auto_rejects_bad_targets():
 
 
 def test_pareto_keeps_only_undominated_rows():
-    rows = [dict(scene="a", ratio=r, right=a, rays=10)
-            for r, a in [(1.0, 0.9), (0.5, 1.0), (0.4, 0.95), (0.8, 0.99), (0.8, 0.98)]]
+    rows = [
+        dict(scene="a", ratio=r, right=a, rays=10)
+        for r, a in [(1.0, 0.9), (0.5, 1.0), (0.4, 0.95), (0.8, 0.99), (0.8, 0.98)]
+    ]
     rows.append(dict(scene="b", ratio=0.1, right=0.5, rays=10))
     best = matrix.pareto(rows)
     assert [(r["scene"], r["ratio"], r["right"]) for r in best] == [
-        ("a", 1.0, 0.9), ("a", 0.8, 0.99), ("a", 0.5, 1.0), ("b", 0.1, 0.5)]
+        ("a", 1.0, 0.9),
+        ("a", 0.8, 0.99),
+        ("a", 0.5, 1.0),
+        ("b", 0.1, 0.5),
+    ]
 
 
 #: The "all" thread count of the instrumented run: more threads than this machine may have
 #: cores, and than its 768 rays fill chunks (the old cap, rays // 16384, gave embreex 1).
 ALL = 3
-CONFIGS = dict(settings=["constrained", "quality", "quality3"], methods=["aman2022", "robust"],
-               layouts=["tet32", "tet20"], precisions=["f32", "f64"], threads=["1", "all"])
+CONFIGS = dict(
+    settings=["constrained", "quality", "quality3"],
+    methods=["aman2022", "robust"],
+    layouts=["tet32", "tet20"],
+    precisions=["f32", "f64"],
+    threads=["1", "all"],
+)
 
 
 @pytest.fixture(scope="module")
@@ -124,8 +153,14 @@ def run(tmp_path_factory, embree):
     calls, queues, lines = [], [], []
 
     def record(caster, origins, directions, threads):
-        calls.append(dict(caster=caster, origins=np.array(origins, copy=True),
-                          directions=np.array(directions, copy=True), threads=threads))
+        calls.append(
+            dict(
+                caster=caster,
+                origins=np.array(origins, copy=True),
+                directions=np.array(directions, copy=True),
+                threads=threads,
+            )
+        )
 
     real_cast = tetrace.Scene.cast
     real_intersect = reference.EmbreeReference.intersect
@@ -135,8 +170,9 @@ def run(tmp_path_factory, embree):
         record("tetrace", origins, directions, kw.get("threads"))
         return real_cast(self, origins, directions, **kw)
 
-    def intersect(self, origins32, directions32, tfar32=None, *, threads=None,
-                  chunk=reference.CHUNK):
+    def intersect(
+        self, origins32, directions32, tfar32=None, *, threads=None, chunk=reference.CHUNK
+    ):
         record("embreex", origins32, directions32, threads)
         return real_intersect(self, origins32, directions32, tfar32, threads=threads, chunk=chunk)
 
@@ -151,6 +187,7 @@ def run(tmp_path_factory, embree):
         mp.setattr(matrix, "_ncpu", lambda: ALL)
         o3d, _ = casters.open3d_module()
         if o3d is not None:
+
             class RecordingScene(o3d.t.geometry.RaycastingScene):
                 def cast_rays(self, rays, nthreads=0):
                     r = rays.numpy()
@@ -158,10 +195,15 @@ def run(tmp_path_factory, embree):
                     return super().cast_rays(rays, nthreads=nthreads)
 
             mp.setattr(o3d.t.geometry, "RaycastingScene", RecordingScene)
-        res = matrix.run_matrix([str(default_scene_path())], res=16, repeat=1, out_dir=out_dir,
-                                out=lines.append, **CONFIGS)
-    return dict(res=res, rows=res["rows"], calls=calls, queues=queues, lines=lines,
-                out_dir=out_dir)
+        res = matrix.run_matrix(
+            [str(default_scene_path())],
+            res=16,
+            repeat=1,
+            out_dir=out_dir,
+            out=lines.append,
+            **CONFIGS,
+        )
+    return dict(res=res, rows=res["rows"], calls=calls, queues=queues, lines=lines, out_dir=out_dir)
 
 
 def _threads(k):
@@ -208,8 +250,13 @@ def test_matrix_writes_rows_files_and_charts(run):
     # the first method/layout/precision, relative to quality), and sorting the settings by
     # weight sorts them by tets per ray (Crofton: a line crosses faces in proportion to
     # their area; the ordering, not a threshold on r).
-    first = [r for r in ours if r["threads"] == 1 and (r["method"], r["layout"], r["precision"])
-             == (ours[0]["method"], ours[0]["layout"], ours[0]["precision"])]
+    first = [
+        r
+        for r in ours
+        if r["threads"] == 1
+        and (r["method"], r["layout"], r["precision"])
+        == (ours[0]["method"], ours[0]["layout"], ours[0]["precision"])
+    ]
     q = next(r for r in first if r["setting"] == "quality")
     w = [r["weight"] / q["weight"] for r in first]
     steps = [r["tets_per_ray"] / q["tets_per_ray"] for r in first]
@@ -217,15 +264,16 @@ def test_matrix_writes_rows_files_and_charts(run):
     assert np.argsort(w).tolist() == np.argsort(steps).tolist()
     assert any("Pareto-best" in line for line in run["lines"])
     assert any(line.startswith("\nPeers (same rays, same threads") for line in run["lines"])
-    again = matrix.report(json.loads((tmp_path / "matrix.json").read_text()), tmp_path / "re",
-                          out=lambda line: None)
+    again = matrix.report(
+        json.loads((tmp_path / "matrix.json").read_text()), tmp_path / "re", out=lambda line: None
+    )
     assert [r["setting"] for r in again["pareto"]] == [r["setting"] for r in res["pareto"]]
 
 
 def test_matrix_gives_every_caster_the_same_rays(run):
     """Every array any caster received is the camera's float32 rays, bit for bit (float64
     walks: those values widened exactly), for every row, peers included."""
-    v, _ = tetrace.meshing.load_triangles(str(default_scene_path()))
+    v, _ = tetrace.mesh.load_triangles(str(default_scene_path()))
     o64, d64 = matrix.camera_rays(v, 16)
     o32, d32 = o64.astype(np.float32), d64.astype(np.float32)
     calls = run["calls"]
@@ -240,7 +288,9 @@ def test_matrix_gives_every_caster_the_same_rays(run):
                 assert got.tobytes() == want.astype(np.float64).tobytes(), c["caster"]
     # Both precisions of tetrace were given the rays, so the widened ones were checked too.
     assert {c["origins"].dtype for c in calls if c["caster"] == "tetrace"} == {
-        np.dtype(np.float32), np.dtype(np.float64)}
+        np.dtype(np.float32),
+        np.dtype(np.float64),
+    }
 
 
 def test_matrix_gives_every_caster_the_same_threads_and_timing(run):
@@ -259,14 +309,13 @@ def test_matrix_gives_every_caster_the_same_threads_and_timing(run):
     }
     for r in rows:
         assert r["threads"] in (1, ALL)
-        assert r["schedule"] == schedules[r["caster"]].format(_threads(r["threads"]),
-                                                              r["threads"])
+        assert r["schedule"] == schedules[r["caster"]].format(_threads(r["threads"]), r["threads"])
     # embreex's threads take chunks from one queue: ALL threads even for one chunk of rays,
     # and tetrace's chunk size (src/scene.rs) in both.
     assert {q["threads"] for q in run["queues"]} == {1, ALL}
     assert {q["chunk"] for q in run["queues"]} == {reference.CHUNK}
-    scene_rs = (Path(__file__).resolve().parents[1] / "src" / "scene.rs").read_text()
-    assert f"pub(crate) const CHUNK: usize = {reference.CHUNK};" in scene_rs
+    cast_rs = (Path(__file__).resolve().parents[1] / "src" / "scene" / "cast.rs").read_text()
+    assert f"pub const CHUNK: usize = {reference.CHUNK};" in cast_rs
 
 
 def test_run_chunks_hands_out_chunks_dynamically():
@@ -313,13 +362,17 @@ def test_matrix_labels_every_caster_exactly(run):
     assert re.fullmatch(r"\d+\.\d+\.\d+", embree), embree
     for r in run["rows"]:
         if r["caster"] == "embreex":
-            assert r["label"] == (f"embreex {version('embreex')} (Embree {embree}): "
-                                  f"EmbreeScene.run, rtcIntersect1 one ray per call, "
-                                  f"RTC_SCENE_FLAG_ROBUST")
+            assert r["label"] == (
+                f"embreex {version('embreex')} (Embree {embree}): "
+                f"EmbreeScene.run, rtcIntersect1 one ray per call, "
+                f"RTC_SCENE_FLAG_ROBUST"
+            )
         elif r["caster"] == "tetrace":
-            assert r["label"] == (f"tetrace {tetrace.__version__}: Scene.cast(method="
-                                  f"{r['method']}, layout={r['layout']}, precision="
-                                  f"{r['precision']}, device=cpu)")
+            assert r["label"] == (
+                f"tetrace {tetrace.__version__}: Scene.cast(method="
+                f"{r['method']}, layout={r['layout']}, precision="
+                f"{r['precision']}, device=cpu)"
+            )
     csv_text = (run["out_dir"] / "matrix.csv").read_text()
     assert "rtcIntersect1 one ray per call" in csv_text
 
@@ -331,12 +384,13 @@ def test_matrix_open3d_row(run, open3d):
 
     rows = [r for r in run["rows"] if r["caster"] == "open3d"]
     assert sorted(r["threads"] for r in rows) == [1, ALL]
-    v, f = tetrace.meshing.load_triangles(str(default_scene_path()))
+    v, f = tetrace.mesh.load_triangles(str(default_scene_path()))
     o64, d64 = matrix.camera_rays(v, 16)
     o32, d32 = o64.astype(np.float32), d64.astype(np.float32)
     scene = open3d.t.geometry.RaycastingScene()
-    scene.add_triangles(open3d.core.Tensor(v.astype(np.float32)),
-                        open3d.core.Tensor(f.astype(np.uint32)))
+    scene.add_triangles(
+        open3d.core.Tensor(v.astype(np.float32)), open3d.core.Tensor(f.astype(np.uint32))
+    )
     out = scene.cast_rays(open3d.core.Tensor(np.hstack([o32, d32])), nthreads=1)
     t = out["t_hit"].numpy()
     hit = np.isfinite(t)
@@ -347,20 +401,30 @@ def test_matrix_open3d_row(run, open3d):
     uv = out["primitive_uvs"].numpy()
     with np.errstate(invalid="ignore"):
         point = o32 + np.where(hit, t, np.inf)[:, None] * d32
-    hits = Hits(t=np.where(hit, t, np.inf).astype(np.float32), triangle=tri.astype(np.int32),
-                u=np.where(hit, uv[:, 0], np.nan).astype(np.float32),
-                v=np.where(hit, uv[:, 1], np.nan).astype(np.float32),
-                point=np.where(hit[:, None], point, np.nan).astype(np.float32),
-                tet=np.full(len(t), -1, np.int32), steps=np.zeros(len(t), np.uint32),
-                status=np.where(hit, np.uint8(HIT), np.uint8(MISS)))
+    hits = Hits(
+        t=np.where(hit, t, np.inf).astype(np.float32),
+        triangle=tri.astype(np.int32),
+        u=np.where(hit, uv[:, 0], np.nan).astype(np.float32),
+        v=np.where(hit, uv[:, 1], np.nan).astype(np.float32),
+        point=np.where(hit[:, None], point, np.nan).astype(np.float32),
+        tet=np.full(len(t), -1, np.int32),
+        steps=np.zeros(len(t), np.uint32),
+        status=np.where(hit, np.uint8(HIT), np.uint8(MISS)),
+    )
     right = float(judge(hits, Referee(v, f).first_hits(o32, d32), "f32")["right"].mean())
     embreex_rate = {r["threads"]: r["mrays"] for r in run["rows"] if r["caster"] == "embreex"}
     for r in rows:
-        assert r["label"] == (f"Open3D {open3d.__version__}: RaycastingScene.cast_rays (its "
-                              f"bundled Embree, rtcIntersect1 one ray per call, "
-                              f"RTC_SCENE_FLAG_ROBUST)")
-        assert (r["setting"], r["method"], r["precision"], r["device"]) == ("-", "bvh", "f32",
-                                                                            "cpu")
+        assert r["label"] == (
+            f"Open3D {open3d.__version__}: RaycastingScene.cast_rays (its "
+            f"bundled Embree, rtcIntersect1 one ray per call, "
+            f"RTC_SCENE_FLAG_ROBUST)"
+        )
+        assert (r["setting"], r["method"], r["precision"], r["device"]) == (
+            "-",
+            "bvh",
+            "f32",
+            "cpu",
+        )
         assert r["rays"] == len(o32) and np.isfinite(r["mrays"]) and r["mrays"] > 0
         assert r["ratio"] == pytest.approx(r["mrays"] / embreex_rate[r["threads"]], rel=1e-12)
         assert r["failed"] == 0  # Open3D has no failure outcome
@@ -372,34 +436,74 @@ def test_matrix_open3d_row(run, open3d):
 def test_matrix_skips_a_missing_peer_and_names_why(tmp_path, monkeypatch, embree):
     monkeypatch.setattr(matrix, "open3d_peer", lambda: (None, "open3d not available (test)"))
     lines = []
-    rows = matrix.run_matrix([str(default_scene_path())], settings=["quality"],
-                             methods=["aman2022"], layouts=["tet32"], precisions=["f32"],
-                             threads=["1"], res=8, repeat=1, out_dir=tmp_path,
-                             out=lines.append)["rows"]
+    rows = matrix.run_matrix(
+        [str(default_scene_path())],
+        settings=["quality"],
+        methods=["aman2022"],
+        layouts=["tet32"],
+        precisions=["f32"],
+        threads=["1"],
+        res=8,
+        repeat=1,
+        out_dir=tmp_path,
+        out=lines.append,
+    )["rows"]
     assert {r["caster"] for r in rows} == {"embreex", "tetrace"}
     assert any("Open3D peer skipped: open3d not available (test)" in line for line in lines)
 
 
 def test_matrix_command_line(tmp_path, embree):
-    code = matrix.matrix_main(["--quick", "--res", "8", "--repeat", "1", "--settings", "quality",
-                               "--methods", "aman2022", "--precisions", "f32",
-                               "--out", str(tmp_path)])
+    code = matrix.matrix_main(
+        [
+            "--quick",
+            "--res",
+            "8",
+            "--repeat",
+            "1",
+            "--settings",
+            "quality",
+            "--methods",
+            "aman2022",
+            "--precisions",
+            "f32",
+            "--out",
+            str(tmp_path),
+        ]
+    )
     assert code == 0
     rows = json.loads((tmp_path / "matrix.json").read_text())
     assert {r["setting"] for r in rows if r["caster"] == "tetrace"} == {"quality"}
     with pytest.raises(ValueError, match="unknown settings"):
-        matrix.run_matrix([], settings=["nope"], methods=[], layouts=[], precisions=[],
-                          threads=[], res=8, repeat=1, out_dir=tmp_path)
+        matrix.run_matrix(
+            [],
+            settings=["nope"],
+            methods=[],
+            layouts=[],
+            precisions=[],
+            threads=[],
+            res=8,
+            repeat=1,
+            out_dir=tmp_path,
+        )
 
 
 def test_matrix_gpu_rows(tmp_path, embree):
     from tetrace import gpu
 
     gpu_device()  # fails without an adapter, unless TETRACE_SKIP_GPU=1
-    rows = matrix.run_matrix([str(default_scene_path())], settings=["quality"],
-                             methods=["aman2022"], layouts=["tet32"], precisions=["f32"],
-                             threads=["1"], res=16, repeat=1, out_dir=tmp_path, gpu=True,
-                             out=lambda line: None)["rows"]
+    rows = matrix.run_matrix(
+        [str(default_scene_path())],
+        settings=["quality"],
+        methods=["aman2022"],
+        layouts=["tet32"],
+        precisions=["f32"],
+        threads=["1"],
+        res=16,
+        repeat=1,
+        out_dir=tmp_path,
+        gpu=True,
+        out=lambda line: None,
+    )["rows"]
     rows = [r for r in rows if r.get("device") == "gpu"]
     assert {(r["method"], r["layout"]) for r in rows} == set(gpu.kernels())
     for r in rows:
@@ -407,8 +511,10 @@ def test_matrix_gpu_rows(tmp_path, embree):
         # rays (the robust kernel by construction, tests/test_gpu.py).
         assert r["right"] == 1.0 and r["failed"] == r["leaked"] == r["late"] == r["wrong"] == 0, r
         assert r["kernel_mrays"] > 0 and r["threads"] == 0
-        assert r["label"] == (f"tetrace {tetrace.__version__}: Scene.cast(method={r['method']}, "
-                              f"layout={r['layout']}, precision=f32, device=gpu)")
+        assert r["label"] == (
+            f"tetrace {tetrace.__version__}: Scene.cast(method={r['method']}, "
+            f"layout={r['layout']}, precision=f32, device=gpu)"
+        )
 
 
 def test_accuracy_counts_nearby_hits_on_neighbouring_triangles(embree):
@@ -417,17 +523,19 @@ def test_accuracy_counts_nearby_hits_on_neighbouring_triangles(embree):
     # right place on the wrong triangle. Within HIT_DISTANCE of Embree's point they agree.
     import dataclasses
 
+    from tetrace.baselines.embree import embree_scene
     from tetrace.hits import HIT
-    from tetrace.reference import embree_scene
 
-    v, f = tetrace.meshing.load_triangles(str(default_scene_path()))
+    v, f = tetrace.mesh.load_triangles(str(default_scene_path()))
     tz = tetrahedralize((v, f))
-    offsets, ids = tetrace.meshing.neighbour_triangles(tz.clean, len(f))
+    offsets, ids = tetrace.mesh.neighbour_triangles(tz.clean, len(f))
     shifted = ids[offsets[tz.face_triangle]]  # the first neighbour of each named triangle
     renamed = dataclasses.replace(tz, face_triangle=shifted.astype(np.uint32))
     n = 4000
-    strict, loose, anywhere = (auto_mesher.measure_accuracy(renamed, v, f, rays=n, hit_distance=h)
-                               for h in (0.0, 1e-3, 1.0))
+    strict, loose, anywhere = (
+        tetrace.scene.measure_accuracy(renamed, v, f, rays=n, hit_distance=h)
+        for h in (0.0, 1e-3, 1.0)
+    )
     # The same rays (measure_accuracy's: seed 0), cast here: each value is an exact count.
     o, d = random_rays(np.array([v.min(0), v.max(0)]), n, 0)
     true = tetrace.Scene(tz, v, f).cast(o, d, precision="f64")

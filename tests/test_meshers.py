@@ -6,6 +6,9 @@ and fail under CI. A fTetWild mesh is checked like a TetGen one except that its
 constrained faces lie within the envelope of the input instead of on it, and its box is
 fTetWild's own; rays cast through it are judged by the exact referee, on the surface the walk
 sees and on the input, with what the envelope guarantees (``_judge_ftetwild``).
+
+Over 500 lines on purpose: every mesher route (presets, repair, snap rounding, fTetWild, time
+limits) is tested on the same fixtures and checked by the same CT checks.
 """
 
 from __future__ import annotations
@@ -18,25 +21,28 @@ import numpy as np
 import pytest
 
 import tetrace
-from tetrace import meshing, synthetic
-from tetrace.camera import orbit_views, pinhole, random_rays
-from tetrace.compare import agreement
-from tetrace.meshing import (
+from tetrace.dev import synthetic
+from tetrace.dev.camera import orbit_views, pinhole, random_rays
+from tetrace.dev.compare import agreement
+from tetrace.mesh import (
     PRESETS,
     MeshingError,
-    _call_forked,
-    _last_phase,
-    _snap,
-    _TetGenCrashed,
     clean,
     count_intersecting_pairs,
     default_timeout,
     ftetwild_available,
+    isolate,
     load_triangles,
+    options,
     preset_options,
+    repair,
+    tetgen,
     tetgen_options,
     tetrahedralize,
 )
+from tetrace.mesh import ftetwild as ftetwild_module
+from tetrace.mesh.isolate import _call_forked, _last_phase, _TetGenCrashed
+from tetrace.mesh.repair import _snap
 from tetrace.referee import Referee
 
 from conftest import skip_or_fail
@@ -83,7 +89,9 @@ def test_quality_bounds_order_the_tet_counts():
         assert tz.surface_distance is None and tz.attempts == []
         counts[preset] = len(tz.tets)
     # ("constrained" is not the smallest here: refinement also removes slivers)
-    assert counts["quality"] <= counts["quality3"] < counts["quality2"] < counts["quality1.5"], counts
+    assert counts["quality"] <= counts["quality3"] < counts["quality2"] < counts["quality1.5"], (
+        counts
+    )
 
 
 def test_graded_preset_grows_tets_away_from_the_surface():
@@ -118,7 +126,7 @@ def test_graded_preset_grows_tets_away_from_the_surface():
     # What can be derived: every point the field asks for (_sizing_points: octree leaves,
     # jittered within the middle half of their cell) is a vertex of the graded mesh.
     cm = clean(vertices, faces)
-    wanted = meshing._sizing_points(graded.domain, cm.vertices, cm.faces, h0 * diag, growth)
+    wanted = tetgen._sizing_points(graded.domain, cm.vertices, cm.faces, h0 * diag, growth)
     assert len(wanted) > 0
     have = {tuple(p) for p in graded.points}
     assert all(tuple(p) in have for p in wanted)
@@ -139,7 +147,7 @@ def test_default_timeout_grows_with_the_scene(monkeypatch):
     assert default_timeout(10**6) is None
 
 
-@pytest.mark.skipif(not meshing.ISOLATE_TETGEN, reason="time limits need the forked child")
+@pytest.mark.skipif(not isolate.ISOLATE_TETGEN, reason="time limits need the forked child")
 def test_tetgen_timeout_names_the_stage():
     vertices, faces = synthetic.torus_knot()
     t0 = time.perf_counter()
@@ -161,14 +169,15 @@ def test_crash_names_the_phase():
     with pytest.raises(_TetGenCrashed, match="SIGABRT") as info:
         _call_forked(crash)
     assert info.value.phase == "Recovering boundaries"
-    assert meshing._stage_message("TetGen", info.value, None) == (
-        "TetGen crashed (killed by SIGABRT) in TetGen's phase 'Recovering boundaries'")
+    assert isolate._stage_message("TetGen", info.value, None) == (
+        "TetGen crashed (killed by SIGABRT) in TetGen's phase 'Recovering boundaries'"
+    )
 
     def slow():
         os.write(1, b"Refining mesh...\n")
         time.sleep(30)
 
-    with pytest.raises(meshing._TetGenTimeout) as info:
+    with pytest.raises(isolate._TetGenTimeout) as info:
         _call_forked(slow, timeout=1.0)
     assert info.value.phase == "Refining mesh"
     assert _last_phase("  indented...\nno dots\n") is None
@@ -194,13 +203,23 @@ def test_snap_merges_nearby_vertices_and_keeps_ids():
 def test_needles_in_intersecting_pairs_are_dropped():
     """A needle (1e-9 wide) crossing a triangle: _drop_needles removes the needle, not the
     triangle, and counts it as degenerate; a wide crossing triangle is kept."""
-    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0],                 # floor triangle
-                  [0.2, 0.2, -0.5], [0.2, 0.2, 0.5], [0.2 + 1e-9, 0.2, 0.0],  # needle
-                  [0.5, 0.1, -0.5], [0.1, 0.5, -0.5], [0.3, 0.3, 0.5]])     # wide, crossing
+    v = np.array(
+        [
+            [0, 0, 0],
+            [1, 0, 0],
+            [0, 1, 0],  # floor triangle
+            [0.2, 0.2, -0.5],
+            [0.2, 0.2, 0.5],
+            [0.2 + 1e-9, 0.2, 0.0],  # needle
+            [0.5, 0.1, -0.5],
+            [0.1, 0.5, -0.5],
+            [0.3, 0.3, 0.5],
+        ]
+    )  # wide, crossing
     f = np.array([[0, 1, 2], [3, 4, 5], [6, 7, 8]])
     cm = clean(v, f)
     assert count_intersecting_pairs(cm.vertices, cm.faces) == 2
-    out, dropped = meshing._drop_needles(cm, 1e-6 * np.sqrt(3))
+    out, dropped = repair._drop_needles(cm, 1e-6 * np.sqrt(3))
     assert dropped == 1 and out.triangle_ids.tolist() == [0, 2]
     assert out.dropped_degenerate == cm.dropped_degenerate + 1
     assert count_intersecting_pairs(out.vertices, out.faces) == 1
@@ -211,16 +230,16 @@ def test_snap_ladder_after_a_tetgen_failure(monkeypatch):
     meshes with TetGen's optimisation off; the result is a valid CT on the snapped
     scene and the failure is recorded."""
     vertices, faces = synthetic.touching_boxes()
-    real = meshing._run_tetgen
+    real = tetgen._run_tetgen
     calls = []
 
     def flaky(cm, box, options, *args, **kwargs):
         calls.append(dict(options))
         if len(calls) == 1:
-            raise meshing._TetGenFailed("Internal TetGen error within `repair_tet`.")
+            raise isolate._TetGenFailed("Internal TetGen error within `repair_tet`.")
         return real(cm, box, options, *args, **kwargs)
 
-    monkeypatch.setattr(meshing, "_run_tetgen", flaky)
+    monkeypatch.setattr(tetgen, "_run_tetgen", flaky)
     tz = tetrahedralize((vertices, faces), "quality")
     assert len(calls) == 2 and calls[1]["opt_iterations"] == 0
     assert "opt_iterations" not in calls[0]
@@ -236,19 +255,19 @@ def test_fallback_constrained_rung(monkeypatch):
     """mesher='fallback': when every rung fails with the refining preset, the first
     snap-rounded scene is meshed with 'constrained' before fTetWild is tried."""
     vertices, faces = synthetic.cube()
-    real = meshing._run_tetgen
+    real = tetgen._run_tetgen
 
     def refuse_quality(cm, box, options, *args, **kwargs):
         if options.get("quality"):
-            raise meshing._TetGenFailed("refused")
+            raise isolate._TetGenFailed("refused")
         return real(cm, box, options, *args, **kwargs)
 
-    monkeypatch.setattr(meshing, "_run_tetgen", refuse_quality)
+    monkeypatch.setattr(tetgen, "_run_tetgen", refuse_quality)
     with pytest.raises(MeshingError, match="preset='constrained' may work"):
         tetrahedralize((vertices, faces), "quality")
     tz = tetrahedralize((vertices, faces), "quality", mesher="fallback")
     assert tz.mesher == "tetgen" and tz.preset == "constrained" and tz.snap > 0
-    assert len(tz.attempts) == 1 + len(meshing.SNAP_LADDER)
+    assert len(tz.attempts) == 1 + len(options.SNAP_LADDER)
     check_ct(tz, vertices, faces)
 
 
@@ -281,8 +300,12 @@ def check_ftetwild(tz, vertices, faces, epsilon):
     bound = err.sum() + len(vol) * EPS * total + 5 * EPS * box
     assert abs(total - box) <= bound, (total, box, bound)
     # Boundary faces (on one tet only) all lie on a side of the box.
-    tf = np.sort(np.concatenate([T[:, [1, 2, 3]], T[:, [0, 2, 3]], T[:, [0, 1, 3]],
-                                 T[:, [0, 1, 2]]]).astype(np.int64), axis=1)
+    tf = np.sort(
+        np.concatenate([T[:, [1, 2, 3]], T[:, [0, 2, 3]], T[:, [0, 1, 3]], T[:, [0, 1, 2]]]).astype(
+            np.int64
+        ),
+        axis=1,
+    )
     keys, counts = np.unique(face_keys(tf, len(P)), return_counts=True)
     assert counts.max() <= 2
     bf = tf[np.isin(face_keys(tf, len(P)), keys[counts == 1])]
@@ -301,7 +324,7 @@ def check_ftetwild(tz, vertices, faces, epsilon):
     cen = P[C.astype(np.int64)].mean(axis=1)
     for k in np.unique(ft)[:200]:
         sel = ft == k
-        d2, _, _ = igl.point_mesh_squared_distance(cen[sel], vertices, faces[k:k + 1])
+        d2, _, _ = igl.point_mesh_squared_distance(cen[sel], vertices, faces[k : k + 1])
         assert np.sqrt(d2).max() <= tol
     sd = tz.surface_distance
     assert 0 <= sd["mean"] <= sd["max"] <= tol
@@ -309,7 +332,7 @@ def check_ftetwild(tz, vertices, faces, epsilon):
     assert set(tz.timings) >= {"ftetwild", "recover", "mesher", "total"}
 
 
-EPS = 2.0 ** -53  # float64's unit roundoff
+EPS = 2.0**-53  # float64's unit roundoff
 
 
 def exact_orientations(P, T):
@@ -324,20 +347,30 @@ def exact_orientations(P, T):
 
     p = P[T.astype(np.int64)]
     a, b, c = p[:, 0] - p[:, 3], p[:, 1] - p[:, 3], p[:, 2] - p[:, 3]
-    m = [b[:, 1] * c[:, 2], b[:, 2] * c[:, 1], b[:, 2] * c[:, 0], b[:, 0] * c[:, 2],
-         b[:, 0] * c[:, 1], b[:, 1] * c[:, 0]]
+    m = [
+        b[:, 1] * c[:, 2],
+        b[:, 2] * c[:, 1],
+        b[:, 2] * c[:, 0],
+        b[:, 0] * c[:, 2],
+        b[:, 0] * c[:, 1],
+        b[:, 1] * c[:, 0],
+    ]
     det = a[:, 0] * (m[0] - m[1]) + a[:, 1] * (m[2] - m[3]) + a[:, 2] * (m[4] - m[5])
-    perm = (np.abs(a[:, 0]) * (np.abs(m[0]) + np.abs(m[1]))
-            + np.abs(a[:, 1]) * (np.abs(m[2]) + np.abs(m[3]))
-            + np.abs(a[:, 2]) * (np.abs(m[4]) + np.abs(m[5])))
+    perm = (
+        np.abs(a[:, 0]) * (np.abs(m[0]) + np.abs(m[1]))
+        + np.abs(a[:, 1]) * (np.abs(m[2]) + np.abs(m[3]))
+        + np.abs(a[:, 2]) * (np.abs(m[4]) + np.abs(m[5]))
+    )
     err = (7.0 + 56.0 * EPS) * EPS * perm
     signs = np.sign(det).astype(np.int64)
     for i in np.flatnonzero(~(np.abs(det) > err)):
         q = [[Fraction(float(x)) for x in row] for row in p[i]]
         d = [[q[k][j] - q[3][j] for j in range(3)] for k in range(3)]
-        exact = (d[0][0] * (d[1][1] * d[2][2] - d[1][2] * d[2][1])
-                 + d[0][1] * (d[1][2] * d[2][0] - d[1][0] * d[2][2])
-                 + d[0][2] * (d[1][0] * d[2][1] - d[1][1] * d[2][0]))
+        exact = (
+            d[0][0] * (d[1][1] * d[2][2] - d[1][2] * d[2][1])
+            + d[0][1] * (d[1][2] * d[2][0] - d[1][0] * d[2][2])
+            + d[0][2] * (d[1][0] * d[2][1] - d[1][1] * d[2][0])
+        )
         signs[i] = (exact > 0) - (exact < 0)
     # /6 rounds once more: at most one ulp of each volume on top of err/6.
     vol = det / 6.0
@@ -351,26 +384,37 @@ def test_exact_orientations_decide_what_float64_cannot():
     # tell most signs), a few clear ones, and exactly flat ones; against plain fractions.
     rng = np.random.default_rng(5)
     xy = rng.uniform(0, 1, (400, 2))
-    P = np.vstack([np.column_stack([xy, 1.0 - xy.sum(1)]), [[0, 0, 0], [1, 0, 0], [0, 1, 0],
-                                                             [1, 1, 0], [0, 0, 1]]])
-    T = np.vstack([np.arange(400).reshape(100, 4), [[400, 401, 402, 404], [400, 402, 401, 404],
-                                                    [400, 401, 402, 403]]])
+    P = np.vstack(
+        [
+            np.column_stack([xy, 1.0 - xy.sum(1)]),
+            [[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [0, 0, 1]],
+        ]
+    )
+    T = np.vstack(
+        [
+            np.arange(400).reshape(100, 4),
+            [[400, 401, 402, 404], [400, 402, 401, 404], [400, 401, 402, 403]],
+        ]
+    )
     signs, vol, err = exact_orientations(P, T)
 
     def exact(t):
         q = [[Fraction(float(x)) for x in P[i]] for i in t]
         d = [[q[k][j] - q[3][j] for j in range(3)] for k in range(3)]
-        e = (d[0][0] * (d[1][1] * d[2][2] - d[1][2] * d[2][1])
-             + d[0][1] * (d[1][2] * d[2][0] - d[1][0] * d[2][2])
-             + d[0][2] * (d[1][0] * d[2][1] - d[1][1] * d[2][0]))
+        e = (
+            d[0][0] * (d[1][1] * d[2][2] - d[1][2] * d[2][1])
+            + d[0][1] * (d[1][2] * d[2][0] - d[1][0] * d[2][2])
+            + d[0][2] * (d[1][0] * d[2][1] - d[1][1] * d[2][0])
+        )
         return (e > 0) - (e < 0), e / 6
 
     want = [exact(t) for t in T]
     assert signs.tolist() == [w[0] for w in want]
     assert signs[-3:].tolist() == [-1, 1, 0] and 0 in signs[:100]
     assert (~(np.abs(vol) > err)).sum() > 50  # most near-flat ones needed the fractions
-    assert all(abs(Fraction(float(x)) - w[1]) <= Fraction(float(e)) for x, w, e in
-               zip(vol, want, err))
+    assert all(
+        abs(Fraction(float(x)) - w[1]) <= Fraction(float(e)) for x, w, e in zip(vol, want, err)
+    )
 
 
 def _ray_sets(vertices, n_res, n_random=50_000):
@@ -378,16 +422,20 @@ def _ray_sets(vertices, n_res, n_random=50_000):
     and around the scene, float64: the rays every scene check below casts."""
     bounds = np.array([vertices.min(0), vertices.max(0)])
     eye, target, up = orbit_views(bounds, n=1, distance=1.6)[0]
-    return [("camera", *pinhole(eye, target, up, fov_deg=40.0, width=n_res, height=n_res,
-                                dtype=np.float64)),
-            ("random", *random_rays(bounds, n_random, seed=7, grow=0.25))]
+    return [
+        (
+            "camera",
+            *pinhole(eye, target, up, fov_deg=40.0, width=n_res, height=n_res, dtype=np.float64),
+        ),
+        ("random", *random_rays(bounds, n_random, seed=7, grow=0.25)),
+    ]
 
 
 def _named_outside(hits, surface, face_triangle, offsets, ids):
     """Rays hit by the cast whose triangle no face of the surface referee's tie set may name.
 
     A hit on a constrained face names the triangle the face names or one of that triangle's
-    vertex neighbours (``Scene``'s alternatives: :func:`tetrace.meshing.neighbour_triangles`).
+    vertex neighbours (``Scene``'s alternatives: :func:`tetrace.mesh.neighbour_triangles`).
     """
     hit = np.flatnonzero((hits.status == tetrace.HIT) & surface.hit)
     tri = hits.triangle[hit]
@@ -397,7 +445,7 @@ def _named_outside(hits, surface, face_triangle, offsets, ids):
     for i in rest:
         t = hits.triangle[i]
         names = [face_triangle[f] for f in surface.tie_set(i)]
-        if not any(t == n or t in ids[offsets[n]:offsets[n + 1]] for n in names):
+        if not any(t == n or t in ids[offsets[n] : offsets[n + 1]] for n in names):
             bad.append(int(i))
     return bad
 
@@ -405,7 +453,7 @@ def _named_outside(hits, surface, face_triangle, offsets, ids):
 #: Generous bound on float64 rounding, relative to the largest coordinate involved (M): the
 #: crossing point o + t* d is within 3u M of exact per coordinate, a point-to-segment distance
 #: and sin/cot of the crossing angle within a few tens of u (u = 2^-53); 2^-40 = 8192 u.
-SLACK = 2.0 ** -40
+SLACK = 2.0**-40
 
 
 def _must_hit(o, d, vertices, faces, inp, surface, eps_abs):
@@ -438,8 +486,7 @@ def _must_hit(o, d, vertices, faces, inp, surface, eps_abs):
     p = o[k] + t[:, None] * d[k]
     n = np.cross(b - a, c - a)
     dn = np.linalg.norm(d[k], axis=1)
-    sin = np.minimum(np.abs(np.einsum("ij,ij->i", n, d[k])) / (np.linalg.norm(n, axis=1) * dn),
-                     1.0)
+    sin = np.minimum(np.abs(np.einsum("ij,ij->i", n, d[k])) / (np.linalg.norm(n, axis=1) * dn), 1.0)
     with np.errstate(divide="ignore"):
         cot = np.sqrt(1.0 - sin * sin) / sin
         reach = eps_abs / (sin * dn)  # half-length of s, in t
@@ -452,8 +499,9 @@ def _must_hit(o, d, vertices, faces, inp, surface, eps_abs):
     r = np.minimum(np.minimum(seg(p, a, b), seg(p, b, c)), seg(p, c, a))
     m = np.max(np.abs(np.stack([o[k], p, a, b, c], axis=1)), axis=(1, 2))
     with np.errstate(invalid="ignore"):
-        cond = ((r > eps_abs * (1.0 + cot) * (1.0 + SLACK) + SLACK * m)
-                & (t - reach * (1.0 + SLACK) > SLACK * t))
+        cond = (r > eps_abs * (1.0 + cot) * (1.0 + SLACK) + SLACK * m) & (
+            t - reach * (1.0 + SLACK) > SLACK * t
+        )
     must = k[cond]
     bound = (t + reach * (1.0 + SLACK) + SLACK * t)[cond]
     late = must[~(surface.hit[must] & (surface.t[must] <= bound))]
@@ -484,13 +532,15 @@ def _judge_ftetwild(scene, n_res, n_random=50_000):
     """
     import igl
 
-    from tetrace.meshing import _point_triangle_distance
+    from tetrace.mesh.ftetwild import _point_triangle_distance
 
     tz = scene.tetrahedralization
     v, f = scene.vertices, scene.faces
     eps_abs = tz.options["epsilon"]
     tol = eps_abs * 1.001  # meshing's recovery tolerance
-    offsets, ids = (x.astype(np.int64) for x in meshing.neighbour_triangles(tz.clean, len(f)))
+    offsets, ids = (
+        x.astype(np.int64) for x in ftetwild_module.neighbour_triangles(tz.clean, len(f))
+    )
     face_triangle = tz.face_triangle.astype(np.int64)
     on_input = Referee(v, f)
     on_surface = Referee(tz.points, tz.faces)
@@ -503,9 +553,11 @@ def _judge_ftetwild(scene, n_res, n_random=50_000):
             if inp is None:
                 inp = on_input.first_hits(o, d, hint=h.triangle)
                 must, late = _must_hit(o, d, v, f, inp, surface, eps_abs)
-                print(f"\n{kind}: {len(o)} rays, the input referee hits {inp.hit.sum()}, the "
-                      f"surface referee {surface.hit.sum()}; {len(must)} must be stopped by "
-                      f"the surface, {len(late)} are not (in time): {late[:10].tolist()}")
+                print(
+                    f"\n{kind}: {len(o)} rays, the input referee hits {inp.hit.sum()}, the "
+                    f"surface referee {surface.hit.sum()}; {len(must)} must be stopped by "
+                    f"the surface, {len(late)} are not (in time): {late[:10].tolist()}"
+                )
                 assert len(must) > 0, "the must-hit check would be vacuous"
                 assert len(late) == 0, (kind, late[:10].tolist())
             score = agreement(h, inp)
@@ -514,8 +566,11 @@ def _judge_ftetwild(scene, n_res, n_random=50_000):
             assert score.t_off == 0, (name, score)
             hit = h.status == tetrace.HIT
             mismatch = np.flatnonzero(hit != surface.hit)
-            assert len(mismatch) == 0, (name, "hit/miss differs from the surface referee",
-                                        mismatch[:10].tolist())
+            assert len(mismatch) == 0, (
+                name,
+                "hit/miss differs from the surface referee",
+                mismatch[:10].tolist(),
+            )
             outside = _named_outside(h, surface, face_triangle, offsets, ids)
             assert not outside, (name, "names a triangle its face may not name", outside[:10])
         k = np.flatnonzero(surface.hit)
@@ -523,10 +578,12 @@ def _judge_ftetwild(scene, n_res, n_random=50_000):
         to_input = np.sqrt(igl.point_mesh_squared_distance(x, v, f)[0])
         tri = v[f[h.triangle[k]]]
         to_named = _point_triangle_distance(x, tri[:, 0], tri[:, 1], tri[:, 2])
-        print(f"{kind}: crossings of the surface lie within {to_input.max() / eps_abs:.3g} "
-              f"envelopes of the input; {(to_named > tol).sum()} of {len(k)} hits name a "
-              f"triangle farther than the envelope from the crossing (at most "
-              f"{to_named.max() / eps_abs:.3g} envelopes)")
+        print(
+            f"{kind}: crossings of the surface lie within {to_input.max() / eps_abs:.3g} "
+            f"envelopes of the input; {(to_named > tol).sum()} of {len(k)} hits name a "
+            f"triangle farther than the envelope from the crossing (at most "
+            f"{to_named.max() / eps_abs:.3g} envelopes)"
+        )
 
 
 def test_ftetwild_synthetic(ftetwild):
@@ -582,7 +639,7 @@ def test_ftetwild_contain(ftetwild):
 
 
 def test_ftetwild_timeout(ftetwild):
-    if not meshing.ISOLATE_TETGEN:
+    if not isolate.ISOLATE_TETGEN:
         pytest.skip("time limits need the forked child")
     with pytest.raises(MeshingError, match="fTetWild timed out: stopped after 0.01 s"):
         tetrahedralize(synthetic.nested_spheres(), mesher="ftetwild", timeout=0.01)
@@ -644,7 +701,7 @@ def test_happy_buddha_builds_after_snap_rounding(scene_path):
     tz = tetrahedralize((vertices, faces))
     assert tz.mesher == "tetgen" and tz.preset == "quality" and tz.repaired
     # The first rung's cell, exactly: the power of two nearest 1e-7 of the domain diagonal.
-    assert tz.snap == meshing._snap_cell(tz.domain, meshing.SNAP_LADDER[0][0]) > 0
+    assert tz.snap == repair._snap_cell(tz.domain, options.SNAP_LADDER[0][0]) > 0
     assert len(tz.attempts) == 1 and "TetGen after exact repair of" in tz.attempts[0]
     check_ct(tz, vertices, faces, tiles=False)
     scene = tetrace.Scene(tz, vertices, faces)
@@ -668,8 +725,10 @@ def test_happy_buddha_builds_after_snap_rounding(scene_path):
             if inp is None:
                 inp = on_input.first_hits(o, d, hint=h.triangle)
                 must, late = _must_hit(o, d, vertices, faces, inp, clean, delta)
-                print(f"\n{name}: {len(must)} rays the snapped surface must stop, "
-                      f"{len(late)} it does not (in time): {late[:10].tolist()}")
+                print(
+                    f"\n{name}: {len(must)} rays the snapped surface must stop, "
+                    f"{len(late)} it does not (in time): {late[:10].tolist()}"
+                )
                 assert len(must) > 0 and len(late) == 0, late[:10].tolist()
             score = agreement(h, inp)
             print(f"{name} against the input: {score}")
@@ -677,8 +736,11 @@ def test_happy_buddha_builds_after_snap_rounding(scene_path):
             # On the scene meshed: the same hit/miss, a triangle of the tie set (its faces
             # mapped to the caller's triangles).
             assert np.array_equal(hit, clean.hit), (name, np.flatnonzero(hit != clean.hit)[:10])
-            outside = [int(i) for i in np.flatnonzero(hit & clean.hit)
-                       if h.triangle[i] not in ids[clean.tie_set(i)]]
+            outside = [
+                int(i)
+                for i in np.flatnonzero(hit & clean.hit)
+                if h.triangle[i] not in ids[clean.tie_set(i)]
+            ]
             assert not outside, (name, "triangle outside the tie set", outside[:10])
 
 
@@ -686,9 +748,21 @@ def test_neighbour_triangles_share_a_vertex_across_merged_copies():
     """Neighbours are found on the cleaned mesh: two triangles whose corners coincide only
     by position (each with its own vertex copies, as OBJ files split at seams) are
     neighbours, and a caller triangle never lists itself."""
-    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0],
-                  [5, 5, 5], [6, 5, 5], [5, 6, 5]], float)
+    v = np.array(
+        [
+            [0, 0, 0],
+            [1, 0, 0],
+            [0, 1, 0],
+            [1, 0, 0],
+            [0, 1, 0],
+            [1, 1, 0],
+            [5, 5, 5],
+            [6, 5, 5],
+            [5, 6, 5],
+        ],
+        float,
+    )
     f = np.array([[0, 1, 2], [3, 5, 4], [6, 7, 8]])
-    offsets, ids = meshing.neighbour_triangles(clean(v, f), len(f))
+    offsets, ids = ftetwild_module.neighbour_triangles(clean(v, f), len(f))
     assert offsets.dtype == ids.dtype == np.uint32
-    assert [list(ids[offsets[k]:offsets[k + 1]]) for k in range(3)] == [[1], [0], []]
+    assert [list(ids[offsets[k] : offsets[k + 1]]) for k in range(3)] == [[1], [0], []]

@@ -15,17 +15,13 @@ from importlib import resources
 import numpy as np
 import pytest
 
-from tetrace import synthetic
-from tetrace.meshing import (
+from tetrace.dev import synthetic
+from tetrace.mesh import (
     PRESETS,
     CleanMesh,
     MeshFileNotFoundError,
     MeshingError,
     Tetrahedralization,
-    _call_forked,
-    _TetGenCrashed,
-    _TetGenFailed,
-    _TetGenTimeout,
     clean,
     count_intersecting_pairs,
     domain_box,
@@ -33,6 +29,7 @@ from tetrace.meshing import (
     tetgen_options,
     tetrahedralize,
 )
+from tetrace.mesh.isolate import _call_forked, _TetGenCrashed, _TetGenFailed, _TetGenTimeout
 
 SPOT = resources.files("tetrace").joinpath("data", "spot.obj")
 # The two presets of the foundation, run on every synthetic and real scene here; the
@@ -45,7 +42,10 @@ BASE_PRESETS = ("constrained", "quality")
 
 def tet_volumes(points, tets):
     p = points[tets.astype(np.int64)]
-    return np.einsum("ij,ij->i", p[:, 1] - p[:, 0], np.cross(p[:, 2] - p[:, 0], p[:, 3] - p[:, 0])) / 6.0
+    return (
+        np.einsum("ij,ij->i", p[:, 1] - p[:, 0], np.cross(p[:, 2] - p[:, 0], p[:, 3] - p[:, 0]))
+        / 6.0
+    )
 
 
 def face_keys(tri, n):
@@ -94,7 +94,9 @@ def check_ct(tz: Tetrahedralization, vertices, faces, *, tiles=True):
     q = P[C.astype(np.int64)]
     for axis in range(3):
         for side in (lo, hi):
-            assert not np.any(np.all(q[:, :, axis] == side[axis], axis=1)), "a box face is constrained"
+            assert not np.any(np.all(q[:, :, axis] == side[axis], axis=1)), (
+                "a box face is constrained"
+            )
 
     # Each piece lies on the plane of its caller triangle and inside it; after snap
     # rounding, within the distance the snapping moved the vertices.
@@ -128,8 +130,10 @@ def check_ct(tz: Tetrahedralization, vertices, faces, *, tiles=True):
         piece = 0.5 * np.linalg.norm(np.cross(q[:, 1] - q[:, 0], q[:, 2] - q[:, 0]), axis=1)
         total = np.bincount(ft, weights=piece, minlength=len(faces))
         ids = tz.clean.triangle_ids
-        area = 0.5 * np.linalg.norm(np.cross(*(vertices[faces[ids]][:, k] - vertices[faces[ids]][:, 0]
-                                               for k in (1, 2))), axis=1)
+        area = 0.5 * np.linalg.norm(
+            np.cross(*(vertices[faces[ids]][:, k] - vertices[faces[ids]][:, 0] for k in (1, 2))),
+            axis=1,
+        )
         np.testing.assert_allclose(total[ids], area, rtol=1e-9, atol=1e-12 * diag**2)
 
     # Every triangle TetGen was given shows up, under the caller's id.
@@ -200,8 +204,12 @@ def test_load_triangles_as_given():
     "vertices, faces, exc, match",
     [
         (np.zeros((3, 3)), np.zeros((0, 3), np.int64), MeshingError, "no faces"),
-        ([[0, 0, 0], [1, 0, 0], [0, np.nan, 0], [np.inf, 0, 0]], [[0, 1, 2]], MeshingError,
-         r"2 of 4 vertices have non-finite"),
+        (
+            [[0, 0, 0], [1, 0, 0], [0, np.nan, 0], [np.inf, 0, 0]],
+            [[0, 1, 2]],
+            MeshingError,
+            r"2 of 4 vertices have non-finite",
+        ),
         (np.eye(3), [[0, 1, 3]], MeshingError, "out of range.*largest index 3.*3 vertices"),
         (np.eye(3), [[0, -1, 2]], MeshingError, "negative vertex indices"),
         (np.eye(3), [[0.0, 1.0, 2.0]], TypeError, "faces must be integers"),
@@ -359,7 +367,9 @@ def test_synthetic_scene(builder, preset):
 def test_synthetic_shapes():
     for name in synthetic.__all__:
         v, f = getattr(synthetic, name)()
-        assert v.dtype == np.float64 and f.dtype == np.int64 and f.shape[1] == 3 and f.max() < len(v)
+        assert (
+            v.dtype == np.float64 and f.dtype == np.int64 and f.shape[1] == 3 and f.max() < len(v)
+        )
     import trimesh
 
     knot = trimesh.Trimesh(*synthetic.torus_knot(), process=False)
@@ -385,8 +395,11 @@ def test_touching_boxes_need_repair():
         assert np.array_equal(np.unique(tz.face_triangle), np.arange(len(faces)))
         # the overlap of the two x = 1 sides went to box A's triangles (lower ids)
         q = tz.points[tz.faces.astype(np.int64)]
-        on_overlap = np.all(q[:, :, 0] == 1.0, axis=1) & np.all(q[:, :, 1:] >= 0.25, axis=(1, 2)) \
+        on_overlap = (
+            np.all(q[:, :, 0] == 1.0, axis=1)
+            & np.all(q[:, :, 1:] >= 0.25, axis=(1, 2))
             & np.all(q[:, :, 1:] <= 1.0, axis=(1, 2))
+        )
         assert on_overlap.any() and set(tz.face_triangle[on_overlap].tolist()) <= {2, 3}
 
 
@@ -457,15 +470,20 @@ def test_cornell_box_is_repaired(scene_path):
         assert len(np.unique(tz.face_triangle)) >= len(faces) - 4
 
 
-@pytest.mark.parametrize("name, preset", [("bunny.obj", "quality"), ("torus_knots_27.obj", "quality"),
-                                          ("bunny.obj", "constrained")])
+@pytest.mark.parametrize(
+    "name, preset",
+    [("bunny.obj", "quality"), ("torus_knots_27.obj", "quality"), ("bunny.obj", "constrained")],
+)
 def test_real_scene_builds(scene_path, name, preset):
     path = scene_path(name)
     vertices, faces = load_triangles(path)
     t0 = time.perf_counter()
     tz = tetrahedralize((vertices, faces), preset)
     elapsed = time.perf_counter() - t0
-    print(f"{name} {preset}: {len(tz.tets)} tets, {len(tz.points)} points, {elapsed:.2f} s, {tz.timings}")
+    print(
+        f"{name} {preset}: {len(tz.tets)} tets, {len(tz.points)} points, {elapsed:.2f} s, "
+        f"{tz.timings}"
+    )
     assert not tz.repaired
     assert elapsed < 120
     check_ct(tz, vertices, faces)

@@ -68,16 +68,46 @@ def _quad():
 def test_hand_made_cases():
     v, f = _quad()
     r = Referee(v, f)
-    o = np.array([[0.25, 0.25, 1], [0.5, 0.5, 1], [0, 0, 1], [1, 0, 1], [2, 2, 1],
-                  [-1, 0.5, 0], [-1, 0.5, 1], [0.2, 0.2, 1]], float)
-    d = np.array([[0, 0, -1], [0, 0, -1], [0, 0, -1], [0, 0, -1], [0, 0, -1],
-                  [1, 0, 0], [1, 0, 0], [0, 0, -3]], float)
+    o = np.array(
+        [
+            [0.25, 0.25, 1],
+            [0.5, 0.5, 1],
+            [0, 0, 1],
+            [1, 0, 1],
+            [2, 2, 1],
+            [-1, 0.5, 0],
+            [-1, 0.5, 1],
+            [0.2, 0.2, 1],
+        ],
+        float,
+    )
+    d = np.array(
+        [
+            [0, 0, -1],
+            [0, 0, -1],
+            [0, 0, -1],
+            [0, 0, -1],
+            [0, 0, -1],
+            [1, 0, 0],
+            [1, 0, 0],
+            [0, 0, -3],
+        ],
+        float,
+    )
     ver = r.first_hits(o, d)
     # interior; on the shared diagonal (both); a vertex of one; a vertex of both; outside;
     # in the plane (never); parallel above; t = 1/3 correctly rounded
     assert ver.hit.tolist() == [True, True, True, True, False, False, False, True]
-    assert [ver.tie_set(i).tolist() for i in range(8)] == [[0], [0, 1], [0], [0, 1], [], [], [],
-                                                           [0]]
+    assert [ver.tie_set(i).tolist() for i in range(8)] == [
+        [0],
+        [0, 1],
+        [0],
+        [0, 1],
+        [],
+        [],
+        [],
+        [0],
+    ]
     assert ver.zero_signs.tolist()[:4] == [0, 1, 2, 2]
     assert ver.t[7] == float(Fraction(1, 3))
     assert ver.t[:4].tolist() == [1.0] * 4
@@ -87,8 +117,12 @@ def test_bounds_are_closed():
     v, f = _quad()
     o = np.array([[0.25, 0.25, 1]] * 4)
     d = np.array([[0, 0, -1.0]] * 4)
-    ver = Referee(v, f).first_hits(o, d, tmin=np.array([1.0, 1.0, np.nextafter(1, 2), 0]),
-                                   tmax=np.array([1.0, np.inf, np.inf, np.nextafter(1, 0)]))
+    ver = Referee(v, f).first_hits(
+        o,
+        d,
+        tmin=np.array([1.0, 1.0, np.nextafter(1, 2), 0]),
+        tmax=np.array([1.0, np.inf, np.inf, np.nextafter(1, 0)]),
+    )
     assert ver.hit.tolist() == [True, True, False, False]
 
 
@@ -123,7 +157,9 @@ def test_extreme_scales(scale):
     v, f = _quad()
     v = v * scale
     o = np.array([[0.5, 0.5, 1], [0.25, 0.25, 1], [0.3, 0.9, 1]]) * scale
-    d = np.array([[0, 0, -1.0], [0.0, 0.0, -2.0], [0.9, -0.2, -1.0]]) * scale  # lands at (1.2, 0.7): outside
+    d = (
+        np.array([[0, 0, -1.0], [0.0, 0.0, -2.0], [0.9, -0.2, -1.0]]) * scale
+    )  # lands at (1.2, 0.7): outside
     ver = _check_against_fractions(v, f, o, d)
     assert ver.hit.tolist() == [True, True, False]
     assert ver.tie_set(0).tolist() == [0, 1]
@@ -132,10 +168,33 @@ def test_extreme_scales(scale):
 def test_random_and_adversarial_rays_match_rationals():
     rng = np.random.default_rng(5)
     # a small closed mesh with dyadic vertices: an octahedron and a tetrahedron sharing space
-    v = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1],
-                  [0.5, 0.5, 0.5], [0.25, -0.75, 0], [-0.5, 0.25, 0.5]], float)
-    f = np.array([[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5],
-                  [0, 3, 5], [6, 7, 8]])
+    v = np.array(
+        [
+            [1, 0, 0],
+            [-1, 0, 0],
+            [0, 1, 0],
+            [0, -1, 0],
+            [0, 0, 1],
+            [0, 0, -1],
+            [0.5, 0.5, 0.5],
+            [0.25, -0.75, 0],
+            [-0.5, 0.25, 0.5],
+        ],
+        float,
+    )
+    f = np.array(
+        [
+            [0, 2, 4],
+            [2, 1, 4],
+            [1, 3, 4],
+            [3, 0, 4],
+            [2, 0, 5],
+            [1, 2, 5],
+            [3, 1, 5],
+            [0, 3, 5],
+            [6, 7, 8],
+        ]
+    )
     n = 300
     o = rng.integers(-8, 9, (n, 3)) / 4.0  # dyadic: many rays exactly through vertices/edges
     target = v[f[rng.integers(0, len(f), n)]]
@@ -169,9 +228,16 @@ def test_judge_outcomes():
     t = np.array([1.0, 1.0, np.inf, 1.0, 1.0 + 1e-6, 1.0])
     tri = np.array([0, 0, -1, 1, 0, 0])
     status = np.array([HIT, FAILED, MISS, HIT, HIT, HIT], np.uint8)
-    h = Hits(t=t, triangle=tri.astype(np.int32), u=np.zeros(6), v=np.zeros(6),
-             point=np.zeros((6, 3)), tet=np.full(6, -1, np.int32), steps=np.zeros(6, np.uint32),
-             status=status)
+    h = Hits(
+        t=t,
+        triangle=tri.astype(np.int32),
+        u=np.zeros(6),
+        v=np.zeros(6),
+        point=np.zeros((6, 3)),
+        tet=np.full(6, -1, np.int32),
+        steps=np.zeros(6, np.uint32),
+        status=status,
+    )
     j = judge(h, ver)
     got = [next(k for k in JUDGEMENTS if j[k][i]) for i in range(6)]
     assert got == ["right", "failed", "leaked", "wrong", "wrong", "right"]
@@ -180,8 +246,8 @@ def test_judge_outcomes():
 
 
 def test_ulp():
-    assert ulp(1.0, np.float32) == 2.0 ** -23
-    assert ulp(1.0, np.float64) == 2.0 ** -52
+    assert ulp(1.0, np.float32) == 2.0**-23
+    assert ulp(1.0, np.float64) == 2.0**-52
 
 
 def test_python_and_rust_twins_agree():

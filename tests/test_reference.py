@@ -8,10 +8,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tetrace.camera import orbit_views, pinhole, random_rays
+from tetrace.baselines.embree import embree_cast, embree_scene, load_triangles
+from tetrace.dev.camera import orbit_views, pinhole, random_rays
+from tetrace.dev.image import depth_image, save_png, shade
 from tetrace.hits import FAILED, HIT, MISS, Hits
-from tetrace.image import depth_image, save_png, shade
-from tetrace.reference import embree_cast, embree_scene, load_triangles
 
 # Unit cube [0, 1]^3. Vertex index = 4x + 2y + z.
 CUBE_VERTICES = np.array(
@@ -19,12 +19,18 @@ CUBE_VERTICES = np.array(
 )
 CUBE_FACES = np.array(
     [
-        [0, 1, 3], [0, 3, 2],  # 0, 1: x = 0 (0 where z > y, 1 where y > z)
-        [4, 6, 7], [4, 7, 5],  # 2, 3: x = 1 (2 where y > z, 3 where z > y)
-        [0, 4, 5], [0, 5, 1],  # 4, 5: y = 0
-        [2, 3, 7], [2, 7, 6],  # 6, 7: y = 1 (6 where z > x, 7 where x > z)
-        [0, 2, 6], [0, 6, 4],  # 8, 9: z = 0
-        [1, 5, 7], [1, 7, 3],  # 10, 11: z = 1 (10 where x > y, 11 where y > x)
+        [0, 1, 3],
+        [0, 3, 2],  # 0, 1: x = 0 (0 where z > y, 1 where y > z)
+        [4, 6, 7],
+        [4, 7, 5],  # 2, 3: x = 1 (2 where y > z, 3 where z > y)
+        [0, 4, 5],
+        [0, 5, 1],  # 4, 5: y = 0
+        [2, 3, 7],
+        [2, 7, 6],  # 6, 7: y = 1 (6 where z > x, 7 where x > z)
+        [0, 2, 6],
+        [0, 6, 4],  # 8, 9: z = 0
+        [1, 5, 7],
+        [1, 7, 3],  # 10, 11: z = 1 (10 where x > y, 11 where y > x)
     ],
     dtype=np.int64,
 )
@@ -118,8 +124,15 @@ def test_uv_matches_point_on_cube(embree):
     hits = embree_cast(CUBE, origins, targets - origins)  # every ray crosses the cube
     assert hits.hit.all()
     h = hits.hit
-    sub = Hits(*(getattr(hits, f)[h] for f in ("t", "triangle", "u", "v", "point", "tet", "steps", "status")))
-    np.testing.assert_allclose(barycentric_point(CUBE_VERTICES, CUBE_FACES, sub), sub.point, atol=1e-5)
+    sub = Hits(
+        *(
+            getattr(hits, f)[h]
+            for f in ("t", "triangle", "u", "v", "point", "tet", "steps", "status")
+        )
+    )
+    np.testing.assert_allclose(
+        barycentric_point(CUBE_VERTICES, CUBE_FACES, sub), sub.point, atol=1e-5
+    )
 
 
 def test_tmax_and_tmin(embree):
@@ -146,10 +159,13 @@ def test_ray_forms_agree(embree, tmp_path):
     for f in ("t", "triangle", "u", "v", "status"):
         np.testing.assert_array_equal(getattr(six, f), getattr(base, f))
     # one direction for every ray
-    one = embree_cast(CUBE, origins[:1].repeat(3, axis=0) + [[0, 0, 0], [0, 0.1, 0], [0, 0.2, 0]], (1, 0, 0))
+    one = embree_cast(
+        CUBE, origins[:1].repeat(3, axis=0) + [[0, 0, 0], [0, 0.1, 0], [0, 0.2, 0]], (1, 0, 0)
+    )
     assert one.hit.all()
     # a trimesh.Trimesh and a file path give the caller's face ids too
     import trimesh  # a dependency of tetrace: no skip
+
     mesh = trimesh.Trimesh(CUBE_VERTICES, CUBE_FACES, process=False)
     np.testing.assert_array_equal(embree_cast(mesh, origins, directions).triangle, base.triangle)
     path = tmp_path / "cube.ply"
@@ -220,12 +236,16 @@ def test_pinhole_shapes_and_orientation(dtype):
     np.testing.assert_allclose(origins, np.broadcast_to(eye, origins.shape))
     np.testing.assert_allclose(np.linalg.norm(dirs, axis=1), 1.0, atol=1e-6)
     grid = dirs.reshape(h, w, 3)
-    np.testing.assert_allclose(grid[h // 2, w // 2], [0, 0, -1], atol=1e-6)  # centre looks at target
+    np.testing.assert_allclose(
+        grid[h // 2, w // 2], [0, 0, -1], atol=1e-6
+    )  # centre looks at target
     assert np.all(grid[0, :, 1] > 0) and np.all(grid[-1, :, 1] < 0)  # row 0 is the top
     assert np.all(grid[:, 0, 0] < 0) and np.all(grid[:, -1, 0] > 0)  # column 0 is the left
     # top-centre pixel centre sits half a pixel inside the vertical field of view
     angle = np.degrees(np.arccos(-grid[0, w // 2, 2]))
-    np.testing.assert_allclose(angle, np.degrees(np.arctan((1 - 1 / h) * np.tan(np.radians(30)))), atol=1e-4)
+    np.testing.assert_allclose(
+        angle, np.degrees(np.arctan((1 - 1 / h) * np.tan(np.radians(30)))), atol=1e-4
+    )
     with pytest.raises(ValueError):
         pinhole(eye, target, up=(0, 0, 1))
 
@@ -236,7 +256,7 @@ def test_orbit_views_and_render(embree, tmp_path):
     assert len(views) == 4
     radius = 0.5 * np.sqrt(3)
     dirs = []
-    for eye, target, up in views:
+    for eye, target, _up in views:
         np.testing.assert_allclose(target, 0.5)
         np.testing.assert_allclose(np.linalg.norm(eye - target), 2.5 * radius)
         dirs.append((eye - target) / np.linalg.norm(eye - target))

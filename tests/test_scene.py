@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 import tetrace
-from tetrace.camera import pinhole, random_rays
-from tetrace.compare import agreement
+from tetrace.dev.camera import pinhole, random_rays
+from tetrace.dev.compare import agreement
 from tetrace.referee import Referee
 
 
@@ -41,7 +41,9 @@ def test_hits_fields(spot):
         np.testing.assert_allclose(h.point[hit], o[hit] + h.t[hit, None] * d[hit], atol=1e-5)
         p = spot.vertices[spot.faces[h.triangle[hit]]]
         u, v = h.u[hit, None], h.v[hit, None]
-        np.testing.assert_allclose((1 - u - v) * p[:, 0] + u * p[:, 1] + v * p[:, 2], h.point[hit], atol=1e-5)
+        np.testing.assert_allclose(
+            (1 - u - v) * p[:, 0] + u * p[:, 1] + v * p[:, 2], h.point[hit], atol=1e-5
+        )
         assert np.all((h.tet[hit] >= 0) & (h.tet[hit] < spot.n_tets))
         assert np.all(h.steps[hit] >= 1)
 
@@ -83,7 +85,8 @@ def test_tmin_tmax(spot):
     assert np.all(past.status[hit] == tetrace.HIT)
     assert np.all(past.t[hit] > full.t[hit])
     verdict = Referee(spot.vertices, spot.faces).first_hits(
-        o, d, tmin=np.where(hit, full.t * 1.0001, 0.0), hint=past.triangle)
+        o, d, tmin=np.where(hit, full.t * 1.0001, 0.0), hint=past.triangle
+    )
     score = agreement(past, verdict)
     assert score.right == score.rays == len(o), str(score)  # a float64 walk: every ray right
     # tmax below tmin: nothing
@@ -175,6 +178,7 @@ def test_hilbert_order_is_a_renumbering(spot):
     np.testing.assert_array_equal(a.triangle, b.triangle)
     np.testing.assert_allclose(a.t, b.t)
     np.testing.assert_array_equal(a.steps, b.steps)
+
     # The ordered scene's tets are the same tets in another order.
     def tets_as_point_sets(sc):
         corners = np.sort(sc.points()[sc.tets()].reshape(-1, 4, 3).view("f8,f8,f8"), axis=1)
@@ -189,7 +193,7 @@ SYNTHETIC = ["cube", "nested_spheres", "thin_plate", "torus_knot", "touching_box
 @pytest.mark.parametrize("name", SYNTHETIC)
 @pytest.mark.parametrize("preset", ["quality", "constrained"])
 def test_synthetic_scenes_agree_with_referee(name, preset):
-    from tetrace import synthetic
+    from tetrace.dev import synthetic
 
     v, f = getattr(synthetic, name)()
     scene = tetrace.Scene.from_mesh((v, f), preset)
@@ -206,7 +210,7 @@ def test_synthetic_scenes_agree_with_referee(name, preset):
 
 
 def test_closed_synthetic_scenes_do_not_leak():
-    from tetrace import synthetic
+    from tetrace.dev import synthetic
 
     v, f = synthetic.nested_spheres()
     scene = tetrace.Scene.from_mesh((v, f))

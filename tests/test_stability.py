@@ -1,4 +1,4 @@
-"""Stress families (``tetrace.stress``) are what they say, and the robust walk is right on them.
+"""Stress families (``tetrace.dev.stress``) are what they say, and the robust walk is right on them.
 
 Every family's rays are certified by the exact referee and by exact integer checks (through a
 vertex, along an edge, in a face's plane, from a point on the surface, at tmin, through the
@@ -19,10 +19,21 @@ import pytest
 import tetrace
 from tetrace import _native
 from tetrace.bench.stability import layouts_for, run_family
+from tetrace.dev.stress import (
+    EXACT_FAMILIES,
+    FAMILIES,
+    OUTCOMES,
+    REAL_FAMILIES,
+    SHARED_SCENES,
+    audited_cast,
+    build_scene,
+    cases,
+    cast_case,
+    exact_in_plane,
+    exact_through,
+    make_case,
+)
 from tetrace.referee import Referee
-from tetrace.stress import (EXACT_FAMILIES, FAMILIES, OUTCOMES, REAL_FAMILIES, SHARED_SCENES,
-                            audited_cast, build_scene, cases, cast_case, exact_in_plane,
-                            exact_through, make_case)
 
 N = 1_000  # candidate rays per family (21 families here: 21,000 rays per method and precision)
 PRECISIONS = ("f32", "f64")
@@ -33,22 +44,30 @@ LOCAL = [f for f in FAMILIES if f not in SHARED_SCENES]
 
 # -- where the robust walk is wrong today, and why --------------------------------------------
 
-TOUCH = ("touching contacts: the exact line meets the surface at a vertex or edge without "
-         "passing from one side to the other (along an edge; in a face's plane; at a vertex on "
-         "an open surface's border). The referee counts the touch "
-         "(closed triangles) and never an in-plane triangle; the robust walk follows its "
-         "symbolically perturbed line, which passes the contact on one side (leaked, late) or "
-         "crosses the in-plane triangle (wrong)")
-START = ("starts on the surface: an origin exactly on a triangle with tmin = 0, or a crossing "
-         "exactly at t = tmin, is a hit at tmin (closed interval); the robust walk starts at "
-         "the perturbed point (settle_start) and never reports the triangle under its start "
-         "(leaked, late)")
-START32 = ("float32 start point: the float32 walk starts at fl32(o + tmin d), which for tmin = "
-           "2^-40 or a crossing 2^-30 before tmin rounds back onto the surface; it reports the "
-           "triangle there with t clamped to tmin though its crossing is before tmin (wrong)")
-POINTS32 = ("float32 tetrahedralization: the float32 walk reads the tet points rounded to "
-            "float32; at 1e7 the domain box corners and Steiner points are not float32 numbers "
-            "and most tets become flat or inverted, so the walk leaves the line (late)")
+TOUCH = (
+    "touching contacts: the exact line meets the surface at a vertex or edge without "
+    "passing from one side to the other (along an edge; in a face's plane; at a vertex on "
+    "an open surface's border). The referee counts the touch "
+    "(closed triangles) and never an in-plane triangle; the robust walk follows its "
+    "symbolically perturbed line, which passes the contact on one side (leaked, late) or "
+    "crosses the in-plane triangle (wrong)"
+)
+START = (
+    "starts on the surface: an origin exactly on a triangle with tmin = 0, or a crossing "
+    "exactly at t = tmin, is a hit at tmin (closed interval); the robust walk starts at "
+    "the perturbed point (settle_start) and never reports the triangle under its start "
+    "(leaked, late)"
+)
+START32 = (
+    "float32 start point: the float32 walk starts at fl32(o + tmin d), which for tmin = "
+    "2^-40 or a crossing 2^-30 before tmin rounds back onto the surface; it reports the "
+    "triangle there with t clamped to tmin though its crossing is before tmin (wrong)"
+)
+POINTS32 = (
+    "float32 tetrahedralization: the float32 walk reads the tet points rounded to "
+    "float32; at 1e7 the domain box corners and Steiner points are not float32 numbers "
+    "and most tets become flat or inverted, so the walk leaves the line (late)"
+)
 
 #: (family, precision) -> (the ray kinds affected, or None for all; cause). Rays of other kinds
 #: in the same family and precision are still asserted right (test_robust_is_right).
@@ -59,9 +78,15 @@ ROBUST_KNOWN = {
     ("tmin", "f32"): ({"tmin_at", "tmin_after"}, START + "; " + START32),
     ("tmin", "f64"): ({"tmin_at"}, START),
     ("far1e7", "f32"): (None, POINTS32),
-    **{(f, p): ({"in_plane", "on_surface_vertex", "on_surface_edge", "on_surface_face"}
-                | ({"edge"} if f == "fandisk" else set()), TOUCH + "; " + START)
-       for f in ("spot", "fandisk") for p in PRECISIONS},
+    **{
+        (f, p): (
+            {"in_plane", "on_surface_vertex", "on_surface_edge", "on_surface_face"}
+            | ({"edge"} if f == "fandisk" else set()),
+            TOUCH + "; " + START,
+        )
+        for f in ("spot", "fandisk")
+        for p in PRECISIONS
+    },
 }
 
 
@@ -89,13 +114,21 @@ def _robust_cases(families):
 
 
 def _known_cases(families):
-    return [pytest.param(f, p, id=f"{f}-{p}",
-                         marks=[pytest.mark.xfail(strict=True, reason=ROBUST_KNOWN[f, p][1])])
-            for f in families for p in PRECISIONS
-            if (f, p) in ROBUST_KNOWN and ROBUST_KNOWN[f, p][0] is not None]
+    return [
+        pytest.param(
+            f,
+            p,
+            id=f"{f}-{p}",
+            marks=[pytest.mark.xfail(strict=True, reason=ROBUST_KNOWN[f, p][1])],
+        )
+        for f in families
+        for p in PRECISIONS
+        if (f, p) in ROBUST_KNOWN and ROBUST_KNOWN[f, p][0] is not None
+    ]
 
 
 # -- casting everything once ------------------------------------------------------------------
+
 
 def _run(case):
     rows = run_family(case, tetrace.methods(), [_native.DEFAULT_LAYOUT], PRECISIONS)
@@ -126,12 +159,14 @@ def shared_results(shared_case):
 
 
 def _row(rows, method, layout, precision):
-    (r,) = [r for r in rows if (r["method"], r["layout"], r["precision"])
-            == (method, layout, precision)]
+    (r,) = [
+        r for r in rows if (r["method"], r["layout"], r["precision"]) == (method, layout, precision)
+    ]
     return r
 
 
 # -- the families are what they say ---------------------------------------------------------
+
 
 def test_families_are_reproducible():
     a = list(cases(100, seed=3, families=LOCAL))
@@ -187,11 +222,17 @@ def _claim(case, v):
     if f == "domain":
         # through a corner (corner_*, and along_edge: from beyond the edge's end), a point
         # of an edge (edge_*), a point of a face (face_plane)
-        k = np.where(np.char.startswith(kind, "corner") | (kind == "along_edge"), 3,
-                     np.where(np.char.startswith(kind, "edge"), 2, 1))
+        k = np.where(
+            np.char.startswith(kind, "corner") | (kind == "along_edge"),
+            3,
+            np.where(np.char.startswith(kind, "edge"), 2, 1),
+        )
         through = exact_through(case.origins, case.directions, c["through"], c["through_t"])
-        return (through & _on_box(c["through"], case.domain, k)
-                & (v.hit == np.char.endswith(kind, "_in")))
+        return (
+            through
+            & _on_box(c["through"], case.domain, k)
+            & (v.hit == np.char.endswith(kind, "_in"))
+        )
     if f == "axis":
         return v.hit & np.isin(case.directions, (-1.0, 0.0, 1.0)).all(1)
     if f == "long":
@@ -208,7 +249,7 @@ def _claim(case, v):
 def _check_family(case):
     """Claims hold on 100% of the kept rays in both precisions (verdicts recomputed here on the
     rays as cast); returns the verdicts."""
-    from tetrace.stress import check_claims
+    from tetrace.dev.stress import check_claims
 
     ref = Referee(case.vertices, case.faces)
     out = {}
@@ -235,15 +276,19 @@ def test_family_is_what_it_says(local_cases, family):
         # built exact: every candidate certifies, in both precisions
         assert case.certified == {"f64": 1.0, "f32": 1.0}, case.certified
         assert len(case) == case.candidates
-    print(f"\n{family}: {len(case)}/{case.candidates} rays certified "
-          f"(f32 {case.certified['f32']:.2%}, f64 {case.certified['f64']:.2%}): {case.what}")
+    print(
+        f"\n{family}: {len(case)}/{case.candidates} rays certified "
+        f"(f32 {case.certified['f32']:.2%}, f64 {case.certified['f64']:.2%}): {case.what}"
+    )
     _check_family(case)
 
 
 def test_shared_family_is_what_it_says(shared_case):
     assert len(shared_case) > 0
-    print(f"\n{SHARED}: {len(shared_case)}/{shared_case.candidates} rays certified "
-          f"(f32 {shared_case.certified['f32']:.2%}, f64 {shared_case.certified['f64']:.2%})")
+    print(
+        f"\n{SHARED}: {len(shared_case)}/{shared_case.candidates} rays certified "
+        f"(f32 {shared_case.certified['f32']:.2%}, f64 {shared_case.certified['f64']:.2%})"
+    )
     _check_family(shared_case)
 
 
@@ -287,14 +332,14 @@ def test_hint_does_not_change_the_verdict(local_cases):
 
 # -- the robust walk --------------------------------------------------------------------------
 
+
 def _assert_robust(rows, family, precision):
     r = _row(rows, "robust", _native.DEFAULT_LAYOUT, precision)
     kinds, _ = ROBUST_KNOWN.get((family, precision), (set(), None))
     if kinds is None:  # the whole case is known wrong (strict xfail): assert everything
         kinds = set()
     bad = _bad(r, exclude=kinds)
-    assert bad == 0, (family, precision, {k: r[k] for k in OUTCOMES}, r["bad_kinds"],
-                      r["examples"])
+    assert bad == 0, (family, precision, {k: r[k] for k in OUTCOMES}, r["bad_kinds"], r["examples"])
     assert r["rays"] > 0
 
 
@@ -327,11 +372,15 @@ def test_robust_does_not_depend_on_layout(results):
             ref = _row(rows, "robust", _native.DEFAULT_LAYOUT, p)
             for lay in layouts_for(p, tetrace.layouts()):
                 r = _row(rows, "robust", lay, p)
-                assert ({k: r[k] for k in OUTCOMES} == {k: ref[k] for k in OUTCOMES}), \
-                    (family, p, lay)
+                assert {k: r[k] for k in OUTCOMES} == {k: ref[k] for k in OUTCOMES}, (
+                    family,
+                    p,
+                    lay,
+                )
 
 
 # -- every method's counts, recorded ----------------------------------------------------------
+
 
 def test_counts_are_recorded(results, capsys):
     """Every family x method x precision has a row (the default's printed first), and each
@@ -351,17 +400,23 @@ def test_counts_are_recorded(results, capsys):
                     for k in OUTCOMES:
                         tot[k] += r[k]
                     if any(r[k] for k in OUTCOMES):
-                        print(f"stress {family} {m} {p}: "
-                              + ", ".join(f"{k} {r[k]}" for k in OUTCOMES if r[k]))
+                        print(
+                            f"stress {family} {m} {p}: "
+                            + ", ".join(f"{k} {r[k]}" for k in OUTCOMES if r[k])
+                        )
                 tag = " (default)" if m == DEFAULT[0] else ""
-                print(f"stress ALL {m}{tag} {_native.DEFAULT_LAYOUT} {p}: {n} rays, "
-                      + ", ".join(f"{k} {v}" for k, v in tot.items()))
+                print(
+                    f"stress ALL {m}{tag} {_native.DEFAULT_LAYOUT} {p}: {n} rays, "
+                    + ", ".join(f"{k} {v}" for k, v in tot.items())
+                )
     for family, rows in results.items():
         for m in tetrace.methods():
             for p in PRECISIONS:
                 r = _row(rows, m, _native.DEFAULT_LAYOUT, p)
-                assert r["right"] + sum(r[k] for k in ("late", "leaked", "failed", "wrong")) \
-                    == r["rays"], (family, m, p)
+                assert (
+                    r["right"] + sum(r[k] for k in ("late", "leaked", "failed", "wrong"))
+                    == r["rays"]
+                ), (family, m, p)
     # The families are adversarial: every method that decides exit faces in floating point is
     # caught taking a wrong exit face, and answering some ray wrong, in both precisions.
     for m in tetrace.methods():
@@ -374,6 +429,7 @@ def test_counts_are_recorded(results, capsys):
 
 
 # -- the audit ------------------------------------------------------------------------------
+
 
 def test_audit_does_not_depend_on_layout():
     """Id layouts store the same vertices and name the entry face alike: every method takes

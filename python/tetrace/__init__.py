@@ -6,21 +6,34 @@
 >>> hits.t, hits.triangle, hits.status                       # doctest: +SKIP
 """
 
-from . import _native
+from . import (
+    _native,
+    gpu,  # noqa: F401  (tetrace.gpu.info() is part of the API)
+)
+from .errors import GpuError, MeshError, MeshFileNotFoundError, MeshingError, TooLargeError
 from .hits import FAILED, HIT, INVALID, MISS, STATUS_NAMES, Hits
-from .meshing import MeshingError
 from .scene import LAYOUT_BYTES, Scene, cast, default_scene, default_scene_path, layouts, methods
-from . import reference  # noqa: F401  (tetrace.reference.embree_cast is part of the API)
-from . import gpu  # noqa: F401  (tetrace.gpu.info() is part of the API)
 
-MeshError = _native.MeshError
-TooLargeError = _native.TooLargeError
-GpuError = _native.GpuError
 __version__ = _native.__version__
 
 __all__ = [
-    "Scene", "Hits", "cast", "default_scene", "default_scene_path", "reference",
-    "methods", "layouts", "LAYOUT_BYTES",
-    "MISS", "HIT", "FAILED", "INVALID", "STATUS_NAMES",
-    "MeshingError", "MeshError", "TooLargeError", "GpuError", "gpu",
+    "Scene",
+    "Hits",
+    "cast",
+    "default_scene",
+    "default_scene_path",
+    "methods",
+    "layouts",
+    "LAYOUT_BYTES",
+    "MISS",
+    "HIT",
+    "FAILED",
+    "INVALID",
+    "STATUS_NAMES",
+    "MeshingError",
+    "MeshFileNotFoundError",
+    "MeshError",
+    "TooLargeError",
+    "GpuError",
+    "gpu",
 ]

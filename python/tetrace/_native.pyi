@@ -1,9 +1,32 @@
-"""Type stubs for the compiled core (hand-written; keep in step with src/py/mod.rs)."""
+"""Type stubs for the compiled core (hand-written; `make lint` runs stubtest against the built
+extension, so they cannot drift from src/py/)."""
 
-from typing import Any, Optional
+from typing import Any, final
 
 import numpy as np
 import numpy.typing as npt
+
+__all__ = [
+    "NativeScene",
+    "methods",
+    "layouts",
+    "exitface_bench",
+    "referee_first_hit",
+    "gpu_adapters",
+    "gpu_device",
+    "gpu_kernels",
+    "gpu_kernel_for",
+    "DEFAULT_METHOD",
+    "DEFAULT_LAYOUT",
+    "MeshError",
+    "TooLargeError",
+    "GpuError",
+    "MISS",
+    "HIT",
+    "FAILED",
+    "INVALID",
+    "__version__",
+]
 
 MISS: int
 HIT: int
@@ -31,7 +54,6 @@ def referee_first_hit(
     tmin: npt.NDArray[np.float64],
     tmax: npt.NDArray[np.float64],
 ) -> dict[str, np.ndarray]: ...
-
 def gpu_adapters() -> list[dict[str, Any]]: ...
 def gpu_device() -> dict[str, Any]: ...
 def gpu_kernels() -> list[tuple[str, str]]: ...
@@ -41,9 +63,10 @@ class MeshError(ValueError): ...
 class TooLargeError(ValueError): ...
 class GpuError(RuntimeError): ...
 
+@final
 class NativeScene:
-    def __init__(
-        self,
+    def __new__(
+        cls,
         points: npt.NDArray[np.float64],
         tets: npt.NDArray[np.uint32],
         faces: npt.NDArray[np.uint32],
@@ -52,18 +75,19 @@ class NativeScene:
         hilbert: bool = True,
         # (offsets (F+1,), ids) uint32 CSR: per caller triangle, the triangles a hit on a
         # face naming it may lie on instead (fTetWild); the ray's crossing nearest the face wins.
-        alternatives: Optional[tuple[npt.NDArray[np.uint32], npt.NDArray[np.uint32]]] = None,
-    ) -> None: ...
+        alternatives: tuple[npt.NDArray[np.uint32], npt.NDArray[np.uint32]] | None = None,
+    ) -> NativeScene: ...
     def cast(
         self,
         origins: npt.NDArray[np.floating],
         directions: npt.NDArray[np.floating],
         tmin: npt.NDArray[np.float64],
         tmax: npt.NDArray[np.float64],
-        threads: Optional[int] = None,
-        max_steps: Optional[int] = None,
-        method: str = "aman2022",
-        layout: str = "tet32",
+        threads: int | None = None,
+        max_steps: int | None = None,
+        # None: the core's defaults (DEFAULT_METHOD, DEFAULT_LAYOUT).
+        method: str | None = None,
+        layout: str | None = None,
         audit: bool = False,
     ) -> dict[str, np.ndarray]: ...
     def cast_gpu(
@@ -72,10 +96,10 @@ class NativeScene:
         directions: npt.NDArray[np.float32],
         tmin: npt.NDArray[np.float64],
         tmax: npt.NDArray[np.float64],
-        threads: Optional[int] = None,
-        max_steps: Optional[int] = None,
-        method: Optional[str] = None,
-        layout: Optional[str] = None,
+        threads: int | None = None,
+        max_steps: int | None = None,
+        method: str | None = None,
+        layout: str | None = None,
     ) -> tuple[dict[str, np.ndarray], dict[str, float]]: ...
     def memory(self) -> dict[str, int]: ...
     def points(self) -> npt.NDArray[np.float64]: ...

@@ -13,7 +13,8 @@ __all__ = ["MISS", "HIT", "FAILED", "INVALID", "STATUS_NAMES", "Hits"]
 
 #: ``status`` code: the ray left the scene (or reached ``tmax``) without hitting a triangle.
 MISS = 0
-#: ``status`` code: the ray hit a triangle; ``t``, ``triangle``, ``u``, ``v`` and ``point`` are valid.
+#: ``status`` code: the ray hit a triangle; ``t``, ``triangle``, ``u``, ``v`` and ``point`` are
+#: valid.
 HIT = 1
 #: ``status`` code: the caster gave up on this ray (for example a walk that could not
 #: leave a degenerate configuration, or ran past its step limit). Treat as unknown.
@@ -82,13 +83,15 @@ class Hits:
         for field in dataclasses.fields(self):
             arr = getattr(self, field.name)
             if not isinstance(arr, np.ndarray):
-                raise TypeError(f"Hits.{field.name} must be a numpy array, got {type(arr).__name__}")
+                raise TypeError(
+                    f"Hits.{field.name} must be a numpy array, got {type(arr).__name__}"
+                )
             want = (n, 3) if field.name == "point" else (n,)
             if arr.shape != want:
                 raise ValueError(f"Hits.{field.name} has shape {arr.shape}, expected {want}")
 
     @classmethod
-    def misses(cls, n: int, dtype=np.float64) -> "Hits":
+    def misses(cls, n: int, dtype=np.float64) -> Hits:
         """Return ``n`` rays that all missed.
 
         Parameters

@@ -53,7 +53,9 @@ def prepare_rays(origins, directions=None, *, invalid="raise"):
         elif d.ndim == 1:
             d = np.broadcast_to(d, o.shape)
         if o.shape != d.shape:
-            raise ValueError(f"origins {o.shape} and directions {d.shape} must have the same length")
+            raise ValueError(
+                f"origins {o.shape} and directions {d.shape} must have the same length"
+            )
     dtype = np.float32 if (o.dtype == np.float32 and d.dtype == np.float32) else np.float64
     o = np.ascontiguousarray(o, dtype=dtype)
     d = np.ascontiguousarray(d, dtype=dtype)
@@ -70,7 +72,7 @@ def raise_invalid(status, origins, directions):
         raise ValueError(
             f"{int(bad.sum())} of {len(status)} rays have a NaN/inf component or a zero-length "
             f"direction (first: ray {k}, origin {origins[k].tolist()}, direction "
-            f"{directions[k].tolist()}); pass invalid=\"mark\" to get status INVALID for them instead"
+            f'{directions[k].tolist()}); pass invalid="mark" to get status INVALID for them instead'
         )
 
 

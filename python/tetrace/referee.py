@@ -11,22 +11,26 @@ How: a bounding-volume hierarchy (boxes grown well past float64's rounding of th
 yields every triangle a ray could meet; a float64 filter with a certified error bound decides
 the clear cases; every sign it cannot certify, every ``t`` that may tie with another hit or
 with ``tmin``/``tmax``, and each winner's ``t`` are evaluated exactly with Python integers.
+
+Over 500 lines on purpose: the whole exact referee (candidates, float64 filter, exact
+fallback, judging) in one file, read side by side with docs/referee.md and its Rust twin.
 """
 
 from __future__ import annotations
 
 import dataclasses
+
 import numpy as np
 
 __all__ = ["Referee", "Verdict", "first_hits", "judge", "JUDGEMENTS", "ulp"]
 
-EPS = 2.0 ** -53
+EPS = 2.0**-53
 #: Shewchuk's error bound for a float64 3x3 determinant of rounded differences, times its
 #: permanent (orient3d's ``errboundA``): the filter certifies a sign when the value exceeds it.
 FILTER = (7.0 + 56.0 * EPS) * EPS
 #: A permanent below this may hide underflowed products; above it their absolute error
 #: (a few times 2^-1074) is far below FILTER x permanent. Non-finite: overflow.
-TINY = 2.0 ** -900
+TINY = 2.0**-900
 #: Relative growth of the BVH boxes in the ray-box test. The test's float64 rounding moves a
 #: point by at most ~2.2e-16 of its distance to the origin per axis; 1e-12 covers that many
 #: thousand times over, so no triangle a ray meets is culled (extra candidates only cost time).
@@ -89,7 +93,7 @@ class Verdict:
 
     def tie_set(self, i):
         """numpy.ndarray : the triangles tied at ray ``i``'s first hit."""
-        return self.tie_ids[self.tie_ptr[i]:self.tie_ptr[i + 1]]
+        return self.tie_ids[self.tie_ptr[i] : self.tie_ptr[i + 1]]
 
     def in_ties(self, triangle):
         """Whether each ray's given triangle id is in its tie set (``False`` on a miss)."""
@@ -104,10 +108,16 @@ class Verdict:
 
 # -- small vector helpers over (K, 3) arrays ------------------------------------------------
 
+
 def _cross(a, b):
-    return np.stack([a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1],
-                     a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
-                     a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]], axis=1)
+    return np.stack(
+        [
+            a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1],
+            a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
+            a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0],
+        ],
+        axis=1,
+    )
 
 
 def _dot(a, b):
@@ -117,9 +127,17 @@ def _dot(a, b):
 def _perm(d, u, v):
     """Permanent of the determinant ``d . (u x v)``: the same sum with every term's magnitude."""
     d, u, v = np.abs(d), np.abs(u), np.abs(v)
-    return _dot(d, np.stack([u[:, 1] * v[:, 2] + u[:, 2] * v[:, 1],
-                             u[:, 2] * v[:, 0] + u[:, 0] * v[:, 2],
-                             u[:, 0] * v[:, 1] + u[:, 1] * v[:, 0]], axis=1))
+    return _dot(
+        d,
+        np.stack(
+            [
+                u[:, 1] * v[:, 2] + u[:, 2] * v[:, 1],
+                u[:, 2] * v[:, 0] + u[:, 0] * v[:, 2],
+                u[:, 0] * v[:, 1] + u[:, 1] * v[:, 0],
+            ],
+            axis=1,
+        ),
+    )
 
 
 def _certain_sign(value, perm):
@@ -131,12 +149,13 @@ def _certain_sign(value, perm):
 
 # -- exact evaluation with Python integers -------------------------------------------------
 
+
 def _exact_ints(values):
     """``(K, m)`` finite float64 -> ``(K, m)`` object array of Python ints, each row scaled by
     one power of two (so every homogeneous polynomial keeps its sign and every ratio of two of
     the same degree its value)."""
     m, e = np.frexp(values)
-    mant = (m * 2.0 ** 53).astype(np.int64)  # exact: a float64 has 53 significant bits
+    mant = (m * 2.0**53).astype(np.int64)  # exact: a float64 has 53 significant bits
     exp = e.astype(np.int64) - 53
     exp = np.where(mant == 0, np.iinfo(np.int64).max, exp)
     low = exp.min(axis=1, keepdims=True)
@@ -169,8 +188,9 @@ def _exact_pairs(o, d, a, b, c):
     s_ca = _odot(D, _ocross(w, u))
     num = _odot(u, _ocross(v, w))
     den = s_ab + s_bc + s_ca
-    signs = np.stack([(s > 0).astype(np.int8) - (s < 0).astype(np.int8)
-                      for s in (s_ab, s_bc, s_ca)], axis=1)
+    signs = np.stack(
+        [(s > 0).astype(np.int8) - (s < 0).astype(np.int8) for s in (s_ab, s_bc, s_ca)], axis=1
+    )
     return signs, num, den
 
 
@@ -196,6 +216,7 @@ def _cmp_t(num, den, x):
 
 
 # -- the hierarchy ---------------------------------------------------------------------------
+
 
 class Referee:
     """Exact first hits on one triangle scene.
@@ -289,8 +310,11 @@ class Referee:
             slack = 1e-9 * (np.abs(np.where(fin(tn), tn, 0)) + np.abs(np.where(fin(tf), tf, 0)))
             t0, t1 = t0s[rays], t1s[rays]
             with np.errstate(invalid="ignore"):
-                keep = ((tn <= tf + slack) & (tf >= t0 - slack - 1e-9 * np.abs(t0))
-                        & (tn <= t1 + slack + 1e-9 * np.abs(np.where(fin(t1), t1, 0))))
+                keep = (
+                    (tn <= tf + slack)
+                    & (tf >= t0 - slack - 1e-9 * np.abs(t0))
+                    & (tn <= t1 + slack + 1e-9 * np.abs(np.where(fin(t1), t1, 0)))
+                )
             rays, nodes = rays[keep], nodes[keep]
             if k + 1 < len(self.levels):
                 rays = np.repeat(rays, 2)
@@ -327,8 +351,13 @@ class Referee:
             raise ValueError("origins and directions must both be (N, 3)")
         tmin = np.broadcast_to(np.asarray(tmin, np.float64), (n,)).copy()
         tmax = np.broadcast_to(np.asarray(tmax, np.float64), (n,)).copy()
-        invalid = (~np.isfinite(o).all(1) | ~np.isfinite(d).all(1) | ~(d != 0).any(1)
-                   | np.isnan(tmin) | np.isnan(tmax))
+        invalid = (
+            ~np.isfinite(o).all(1)
+            | ~np.isfinite(d).all(1)
+            | ~(d != 0).any(1)
+            | np.isnan(tmin)
+            | np.isnan(tmax)
+        )
         if hint is not None:
             hint = np.broadcast_to(np.asarray(hint, np.int64), (n,))
             hint = np.where((hint >= 0) & (hint < len(self.tris)), hint, -1)
@@ -343,15 +372,26 @@ class Referee:
             idx = idx[~invalid[idx]]
             if not len(idx):
                 continue
-            exact_pairs += self._chunk(o, d, tmin, tmax, idx, hint, out_t, out_tri, zeros, bound, ties)
+            exact_pairs += self._chunk(
+                o, d, tmin, tmax, idx, hint, out_t, out_tri, zeros, bound, ties
+            )
         rays = np.concatenate([x[0] for x in ties] + [np.zeros(0, np.int64)])
         ids = np.concatenate([x[1] for x in ties] + [np.zeros(0, np.int64)]).astype(np.int64)
         order = np.lexsort((ids, rays))  # by ray, then ascending triangle id
         ids = ids[order]
         ptr = np.zeros(n + 1, np.int64)
         np.cumsum(np.bincount(rays, minlength=n), out=ptr[1:])
-        return Verdict(hit=out_tri >= 0, t=out_t, triangle=out_tri, tie_ptr=ptr, tie_ids=ids,
-                       zero_signs=zeros, t_bound=bound, invalid=invalid, exact_pairs=exact_pairs)
+        return Verdict(
+            hit=out_tri >= 0,
+            t=out_t,
+            triangle=out_tri,
+            tie_ptr=ptr,
+            tie_ids=ids,
+            zero_signs=zeros,
+            t_bound=bound,
+            invalid=invalid,
+            exact_pairs=exact_pairs,
+        )
 
     def _chunk(self, o, d, tmin, tmax, idx, hint, out_t, out_tri, zeros, bound, ties):
         prune = tmax.copy()
@@ -395,7 +435,7 @@ class Referee:
             # several contenders (rare: rays near a tie): the exact minimum of num/den over
             # them, denominators made positive
             best, best_js = None, []
-            for j in hc[a:a + k]:
+            for j in hc[a : a + k]:
                 nm, dn = (enum[j], eden_[j]) if eden_[j] > 0 else (-enum[j], -eden_[j])
                 if best is None or nm * best[1] < best[0] * dn:
                     best, best_js = (nm, dn), [j]
@@ -443,8 +483,9 @@ class _Pairs:
             tf = num / den
             dt = (FILTER * pnum + np.abs(tf) * eden) / (np.abs(den) - eden) + 4 * EPS * np.abs(tf)
             self.t_lo, self.t_hi = tf - dt, tf + dt
-            good = (meet & np.isfinite(dt) & (np.abs(den) > eden) & (pnum >= TINY)
-                    & np.isfinite(pnum))
+            good = (
+                meet & np.isfinite(dt) & (np.abs(den) > eden) & (pnum >= TINY) & np.isfinite(pnum)
+            )
         self.num = np.empty(k, object)
         self.den = np.empty(k, object)
         self.sign = np.zeros((k, 3), np.int8)
@@ -564,7 +605,7 @@ def judge(hits, verdict, arithmetic="f64"):
     phantom = c_hit & ~r_hit
     both = c_hit & r_hit
     t = np.asarray(hits.t, np.float64)
-    scale = {"f64": 1.0, "f32": 2.0 ** 29}[arithmetic]  # ratio of the unit roundoffs
+    scale = {"f64": 1.0, "f32": 2.0**29}[arithmetic]  # ratio of the unit roundoffs
     tol = ulp(verdict.t, out_dtype(hits, arithmetic)) + scale * verdict.t_bound
     with np.errstate(invalid="ignore"):
         off = np.abs(t - verdict.t) > tol
@@ -577,6 +618,15 @@ def judge(hits, verdict, arithmetic="f64"):
     t_off = both & in_ties & off
     wrong = phantom | early | other | t_off
     right = valid & ~failed & ~leaked & ~late & ~wrong
-    return dict(right=right, failed=failed, leaked=leaked, late=late, wrong=wrong,
-                phantom=phantom, early=early, other_triangle=other, t_off=t_off,
-                invalid=~valid)
+    return dict(
+        right=right,
+        failed=failed,
+        leaked=leaked,
+        late=late,
+        wrong=wrong,
+        phantom=phantom,
+        early=early,
+        other_triangle=other,
+        t_off=t_off,
+        invalid=~valid,
+    )

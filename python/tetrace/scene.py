@@ -9,12 +9,19 @@ from importlib import resources
 import numpy as np
 
 from . import _native
-from .hits import Hits
-from .meshing import neighbour_triangles
+from .hits import HIT, Hits
 from .rays import prepare_bounds, prepare_rays, raise_invalid
 
-__all__ = ["Scene", "cast", "default_scene", "default_scene_path", "methods", "layouts",
-           "LAYOUT_BYTES"]
+__all__ = [
+    "Scene",
+    "cast",
+    "measure_accuracy",
+    "default_scene",
+    "default_scene_path",
+    "methods",
+    "layouts",
+    "LAYOUT_BYTES",
+]
 
 #: Bytes per tet of each layout's record.
 LAYOUT_BYTES = dict(_native.layouts())
@@ -47,14 +54,14 @@ class Scene:
 
     Attributes
     ----------
-    tetrahedralization : tetrace.meshing.Tetrahedralization
+    tetrahedralization : tetrace.mesh.Tetrahedralization
         What the mesher produced (points, tets, constrained faces, timings).
     vertices, faces : numpy.ndarray
         The caller's mesh, as given: hit ``triangle`` ids index ``faces``.
     build_times : dict
         Seconds spent in each build stage: ``clean``, ``repair``, ``mesher`` (TetGen or fTetWild),
         ``rust`` (topology, locator and layout construction), ``total``; see
-        :class:`tetrace.meshing.Tetrahedralization` for the mesher's (``tetgen``,
+        :class:`tetrace.mesh.Tetrahedralization` for the mesher's (``tetgen``,
         ``ftetwild``, ``recover``, ``mesher``).
     """
 
@@ -65,9 +72,12 @@ class Scene:
         triangles = np.ascontiguousarray(vertices[faces], dtype=np.float64)
         t0 = time.perf_counter()
         # fTetWild's faces lie near the input, not on it: let hits name the neighbour of a
-        # face's triangle that the ray crosses (see tetrace.meshing.neighbour_triangles).
-        alternatives = (neighbour_triangles(tet.clean, len(faces))
-                        if getattr(tet, "mesher", "tetgen") == "ftetwild" else None)
+        # face's triangle that the ray crosses (see tetrace.mesh.neighbour_triangles).
+        alternatives = None
+        if getattr(tet, "mesher", "tetgen") == "ftetwild":
+            from .mesh.ftetwild import neighbour_triangles
+
+            alternatives = neighbour_triangles(tet.clean, len(faces))
         self._native = _native.NativeScene(
             np.ascontiguousarray(tet.points, dtype=np.float64),
             np.ascontiguousarray(tet.tets, dtype=np.uint32),
@@ -89,9 +99,24 @@ class Scene:
         self.build_times["total"] = tet.timings.get("total", 0.0) + rust
 
     @classmethod
-    def from_mesh(cls, mesh, preset="quality", *, mesher="tetgen", margin=0.02, contain=None,
-                  minratio=None, maxvolume=None, sizing=None, repair="auto", epsilon=None,
-                  edge_length=None, timeout=None, accuracy=None, hilbert=True):
+    def from_mesh(
+        cls,
+        mesh,
+        preset="quality",
+        *,
+        mesher="tetgen",
+        margin=0.02,
+        contain=None,
+        minratio=None,
+        maxvolume=None,
+        sizing=None,
+        repair="auto",
+        epsilon=None,
+        edge_length=None,
+        timeout=None,
+        accuracy=None,
+        hilbert=True,
+    ):
         """Tetrahedralize a triangle scene.
 
         Parameters
@@ -100,7 +125,7 @@ class Scene:
             A mesh, a file trimesh can load, or ``(vertices (V, 3), faces (F, 3))``.
             Non-watertight, multi-component and self-intersecting scenes are accepted.
         preset : str
-            TetGen settings (``tetrace.meshing.PRESETS``): ``"quality"`` (radius-edge
+            TetGen settings (``tetrace.mesh.PRESETS``): ``"quality"`` (radius-edge
             bound 5, the default), ``"quality3"``, ``"quality2"``, ``"quality1.5"`` or any
             ``"quality<r>"`` (tighter bounds, more tets), ``"constrained"`` (constrained
             Delaunay without refinement, fewest tets, more tets per ray), ``"graded"``
@@ -150,20 +175,42 @@ class Scene:
         tetrace.MeshingError
             The scene cannot be meshed; the message names the stage and the cause.
         """
-        from .meshing import FTETWILD_EDGE_LENGTH, FTETWILD_EPSILON, load_triangles, tetrahedralize
+        from .mesh import FTETWILD_EDGE_LENGTH, FTETWILD_EPSILON, load_triangles, tetrahedralize
 
         vertices, faces = load_triangles(mesh)
         tet = tetrahedralize(
-            (vertices, faces), preset, mesher=mesher, margin=margin, contain=contain,
-            minratio=minratio, maxvolume=maxvolume, sizing=sizing, repair=repair,
+            (vertices, faces),
+            preset,
+            mesher=mesher,
+            margin=margin,
+            contain=contain,
+            minratio=minratio,
+            maxvolume=maxvolume,
+            sizing=sizing,
+            repair=repair,
             epsilon=FTETWILD_EPSILON if epsilon is None else epsilon,
             edge_length=FTETWILD_EDGE_LENGTH if edge_length is None else edge_length,
-            timeout=timeout, accuracy=accuracy)
+            timeout=timeout,
+            accuracy=accuracy,
+            measure=measure_accuracy,
+        )
         return cls(tet, vertices, faces, hilbert=hilbert)
 
-    def cast(self, origins, directions=None, *, tmin=0.0, tmax=np.inf, threads=None,
-             max_steps=None, invalid="raise", method=None, layout=None, precision=None,
-             device="cpu"):
+    def cast(
+        self,
+        origins,
+        directions=None,
+        *,
+        tmin=0.0,
+        tmax=np.inf,
+        threads=None,
+        max_steps=None,
+        invalid="raise",
+        method=None,
+        layout=None,
+        precision=None,
+        device="cpu",
+    ):
         """Cast rays and return their closest hits.
 
         Parameters
@@ -224,11 +271,14 @@ class Scene:
         use_gpu = False
         if device == "gpu":
             if precision == "f64":
-                raise ValueError('device="gpu" walks in float32 (WGSL has no float64); use '
-                                 'precision="f32" or device="cpu"')
+                raise ValueError(
+                    'device="gpu" walks in float32 (WGSL has no float64); use '
+                    'precision="f32" or device="cpu"'
+                )
             use_gpu = True
         elif device == "auto" and o.dtype == np.float32:
             from . import gpu
+
             use_gpu = gpu.kernel_for(method, layout) is not None and gpu.available()
         if not use_gpu:
             method = _native.DEFAULT_METHOD if method is None else method
@@ -238,17 +288,54 @@ class Scene:
         hi = prepare_bounds(tmax, n, "tmax")
         if threads is not None and (not isinstance(threads, (int, np.integer)) or threads < 1):
             raise ValueError(f"threads must be a positive int or None, got {threads!r}")
-        if max_steps is not None and (not isinstance(max_steps, (int, np.integer)) or not 0 < max_steps < 2**32):
+        if max_steps is not None and (
+            not isinstance(max_steps, (int, np.integer)) or not 0 < max_steps < 2**32
+        ):
             raise ValueError(f"max_steps must be a positive int below 2**32, got {max_steps!r}")
         if use_gpu:
             o, d = o.astype(np.float32, copy=False), d.astype(np.float32, copy=False)
-            r, self.gpu_timings = self._native.cast_gpu(o, d, lo, hi, threads, max_steps, method,
-                                                        layout)
+            r, self.gpu_timings = self._native.cast_gpu(
+                o, d, lo, hi, threads, max_steps, method, layout
+            )
         else:
             r = self._native.cast(o, d, lo, hi, threads, max_steps, method, layout)
         if invalid == "raise":
             raise_invalid(r["status"], o, d)
         return Hits(**r)
+
+    def _cast_audited(
+        self,
+        origins,
+        directions,
+        *,
+        tmin=0.0,
+        tmax=np.inf,
+        method=None,
+        layout=None,
+        precision="f64",
+        threads=None,
+        max_steps=None,
+    ):
+        """Cast with the exact per-step audit (``tetrace.dev.stress.audited_cast``): the Hits
+        and, per ray, ``(N, 2)`` uint32 counts of exit faces the exact predicates reject and
+        of steps where the method found no exit face."""
+        dt = np.float32 if precision == "f32" else np.float64
+        o = np.ascontiguousarray(origins, dtype=dt)
+        d = np.ascontiguousarray(directions, dtype=dt)
+        n = len(o)
+        r = self._native.cast(
+            o,
+            d,
+            prepare_bounds(tmin, n, "tmin"),
+            prepare_bounds(tmax, n, "tmax"),
+            threads=threads,
+            max_steps=max_steps,
+            method=method,
+            layout=layout,
+            audit=True,
+        )
+        audit = r.pop("audit")
+        return Hits(**r), audit
 
     @property
     def n_tets(self):
@@ -317,8 +404,10 @@ class Scene:
 
     def __repr__(self):
         tz = self.tetrahedralization
-        return (f"Scene({self.n_triangles} triangles, {self.n_tets} tets, {self.n_points} points, "
-                f"mesher={getattr(tz, 'mesher', 'tetgen')!r}, preset={tz.preset!r})")
+        return (
+            f"Scene({self.n_triangles} triangles, {self.n_tets} tets, {self.n_points} points, "
+            f"mesher={getattr(tz, 'mesher', 'tetgen')!r}, preset={tz.preset!r})"
+        )
 
 
 def default_scene_path():
@@ -358,3 +447,48 @@ def cast(rays, scene=None, **kwargs):
             raise ValueError("rays given as a tuple must be (origins, directions)")
         return scene.cast(rays[0], rays[1], **kwargs)
     return scene.cast(rays, **kwargs)
+
+
+def measure_accuracy(
+    tetrahedralization, vertices, faces, *, rays=20_000, seed=0, hit_distance=1e-3
+):
+    """Fraction of random rays on which a tetrahedralization agrees with Embree.
+
+    Parameters
+    ----------
+    tetrahedralization : tetrace.mesh.Tetrahedralization
+    vertices, faces : numpy.ndarray
+        The caller's mesh, which ``tetrahedralization`` was built from.
+    rays : int
+        Random rays, origins uniform in the scene's box grown by a quarter of its size
+        on each side, directions uniform on the sphere.
+    seed : int
+    hit_distance : float
+        Hits on different triangles agree when the hit points are this close, as a
+        fraction of the scene's diagonal (``tetrace.mesh.auto.HIT_DISTANCE``: fTetWild's
+        surface lies within its envelope of the input).
+
+    Returns
+    -------
+    float
+        Rays with the same outcome as Embree (both miss, or both hit the same triangle
+        or points within ``hit_distance``), over all rays.
+
+    Raises
+    ------
+    ImportError
+        embreex is not installed.
+    """
+    from .baselines.embree import embree_scene
+    from .dev.camera import random_rays
+
+    v = np.asarray(vertices, np.float64)
+    o, d = random_rays(np.array([v.min(0), v.max(0)]), int(rays), seed)
+    hits = Scene(tetrahedralization, v, faces).cast(o, d, precision="f64")
+    ref = embree_scene((v, faces)).cast(o, d)
+    diagonal = float(np.linalg.norm(v.max(0) - v.min(0)))
+    near = np.linalg.norm(hits.point - ref.point, axis=1) <= hit_distance * diagonal
+    same = (hits.status == ref.status) & (
+        (hits.status != HIT) | (hits.triangle == ref.triangle) | near
+    )
+    return float(same.mean())

@@ -9,8 +9,10 @@ from .scene_bench import run_scene_bench
 def agreement_main(argv):
     from .agreement import run_agreement
 
-    p = argparse.ArgumentParser(prog="python -m tetrace.bench agreement",
-                                description="tetrace and embreex judged by the exact referee on the acceptance rays.")
+    p = argparse.ArgumentParser(
+        prog="python -m tetrace.bench agreement",
+        description="tetrace and embreex judged by the exact referee on the acceptance rays.",
+    )
     p.add_argument("scenes", nargs="*", help="mesh files (default: the bundled scene)")
     p.add_argument("--res", type=int, default=1024)
     p.add_argument("--random", type=int, default=100_000)
@@ -25,26 +27,48 @@ def scenes_main(argv):
     p = argparse.ArgumentParser(
         prog="python -m tetrace.bench scenes",
         description="Build every shared scene (mesher fallback: TetGen exact, snap-rounded, "
-                    "then fTetWild) and compare camera and random rays with embreex: one row "
-                    "per scene (mesher, tets, build seconds, agreement).")
+        "then fTetWild) and compare camera and random rays with embreex: one row "
+        "per scene (mesher, tets, build seconds, agreement).",
+    )
     p.add_argument("scenes", nargs="*", help="mesh files (default: every mesh in --dir)")
-    p.add_argument("--dir", default=None,
-                   help="scenes folder (default: $TETRACE_SCENES or ../shared/scenes)")
-    p.add_argument("--mesher", default="fallback", choices=["tetgen", "ftetwild", "fallback", "auto"])
-    p.add_argument("--accuracy", type=float, default=None,
-                   help="mesher auto: agreement with Embree to reach (default 0.999)")
+    p.add_argument(
+        "--dir", default=None, help="scenes folder (default: $TETRACE_SCENES or ../shared/scenes)"
+    )
+    p.add_argument(
+        "--mesher", default="fallback", choices=["tetgen", "ftetwild", "fallback", "auto"]
+    )
+    p.add_argument(
+        "--accuracy",
+        type=float,
+        default=None,
+        help="mesher auto: agreement with Embree to reach (default 0.999)",
+    )
     p.add_argument("--preset", default="quality")
-    p.add_argument("--epsilon", type=float, default=None, help="fTetWild envelope (of the diagonal)")
+    p.add_argument(
+        "--epsilon", type=float, default=None, help="fTetWild envelope (of the diagonal)"
+    )
     p.add_argument("--res", type=int, default=512, help="camera resolution (3 views)")
     p.add_argument("--random", type=int, default=100_000, help="random rays")
-    p.add_argument("--timeout", type=float, default=None,
-                   help="seconds per meshing stage (default: grows with the scene)")
+    p.add_argument(
+        "--timeout",
+        type=float,
+        default=None,
+        help="seconds per meshing stage (default: grows with the scene)",
+    )
     p.add_argument("--json", default=None, help="also write the rows as JSON here")
     args = p.parse_args(argv)
     paths = args.scenes or scene_files(args.dir or default_scenes_dir())
-    run_scenes(paths, mesher=args.mesher, preset=args.preset, res=args.res,
-               n_random=args.random, timeout=args.timeout, epsilon=args.epsilon,
-               accuracy=args.accuracy, json_path=args.json)
+    run_scenes(
+        paths,
+        mesher=args.mesher,
+        preset=args.preset,
+        res=args.res,
+        n_random=args.random,
+        timeout=args.timeout,
+        epsilon=args.epsilon,
+        accuracy=args.accuracy,
+        json_path=args.json,
+    )
     return 0
 
 
@@ -55,7 +79,8 @@ def exitface_main(argv):
     p = argparse.ArgumentParser(
         prog="python -m tetrace.bench exitface",
         description="Exit-face micro-benchmark (after Maria et al. 2017, Table 5): random tets, "
-                    "random rays stabbing them, ns per exit-face decision, one thread.")
+        "random rays stabbing them, ns per exit-face decision, one thread.",
+    )
     p.add_argument("--tets", type=int, default=10_000)
     p.add_argument("--rays-per-tet", type=int, default=16)
     p.add_argument("--repeat", type=int, default=5, help="passes; the best is kept")
@@ -63,26 +88,40 @@ def exitface_main(argv):
     args = p.parse_args(argv)
     rows = _native.exitface_bench(args.tets, args.rays_per_tet, args.seed, args.repeat)
     n = args.tets * args.rays_per_tet
-    print(f"exit-face decisions: {args.tets:,} random tets x {args.rays_per_tet} rays = {n:,} "
-          f"decisions per method, best of {args.repeat}, one thread")
-    print(_table([[m, p, f"{ns:.2f}", f"{wrong}"] for m, p, ns, wrong in rows],
-                 ["method", "precision", "ns/decision", "not an exact exit face"]))
+    print(
+        f"exit-face decisions: {args.tets:,} random tets x {args.rays_per_tet} rays = {n:,} "
+        f"decisions per method, best of {args.repeat}, one thread"
+    )
+    print(
+        _table(
+            [[m, p, f"{ns:.2f}", f"{wrong}"] for m, p, ns, wrong in rows],
+            ["method", "precision", "ns/decision", "not an exact exit face"],
+        )
+    )
     return 0
 
 
 def stability_main(argv):
     from .stability import run_stability
 
-    p = argparse.ArgumentParser(prog="python -m tetrace.bench stability",
-                                description="Outcomes of every method on the stress families.")
+    p = argparse.ArgumentParser(
+        prog="python -m tetrace.bench stability",
+        description="Outcomes of every method on the stress families.",
+    )
     p.add_argument("--rays", type=int, default=20_000, help="rays per family")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--family", action="append", default=None,
-                   help="stress family (repeatable; default: all)")
-    p.add_argument("--method", action="append", default=None,
-                   help="exit method (repeatable; default: all)")
-    p.add_argument("--layout", action="append", default=None,
-                   help="tet layout (repeatable, or 'all'; default: tet32)")
+    p.add_argument(
+        "--family", action="append", default=None, help="stress family (repeatable; default: all)"
+    )
+    p.add_argument(
+        "--method", action="append", default=None, help="exit method (repeatable; default: all)"
+    )
+    p.add_argument(
+        "--layout",
+        action="append",
+        default=None,
+        help="tet layout (repeatable, or 'all'; default: tet32)",
+    )
     p.add_argument("--precision", choices=["f32", "f64", "both"], default="both")
     p.add_argument("--json", default=None, help="also write the rows as JSON here")
     args = p.parse_args(argv)
@@ -92,8 +131,9 @@ def stability_main(argv):
     if layouts == ["all"]:
         layouts = [name for name, _ in _native.layouts()]
     precisions = ["f32", "f64"] if args.precision == "both" else [args.precision]
-    run_stability(args.rays, args.seed, args.family, args.method, layouts, precisions,
-                  json_path=args.json)
+    run_stability(
+        args.rays, args.seed, args.family, args.method, layouts, precisions, json_path=args.json
+    )
     return 0
 
 
@@ -101,9 +141,11 @@ def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
     if argv[:1] == ["matrix"]:
         from .matrix import matrix_main
+
         return matrix_main(argv[1:])
     if argv[:1] == ["growth"]:
         from .growth import growth_main
+
         return growth_main(argv[1:])
     if argv[:1] == ["stability"]:
         return stability_main(argv[1:])
@@ -116,41 +158,71 @@ def main(argv=None):
     p = argparse.ArgumentParser(
         prog="python -m tetrace.bench",
         description="Full-scene benchmark: a pinhole camera cast by tetrace and by embreex on "
-                    "the same rays, with build times, structure size and hit agreement. "
-                    "'python -m tetrace.bench agreement [mesh ...]' reports agreement on the "
-                    "acceptance rays instead; 'python -m tetrace.bench scenes' builds every "
-                    "shared scene and reports mesher, tets, build time and agreement.",
+        "the same rays, with build times, structure size and hit agreement. "
+        "'python -m tetrace.bench agreement [mesh ...]' reports agreement on the "
+        "acceptance rays instead; 'python -m tetrace.bench scenes' builds every "
+        "shared scene and reports mesher, tets, build time and agreement.",
     )
-    p.add_argument("scene", nargs="?", default=None,
-                   help="mesh file (default: the bundled scene, Spot)")
+    p.add_argument(
+        "scene", nargs="?", default=None, help="mesh file (default: the bundled scene, Spot)"
+    )
     p.add_argument("--preset", default="quality", help="meshing preset (default: quality)")
     p.add_argument("--width", type=int, default=1024)
     p.add_argument("--height", type=int, default=1024)
     p.add_argument("--repeat", type=int, default=3, help="timed repetitions; the best is kept")
-    p.add_argument("--distance", type=float, default=1.6,
-                   help="camera distance from the scene centre, in bounding radii")
+    p.add_argument(
+        "--distance",
+        type=float,
+        default=1.6,
+        help="camera distance from the scene centre, in bounding radii",
+    )
     p.add_argument("--image", default=None, help="write a shaded PNG of the camera's hits here")
     p.add_argument("--json", default=None, help="also write the results as JSON here")
-    p.add_argument("--method", action="append", default=None,
-                   help="exit method (repeatable, or 'all'; default: the default method)")
-    p.add_argument("--layout", action="append", default=None,
-                   help="tet layout (repeatable, or 'all'; default: the default layout)")
+    p.add_argument(
+        "--method",
+        action="append",
+        default=None,
+        help="exit method (repeatable, or 'all'; default: the default method)",
+    )
+    p.add_argument(
+        "--layout",
+        action="append",
+        default=None,
+        help="tet layout (repeatable, or 'all'; default: the default layout)",
+    )
     p.add_argument("--precision", choices=["f32", "f64", "both"], default="both")
-    p.add_argument("--order", choices=["hilbert", "mesher", "both"], default="hilbert",
-                   help="point/tet order: Hilbert within regions, TetGen's, or both")
+    p.add_argument(
+        "--order",
+        choices=["hilbert", "mesher", "both"],
+        default="hilbert",
+        help="point/tet order: Hilbert within regions, TetGen's, or both",
+    )
     p.add_argument("--threads", choices=["1", "all", "both"], default="both")
-    p.add_argument("--device", choices=["cpu", "gpu", "both"], default="cpu",
-                   help="cpu: the CPU walks (default); gpu: only the GPU kernels (kernel "
-                        "Mrays/s, upload and readback timed apart); both")
+    p.add_argument(
+        "--device",
+        choices=["cpu", "gpu", "both"],
+        default="cpu",
+        help="cpu: the CPU walks (default); gpu: only the GPU kernels (kernel "
+        "Mrays/s, upload and readback timed apart); both",
+    )
     args = p.parse_args(argv)
     both = lambda x, pair: pair if x == "both" else (x,)
-    run_scene_bench(args.scene, preset=args.preset, width=args.width, height=args.height,
-                    repeat=args.repeat, distance=args.distance, image=args.image,
-                    json_path=args.json, methods=args.method, layouts=args.layout,
-                    precisions=both(args.precision, ("f32", "f64")),
-                    orders=both(args.order, ("hilbert", "mesher")),
-                    threads=both(args.threads, ("1", "all")),
-                    devices=both(args.device, ("cpu", "gpu")))
+    run_scene_bench(
+        args.scene,
+        preset=args.preset,
+        width=args.width,
+        height=args.height,
+        repeat=args.repeat,
+        distance=args.distance,
+        image=args.image,
+        json_path=args.json,
+        methods=args.method,
+        layouts=args.layout,
+        precisions=both(args.precision, ("f32", "f64")),
+        orders=both(args.order, ("hilbert", "mesher")),
+        threads=both(args.threads, ("1", "all")),
+        devices=both(args.device, ("cpu", "gpu")),
+    )
     return 0
 
 

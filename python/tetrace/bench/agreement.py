@@ -14,15 +14,17 @@ import time
 
 import numpy as np
 
-from ..camera import orbit_views, pinhole, random_rays
-from ..compare import agreement
+from ..dev.camera import orbit_views, pinhole, random_rays
+from ..dev.compare import agreement
 from ..scene import Scene, default_scene_path
 
 
 def ray_sets(bounds, res=1024, n_random=100_000):
     """The acceptance rays: three orbit views of res x res pixels, and random rays."""
-    sets = [(f"view{k}", *pinhole(*v, fov_deg=40.0, width=res, height=res, dtype=np.float64))
-            for k, v in enumerate(orbit_views(bounds, n=3, distance=1.6))]
+    sets = [
+        (f"view{k}", *pinhole(*v, fov_deg=40.0, width=res, height=res, dtype=np.float64))
+        for k, v in enumerate(orbit_views(bounds, n=3, distance=1.6))
+    ]
     sets.append(("random", *random_rays(bounds, n_random, seed=1234, grow=0.25)))
     return sets
 
@@ -36,7 +38,7 @@ def run_agreement(paths, *, res=1024, n_random=100_000, methods=None, out=print)
         One row per scene, ray set, precision and caster.
     """
     from .. import _native
-    from ..reference import embree_scene
+    from ..baselines.embree import embree_scene
     from ..referee import Referee
     from .scene_bench import _table
 
@@ -56,19 +58,69 @@ def run_agreement(paths, *, res=1024, n_random=100_000, methods=None, out=print)
                 casts = {f"tetrace {m}": (scene.cast(o2, d2, method=m), "f64") for m in methods}
                 casts["embreex rtcIntersect1 (float32)"] = (ref_scene.cast(o2, d2), "f32")
                 t1 = time.perf_counter()
-                verdict = referee.first_hits(o2, d2, hint=casts[f"tetrace {methods[0]}"][0].triangle)
+                verdict = referee.first_hits(
+                    o2, d2, hint=casts[f"tetrace {methods[0]}"][0].triangle
+                )
                 judge_s = time.perf_counter() - t1
                 for caster, (h, arith) in casts.items():
                     a = agreement(h, verdict, arith)
-                    rows.append(dict(scene=os.path.basename(path), tets=scene.n_tets,
-                                     build_s=build, rays=name, precision=np.dtype(dtype).name,
-                                     caster=caster, n=a.rays, right=a.right, failed=a.failed,
-                                     leaked=a.leaked, late=a.late, wrong=a.wrong, t_off=a.t_off,
-                                     max_t_ulps=a.max_t_ulps, ties=a.ties,
-                                     referee_s=judge_s, exact_pairs=verdict.exact_pairs))
-    table = [[r["scene"], r["rays"], r["precision"], r["caster"], f"{r['n']:,}",
-              f"{r['right'] / max(r['n'], 1) * 100:.4f}%", r["failed"], r["leaked"], r["late"],
-              r["wrong"], r["t_off"], f"{r['max_t_ulps']:.3g}", r["ties"]] for r in rows]
-    out(_table(table, ["scene", "rays", "prec", "caster", "N", "right", "failed", "leaked",
-                       "late", "wrong", "of which t off", "max ulp", "tied rays"]))
+                    rows.append(
+                        dict(
+                            scene=os.path.basename(path),
+                            tets=scene.n_tets,
+                            build_s=build,
+                            rays=name,
+                            precision=np.dtype(dtype).name,
+                            caster=caster,
+                            n=a.rays,
+                            right=a.right,
+                            failed=a.failed,
+                            leaked=a.leaked,
+                            late=a.late,
+                            wrong=a.wrong,
+                            t_off=a.t_off,
+                            max_t_ulps=a.max_t_ulps,
+                            ties=a.ties,
+                            referee_s=judge_s,
+                            exact_pairs=verdict.exact_pairs,
+                        )
+                    )
+    table = [
+        [
+            r["scene"],
+            r["rays"],
+            r["precision"],
+            r["caster"],
+            f"{r['n']:,}",
+            f"{r['right'] / max(r['n'], 1) * 100:.4f}%",
+            r["failed"],
+            r["leaked"],
+            r["late"],
+            r["wrong"],
+            r["t_off"],
+            f"{r['max_t_ulps']:.3g}",
+            r["ties"],
+        ]
+        for r in rows
+    ]
+    out(
+        _table(
+            table,
+            [
+                "scene",
+                "rays",
+                "prec",
+                "caster",
+                "N",
+                "right",
+                "failed",
+                "leaked",
+                "late",
+                "wrong",
+                "of which t off",
+                "max ulp",
+                "tied rays",
+            ],
+        )
+    )
     return rows

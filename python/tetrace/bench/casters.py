@@ -7,9 +7,9 @@ treats every caster alike:
   widened exactly (so one exact verdict of :mod:`tetrace.referee` judges every caster);
 * **the same scheduling**: the same thread count ``k`` and dynamic chunks, never a static
   split and never a cap on ``k``: tetrace's rayon pool of ``k`` threads steals
-  :data:`~tetrace.reference.CHUNK`-ray chunks; embreex's ``k`` threads take
-  :data:`~tetrace.reference.CHUNK`-ray chunks from one shared queue
-  (:func:`tetrace.reference.run_chunks`); Open3D's ``cast_rays(nthreads=k)`` runs TBB's
+  :data:`~tetrace.baselines.embree.CHUNK`-ray chunks; embreex's ``k`` threads take
+  :data:`~tetrace.baselines.embree.CHUNK`-ray chunks from one shared queue
+  (:func:`tetrace.baselines.embree.run_chunks`); Open3D's ``cast_rays(nthreads=k)`` runs TBB's
   ``parallel_for`` over chunks of at most 1024 rays in a ``k``-thread arena (its own
   scheduler: ``cast_rays`` holds the GIL, so Python threads cannot drive it);
 * **the same timing**: one untimed warm-up cast of the same rays on the same threads (lazy
@@ -25,8 +25,8 @@ import time
 
 import numpy as np
 
+from ..baselines.embree import CHUNK
 from ..hits import HIT, MISS, Hits
-from ..reference import CHUNK
 
 #: Rays per chunk of Open3D's ``RaycastingScene.cast_rays`` (``BATCH_SIZE``, the grain of its
 #: ``tbb::blocked_range``: TBB splits the range into chunks of at most this many rays).
@@ -80,11 +80,16 @@ def _peer_hits(origins, directions, prim, t, u, v):
     with np.errstate(invalid="ignore", over="ignore"):
         point = origins + t[:, None] * directions
     point[~hit] = np.nan
-    return Hits(t=t, triangle=np.where(hit, prim, -1).astype(np.int32),
-                u=np.where(hit, u, np.nan).astype(np.float32),
-                v=np.where(hit, v, np.nan).astype(np.float32), point=point.astype(np.float32),
-                tet=np.full(n, -1, np.int32), steps=np.zeros(n, np.uint32),
-                status=np.where(hit, np.uint8(HIT), np.uint8(MISS)))
+    return Hits(
+        t=t,
+        triangle=np.where(hit, prim, -1).astype(np.int32),
+        u=np.where(hit, u, np.nan).astype(np.float32),
+        v=np.where(hit, v, np.nan).astype(np.float32),
+        point=point.astype(np.float32),
+        tet=np.full(n, -1, np.int32),
+        steps=np.zeros(n, np.uint32),
+        status=np.where(hit, np.uint8(HIT), np.uint8(MISS)),
+    )
 
 
 class TetraceCaster:
@@ -110,8 +115,10 @@ class TetraceCaster:
     def label(self):
         from .. import __version__
 
-        return (f"tetrace {__version__}: Scene.cast(method={self.method}, layout={self.layout}, "
-                f"precision={self.precision}, device={self.device})")
+        return (
+            f"tetrace {__version__}: Scene.cast(method={self.method}, layout={self.layout}, "
+            f"precision={self.precision}, device={self.device})"
+        )
 
     def schedule(self, threads):
         if self.device == "gpu":
@@ -132,7 +139,7 @@ class EmbreexCaster:
     """embreex's ``EmbreeScene.run`` (``rtcIntersect1`` per ray), robust flag set.
 
     Built (BVH committed) in the constructor; :meth:`cast` is
-    :meth:`tetrace.reference.EmbreeReference.intersect` on float32 rays.
+    :meth:`tetrace.baselines.embree.EmbreeReference.intersect` on float32 rays.
     """
 
     name = "embreex"
@@ -140,7 +147,7 @@ class EmbreexCaster:
     arithmetic = "f32"
 
     def __init__(self, vertices, faces, robust=True):
-        from ..reference import embree_scene
+        from ..baselines.embree import embree_scene
 
         self.reference = embree_scene((vertices, faces), robust=robust)
         self.build_seconds = self.reference.build_seconds
@@ -185,18 +192,24 @@ class Open3DCaster:
         self.o3d = o3d
         t0 = time.perf_counter()
         self.scene = o3d.t.geometry.RaycastingScene()
-        self.scene.add_triangles(o3d.core.Tensor(np.ascontiguousarray(vertices, np.float32)),
-                                 o3d.core.Tensor(np.ascontiguousarray(faces, np.uint32)))
+        self.scene.add_triangles(
+            o3d.core.Tensor(np.ascontiguousarray(vertices, np.float32)),
+            o3d.core.Tensor(np.ascontiguousarray(faces, np.uint32)),
+        )
         self.build_seconds = time.perf_counter() - t0  # the BVH itself is built on first cast
 
     @property
     def label(self):
-        return (f"Open3D {self.o3d.__version__}: RaycastingScene.cast_rays (its bundled Embree, "
-                f"rtcIntersect1 one ray per call, RTC_SCENE_FLAG_ROBUST)")
+        return (
+            f"Open3D {self.o3d.__version__}: RaycastingScene.cast_rays (its bundled Embree, "
+            f"rtcIntersect1 one ray per call, RTC_SCENE_FLAG_ROBUST)"
+        )
 
     def schedule(self, threads):
-        return (f"{_threads(threads)}: TBB parallel_for over chunks of at most {OPEN3D_CHUNK} rays "
-                f"(cast_rays nthreads={threads})")
+        return (
+            f"{_threads(threads)}: TBB parallel_for over chunks of at most {OPEN3D_CHUNK} rays "
+            f"(cast_rays nthreads={threads})"
+        )
 
     def cast(self, origins, directions, threads):
         rays = self.o3d.core.Tensor(np.ascontiguousarray(np.hstack([origins, directions])))

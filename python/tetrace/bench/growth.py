@@ -17,8 +17,8 @@ import re
 
 import numpy as np
 
-from ..camera import orbit_views, pinhole
-from ..compare import agreement, compare
+from ..dev.camera import orbit_views, pinhole
+from ..dev.compare import agreement, compare
 from ..referee import Referee
 from ..scene import Scene, default_scene_path
 from .casters import EmbreexCaster, TetraceCaster, timed
@@ -111,8 +111,19 @@ def make_world(v, f, name, *, eye, spacing=30.0, stadium_size=100.0):
     return np.vstack(vs), np.vstack(fs), n_stadium
 
 
-def run_growth(path=None, worlds=QUICK, *, preset="quality", res=512, repeat=3, spacing=30.0,
-               stadium_size=100.0, json_path=None, png_path=None, out=print):
+def run_growth(
+    path=None,
+    worlds=QUICK,
+    *,
+    preset="quality",
+    res=512,
+    repeat=3,
+    spacing=30.0,
+    stadium_size=100.0,
+    json_path=None,
+    png_path=None,
+    out=print,
+):
     """Cast one camera at one object in ever bigger worlds, with tetrace and embreex.
 
     Parameters
@@ -141,8 +152,8 @@ def run_growth(path=None, worlds=QUICK, *, preset="quality", res=512, repeat=3, 
         One row per world, with everything printed as numbers.
     """
     from .. import _native
-    from ..meshing import load_triangles
-    from ..reference import cpu_count
+    from ..baselines.embree import cpu_count
+    from ..io import load_triangles
 
     v, f = load_triangles(str(path) if path is not None else str(default_scene_path()))
     n_obj = len(f)
@@ -152,8 +163,9 @@ def run_growth(path=None, worlds=QUICK, *, preset="quality", res=512, repeat=3, 
     ncpu = cpu_count()
     rows, table = [], []
     for name in worlds:
-        wv, wf, n_stadium = make_world(v, f, name, eye=eye, spacing=spacing,
-                                       stadium_size=stadium_size)
+        wv, wf, n_stadium = make_world(
+            v, f, name, eye=eye, spacing=spacing, stadium_size=stadium_size
+        )
         # The domain holds the eye in every world, so every walk starts inside it alike.
         scene = Scene.from_mesh((wv, wf), preset, contain=eye[None])
         bt = scene.build_times
@@ -178,49 +190,114 @@ def run_growth(path=None, worlds=QUICK, *, preset="quality", res=512, repeat=3, 
             to1, eo1 = rate(ours, oo, od, 1), rate(embreex, oo, od, 1)
         a = compare(hits, ref, wv, wf)
         steps = hits.steps.astype(np.float64)
-        mean = lambda m: float(steps[m].mean()) if m.any() else float("nan")
-        row = dict(world=name, object_triangles=n_obj, copies=_parse_world(name)[0],
-                   stadium_triangles=n_stadium, triangles=int(len(wf)), tets=scene.n_tets,
-                   points=scene.n_points, mesh_s=float(bt.get("mesher", bt.get("tetgen", 0.0))),
-                   clean_repair_s=float(bt.get("clean", 0.0) + bt.get("repair", 0.0)),
-                   rust_s=float(bt["rust"]), embree_build_s=float(embreex.build_seconds),
-                   rays=n, object_fraction=float(on.mean()),
-                   nothing_fraction=float((~exact.hit).mean()),
-                   tetrace_object_fraction=float(((hits.triangle >= 0)
-                                                  & (hits.triangle < n_obj)).mean()),
-                   tets_per_ray=float(steps.mean()), tets_per_object_ray=mean(on),
-                   tets_per_miss_ray=mean(~on), tetrace_mrays_1=tt1, embreex_mrays_1=te1,
-                   ratio_1=tt1 / te1, threads_all=ncpu, tetrace_mrays_all=tta,
-                   embreex_mrays_all=tea, ratio_all=tta / tea, tetrace_object_mrays_1=to1,
-                   embreex_object_mrays_1=eo1, embreex_agreement=a.fraction,
-                   right=score.fraction, leaked=score.leaked, late=score.late,
-                   wrong=score.wrong, t_off=score.t_off, failed=score.failed,
-                   tetrace_label=ours.label, embreex_label=embreex.label,
-                   tetrace_schedule=ours.schedule(ncpu), embreex_schedule=embreex.schedule(ncpu))
+        mean = lambda m, steps=steps: float(steps[m].mean()) if m.any() else float("nan")
+        row = dict(
+            world=name,
+            object_triangles=n_obj,
+            copies=_parse_world(name)[0],
+            stadium_triangles=n_stadium,
+            triangles=int(len(wf)),
+            tets=scene.n_tets,
+            points=scene.n_points,
+            mesh_s=float(bt.get("mesher", bt.get("tetgen", 0.0))),
+            clean_repair_s=float(bt.get("clean", 0.0) + bt.get("repair", 0.0)),
+            rust_s=float(bt["rust"]),
+            embree_build_s=float(embreex.build_seconds),
+            rays=n,
+            object_fraction=float(on.mean()),
+            nothing_fraction=float((~exact.hit).mean()),
+            tetrace_object_fraction=float(((hits.triangle >= 0) & (hits.triangle < n_obj)).mean()),
+            tets_per_ray=float(steps.mean()),
+            tets_per_object_ray=mean(on),
+            tets_per_miss_ray=mean(~on),
+            tetrace_mrays_1=tt1,
+            embreex_mrays_1=te1,
+            ratio_1=tt1 / te1,
+            threads_all=ncpu,
+            tetrace_mrays_all=tta,
+            embreex_mrays_all=tea,
+            ratio_all=tta / tea,
+            tetrace_object_mrays_1=to1,
+            embreex_object_mrays_1=eo1,
+            embreex_agreement=a.fraction,
+            right=score.fraction,
+            leaked=score.leaked,
+            late=score.late,
+            wrong=score.wrong,
+            t_off=score.t_off,
+            failed=score.failed,
+            tetrace_label=ours.label,
+            embreex_label=embreex.label,
+            tetrace_schedule=ours.schedule(ncpu),
+            embreex_schedule=embreex.schedule(ncpu),
+        )
         rows.append(row)
-        table.append([name, f"{row['triangles']:,}", f"{row['tets']:,}", f"{row['mesh_s']:.2f}",
-                      f"{row['rust_s']:.2f}", f"{row['object_fraction'] * 100:.1f}",
-                      f"{row['nothing_fraction'] * 100:.1f}", f"{row['tets_per_ray']:.1f}",
-                      f"{row['tets_per_object_ray']:.1f}", f"{row['tets_per_miss_ray']:.1f}",
-                      f"{tt1:.2f}", f"{te1:.2f}", f"{tt1 / te1:.2f}", f"{tta:.2f}", f"{tea:.2f}",
-                      f"{tta / tea:.2f}", f"{to1:.2f}", f"{eo1:.2f}", f"{score.fraction * 100:.3f}%",
-                      f"{score.leaked}/{score.late}/{score.wrong}", f"{a.fraction * 100:.3f}%"])
+        table.append(
+            [
+                name,
+                f"{row['triangles']:,}",
+                f"{row['tets']:,}",
+                f"{row['mesh_s']:.2f}",
+                f"{row['rust_s']:.2f}",
+                f"{row['object_fraction'] * 100:.1f}",
+                f"{row['nothing_fraction'] * 100:.1f}",
+                f"{row['tets_per_ray']:.1f}",
+                f"{row['tets_per_object_ray']:.1f}",
+                f"{row['tets_per_miss_ray']:.1f}",
+                f"{tt1:.2f}",
+                f"{te1:.2f}",
+                f"{tt1 / te1:.2f}",
+                f"{tta:.2f}",
+                f"{tea:.2f}",
+                f"{tta / tea:.2f}",
+                f"{to1:.2f}",
+                f"{eo1:.2f}",
+                f"{score.fraction * 100:.3f}%",
+                f"{score.leaked}/{score.late}/{score.wrong}",
+                f"{a.fraction * 100:.3f}%",
+            ]
+        )
         # the next world may be 100x bigger: free this one first
         del scene, ours, embreex, hits, ref, exact
-    out(f"local complexity: {os.path.basename(str(path or default_scene_path()))} ({n_obj:,} "
+    out(
+        f"local complexity: {os.path.basename(str(path or default_scene_path()))} ({n_obj:,} "
         f"triangles), preset {preset!r}, {res}x{res} camera at 1.6 bounding radii, copies at "
         f"{spacing:g} diagonals, stadium {stadium_size:g} diagonals across, best of {repeat}; "
         f"Mrays/s on 1 thread and on all {ncpu}; 'obj rays' = only the rays whose first hit the "
         f"exact referee finds on the object; 'right' and 'leaked/late/wrong': tetrace judged by "
-        f"the referee; 'same as embreex': same outcome and triangle id")
+        f"the referee; 'same as embreex': same outcome and triangle id"
+    )
     if rows:
         out(f"tetrace = {rows[0]['tetrace_label']}; {rows[0]['tetrace_schedule']} (at {ncpu})")
         out(f"embreex = {rows[0]['embreex_label']}; {rows[0]['embreex_schedule']} (at {ncpu})")
-    out(_table(table, ["world", "triangles", "tets", "mesh s", "rust s", "obj %", "nothing %",
-                       "tets/ray", "tets/obj ray", "tets/miss ray", "tetrace 1T", "embreex 1T",
-                       "x", f"tetrace {ncpu}T", f"embreex {ncpu}T", "x", "tetrace obj rays 1T",
-                       "embreex obj rays 1T", "right", "leaked/late/wrong",
-                       "same as embreex"]))
+    out(
+        _table(
+            table,
+            [
+                "world",
+                "triangles",
+                "tets",
+                "mesh s",
+                "rust s",
+                "obj %",
+                "nothing %",
+                "tets/ray",
+                "tets/obj ray",
+                "tets/miss ray",
+                "tetrace 1T",
+                "embreex 1T",
+                "x",
+                f"tetrace {ncpu}T",
+                f"embreex {ncpu}T",
+                "x",
+                "tetrace obj rays 1T",
+                "embreex obj rays 1T",
+                "right",
+                "leaked/late/wrong",
+                "same as embreex",
+            ],
+        )
+    )
     out(verdict(rows))
     if json_path:
         with open(json_path, "w") as fh:
@@ -251,39 +328,58 @@ def verdict(rows):
         f"miss the object walked {ch('tets_per_miss_ray')} tets, their surroundings having "
         f"changed. tetrace was right (exact referee) on >= "
         f"{min(r['right'] for r in rows) * 100:.3f}% of rays in every world. "
-        + ("Consistent with Lagae & Dutré: where a ray's neighbourhood is unchanged, tetrace's "
-           "cost did not follow the scene's size."
-           if local else
-           "Not consistent with a purely local cost: the object's rays got dearer (over 20% "
-           "more or fewer tets, or a third slower) as the world grew."))
+        + (
+            "Consistent with Lagae & Dutré: where a ray's neighbourhood is unchanged, tetrace's "
+            "cost did not follow the scene's size."
+            if local
+            else "Not consistent with a purely local cost: the object's rays got dearer (over 20% "
+            "more or fewer tets, or a third slower) as the world grew."
+        )
+    )
 
 
 def _plot(rows, path):
     """Mrays/s (left) and tets per ray (right) against the world's triangles (log)."""
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     rows = sorted(rows, key=lambda r: r["triangles"])
     # Lines join the copies-only worlds; the stadium worlds are another family: hollow markers.
-    groups = [([r for r in rows if not r["stadium_triangles"]], "-", None),
-              ([r for r in rows if r["stadium_triangles"]], "none", "none")]
+    groups = [
+        ([r for r in rows if not r["stadium_triangles"]], "-", None),
+        ([r for r in rows if r["stadium_triangles"]], "none", "none"),
+    ]
     fig, ax = plt.subplots(figsize=(9, 6))
     ax2 = ax.twinx()
-    series = [(ax, "tetrace_mrays_1", "tetrace, all rays", "o", "C0", "-"),
-              (ax, "tetrace_object_mrays_1", "tetrace, object rays", "o", "C0", "--"),
-              (ax, "embreex_mrays_1", "embreex, all rays", "s", "C1", "-"),
-              (ax, "embreex_object_mrays_1", "embreex, object rays", "s", "C1", "--"),
-              (ax2, "tets_per_object_ray", "tets/ray, object rays", "^", "C2", ":"),
-              (ax2, "tets_per_miss_ray", "tets/ray, other rays", "v", "C3", ":")]
+    series = [
+        (ax, "tetrace_mrays_1", "tetrace, all rays", "o", "C0", "-"),
+        (ax, "tetrace_object_mrays_1", "tetrace, object rays", "o", "C0", "--"),
+        (ax, "embreex_mrays_1", "embreex, all rays", "s", "C1", "-"),
+        (ax, "embreex_object_mrays_1", "embreex, object rays", "s", "C1", "--"),
+        (ax2, "tets_per_object_ray", "tets/ray, object rays", "^", "C2", ":"),
+        (ax2, "tets_per_miss_ray", "tets/ray, other rays", "v", "C3", ":"),
+    ]
     for axis, key, label, marker, color, line in series:
         for group, joined, face in groups:
-            axis.plot([r["triangles"] for r in group], [r[key] for r in group], marker=marker,
-                      color=color, mfc=face, ls=line if joined == "-" else "none",
-                      label=label if face is None else None)
+            axis.plot(
+                [r["triangles"] for r in group],
+                [r[key] for r in group],
+                marker=marker,
+                color=color,
+                mfc=face,
+                ls=line if joined == "-" else "none",
+                label=label if face is None else None,
+            )
     for r in rows:
-        ax.annotate(r["world"], (r["triangles"], r["tetrace_mrays_1"]), fontsize=8,
-                    textcoords="offset points", xytext=(3, 5))
+        ax.annotate(
+            r["world"],
+            (r["triangles"], r["tetrace_mrays_1"]),
+            fontsize=8,
+            textcoords="offset points",
+            xytext=(3, 5),
+        )
     ax.plot([], [], "o", color="gray", mfc="none", label="hollow: stadium worlds")
     ax.set_xscale("log")
     ax.margins(x=0.1)  # room for the last world's label
@@ -294,8 +390,7 @@ def _plot(rows, path):
     ax2.set_ylim(bottom=0)
     h1, l1 = ax.get_legend_handles_labels()
     h2, l2 = ax2.get_legend_handles_labels()
-    ax.legend(h1 + h2, l1 + l2, fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.13),
-              ncol=4)
+    ax.legend(h1 + h2, l1 + l2, fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=4)
     ax.set_title("Local complexity: one object and camera, growing world")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
@@ -307,12 +402,12 @@ def growth_main(argv):
     p = argparse.ArgumentParser(
         prog="python -m tetrace.bench growth",
         description="Local complexity (Lagae & Dutre 2008): one object and one camera in ever "
-                    "bigger worlds (far copies, a stadium bowl); tetrace and embreex rates, "
-                    "tets per ray on the object's rays and the others, tetrace judged by the "
-                    "exact referee.")
+        "bigger worlds (far copies, a stadium bowl); tetrace and embreex rates, "
+        "tets per ray on the object's rays and the others, tetrace judged by the "
+        "exact referee.",
+    )
     p.add_argument("--scene", default=None, help="object mesh (default: the bundled Spot)")
-    p.add_argument("--worlds", default=None,
-                   help=f"comma-separated (default: {','.join(WORLDS)})")
+    p.add_argument("--worlds", default=None, help=f"comma-separated (default: {','.join(WORLDS)})")
     p.add_argument("--quick", action="store_true", help=f"worlds {','.join(QUICK)}")
     p.add_argument("--preset", default="quality")
     p.add_argument("--res", type=int, default=512)
@@ -325,7 +420,15 @@ def growth_main(argv):
     worlds = args.worlds.split(",") if args.worlds else (QUICK if args.quick else WORLDS)
     for w in worlds:
         _parse_world(w)  # fail before any meshing
-    run_growth(args.scene, worlds, preset=args.preset, res=args.res, repeat=args.repeat,
-               spacing=args.spacing, stadium_size=args.stadium_size, json_path=args.json,
-               png_path=args.png)
+    run_growth(
+        args.scene,
+        worlds,
+        preset=args.preset,
+        res=args.res,
+        repeat=args.repeat,
+        spacing=args.spacing,
+        stadium_size=args.stadium_size,
+        json_path=args.json,
+        png_path=args.png,
+    )
     return 0

@@ -23,7 +23,11 @@ writes:
   heuristic), both relative to the ``quality`` preset of the same scene;
 
 and prints the peers (label, schedule, speed, referee's judgement) and the table of
-Pareto-best settings per scene (no other row is both faster and more accurate). ``--quick`` runs the bundled scene with a few settings in a few minutes.
+Pareto-best settings per scene (no other row is both faster and more accurate). ``--quick``
+runs the bundled scene with a few settings in a few minutes.
+
+Over 500 lines on purpose: the speed-accuracy matrix is one command (settings grid, runs,
+table, Pareto summary, CLI) whose parts only it uses.
 """
 
 from __future__ import annotations
@@ -37,8 +41,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..camera import orbit_views, pinhole
-from ..compare import compare, same_plane
+from ..dev.camera import orbit_views, pinhole
+from ..dev.compare import compare, same_plane
 from ..hits import FAILED, HIT
 from .casters import EmbreexCaster, Open3DCaster, TetraceCaster, open3d_module, rays_for, timed
 from .scene_bench import _table, configurations
@@ -57,16 +61,28 @@ SETTINGS = {
 }
 #: The full run's shared scenes (the bundled Spot is always first).
 FULL_SCENES = ("cornell_box.obj", "teapot.obj", "bunny.obj", "armadillo.obj", "torus_knots_27.obj")
-FULL = dict(settings=list(SETTINGS), methods=["lagae2008_plane", "maria2017", "aman2022", "robust"],
-            layouts=["tet32", "tet20"], precisions=["f32", "f64"], threads=["1", "all"], res=256,
-            repeat=3)
-QUICK = dict(settings=["constrained", "quality", "quality3", "graded", "ftetwild3e-3", "auto"],
-             methods=["maria2017", "aman2022", "robust"], layouts=["tet32", "tet20"],
-             precisions=["f32", "f64"], threads=["1"], res=96, repeat=2)
+FULL = dict(
+    settings=list(SETTINGS),
+    methods=["lagae2008_plane", "maria2017", "aman2022", "robust"],
+    layouts=["tet32", "tet20"],
+    precisions=["f32", "f64"],
+    threads=["1", "all"],
+    res=256,
+    repeat=3,
+)
+QUICK = dict(
+    settings=["constrained", "quality", "quality3", "graded", "ftetwild3e-3", "auto"],
+    methods=["maria2017", "aman2022", "robust"],
+    layouts=["tet32", "tet20"],
+    precisions=["f32", "f64"],
+    threads=["1"],
+    res=96,
+    repeat=2,
+)
 
 
 def _ncpu():
-    from ..reference import cpu_count
+    from ..baselines.embree import cpu_count
 
     return cpu_count()
 
@@ -75,8 +91,9 @@ def camera_rays(vertices, res):
     """Three orbit views of the scene at ``res`` x ``res``, float64, concatenated."""
     v = np.asarray(vertices, np.float64)
     views = orbit_views(np.array([v.min(0), v.max(0)]), n=3, distance=1.6)
-    rays = [pinhole(e, t, u, fov_deg=40.0, width=res, height=res, dtype=np.float64)
-            for e, t, u in views]
+    rays = [
+        pinhole(e, t, u, fov_deg=40.0, width=res, height=res, dtype=np.float64) for e, t, u in views
+    ]
     return np.concatenate([r[0] for r in rays]), np.concatenate([r[1] for r in rays])
 
 
@@ -103,27 +120,37 @@ def _accuracy(hits, ref, verdict, arithmetic, v, f, diagonal, d):
     plane = a.agree + same_plane(hits, ref, v, f, diagonal=diagonal)
     both = (hits.status == HIT) & (ref.status == HIT)
     # |dt| over every ray both hit, on whichever triangle: the position error.
-    dt = (np.abs(hits.t[both].astype(np.float64) - ref.t[both])
-          * np.linalg.norm(d[both], axis=1) / diagonal)
+    dt = (
+        np.abs(hits.t[both].astype(np.float64) - ref.t[both])
+        * np.linalg.norm(d[both], axis=1)
+        / diagonal
+    )
     j = judge(hits, verdict, arithmetic)
-    return dict(agreement=a.agree / a.rays, plane_agreement=plane / a.rays,
-                hit_agreement=float((hits.status == ref.status).mean()),
-                p50_dt=float(np.median(dt)) if len(dt) else 0.0,
-                p99_dt=float(np.quantile(dt, 0.99)) if len(dt) else 0.0,
-                failed=int((hits.status == FAILED).sum()),
-                right=float(j["right"].mean()), leaked=int(j["leaked"].sum()),
-                late=int(j["late"].sum()), wrong=int(j["wrong"].sum()))
+    return dict(
+        agreement=a.agree / a.rays,
+        plane_agreement=plane / a.rays,
+        hit_agreement=float((hits.status == ref.status).mean()),
+        p50_dt=float(np.median(dt)) if len(dt) else 0.0,
+        p99_dt=float(np.quantile(dt, 0.99)) if len(dt) else 0.0,
+        failed=int((hits.status == FAILED).sum()),
+        right=float(j["right"].mean()),
+        leaked=int(j["leaked"].sum()),
+        late=int(j["late"].sum()),
+        wrong=int(j["wrong"].sum()),
+    )
 
 
-def run_scene_settings(path, settings, *, methods, layouts, precisions, threads, res, repeat,
-                       gpu=False, out=print):
+def run_scene_settings(
+    path, settings, *, methods, layouts, precisions, threads, res, repeat, gpu=False, out=print
+):
     """Rows of one scene: peers first, then every setting x configuration.
 
     Every caster gets the same float32 camera rays (widened exactly for float64 walks), the
     same thread counts and the same timing (:func:`tetrace.bench.casters.timed`); every row
     is judged by the exact referee on those rays.
     """
-    from ..meshing import MeshingError, load_triangles
+    from ..errors import MeshingError
+    from ..io import load_triangles
     from ..referee import Referee
     from ..scene import Scene
 
@@ -143,10 +170,17 @@ def run_scene_settings(path, settings, *, methods, layouts, precisions, threads,
         mrays = n / seconds / 1e6
         if caster.name == "embreex":
             embree_rate[label] = mrays
-        return dict(base, **extra, caster=caster.name, label=caster.label,
-                    schedule=caster.schedule(k), threads=k if k is not None else 0,
-                    mrays=mrays, ratio=mrays / embree_rate[label],
-                    **_accuracy(hits, ref, verdict, caster.arithmetic, v, f, diagonal, d))
+        return dict(
+            base,
+            **extra,
+            caster=caster.name,
+            label=caster.label,
+            schedule=caster.schedule(k),
+            threads=k if k is not None else 0,
+            mrays=mrays,
+            ratio=mrays / embree_rate[label],
+            **_accuracy(hits, ref, verdict, caster.arithmetic, v, f, diagonal, d),
+        )
 
     peers = [EmbreexCaster(v, f)]
     o3d, why = open3d_peer()
@@ -161,9 +195,21 @@ def run_scene_settings(path, settings, *, methods, layouts, precisions, threads,
             hits = peer.hits(raw, o32, d32)
             if ref is None:  # embreex, the first peer: the reference of the agreement columns
                 ref = hits
-            rows.append(row(peer, label, k, seconds, hits, setting="-", method="bvh",
-                            layout="-", precision="f32", device="cpu",
-                            mesher_s=peer.build_seconds))
+            rows.append(
+                row(
+                    peer,
+                    label,
+                    k,
+                    seconds,
+                    hits,
+                    setting="-",
+                    method="bvh",
+                    layout="-",
+                    precision="f32",
+                    device="cpu",
+                    mesher_s=peer.build_seconds,
+                )
+            )
 
     for setting in settings:
         kwargs = SETTINGS[setting]
@@ -172,41 +218,87 @@ def run_scene_settings(path, settings, *, methods, layouts, precisions, threads,
             scene = Scene.from_mesh((v, f), **kwargs)
         except MeshingError as exc:
             out(f"  {name} / {setting}: not built: {exc}")
-            rows.append(dict(base, setting=setting, caster="tetrace", error=str(exc),
-                             mesher_s=time.perf_counter() - t0))
+            rows.append(
+                dict(
+                    base,
+                    setting=setting,
+                    caster="tetrace",
+                    error=str(exc),
+                    mesher_s=time.perf_counter() - t0,
+                )
+            )
             continue
         tz, bt = scene.tetrahedralization, scene.build_times
         mesher_s = tz.auto["seconds"] if tz.auto else bt["total"] - bt["rust"]
         chosen = f" -> {tz.auto['setting']}" if tz.auto else ""
-        build = dict(setting=setting, chosen=tz.auto["setting"] if tz.auto else setting,
-                     mesher=tz.mesher, tets=int(scene.n_tets), points=int(scene.n_points),
-                     weight=tz.weight(), mesher_s=mesher_s, rust_s=bt["rust"],
-                     surface_max=(tz.surface_distance["max"] / diagonal
-                                  if tz.surface_distance else 0.0))
-        out(f"  {name} / {setting}{chosen}: {scene.n_tets:,} tets, weight {build['weight']:.4g}, "
-            f"mesher {mesher_s:.2f} s, rust {bt['rust']:.2f} s")
+        build = dict(
+            setting=setting,
+            chosen=tz.auto["setting"] if tz.auto else setting,
+            mesher=tz.mesher,
+            tets=int(scene.n_tets),
+            points=int(scene.n_points),
+            weight=tz.weight(),
+            mesher_s=mesher_s,
+            rust_s=bt["rust"],
+            surface_max=(tz.surface_distance["max"] / diagonal if tz.surface_distance else 0.0),
+        )
+        out(
+            f"  {name} / {setting}{chosen}: {scene.n_tets:,} tets, weight {build['weight']:.4g}, "
+            f"mesher {mesher_s:.2f} s, rust {bt['rust']:.2f} s"
+        )
         for method, layout, prec, label in configurations(methods, layouts, precisions, threads):
             caster = TetraceCaster(scene, method, layout, prec)
             k = counts[label]
             seconds, hits = timed(caster, *rays_for(prec, o32, d32), k, repeat)
             mem = scene.memory()
-            rows.append(row(caster, label, k, seconds, hits, **build, method=method,
-                            layout=layout, precision=prec, device="cpu",
-                            tets_per_ray=float(hits.steps.mean()),
-                            mem_mb=(mem["points_f64"] + mem["points_f32"] + mem["constrained"]
-                                    + mem["locator"] + mem[f"tets_{layout}"]) / 1e6,
-                            mem_layout_mb=mem[f"tets_{layout}"] / 1e6))
+            rows.append(
+                row(
+                    caster,
+                    label,
+                    k,
+                    seconds,
+                    hits,
+                    **build,
+                    method=method,
+                    layout=layout,
+                    precision=prec,
+                    device="cpu",
+                    tets_per_ray=float(hits.steps.mean()),
+                    mem_mb=(
+                        mem["points_f64"]
+                        + mem["points_f32"]
+                        + mem["constrained"]
+                        + mem["locator"]
+                        + mem[f"tets_{layout}"]
+                    )
+                    / 1e6,
+                    mem_layout_mb=mem[f"tets_{layout}"] / 1e6,
+                )
+            )
         if gpu:
             from .. import gpu as tgpu
 
             for method, layout in tgpu.kernels():
                 caster = TetraceCaster(scene, method, layout, "f32", device="gpu")
                 seconds, hits = timed(caster, o32, d32, None, repeat)
-                rows.append(row(caster, threads[-1], None, seconds, hits, **build,
-                                method=method, layout=layout, precision="f32", device="gpu",
-                                kernel_mrays=scene.gpu_timings["walked"]
-                                / scene.gpu_timings["kernel"] / 1e6,
-                                tets_per_ray=float(hits.steps.mean())))
+                rows.append(
+                    row(
+                        caster,
+                        threads[-1],
+                        None,
+                        seconds,
+                        hits,
+                        **build,
+                        method=method,
+                        layout=layout,
+                        precision="f32",
+                        device="gpu",
+                        kernel_mrays=scene.gpu_timings["walked"]
+                        / scene.gpu_timings["kernel"]
+                        / 1e6,
+                        tets_per_ray=float(hits.steps.mean()),
+                    )
+                )
         del scene
     return rows
 
@@ -259,9 +351,14 @@ def charts(rows, folder):
             if r["threads"] not in (top, 0):
                 continue
             if r["caster"] == "tetrace":
-                ax.scatter(r["ratio"], _disagreement(r), color=colors[r["setting"]], s=18,
-                           marker="o" if r["precision"] == "f32" else "^",
-                           edgecolors="k" if r["device"] == "gpu" else "none")
+                ax.scatter(
+                    r["ratio"],
+                    _disagreement(r),
+                    color=colors[r["setting"]],
+                    s=18,
+                    marker="o" if r["precision"] == "f32" else "^",
+                    edgecolors="k" if r["device"] == "gpu" else "none",
+                )
             else:
                 ax.scatter(r["ratio"], _disagreement(r), color="k", marker="*", s=80)
                 ax.annotate(r["caster"], (r["ratio"], _disagreement(r)), fontsize=7)
@@ -270,22 +367,33 @@ def charts(rows, folder):
         ax.set_title(f"{scene} ({top} threads)", fontsize=9)
         ax.set_xlabel("throughput / embreex")
         ax.set_ylabel("not right (exact referee)")
-    for ax in list(axes.flat)[len(scenes):]:
+    for ax in list(axes.flat)[len(scenes) :]:
         ax.axis("off")
     handles = [plt.Line2D([], [], marker="o", ls="", color=colors[s], label=s) for s in settings]
-    handles += [plt.Line2D([], [], marker="o", ls="", color="gray", label="f32"),
-                plt.Line2D([], [], marker="^", ls="", color="gray", label="f64")]
+    handles += [
+        plt.Line2D([], [], marker="o", ls="", color="gray", label="f32"),
+        plt.Line2D([], [], marker="^", ls="", color="gray", label="f64"),
+    ]
     # What each peer is, exactly (its label), under the legend, wrapped to the figure.
-    peers = dict.fromkeys((r["caster"], r.get("label", r["caster"]))
-                          for r in ok if r["caster"] != "tetrace")
+    peers = dict.fromkeys(
+        (r["caster"], r.get("label", r["caster"])) for r in ok if r["caster"] != "tetrace"
+    )
     width = int(fig.get_figwidth() * 20)  # characters of 6-point text per line
-    notes = [line for caster, label in peers
-             for line in textwrap.wrap(f"{caster}: {label}", width, subsequent_indent="    ")]
+    notes = [
+        line
+        for caster, label in peers
+        for line in textwrap.wrap(f"{caster}: {label}", width, subsequent_indent="    ")
+    ]
     line_h = 0.12 / fig.get_figheight()  # 6-point lines, in figure fractions
     for i, note in enumerate(notes):
         fig.text(0.01, 0.01 + line_h * (len(notes) - 1 - i), note, fontsize=6)
-    fig.legend(handles=handles, loc="lower center", bbox_to_anchor=(0.5, line_h * len(notes)),
-               ncol=min(len(handles), 6), fontsize=8)
+    fig.legend(
+        handles=handles,
+        loc="lower center",
+        bbox_to_anchor=(0.5, line_h * len(notes)),
+        ncol=min(len(handles), 6),
+        fontsize=8,
+    )
     fig.tight_layout(rect=(0, 0.08 + line_h * len(notes), 1, 1))
     paths["speed_accuracy"] = folder / "speed_accuracy.png"
     fig.savefig(paths["speed_accuracy"], dpi=110)
@@ -298,8 +406,15 @@ def charts(rows, folder):
             builds.setdefault((r["scene"], r["setting"]), r)
     fig, axes = plt.subplots(1, 4, figsize=(18, 4))
     width = 0.8 / max(len(settings), 1)
-    for ax, (key, label) in zip(axes, [("tets", "tets"), ("weight_rel", "weight / quality's"),
-                                       ("mesher_s", "mesher seconds"), ("mem_mb", "memory MB")]):
+    for ax, (key, label) in zip(
+        axes,
+        [
+            ("tets", "tets"),
+            ("weight_rel", "weight / quality's"),
+            ("mesher_s", "mesher seconds"),
+            ("mem_mb", "memory MB"),
+        ],
+    ):
         for j, s in enumerate(settings):
             ys = []
             for scene in scenes:
@@ -327,13 +442,22 @@ def charts(rows, folder):
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
     xs, ys, zs = [], [], []
     for scene in scenes:
-        timing = [r for r in ok if r["scene"] == scene and r["caster"] == "tetrace"
-                  and r["device"] == "cpu" and r["threads"] == 1]
+        timing = [
+            r
+            for r in ok
+            if r["scene"] == scene
+            and r["caster"] == "tetrace"
+            and r["device"] == "cpu"
+            and r["threads"] == 1
+        ]
         if not timing:
             continue
         method, layout, prec = timing[0]["method"], timing[0]["layout"], timing[0]["precision"]
-        by = {r["setting"]: r for r in timing
-              if (r["method"], r["layout"], r["precision"]) == (method, layout, prec)}
+        by = {
+            r["setting"]: r
+            for r in timing
+            if (r["method"], r["layout"], r["precision"]) == (method, layout, prec)
+        }
         q = by.get("quality")
         if q is None:
             continue
@@ -360,15 +484,61 @@ def charts(rows, folder):
     return paths, r_time, r_steps
 
 
-COLUMNS = ["scene", "triangles", "rays", "setting", "chosen", "mesher", "tets", "points", "weight",
-           "mesher_s", "rust_s", "surface_max", "mem_mb", "mem_layout_mb", "caster", "method", "layout",
-           "precision", "threads", "device", "mrays", "kernel_mrays", "ratio", "tets_per_ray",
-           "agreement", "plane_agreement", "hit_agreement", "p50_dt", "p99_dt", "failed", "right",
-           "leaked", "late", "wrong", "label", "schedule", "error"]
+COLUMNS = [
+    "scene",
+    "triangles",
+    "rays",
+    "setting",
+    "chosen",
+    "mesher",
+    "tets",
+    "points",
+    "weight",
+    "mesher_s",
+    "rust_s",
+    "surface_max",
+    "mem_mb",
+    "mem_layout_mb",
+    "caster",
+    "method",
+    "layout",
+    "precision",
+    "threads",
+    "device",
+    "mrays",
+    "kernel_mrays",
+    "ratio",
+    "tets_per_ray",
+    "agreement",
+    "plane_agreement",
+    "hit_agreement",
+    "p50_dt",
+    "p99_dt",
+    "failed",
+    "right",
+    "leaked",
+    "late",
+    "wrong",
+    "label",
+    "schedule",
+    "error",
+]
 
 
-def run_matrix(scenes, *, settings, methods, layouts, precisions, threads, res, repeat,
-               out_dir, gpu=False, out=print):
+def run_matrix(
+    scenes,
+    *,
+    settings,
+    methods,
+    layouts,
+    precisions,
+    threads,
+    res,
+    repeat,
+    out_dir,
+    gpu=False,
+    out=print,
+):
     """Run the matrix over ``scenes`` (mesh paths), write CSV/JSON/PNGs into ``out_dir``.
 
     Returns
@@ -387,9 +557,18 @@ def run_matrix(scenes, *, settings, methods, layouts, precisions, threads, res, 
     rows = []
     for path in scenes:
         out(f"{Path(path).name}:")
-        rows += run_scene_settings(path, settings, methods=methods, layouts=layouts,
-                                   precisions=precisions, threads=threads, res=res,
-                                   repeat=repeat, gpu=gpu, out=out)
+        rows += run_scene_settings(
+            path,
+            settings,
+            methods=methods,
+            layouts=layouts,
+            precisions=precisions,
+            threads=threads,
+            res=res,
+            repeat=repeat,
+            gpu=gpu,
+            out=out,
+        )
     with open(out_dir / "matrix.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=COLUMNS, extrasaction="ignore")
         w.writeheader()
@@ -406,26 +585,77 @@ def report(rows, out_dir, out=print):
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     paths, r_time, r_steps = charts(rows, out_dir)
-    best = pareto([r for r in rows if r["caster"] == "tetrace" and "ratio" in r
-                   and r["threads"] == max(x["threads"] for x in rows if "ratio" in x
-                                           and x["scene"] == r["scene"])])
+    best = pareto(
+        [
+            r
+            for r in rows
+            if r["caster"] == "tetrace"
+            and "ratio" in r
+            and r["threads"]
+            == max(x["threads"] for x in rows if "ratio" in x and x["scene"] == r["scene"])
+        ]
+    )
     peers = [r for r in rows if r["caster"] != "tetrace" and "ratio" in r]
     out("\nPeers (same rays, same threads, dynamic chunks; judged by the exact referee):")
-    out(_table([[r["scene"], r.get("label", r["caster"]), r.get("schedule", f"{r['threads']}"),
-                 f"{r['mrays']:.2f}", f"{r.get('right', float('nan')) * 100:.3f}%",
-                 r.get("leaked", "-"), r.get("late", "-"), r.get("wrong", "-")] for r in peers],
-               ["scene", "peer", "schedule", "Mrays/s", "right", "leaked", "late", "wrong"]))
-    out("\nPareto-best tetrace settings per scene (no other is both faster and more accurate; "
-        "most threads measured):")
-    out(_table([[r["scene"], r["setting"] + (f" ({r['chosen']})" if r["chosen"] != r["setting"]
-                                             else ""),
-                 r["method"], r["layout"], r["precision"], r["device"], f"{r['tets']:,}",
-                 f"{r['mrays']:.2f}", f"{r['ratio']:.2f}", f"{r['right'] * 100:.3f}%",
-                 f"{r['p99_dt']:.1e}"] for r in best],
-               ["scene", "setting", "method", "layout", "prec", "device", "tets", "Mrays/s",
-                "x embreex", "right (referee)", "p99 |dt|/diag"]))
-    out(f"weight against time per ray (1 thread, relative to quality): Pearson r = {r_time:.3f}; "
-        f"against tets per ray: r = {r_steps:.3f}")
+    out(
+        _table(
+            [
+                [
+                    r["scene"],
+                    r.get("label", r["caster"]),
+                    r.get("schedule", f"{r['threads']}"),
+                    f"{r['mrays']:.2f}",
+                    f"{r.get('right', float('nan')) * 100:.3f}%",
+                    r.get("leaked", "-"),
+                    r.get("late", "-"),
+                    r.get("wrong", "-"),
+                ]
+                for r in peers
+            ],
+            ["scene", "peer", "schedule", "Mrays/s", "right", "leaked", "late", "wrong"],
+        )
+    )
+    out(
+        "\nPareto-best tetrace settings per scene (no other is both faster and more accurate; "
+        "most threads measured):"
+    )
+    out(
+        _table(
+            [
+                [
+                    r["scene"],
+                    r["setting"] + (f" ({r['chosen']})" if r["chosen"] != r["setting"] else ""),
+                    r["method"],
+                    r["layout"],
+                    r["precision"],
+                    r["device"],
+                    f"{r['tets']:,}",
+                    f"{r['mrays']:.2f}",
+                    f"{r['ratio']:.2f}",
+                    f"{r['right'] * 100:.3f}%",
+                    f"{r['p99_dt']:.1e}",
+                ]
+                for r in best
+            ],
+            [
+                "scene",
+                "setting",
+                "method",
+                "layout",
+                "prec",
+                "device",
+                "tets",
+                "Mrays/s",
+                "x embreex",
+                "right (referee)",
+                "p99 |dt|/diag",
+            ],
+        )
+    )
+    out(
+        f"weight against time per ray (1 thread, relative to quality): Pearson r = {r_time:.3f}; "
+        f"against tets per ray: r = {r_steps:.3f}"
+    )
     out(f"wrote into {out_dir}: " + ", ".join(p.name for p in paths.values()))
     return dict(rows=rows, pareto=best, charts=paths, weight_time_r=r_time, weight_steps_r=r_steps)
 
@@ -435,24 +665,46 @@ def matrix_main(argv):
     from ..scene import default_scene_path
     from .scenes import default_scenes_dir
 
-    p = argparse.ArgumentParser(prog="python -m tetrace.bench matrix", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("scenes", nargs="*", help="mesh files (default: Spot, plus the full run's "
-                   f"shared scenes {', '.join(FULL_SCENES)} unless --quick)")
+    p = argparse.ArgumentParser(
+        prog="python -m tetrace.bench matrix",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument(
+        "scenes",
+        nargs="*",
+        help="mesh files (default: Spot, plus the full run's "
+        f"shared scenes {', '.join(FULL_SCENES)} unless --quick)",
+    )
     p.add_argument("--quick", action="store_true", help="Spot, 6 settings, 3 methods, 1 thread")
-    p.add_argument("--dir", default=None, help="shared scenes folder (default: $TETRACE_SCENES "
-                   "or ../shared/scenes)")
+    p.add_argument(
+        "--dir",
+        default=None,
+        help="shared scenes folder (default: $TETRACE_SCENES or ../shared/scenes)",
+    )
     for name in ("settings", "methods", "layouts", "precisions", "threads"):
-        p.add_argument(f"--{name}", default=None, help=f"comma-separated {name} (default: "
-                       f"full {','.join(FULL[name])}; quick {','.join(QUICK[name])})")
+        p.add_argument(
+            f"--{name}",
+            default=None,
+            help=f"comma-separated {name} (default: "
+            f"full {','.join(FULL[name])}; quick {','.join(QUICK[name])})",
+        )
     p.add_argument("--res", type=int, default=None, help="camera resolution of each of 3 views")
     p.add_argument("--repeat", type=int, default=None)
-    p.add_argument("--gpu", choices=["auto", "yes", "no"], default="auto",
-                   help="also every GPU kernel: auto (default) when a hardware adapter is found "
-                        "(not a software one such as lavapipe)")
+    p.add_argument(
+        "--gpu",
+        choices=["auto", "yes", "no"],
+        default="auto",
+        help="also every GPU kernel: auto (default) when a hardware adapter is found "
+        "(not a software one such as lavapipe)",
+    )
     p.add_argument("--out", default="matrix-out", help="folder for CSV, JSON and PNGs")
-    p.add_argument("--replot", default=None, metavar="JSON",
-                   help="redraw the charts and the Pareto table of an earlier run's matrix.json")
+    p.add_argument(
+        "--replot",
+        default=None,
+        metavar="JSON",
+        help="redraw the charts and the Pareto table of an earlier run's matrix.json",
+    )
     args = p.parse_args(argv)
     if args.replot:
         with open(args.replot) as fh:
@@ -472,8 +724,10 @@ def matrix_main(argv):
             folder = Path(args.dir) if args.dir else default_scenes_dir()
             missing = [s for s in FULL_SCENES if not (folder / s).exists()]
             if missing:
-                print(f"shared scenes not found in {folder}: {missing}; running the bundled "
-                      f"scene only")
+                print(
+                    f"shared scenes not found in {folder}: {missing}; running the bundled "
+                    f"scene only"
+                )
             scenes += [str(folder / s) for s in FULL_SCENES if (folder / s).exists()]
     gpu = args.gpu == "yes" or (args.gpu == "auto" and hardware_gpu())
     run_matrix(scenes, out_dir=args.out, gpu=gpu, **cfg)

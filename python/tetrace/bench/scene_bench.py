@@ -8,8 +8,8 @@ import time
 
 import numpy as np
 
-from ..camera import orbit_views, pinhole
-from ..compare import agreement
+from ..dev.camera import orbit_views, pinhole
+from ..dev.compare import agreement
 from ..scene import LAYOUT_BYTES, Scene, default_scene_path
 
 
@@ -77,23 +77,62 @@ def _gpu_runs(scene, o32, d32, judge, methods, layouts, repeat, results):
         a = judge(hits)
         kernel_rate = best["walked"] / best["kernel"] / 1e6
         e2e = n / best["wall"] / 1e6
-        rows.append([method, layout, f"{kernel_rate:.2f}", f"{e2e:.2f}", f"{best['kernel']:.3f}",
-                     f"{best['upload']:.3f}", f"{best['readback']:.3f}", f"{best['locate']:.3f}",
-                     f"{best['finish']:.3f}", f"{scene_upload:.3f}", f"{hits.steps.mean():.1f}",
-                     f"{a.fraction * 100:.3f}%"])
-        results["runs"].append({
-            "caster": "tetrace-gpu", "method": method, "layout": layout, "precision": "f32",
-            "device": results["gpu_device"]["name"], "kernel_mrays_per_s": kernel_rate,
-            "mrays_per_s": e2e, "seconds": best, "scene_upload_seconds": scene_upload,
-            "tets_per_ray": float(hits.steps.mean()), "right": a.fraction,
-            "failed": a.failed, "leaked": a.leaked, "late": a.late, "wrong": a.wrong})
+        rows.append(
+            [
+                method,
+                layout,
+                f"{kernel_rate:.2f}",
+                f"{e2e:.2f}",
+                f"{best['kernel']:.3f}",
+                f"{best['upload']:.3f}",
+                f"{best['readback']:.3f}",
+                f"{best['locate']:.3f}",
+                f"{best['finish']:.3f}",
+                f"{scene_upload:.3f}",
+                f"{hits.steps.mean():.1f}",
+                f"{a.fraction * 100:.3f}%",
+            ]
+        )
+        results["runs"].append(
+            {
+                "caster": "tetrace-gpu",
+                "method": method,
+                "layout": layout,
+                "precision": "f32",
+                "device": results["gpu_device"]["name"],
+                "kernel_mrays_per_s": kernel_rate,
+                "mrays_per_s": e2e,
+                "seconds": best,
+                "scene_upload_seconds": scene_upload,
+                "tets_per_ray": float(hits.steps.mean()),
+                "right": a.fraction,
+                "failed": a.failed,
+                "leaked": a.leaked,
+                "late": a.late,
+                "wrong": a.wrong,
+            }
+        )
     return rows, hits
 
 
-def run_scene_bench(path=None, *, preset="quality", width=1024, height=1024, repeat=3,
-                    distance=1.6, image=None, json_path=None, methods=None, layouts=None,
-                    precisions=("f32", "f64"), orders=("hilbert",), threads=("1", "all"),
-                    devices=("cpu",), out=print):
+def run_scene_bench(
+    path=None,
+    *,
+    preset="quality",
+    width=1024,
+    height=1024,
+    repeat=3,
+    distance=1.6,
+    image=None,
+    json_path=None,
+    methods=None,
+    layouts=None,
+    precisions=("f32", "f64"),
+    orders=("hilbert",),
+    threads=("1", "all"),
+    devices=("cpu",),
+    out=print,
+):
     """Build a scene, cast a pinhole camera with tetrace and embreex, print one report.
 
     Parameters
@@ -133,19 +172,26 @@ def run_scene_bench(path=None, *, preset="quality", width=1024, height=1024, rep
         Everything printed, as numbers.
     """
     from .. import _native
-    from ..reference import cpu_count
-    from ..scene import layouts as all_layouts, methods as all_methods
+    from ..baselines.embree import cpu_count
+    from ..scene import layouts as all_layouts
+    from ..scene import methods as all_methods
     from .casters import EmbreexCaster, Open3DCaster, TetraceCaster, open3d_module, rays_for, timed
 
     methods_arg, layouts_arg = methods, layouts
-    methods = all_methods() if methods in (["all"], "all") else (methods or [_native.DEFAULT_METHOD])
-    layouts = all_layouts() if layouts in (["all"], "all") else (layouts or [_native.DEFAULT_LAYOUT])
+    methods = (
+        all_methods() if methods in (["all"], "all") else (methods or [_native.DEFAULT_METHOD])
+    )
+    layouts = (
+        all_layouts() if layouts in (["all"], "all") else (layouts or [_native.DEFAULT_LAYOUT])
+    )
     path = str(path) if path is not None else str(default_scene_path())
     name = os.path.basename(path)
     scene = Scene.from_mesh(path, preset)
     scenes = {"hilbert": scene}
     if "mesher" in orders:
-        scenes["mesher"] = Scene(scene.tetrahedralization, scene.vertices, scene.faces, hilbert=False)
+        scenes["mesher"] = Scene(
+            scene.tetrahedralization, scene.vertices, scene.faces, hilbert=False
+        )
     bt = scene.build_times
     v, f = scene.vertices, scene.faces
     bounds = np.array([v.min(0), v.max(0)])
@@ -162,11 +208,18 @@ def run_scene_bench(path=None, *, preset="quality", width=1024, height=1024, rep
     if o3d is not None:
         peers.append(Open3DCaster(o3d, v, f))
 
-    results = {"scene": name, "preset": preset, "rays": n, "triangles": int(len(f)),
-               "tets": scene.n_tets, "points": scene.n_points,
-               "build_seconds": {k: float(x) for k, x in bt.items()},
-               "embree_build_seconds": float(embreex.build_seconds), "runs": [],
-               "peers_skipped": [] if o3d is not None else [why]}
+    results = {
+        "scene": name,
+        "preset": preset,
+        "rays": n,
+        "triangles": int(len(f)),
+        "tets": scene.n_tets,
+        "points": scene.n_points,
+        "build_seconds": {k: float(x) for k, x in bt.items()},
+        "embree_build_seconds": float(embreex.build_seconds),
+        "runs": [],
+        "peers_skipped": [] if o3d is not None else [why],
+    }
     rows = []
     embree_rate = {}
     judge = _Judge(v, f, o32, d32)
@@ -180,16 +233,38 @@ def run_scene_bench(path=None, *, preset="quality", width=1024, height=1024, rep
                 embree_rate[label] = rate
             a = judge(hits, peer.arithmetic)
             shown = "1" if k == 1 else f"all ({ncpu})"
-            rows.append([peer.name, "bvh", "-", "f32", "-", shown, f"{rate:.2f}",
-                         f"{rate / embree_rate[label]:.2f}", "-", "-", f"{a.fraction * 100:.3f}%"])
-            results["runs"].append({"caster": peer.name, "label": peer.label,
-                                    "schedule": peer.schedule(k), "precision": "f32",
-                                    "threads": k, "mrays_per_s": rate,
-                                    "ratio_to_embree": rate / embree_rate[label],
-                                    "right": a.fraction, "leaked": a.leaked,
-                                    "late": a.late, "wrong": a.wrong})
+            rows.append(
+                [
+                    peer.name,
+                    "bvh",
+                    "-",
+                    "f32",
+                    "-",
+                    shown,
+                    f"{rate:.2f}",
+                    f"{rate / embree_rate[label]:.2f}",
+                    "-",
+                    "-",
+                    f"{a.fraction * 100:.3f}%",
+                ]
+            )
+            results["runs"].append(
+                {
+                    "caster": peer.name,
+                    "label": peer.label,
+                    "schedule": peer.schedule(k),
+                    "precision": "f32",
+                    "threads": k,
+                    "mrays_per_s": rate,
+                    "ratio_to_embree": rate / embree_rate[label],
+                    "right": a.fraction,
+                    "leaked": a.leaked,
+                    "late": a.late,
+                    "wrong": a.wrong,
+                }
+            )
     last32 = None
-    for order in (orders if "cpu" in devices else ()):
+    for order in orders if "cpu" in devices else ():
         sc = scenes[order]
         for method, layout, prec, label in configurations(methods, layouts, precisions, threads):
             caster = TetraceCaster(sc, method, layout, prec)
@@ -198,54 +273,126 @@ def run_scene_bench(path=None, *, preset="quality", width=1024, height=1024, rep
             rate = n / tt / 1e6
             a = judge(hits, caster.arithmetic)
             shown = "1" if k == 1 else f"all ({ncpu})"
-            rows.append(["tetrace", method, layout, prec, order, shown, f"{rate:.2f}",
-                         f"{rate / embree_rate[label]:.2f}", f"{hits.steps.mean():.1f}",
-                         LAYOUT_BYTES[layout], f"{a.fraction * 100:.3f}%"])
-            results["runs"].append({
-                "caster": "tetrace", "label": caster.label, "schedule": caster.schedule(k),
-                "method": method, "layout": layout,
-                "precision": prec, "order": order, "threads": k,
-                "mrays_per_s": rate, "ratio_to_embree": rate / embree_rate[label],
-                "tets_per_ray": float(hits.steps.mean()),
-                "bytes_per_tet": LAYOUT_BYTES[layout], "right": a.fraction,
-                "failed": a.failed, "leaked": a.leaked, "late": a.late, "wrong": a.wrong,
-                "max_t_ulps": a.max_t_ulps})
+            rows.append(
+                [
+                    "tetrace",
+                    method,
+                    layout,
+                    prec,
+                    order,
+                    shown,
+                    f"{rate:.2f}",
+                    f"{rate / embree_rate[label]:.2f}",
+                    f"{hits.steps.mean():.1f}",
+                    LAYOUT_BYTES[layout],
+                    f"{a.fraction * 100:.3f}%",
+                ]
+            )
+            results["runs"].append(
+                {
+                    "caster": "tetrace",
+                    "label": caster.label,
+                    "schedule": caster.schedule(k),
+                    "method": method,
+                    "layout": layout,
+                    "precision": prec,
+                    "order": order,
+                    "threads": k,
+                    "mrays_per_s": rate,
+                    "ratio_to_embree": rate / embree_rate[label],
+                    "tets_per_ray": float(hits.steps.mean()),
+                    "bytes_per_tet": LAYOUT_BYTES[layout],
+                    "right": a.fraction,
+                    "failed": a.failed,
+                    "leaked": a.leaked,
+                    "late": a.late,
+                    "wrong": a.wrong,
+                    "max_t_ulps": a.max_t_ulps,
+                }
+            )
             if prec == "f32" and last32 is None:
                 last32 = hits
 
     gpu_rows = []
     if "gpu" in devices:
-        gpu_rows, gpu_hits = _gpu_runs(scene, o32, d32, judge, methods_arg, layouts_arg,
-                                       repeat, results)
+        gpu_rows, gpu_hits = _gpu_runs(
+            scene, o32, d32, judge, methods_arg, layouts_arg, repeat, results
+        )
         last32 = gpu_hits if last32 is None else last32
 
     hit_frac = float(judge.verdict.hit.mean())  # the exact share, not a caster's
-    out(f"tetrace bench: {name} ({len(f):,} triangles), preset {preset!r}, "
-        f"{width}x{height} pinhole camera, {hit_frac * 100:.1f}% of rays hit, best of {repeat}")
-    out(f"build: tetgen {bt.get('tetgen', 0):.2f} s (clean {bt.get('clean', 0):.2f} s, "
+    out(
+        f"tetrace bench: {name} ({len(f):,} triangles), preset {preset!r}, "
+        f"{width}x{height} pinhole camera, {hit_frac * 100:.1f}% of rays hit, best of {repeat}"
+    )
+    out(
+        f"build: tetgen {bt.get('tetgen', 0):.2f} s (clean {bt.get('clean', 0):.2f} s, "
         f"repair {bt.get('repair', 0):.2f} s), rust construction {bt['rust']:.2f} s; "
-        f"embreex BVH {embreex.build_seconds:.2f} s")
+        f"embreex BVH {embreex.build_seconds:.2f} s"
+    )
     mem = scene.memory()
     results["memory"] = mem
-    out(f"structure: {scene.n_tets:,} tets, {scene.n_points:,} points; memory MB: "
-        + ", ".join(f"{k} {b / 1e6:.1f}" for k, b in mem.items()))
-    out("peers: " + "; ".join(f"{p.name} = {p.label}" for p in peers)
-        + "".join(f"; skipped: {w}" for w in results["peers_skipped"]))
+    out(
+        f"structure: {scene.n_tets:,} tets, {scene.n_points:,} points; memory MB: "
+        + ", ".join(f"{k} {b / 1e6:.1f}" for k, b in mem.items())
+    )
+    out(
+        "peers: "
+        + "; ".join(f"{p.name} = {p.label}" for p in peers)
+        + "".join(f"; skipped: {w}" for w in results["peers_skipped"])
+    )
     ours = TetraceCaster(scene, methods[0], layouts[0])
-    out("every caster: the same float32 rays, an untimed warm-up, the best of the timed casts; "
-        "at 'all': " + "; ".join(f"{c.name} on {c.schedule(ncpu)}" for c in [ours] + peers))
-    out(_table(rows, ["caster", "method", "layout", "precision", "order", "threads", "Mrays/s",
-                      "x embreex", "tets/ray", "bytes/tet", "right (referee)"]))
+    out(
+        "every caster: the same float32 rays, an untimed warm-up, the best of the timed casts; "
+        "at 'all': " + "; ".join(f"{c.name} on {c.schedule(ncpu)}" for c in [ours] + peers)
+    )
+    out(
+        _table(
+            rows,
+            [
+                "caster",
+                "method",
+                "layout",
+                "precision",
+                "order",
+                "threads",
+                "Mrays/s",
+                "x embreex",
+                "tets/ray",
+                "bytes/tet",
+                "right (referee)",
+            ],
+        )
+    )
     if gpu_rows:
         dev = results["gpu_device"]
-        out(f"GPU: {dev['name']} ({dev['backend']}, {dev['device_type']}); kernel Mrays/s = rays "
+        out(
+            f"GPU: {dev['name']} ({dev['backend']}, {dev['device_type']}); kernel Mrays/s = rays "
             f"walked on the GPU / kernel seconds; end-to-end includes the CPU's start location "
-            f"and hit finishing; seconds are the best run's")
-        out(_table(gpu_rows, ["method", "layout", "kernel Mrays/s", "end-to-end Mrays/s",
-                              "kernel s", "upload s", "readback s", "locate s", "finish s",
-                              "scene upload s", "tets/ray", "right (referee)"]))
+            f"and hit finishing; seconds are the best run's"
+        )
+        out(
+            _table(
+                gpu_rows,
+                [
+                    "method",
+                    "layout",
+                    "kernel Mrays/s",
+                    "end-to-end Mrays/s",
+                    "kernel s",
+                    "upload s",
+                    "readback s",
+                    "locate s",
+                    "finish s",
+                    "scene upload s",
+                    "tets/ray",
+                    "right (referee)",
+                ],
+            )
+        )
     if image and last32 is not None:
-        from ..image import lambert, save_png
+        from ..dev.image import lambert, save_png
+
         save_png(image, lambert(last32, d32, v, f, width, height), cmap="gray", vmin=0, vmax=1)
         out(f"image: {image}")
     if json_path:

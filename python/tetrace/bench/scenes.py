@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..compare import same_plane
+from ..dev.compare import same_plane
 
 MESH_SUFFIXES = (".obj", ".ply", ".off", ".stl", ".glb", ".gltf")
 
@@ -64,13 +64,23 @@ def _mesher_label(tz):
     return label
 
 
-def run_scene(path, *, mesher="fallback", preset="quality", res=512, n_random=100_000,
-              timeout=None, epsilon=None, accuracy=None):
+def run_scene(
+    path,
+    *,
+    mesher="fallback",
+    preset="quality",
+    res=512,
+    n_random=100_000,
+    timeout=None,
+    epsilon=None,
+    accuracy=None,
+):
     """Build one scene and compare it with embreex; returns a dict (see the module doc)."""
-    from ..compare import agreement, compare
+    from ..baselines.embree import embree_scene
+    from ..dev.compare import agreement, compare
+    from ..errors import MeshingError
     from ..hits import HIT
-    from ..meshing import MeshingError, load_triangles
-    from ..reference import embree_scene
+    from ..io import load_triangles
     from ..referee import Referee
     from ..scene import Scene
     from .agreement import ray_sets
@@ -81,27 +91,36 @@ def run_scene(path, *, mesher="fallback", preset="quality", res=512, n_random=10
     row["triangles"] = int(len(f))
     t0 = time.perf_counter()
     try:
-        scene = Scene.from_mesh((v, f), preset, mesher=mesher, timeout=timeout, epsilon=epsilon,
-                                accuracy=accuracy)
+        scene = Scene.from_mesh(
+            (v, f), preset, mesher=mesher, timeout=timeout, epsilon=epsilon, accuracy=accuracy
+        )
     except MeshingError as exc:
         row.update(ok=False, error=str(exc), seconds=time.perf_counter() - t0)
         return row
     tz = scene.tetrahedralization
     bt = scene.build_times
-    row.update(ok=True, mesher=_mesher_label(tz), tets=int(scene.n_tets),
-               mesher_seconds=float(tz.auto["seconds"] if tz.auto else bt["total"] - bt["rust"]), rust_seconds=float(bt["rust"]),
-               timings={k: float(x) for k, x in bt.items()}, attempts=list(tz.attempts),
-               snap=float(tz.snap), options={k: v for k, v in tz.options.items()
-                                             if isinstance(v, (int, float, str, bool))})
+    row.update(
+        ok=True,
+        mesher=_mesher_label(tz),
+        tets=int(scene.n_tets),
+        mesher_seconds=float(tz.auto["seconds"] if tz.auto else bt["total"] - bt["rust"]),
+        rust_seconds=float(bt["rust"]),
+        timings={k: float(x) for k, x in bt.items()},
+        attempts=list(tz.attempts),
+        snap=float(tz.snap),
+        options={k: v for k, v in tz.options.items() if isinstance(v, (int, float, str, bool))},
+    )
     if tz.surface_distance:
         diag = tz.surface_distance["diagonal"]
-        row["surface_distance"] = {k: x / diag for k, x in tz.surface_distance.items()
-                                   if k != "diagonal"}
+        row["surface_distance"] = {
+            k: x / diag for k, x in tz.surface_distance.items() if k != "diagonal"
+        }
     ref_scene = embree_scene((v, f))
     bounds = np.array([v.min(0), v.max(0)])
     referee = Referee(v, f)
-    totals = dict(rays=0, agree=0, coincident=0, same_plane=0, hit_differ=0, unexplained=0,
-                  failed=0)
+    totals = dict(
+        rays=0, agree=0, coincident=0, same_plane=0, hit_differ=0, unexplained=0, failed=0
+    )
     judged = dict(right=0, leaked=0, late=0, wrong=0, t_off=0)
     dts = []
     for _, o, d in ray_sets(bounds, res, n_random):
@@ -124,8 +143,9 @@ def run_scene(path, *, mesher="fallback", preset="quality", res=512, n_random=10
     dt = np.concatenate(dts) / diag
     row.update(totals)
     row["right"] = judged["right"] / totals["rays"]
-    row.update(leaked=judged["leaked"], late=judged["late"], wrong=judged["wrong"],
-               t_off=judged["t_off"])
+    row.update(
+        leaked=judged["leaked"], late=judged["late"], wrong=judged["wrong"], t_off=judged["t_off"]
+    )
     row["agreement"] = (totals["agree"] + totals["coincident"]) / totals["rays"]
     row["hit_agreement"] = 1 - totals["hit_differ"] / totals["rays"]
     row["plane_agreement"] = (totals["agree"] + totals["same_plane"]) / totals["rays"]
@@ -135,37 +155,98 @@ def run_scene(path, *, mesher="fallback", preset="quality", res=512, n_random=10
     return row
 
 
-def run_scenes(paths, *, mesher="fallback", preset="quality", res=512, n_random=100_000,
-               timeout=None, epsilon=None, accuracy=None, json_path=None, out=print):
+def run_scenes(
+    paths,
+    *,
+    mesher="fallback",
+    preset="quality",
+    res=512,
+    n_random=100_000,
+    timeout=None,
+    epsilon=None,
+    accuracy=None,
+    json_path=None,
+    out=print,
+):
     """Print the table for the given mesh files; return the rows."""
     from .scene_bench import _table
 
     rows, table = [], []
-    header = ["scene", "tris", "mesher", "tets", "mesher s", "rust s", "rays", "right",
-              "leaked", "late", "wrong", "failed", "embreex: hit agree", "id agree",
-              "same plane", "differ off edges", "p99 |dt|/diag", "surface max/mean", "note"]
+    header = [
+        "scene",
+        "tris",
+        "mesher",
+        "tets",
+        "mesher s",
+        "rust s",
+        "rays",
+        "right",
+        "leaked",
+        "late",
+        "wrong",
+        "failed",
+        "embreex: hit agree",
+        "id agree",
+        "same plane",
+        "differ off edges",
+        "p99 |dt|/diag",
+        "surface max/mean",
+        "note",
+    ]
     for path in paths:
-        row = run_scene(path, mesher=mesher, preset=preset, res=res, n_random=n_random,
-                        timeout=timeout, epsilon=epsilon, accuracy=accuracy)
+        row = run_scene(
+            path,
+            mesher=mesher,
+            preset=preset,
+            res=res,
+            n_random=n_random,
+            timeout=timeout,
+            epsilon=epsilon,
+            accuracy=accuracy,
+        )
         rows.append(row)
         if not row["ok"]:
-            table.append([row["scene"], f"{row['triangles']:,}", "FAILED", "-",
-                          f"{row['seconds']:.1f}"] + ["-"] * (len(header) - 6) + [row["error"]])
+            table.append(
+                [row["scene"], f"{row['triangles']:,}", "FAILED", "-", f"{row['seconds']:.1f}"]
+                + ["-"] * (len(header) - 6)
+                + [row["error"]]
+            )
         else:
             sd = row.get("surface_distance")
             note = " | ".join(row["attempts"])
-            table.append([
-                row["scene"], f"{row['triangles']:,}", row["mesher"], f"{row['tets']:,}",
-                f"{row['mesher_seconds']:.1f}", f"{row['rust_seconds']:.2f}", f"{row['rays']:,}",
-                f"{row['right'] * 100:.3f}%", row["leaked"], row["late"], row["wrong"],
-                row["failed"], f"{row['hit_agreement'] * 100:.3f}%",
-                f"{row['agreement'] * 100:.3f}%", f"{row['plane_agreement'] * 100:.3f}%",
-                row["unexplained"], f"{row['p99_dt']:.1e}",
-                f"{sd['max']:.1e}/{sd['mean']:.1e}" if sd else "-", note])
+            table.append(
+                [
+                    row["scene"],
+                    f"{row['triangles']:,}",
+                    row["mesher"],
+                    f"{row['tets']:,}",
+                    f"{row['mesher_seconds']:.1f}",
+                    f"{row['rust_seconds']:.2f}",
+                    f"{row['rays']:,}",
+                    f"{row['right'] * 100:.3f}%",
+                    row["leaked"],
+                    row["late"],
+                    row["wrong"],
+                    row["failed"],
+                    f"{row['hit_agreement'] * 100:.3f}%",
+                    f"{row['agreement'] * 100:.3f}%",
+                    f"{row['plane_agreement'] * 100:.3f}%",
+                    row["unexplained"],
+                    f"{row['p99_dt']:.1e}",
+                    f"{sd['max']:.1e}/{sd['mean']:.1e}" if sd else "-",
+                    note,
+                ]
+            )
         # Progress on stderr: a full run takes a while.
-        print(f"{row['scene']}: " + ("ok " if row["ok"] else "FAILED ")
-              + json.dumps({k: row[k] for k in ("mesher", "tets", "right", "agreement", "error")
-                            if k in row}), file=sys.stderr, flush=True)
+        print(
+            f"{row['scene']}: "
+            + ("ok " if row["ok"] else "FAILED ")
+            + json.dumps(
+                {k: row[k] for k in ("mesher", "tets", "right", "agreement", "error") if k in row}
+            ),
+            file=sys.stderr,
+            flush=True,
+        )
         if json_path:
             with open(json_path, "w") as fh:
                 json.dump(rows, fh, indent=2)

@@ -2,7 +2,7 @@
 referee (Maria et al.'s Table 4 counts failures per 1024x1024 image, about a million rays; we
 count per million rays, and give the counts).
 
-Each family's rays are certified to be what the family claims (:mod:`tetrace.stress`); each
+Each family's rays are certified to be what the family claims (:mod:`tetrace.dev.stress`); each
 cast is judged per ray against the referee's verdict (late, leaked, failed, wrong:
 ``docs/referee.md``) and per step by the exact audit (wrong_exit, no_exit).
 """
@@ -15,7 +15,7 @@ import time
 import numpy as np
 
 from .. import _native
-from ..stress import OUTCOMES, build_scene, cases, cast_case, count, examples
+from ..dev.stress import OUTCOMES, build_scene, cases, cast_case, count, examples
 
 #: The parts of ``wrong`` (``tetrace.referee.judge``) kept in each row.
 WRONG_PARTS = ("phantom", "early", "other_triangle", "t_off")
@@ -34,10 +34,10 @@ def embree_row(case, precision):
     """Embree's row for one certified case and precision (``None`` without embreex).
 
     embreex has no ``tnear``: a ray with ``tmin > 0`` is cast from ``origin + tmin * direction``
-    (``tetrace.reference.embree_cast``), which is what a user of embreex can do; its ``t`` is
+    (``tetrace.baselines.embree.embree_cast``), which is what a user of embreex can do; its ``t`` is
     float32 arithmetic (``judge(..., arithmetic="f32")``), and it has no walk to audit.
     """
-    from ..reference import embree_available, embree_cast
+    from ..baselines.embree import embree_available, embree_cast
     from ..referee import judge
 
     if not embree_available():
@@ -46,33 +46,40 @@ def embree_row(case, precision):
     h = embree_cast((case.vertices, case.faces), o, d, tmin=case.tmin, tmax=case.tmax)
     masks = judge(h, case.verdicts[precision], "f32")
     masks["wrong_exit"] = masks["no_exit"] = np.zeros(len(o), bool)
-    row = dict(family=case.family, method=EMBREE, layout="-", precision=precision, tets=0,
-               **count(masks))
+    row = dict(
+        family=case.family, method=EMBREE, layout="-", precision=precision, tets=0, **count(masks)
+    )
     row.update({k: int(masks[k].sum()) for k in WRONG_PARTS})
     return row
 
 
-def run_family(case, methods, layouts, precisions, *, scene=None, threads=None, n_examples=3,
-               embree=True):
+def run_family(
+    case, methods, layouts, precisions, *, scene=None, threads=None, n_examples=3, embree=True
+):
     """Cast one certified case with every method, layout and precision; one row each.
 
     Returns
     -------
     list of dict
         ``family``, ``method``, ``layout``, ``precision``, ``rays``, ``tets``, ``right``, the
-        counts of :data:`tetrace.stress.OUTCOMES` and of the parts of ``wrong``, ``bad_kinds``
+        counts of :data:`tetrace.dev.stress.OUTCOMES` and of the parts of ``wrong``, ``bad_kinds``
         (per outcome, the ray kinds it holds for, with counts) and ``examples`` (per outcome,
-        up to ``n_examples`` rays: :func:`tetrace.stress.examples`).
+        up to ``n_examples`` rays: :func:`tetrace.dev.stress.examples`).
     """
     scene = build_scene(case) if scene is None else scene
     rows = []
     for precision in precisions:
         for method in methods:
             for layout in layouts_for(precision, layouts):
-                h, _, masks = cast_case(case, scene, method, layout, precision,
-                                            threads=threads)
-                row = dict(family=case.family, method=method, layout=layout,
-                           precision=precision, tets=scene.n_tets, **count(masks))
+                h, _, masks = cast_case(case, scene, method, layout, precision, threads=threads)
+                row = dict(
+                    family=case.family,
+                    method=method,
+                    layout=layout,
+                    precision=precision,
+                    tets=scene.n_tets,
+                    **count(masks),
+                )
                 row.update({k: int(masks[k].sum()) for k in WRONG_PARTS})
                 row["bad_kinds"] = {}
                 row["examples"] = {}
@@ -80,8 +87,9 @@ def run_family(case, methods, layouts, precisions, *, scene=None, threads=None, 
                     if masks[k].any():
                         kinds, n = np.unique(case.kind[masks[k]], return_counts=True)
                         row["bad_kinds"][k] = {str(a): int(b) for a, b in zip(kinds, n)}
-                        row["examples"][k] = examples(case, h, masks, case.verdicts[precision],
-                                                      k, n_examples)
+                        row["examples"][k] = examples(
+                            case, h, masks, case.verdicts[precision], k, n_examples
+                        )
                 rows.append(row)
         if embree:
             row = embree_row(case, precision)
@@ -90,8 +98,17 @@ def run_family(case, methods, layouts, precisions, *, scene=None, threads=None, 
     return rows
 
 
-def run_stability(n_per_family=20_000, seed=0, families=None, methods=None, layouts=("tet32",),
-                  precisions=("f32", "f64"), out=print, json_path=None, threads=None):
+def run_stability(
+    n_per_family=20_000,
+    seed=0,
+    families=None,
+    methods=None,
+    layouts=("tet32",),
+    precisions=("f32", "f64"),
+    out=print,
+    json_path=None,
+    threads=None,
+):
     """Build and certify every stress family, cast it with every method, layout and precision,
     print the table and the per-method summary, and return the rows (:func:`run_family`).
 
@@ -102,8 +119,9 @@ def run_stability(n_per_family=20_000, seed=0, families=None, methods=None, layo
     rows, certs, skipped = [], [], []
     t_start = time.perf_counter()
     for case in cases(n_per_family, seed, families, skipped=skipped):
-        certs.append((case.family, case.what, case.candidates, len(case), case.certified,
-                      case.exact32))
+        certs.append(
+            (case.family, case.what, case.candidates, len(case), case.certified, case.exact32)
+        )
         rows += run_family(case, methods, list(layouts), list(precisions), threads=threads)
     seconds = time.perf_counter() - t_start
     out(f"stress families: rays certified exact by the referee ({seconds:.0f} s)")
@@ -111,12 +129,14 @@ def run_stability(n_per_family=20_000, seed=0, families=None, methods=None, layo
     for name, why in skipped:
         out(f"skipped {name}: {why}")
     out("")
-    out(f"outcomes per million rays (counts in brackets); default = {_native.DEFAULT_METHOD} on "
+    out(
+        f"outcomes per million rays (counts in brackets); default = {_native.DEFAULT_METHOD} on "
         f"{_native.DEFAULT_LAYOUT}. late: a triangle past the first hit; leaked: a miss where "
         "the referee hits; failed: the walk gave up (its step guard fired: a cycle); wrong: "
         "anything else not right (a phantom or early hit, a triangle outside the tie set, t "
         "outside its bound); wrong_exit: took an exit face the line does not leave by (exact "
-        "predicates); no_exit: the method's tests found no exit face")
+        "predicates); no_exit: the method's tests found no exit face"
+    )
     out(table(rows))
     out("")
     out(summary(rows))
@@ -131,10 +151,29 @@ def certification_table(certs):
 
     body = []
     for fam, what, cand, kept, frac, exact32 in certs:
-        body.append([fam, f"{cand:,}", f"{kept:,}", f"{100 * frac['f32']:.2f}%",
-                     f"{100 * frac['f64']:.2f}%", "same" if exact32 else "rounded", what])
-    return _table(body, ["family", "candidates", "kept", "certified f32", "certified f64",
-                         "f32 rays", "what is exact"])
+        body.append(
+            [
+                fam,
+                f"{cand:,}",
+                f"{kept:,}",
+                f"{100 * frac['f32']:.2f}%",
+                f"{100 * frac['f64']:.2f}%",
+                "same" if exact32 else "rounded",
+                what,
+            ]
+        )
+    return _table(
+        body,
+        [
+            "family",
+            "candidates",
+            "kept",
+            "certified f32",
+            "certified f64",
+            "f32 rays",
+            "what is exact",
+        ],
+    )
 
 
 def _cell(n, rays):
@@ -148,10 +187,17 @@ def table(rows):
     body = []
     for r in rows:
         default = (r["method"], r["layout"]) == (_native.DEFAULT_METHOD, _native.DEFAULT_LAYOUT)
-        body.append([r["family"], r["method"] + (" *" if default else ""), r["layout"],
-                     r["precision"], f"{r['rays']:,}"] + [_cell(r[k], r["rays"]) for k in OUTCOMES])
-    return _table(body, ["family", "method (* default)", "layout", "precision", "rays",
-                         *OUTCOMES])
+        body.append(
+            [
+                r["family"],
+                r["method"] + (" *" if default else ""),
+                r["layout"],
+                r["precision"],
+                f"{r['rays']:,}",
+            ]
+            + [_cell(r[k], r["rays"]) for k in OUTCOMES]
+        )
+    return _table(body, ["family", "method (* default)", "layout", "precision", "rays", *OUTCOMES])
 
 
 def summary(rows):
@@ -169,9 +215,9 @@ def summary(rows):
         n = sum(r["rays"] for r in sel)
         bad = [sum(r[k] for r in sel) for k in OUTCOMES]
         clean = sum(1 for r in sel if not any(r[k] for k in OUTCOMES))
-        body.append([m, lay, p, f"{n:,}"] + [_cell(b, n) for b in bad]
-                    + [f"{clean}/{len(sel)}"])
-    return ("all families together, per million rays (counts in brackets); last column: "
-            "families with no late, leaked, failed, wrong, wrong_exit or no_exit ray\n"
-            + _table(body, ["method", "layout", "precision", "rays", *OUTCOMES,
-                            "clean families"]))
+        body.append([m, lay, p, f"{n:,}"] + [_cell(b, n) for b in bad] + [f"{clean}/{len(sel)}"])
+    return (
+        "all families together, per million rays (counts in brackets); last column: "
+        "families with no late, leaked, failed, wrong, wrong_exit or no_exit ray\n"
+        + _table(body, ["method", "layout", "precision", "rays", *OUTCOMES, "clean families"])
+    )

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .hits import HIT
+from ..hits import HIT
 
 __all__ = ["depth_image", "shade", "lambert", "save_png"]
 
@@ -27,7 +27,7 @@ def depth_image(hits, width, height):
     ----------
     hits : Hits
         Results of casting ``width * height`` rays in row-major pixel order
-        (as :func:`tetrace.camera.pinhole` makes them).
+        (as :func:`tetrace.dev.camera.pinhole` makes them).
     width, height : int
         Image size.
 
@@ -103,7 +103,8 @@ def lambert(hits, directions, vertices, faces, width, height):
         n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
         with np.errstate(invalid="ignore", divide="ignore"):
             cos = np.abs(np.einsum("ij,ij->i", n, d[hit])) / (
-                np.linalg.norm(n, axis=1) * np.linalg.norm(d[hit], axis=1))
+                np.linalg.norm(n, axis=1) * np.linalg.norm(d[hit], axis=1)
+            )
         out[hit] = 0.15 + 0.85 * np.nan_to_num(cos)
     return out.reshape(height, width)
 

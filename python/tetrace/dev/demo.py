@@ -8,7 +8,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from .bench.scene_bench import run_scene_bench
+from ..bench.scene_bench import run_scene_bench
 
 
 def main(argv=None):
@@ -17,8 +17,9 @@ def main(argv=None):
     p.add_argument("--out", default="tetrace_demo.png", help="PNG to write (default: %(default)s)")
     p.add_argument("--size", type=int, default=1024, help="image width and height in pixels")
     args = p.parse_args(argv)
-    run_scene_bench(args.scene, width=args.size, height=args.size, repeat=3, image=args.out,
-                    distance=2.2)
+    run_scene_bench(
+        args.scene, width=args.size, height=args.size, repeat=3, image=args.out, distance=2.2
+    )
     return 0
 
 

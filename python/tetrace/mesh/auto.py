@@ -33,6 +33,9 @@ import time
 
 import numpy as np
 
+from ..errors import MeshingError
+from ..io import load_triangles
+
 #: Radius-edge bounds tried on the exact route, in order: the default first, then
 #: looser (fewer tets), then tighter (lower weight on some scenes).
 AUTO_RATIOS = (5.0, 7.0, 10.0, 14.0, 20.0, 3.0, 2.0)
@@ -52,75 +55,50 @@ ACCURACY_RAYS = 20_000
 HIT_DISTANCE = 1e-3
 
 
-def measure_accuracy(tetrahedralization, vertices, faces, *, rays=ACCURACY_RAYS, seed=0,
-                     hit_distance=HIT_DISTANCE):
-    """Fraction of random rays on which a tetrahedralization agrees with Embree.
-
-    Parameters
-    ----------
-    tetrahedralization : tetrace.meshing.Tetrahedralization
-    vertices, faces : numpy.ndarray
-        The caller's mesh, which ``tetrahedralization`` was built from.
-    rays : int
-        Random rays, origins uniform in the scene's box grown by a quarter of its size
-        on each side, directions uniform on the sphere.
-    seed : int
-    hit_distance : float
-        Hits on different triangles agree when the hit points are this close, as a
-        fraction of the scene's diagonal.
-
-    Returns
-    -------
-    float
-        Rays with the same outcome as Embree (both miss, or both hit the same triangle
-        or points within ``hit_distance``), over all rays.
-
-    Raises
-    ------
-    ImportError
-        embreex is not installed.
-    """
-    from .camera import random_rays
-    from .hits import HIT
-    from .reference import embree_scene
-    from .scene import Scene
-
-    v = np.asarray(vertices, np.float64)
-    o, d = random_rays(np.array([v.min(0), v.max(0)]), int(rays), seed)
-    hits = Scene(tetrahedralization, v, faces).cast(o, d, precision="f64")
-    ref = embree_scene((v, faces)).cast(o, d)
-    diagonal = float(np.linalg.norm(v.max(0) - v.min(0)))
-    near = np.linalg.norm(hits.point - ref.point, axis=1) <= hit_distance * diagonal
-    same = (hits.status == ref.status) & ((hits.status != HIT) | (hits.triangle == ref.triangle)
-                                          | near)
-    return float(same.mean())
-
-
 def _exact(tz) -> bool:
     return tz.mesher == "tetgen" and not tz.repaired and not tz.snap
 
 
-def auto_tetrahedralize(mesh, *, accuracy=DEFAULT_ACCURACY, tolerance=WEIGHT_TOLERANCE,
-                        margin=0.02, contain=None, timeout=None, rays=ACCURACY_RAYS, seed=0):
+def auto_tetrahedralize(
+    mesh,
+    *,
+    build,
+    measure=None,
+    accuracy=DEFAULT_ACCURACY,
+    tolerance=WEIGHT_TOLERANCE,
+    margin=0.02,
+    contain=None,
+    timeout=None,
+    rays=ACCURACY_RAYS,
+    seed=0,
+):
     """Build the candidate settings and keep the cheapest that meets ``accuracy``.
 
     Parameters
     ----------
     mesh : trimesh.Trimesh or str or os.PathLike or tuple
-        Anything :func:`tetrace.meshing.load_triangles` takes.
+        Anything :func:`tetrace.io.load_triangles` takes.
+    build : callable
+        ``build((vertices, faces), **settings)`` meshes one setting
+        (:func:`tetrace.mesh.tetrahedralize`, which passes itself).
+    measure : callable, optional
+        ``measure(tz, vertices, faces, rays=, seed=)``: the accuracy of an inexact candidate
+        (:meth:`tetrace.Scene.from_mesh` passes :func:`tetrace.scene.measure_accuracy`,
+        agreement with Embree). Without it, inexact candidates are not measured and cannot
+        be chosen.
     accuracy : float
         Target in (0, 1]: the fraction of random rays that must agree with Embree on
         the caller's mesh (see :func:`measure_accuracy`).
     tolerance : float
         Weights within this fraction of the lowest count as equally fast.
     margin, contain, timeout
-        As in :func:`tetrace.meshing.tetrahedralize`.
+        As in :func:`tetrace.mesh.tetrahedralize`.
     rays, seed : int
         Rays the accuracy of inexact candidates is measured on.
 
     Returns
     -------
-    tetrace.meshing.Tetrahedralization
+    tetrace.mesh.Tetrahedralization
         The chosen one; its ``auto`` dict has the target, the tolerance, the chosen
         ``setting`` and every ``candidate`` (setting, tets, weight, accuracy, seconds,
         or the error that stopped it).
@@ -132,8 +110,6 @@ def auto_tetrahedralize(mesh, *, accuracy=DEFAULT_ACCURACY, tolerance=WEIGHT_TOL
     tetrace.MeshingError
         No candidate meets the target; the message gives the best accuracy reached.
     """
-    from .meshing import MeshingError, load_triangles, tetrahedralize
-
     if not (0.0 < float(accuracy) <= 1.0):
         raise ValueError(f"accuracy must be in (0, 1], got {accuracy!r}")
     if not (float(tolerance) >= 0.0):
@@ -146,20 +122,32 @@ def auto_tetrahedralize(mesh, *, accuracy=DEFAULT_ACCURACY, tolerance=WEIGHT_TOL
         t0 = time.perf_counter()
         row = dict(setting=setting)
         try:
-            tz = tetrahedralize((v, f), margin=margin, contain=contain, timeout=timeout, **kwargs)
+            tz = build((v, f), margin=margin, contain=contain, timeout=timeout, **kwargs)
         except MeshingError as exc:
             row.update(error=str(exc), seconds=time.perf_counter() - t0)
             built.append((row, None))
             return None
-        row.update(mesher=tz.mesher, tets=int(len(tz.tets)), weight=tz.weight(),
-                   repaired=bool(tz.repaired), snap=float(tz.snap))
+        row.update(
+            mesher=tz.mesher,
+            tets=int(len(tz.tets)),
+            weight=tz.weight(),
+            repaired=bool(tz.repaired),
+            snap=float(tz.snap),
+        )
         if _exact(tz):
             row["accuracy"] = 1.0
         else:
-            try:
-                row["accuracy"] = measure_accuracy(tz, v, f, rays=rays, seed=seed)
-            except ImportError as exc:
-                row.update(accuracy=None, error=f"accuracy not measured: {exc}")
+            if measure is None:
+                row.update(
+                    accuracy=None,
+                    error="accuracy not measured: no measure given "
+                    "(Scene.from_mesh measures against Embree)",
+                )
+            else:
+                try:
+                    row["accuracy"] = measure(tz, v, f, rays=rays, seed=seed)
+                except ImportError as exc:
+                    row.update(accuracy=None, error=f"accuracy not measured: {exc}")
         row["seconds"] = time.perf_counter() - t0
         built.append((row, tz))
         return row
@@ -197,12 +185,19 @@ def auto_tetrahedralize(mesh, *, accuracy=DEFAULT_ACCURACY, tolerance=WEIGHT_TOL
     if not ok:
         best = max((r.get("accuracy") or 0.0 for r, _ in built), default=0.0)
         reasons = "; ".join(f"{r['setting']}: {r['error']}" for r, _ in built if "error" in r)
-        raise MeshingError(f"mesher='auto': no setting reached accuracy {accuracy:g} "
-                           f"(best {best:.6f}){'; ' + reasons if reasons else ''}")
+        raise MeshingError(
+            f"mesher='auto': no setting reached accuracy {accuracy:g} "
+            f"(best {best:.6f}){'; ' + reasons if reasons else ''}"
+        )
     w_min = min(r["weight"] for r, _ in ok)
     near = [(r, t) for r, t in ok if r["weight"] <= (1.0 + tolerance) * w_min]
     row, tz = min(near, key=lambda rt: (rt[0]["tets"], rt[0]["weight"]))
-    tz.auto = dict(accuracy=float(accuracy), tolerance=float(tolerance), setting=row["setting"],
-                   seconds=time.perf_counter() - t_start, candidates=[r for r, _ in built])
+    tz.auto = dict(
+        accuracy=float(accuracy),
+        tolerance=float(tolerance),
+        setting=row["setting"],
+        seconds=time.perf_counter() - t_start,
+        candidates=[r for r, _ in built],
+    )
     tz.timings["auto"] = tz.auto["seconds"]
     return tz

@@ -9,7 +9,7 @@ import dataclasses
 
 import numpy as np
 
-from .hits import FAILED, HIT
+from ..hits import FAILED, HIT
 
 __all__ = ["Agreement", "Score", "agreement", "compare", "edge_distance", "same_plane"]
 
@@ -61,11 +61,13 @@ class Score:
         return self.rays - self.right
 
     def __str__(self):
-        return (f"{self.right:,}/{self.rays:,} right ({self.fraction * 100:.4f}%): "
-                f"{self.failed} failed, {self.leaked} leaked, {self.late} late, {self.wrong} wrong "
-                f"({self.phantom} phantom, {self.early} early, {self.other_triangle} other "
-                f"triangle at t*, {self.t_off} t off); max |t - t*| {self.max_t_ulps:.3g} ulp; "
-                f"{self.ties} rays tied")
+        return (
+            f"{self.right:,}/{self.rays:,} right ({self.fraction * 100:.4f}%): "
+            f"{self.failed} failed, {self.leaked} leaked, {self.late} late, {self.wrong} wrong "
+            f"({self.phantom} phantom, {self.early} early, {self.other_triangle} other "
+            f"triangle at t*, {self.t_off} t off); max |t - t*| {self.max_t_ulps:.3g} ulp; "
+            f"{self.ties} rays tied"
+        )
 
 
 def agreement(hits, verdict, arithmetic="f64"):
@@ -82,19 +84,36 @@ def agreement(hits, verdict, arithmetic="f64"):
     -------
     Score
     """
-    from .referee import judge, out_dtype, ulp
+    from ..referee import judge, out_dtype, ulp
 
     j = judge(hits, verdict, arithmetic)
     valid = ~j["invalid"]
     on_tie = valid & verdict.in_ties(np.where(np.asarray(hits.status) == HIT, hits.triangle, -1))
     t = np.asarray(hits.t)
     with np.errstate(invalid="ignore", divide="ignore"):
-        ulps = (np.abs(t[on_tie].astype(np.float64) - verdict.t[on_tie])
-                / ulp(verdict.t[on_tie], out_dtype(hits, arithmetic)))
-    return Score(rays=int(valid.sum()), **{k: int(j[k].sum()) for k in (
-        "right", "failed", "leaked", "late", "wrong", "phantom", "early", "other_triangle",
-        "t_off")}, max_t_ulps=float(ulps.max()) if len(ulps) else 0.0,
-        ties=int((verdict.ties > 1).sum()), worst=np.flatnonzero(valid & ~j["right"])[:10].tolist())
+        ulps = np.abs(t[on_tie].astype(np.float64) - verdict.t[on_tie]) / ulp(
+            verdict.t[on_tie], out_dtype(hits, arithmetic)
+        )
+    return Score(
+        rays=int(valid.sum()),
+        **{
+            k: int(j[k].sum())
+            for k in (
+                "right",
+                "failed",
+                "leaked",
+                "late",
+                "wrong",
+                "phantom",
+                "early",
+                "other_triangle",
+                "t_off",
+            )
+        },
+        max_t_ulps=float(ulps.max()) if len(ulps) else 0.0,
+        ties=int((verdict.ties > 1).sum()),
+        worst=np.flatnonzero(valid & ~j["right"])[:10].tolist(),
+    )
 
 
 @dataclasses.dataclass
@@ -150,11 +169,13 @@ class Agreement:
         return self.agree / self.rays if self.rays else 1.0
 
     def __str__(self):
-        return (f"{self.fraction * 100:.4f}% agree ({self.rays - self.agree} differ in id, "
-                f"{self.far_from_edges} away from edges, {self.coincident} on coincident triangles, "
-                f"{self.failed} failed), "
-                f"|dt|/diag max {self.max_dt:.2e} p99 {self.p99_dt:.2e} "
-                f"({self.dt_over} over bound, {self.dt_over_unexplained} not the reference's error)")
+        return (
+            f"{self.fraction * 100:.4f}% agree ({self.rays - self.agree} differ in id, "
+            f"{self.far_from_edges} away from edges, {self.coincident} on coincident triangles, "
+            f"{self.failed} failed), "
+            f"|dt|/diag max {self.max_dt:.2e} p99 {self.p99_dt:.2e} "
+            f"({self.dt_over} over bound, {self.dt_over_unexplained} not the reference's error)"
+        )
 
 
 def edge_distance(vertices, faces, triangle, u, v):
@@ -220,14 +241,24 @@ def _exact_t(origins, directions, vertices, faces, triangle):
         return np.einsum("ij,ij->i", p[:, 0] - o, n) / np.einsum("ij,ij->i", d, n)
 
 
-def compare(hits, ref, vertices, faces, *, edge_tol=1e-5, t_tol=1e-5, diagonal=None,
-            origins=None, directions=None):
+def compare(
+    hits,
+    ref,
+    vertices,
+    faces,
+    *,
+    edge_tol=1e-5,
+    t_tol=1e-5,
+    diagonal=None,
+    origins=None,
+    directions=None,
+):
     """Compare a cast against a reference cast of the same rays.
 
     Parameters
     ----------
     hits, ref : Hits
-        The cast under test and the reference (e.g. ``tetrace.reference.embree_cast``).
+        The cast under test and the reference (e.g. ``tetrace.baselines.embree.embree_cast``).
     vertices, faces : numpy.ndarray
         The caller's mesh (triangle ids index ``faces``).
     edge_tol : float
@@ -270,10 +301,9 @@ def compare(hits, ref, vertices, faces, *, edge_tol=1e-5, t_tol=1e-5, diagonal=N
         if same_t.any():
             k = np.flatnonzero(same_t)
             tol = edge_tol * diagonal
-            coincident[k] = (
-                _on_triangle(ref.point[differ[k]], vertices, faces, hits.triangle[differ[k]], tol)
-                & _on_triangle(hits.point[differ[k]], vertices, faces, ref.triangle[differ[k]], tol)
-            )
+            coincident[k] = _on_triangle(
+                ref.point[differ[k]], vertices, faces, hits.triangle[differ[k]], tol
+            ) & _on_triangle(hits.point[differ[k]], vertices, faces, ref.triangle[differ[k]], tol)
         # Near an edge explains a disagreement first; coincident triangles only the rest.
         coincident &= dist > edge_tol
         n_coincident = int(coincident.sum())

@@ -14,12 +14,18 @@ __all__ = ["box", "cube", "thin_plate", "touching_boxes", "nested_spheres", "tor
 # Unit cube corners: vertex index = 4x + 2y + z, as in tests/test_reference.py.
 _CUBE_FACES = np.array(
     [
-        [0, 1, 3], [0, 3, 2],  # x = lo
-        [4, 6, 7], [4, 7, 5],  # x = hi
-        [0, 4, 5], [0, 5, 1],  # y = lo
-        [2, 3, 7], [2, 7, 6],  # y = hi
-        [0, 2, 6], [0, 6, 4],  # z = lo
-        [1, 5, 7], [1, 7, 3],  # z = hi
+        [0, 1, 3],
+        [0, 3, 2],  # x = lo
+        [4, 6, 7],
+        [4, 7, 5],  # x = hi
+        [0, 4, 5],
+        [0, 5, 1],  # y = lo
+        [2, 3, 7],
+        [2, 7, 6],  # y = hi
+        [0, 2, 6],
+        [0, 6, 4],  # z = lo
+        [1, 5, 7],
+        [1, 7, 3],  # z = hi
     ],
     dtype=np.int64,
 )
@@ -164,23 +170,34 @@ def torus_knot(p=2, q=3, major=2.0, minor=1.0, tube=0.25, segments=240, sides=12
     # Analytic tangent. Its xy part never vanishes (major > minor), so crossing it with
     # +z gives a smooth normal without the flips of a Frenet frame.
     dring = -minor * q * np.sin(q * t)
-    tangent = np.stack([dring * np.cos(p * t) - ring * p * np.sin(p * t),
-                        dring * np.sin(p * t) + ring * p * np.cos(p * t),
-                        minor * q * np.cos(q * t)], axis=1)
+    tangent = np.stack(
+        [
+            dring * np.cos(p * t) - ring * p * np.sin(p * t),
+            dring * np.sin(p * t) + ring * p * np.cos(p * t),
+            minor * q * np.cos(q * t),
+        ],
+        axis=1,
+    )
     tangent /= np.linalg.norm(tangent, axis=1, keepdims=True)
     normal = np.cross(tangent, [0.0, 0.0, 1.0])
     normal /= np.linalg.norm(normal, axis=1, keepdims=True)
     binormal = np.cross(tangent, normal)
     a = np.linspace(0.0, 2.0 * np.pi, sides, endpoint=False)
-    vertices = (centre[:, None, :]
-                + tube * (np.cos(a)[None, :, None] * normal[:, None, :]
-                          + np.sin(a)[None, :, None] * binormal[:, None, :])).reshape(-1, 3)
+    vertices = (
+        centre[:, None, :]
+        + tube
+        * (
+            np.cos(a)[None, :, None] * normal[:, None, :]
+            + np.sin(a)[None, :, None] * binormal[:, None, :]
+        )
+    ).reshape(-1, 3)
     i, j = np.meshgrid(np.arange(segments), np.arange(sides), indexing="ij")
     i1, j1 = (i + 1) % segments, (j + 1) % sides
     v00, v01 = i * sides + j, i * sides + j1
     v10, v11 = i1 * sides + j, i1 * sides + j1
-    faces = np.concatenate([np.stack([v00, v10, v11], -1).reshape(-1, 3),
-                            np.stack([v00, v11, v01], -1).reshape(-1, 3)]).astype(np.int64)
+    faces = np.concatenate(
+        [np.stack([v00, v10, v11], -1).reshape(-1, 3), np.stack([v00, v11, v01], -1).reshape(-1, 3)]
+    ).astype(np.int64)
     # Orient outward: the signed volume (divergence theorem) must be positive.
     tri = vertices[faces]
     if np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum() < 0:

@@ -1,0 +1,1 @@
+"""Reference ray casters tetrace is measured against (Embree through embreex)."""

@@ -1,0 +1,116 @@
+"""Reading triangle scenes: the caller's triangles, validated, numbered as given.
+
+Everything that takes a mesh (:func:`tetrace.mesh.tetrahedralize`, :meth:`tetrace.Scene.from_mesh`,
+:func:`tetrace.baselines.embree.embree_scene`) reads it with :func:`load_triangles`, so they all
+number triangles alike. trimesh is imported only to read a file.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from .errors import MeshFileNotFoundError, MeshingError
+
+__all__ = ["load_triangles"]
+
+
+def _mesh_name(mesh) -> str:
+    """Name a mesh argument in messages."""
+    if isinstance(mesh, (str, os.PathLike)):
+        return Path(mesh).name
+    return "the mesh"
+
+
+def load_triangles(mesh) -> tuple[np.ndarray, np.ndarray]:
+    """Return the caller's triangles as ``(vertices, faces)`` arrays, validated.
+
+    Nothing is merged or removed, so face indices are the caller's triangle ids.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh or str or os.PathLike or tuple
+        A ``trimesh.Trimesh`` (anything with ``vertices`` and ``faces``), a file
+        loaded with ``trimesh.load(path, force="mesh")`` (trimesh's default
+        processing, so that every caster numbers triangles alike), or a
+        ``(vertices (V, 3), faces (F, 3))`` tuple.
+
+    Returns
+    -------
+    vertices : numpy.ndarray
+        ``(V, 3)`` float64, C-contiguous.
+    faces : numpy.ndarray
+        ``(F, 3)`` int64.
+
+    Raises
+    ------
+    MeshFileNotFoundError
+        The path does not exist (also a ``FileNotFoundError``).
+    MeshingError
+        The file cannot be loaded; the mesh has no faces; vertices have
+        non-finite coordinates; face indices are negative or out of range;
+        arrays have the wrong shape.
+    TypeError
+        ``mesh`` is of an unsupported type, faces are not integers, or vertices
+        are not real numbers.
+    """
+    if isinstance(mesh, (str, os.PathLike)):
+        path = Path(mesh)
+        if not path.is_file():
+            what = "is a directory, not a mesh file" if path.is_dir() else "not found"
+            raise MeshFileNotFoundError(2, f"mesh file {what}: {path}", str(path))
+        import trimesh
+
+        try:
+            mesh = trimesh.load(path, force="mesh")
+        except Exception as exc:  # trimesh raises many types for bad files
+            raise MeshingError(
+                f"could not load mesh file {path}: {type(exc).__name__}: {exc}"
+            ) from exc
+        if not hasattr(mesh, "faces"):
+            raise MeshingError(
+                f"could not load mesh file {path}: trimesh returned "
+                f"{type(mesh).__name__}, not a triangle mesh"
+            )
+    if hasattr(mesh, "vertices") and hasattr(mesh, "faces"):
+        vertices, faces = mesh.vertices, mesh.faces
+    elif isinstance(mesh, (tuple, list)) and len(mesh) == 2:
+        vertices, faces = mesh
+    else:
+        raise TypeError(
+            "mesh must be a trimesh.Trimesh, a path or a (vertices, faces) tuple, "
+            f"got {type(mesh).__name__}"
+        )
+
+    vertices = np.asarray(vertices)
+    faces = np.asarray(faces)
+    if vertices.dtype.kind not in "biuf":
+        raise TypeError(f"vertices must be real numbers, got dtype {vertices.dtype}")
+    if faces.size == 0:
+        raise MeshingError(f"empty mesh: it has no faces (faces shape {faces.shape})")
+    if faces.dtype.kind not in "iu":
+        raise TypeError(f"faces must be integers (vertex indices), got dtype {faces.dtype}")
+    if vertices.ndim != 2 or vertices.shape[1] != 3:
+        raise MeshingError(f"vertices must have shape (V, 3), got {vertices.shape}")
+    if faces.ndim != 2 or faces.shape[1] != 3:
+        raise MeshingError(f"faces must have shape (F, 3) (triangles only), got {faces.shape}")
+    vertices = np.ascontiguousarray(vertices, dtype=np.float64)
+    bad = ~np.isfinite(vertices).all(axis=1)
+    if bad.any():
+        raise MeshingError(
+            f"{int(bad.sum())} of {len(vertices)} vertices have non-finite "
+            f"coordinates (NaN or inf), first at vertex {int(np.argmax(bad))}"
+        )
+    # Compare before converting: a huge uint64 would wrap to a negative int64.
+    if faces.dtype.kind == "i" and faces.min() < 0:
+        n = int((faces < 0).any(axis=1).sum())
+        raise MeshingError(f"{n} faces have negative vertex indices (smallest {int(faces.min())})")
+    if faces.max() >= len(vertices):
+        n = int((faces >= len(vertices)).any(axis=1).sum())
+        raise MeshingError(
+            f"{n} faces have vertex indices out of range: largest index "
+            f"{int(faces.max())}, but there are {len(vertices)} vertices"
+        )
+    return vertices, np.ascontiguousarray(faces, dtype=np.int64)
