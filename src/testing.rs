@@ -1,6 +1,7 @@
 //! Fixtures shared by the tests of several modules (compiled only for `cargo test`).
 
 pub(crate) use crate::bench::Rng;
+use crate::scene::Scene;
 
 /// An n³ grid of cubes over [0,1]³, each cut into 6 Kuhn tets (conforming across cubes),
 /// interior points jittered so no two faces are coplanar by accident. Every coordinate is a
@@ -49,4 +50,60 @@ pub(crate) fn kuhn_grid(n: usize, jitter: f64, rng: &mut Rng) -> (Vec<[f64; 3]>,
         }
     }
     (pts, tets)
+}
+
+/// The interior faces of the tets (sorted triples).
+pub(crate) fn all_faces(tets: &[[u32; 4]]) -> Vec<[u32; 3]> {
+    let mut f: Vec<[u32; 3]> = tets
+        .iter()
+        .flat_map(|t| {
+            [
+                [t[1], t[2], t[3]],
+                [t[0], t[2], t[3]],
+                [t[0], t[1], t[3]],
+                [t[0], t[1], t[2]],
+            ]
+            .map(|mut k| {
+                k.sort();
+                k
+            })
+        })
+        .collect();
+    // Interior faces only (listed twice): scene triangles never lie on the domain boundary.
+    f.sort();
+    f.chunk_by(|a, b| a == b)
+        .filter(|g| g.len() == 2)
+        .map(|g| g[0])
+        .collect()
+}
+
+pub(crate) fn random_scene(rng: &mut Rng, n: usize, frac: f64) -> (Scene, Vec<[[f64; 3]; 3]>) {
+    let g = grid_scene(rng, n, 0.3, frac);
+    (g.scene, g.tris)
+}
+
+pub(crate) struct GridScene {
+    pub scene: Scene,
+    pub tris: Vec<[[f64; 3]; 3]>,
+    pub pts: Vec<[f64; 3]>,
+    pub faces: Vec<[u32; 3]>,
+}
+
+/// A Kuhn grid (see [`kuhn_grid`]) with a random fraction `frac` of its faces as the scene's
+/// triangles.
+pub(crate) fn grid_scene(rng: &mut Rng, n: usize, jitter: f64, frac: f64) -> GridScene {
+    let (pts, tets) = kuhn_grid(n, jitter, rng);
+    let faces: Vec<[u32; 3]> = all_faces(&tets)
+        .into_iter()
+        .filter(|_| rng.f() < frac)
+        .collect();
+    let tris: Vec<[[f64; 3]; 3]> = faces.iter().map(|f| f.map(|v| pts[v as usize])).collect();
+    let ids: Vec<u32> = (0..faces.len() as u32).collect();
+    let scene = Scene::build(pts.clone(), &tets, &faces, &ids, tris.clone()).unwrap();
+    GridScene {
+        scene,
+        tris,
+        pts,
+        faces,
+    }
 }

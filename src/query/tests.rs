@@ -7,7 +7,7 @@ use crate::layout::{LayoutKind, Tet32};
 use crate::referee;
 use crate::scene::{CastOptions, HitBuffers, Rays, Scene};
 use crate::status::{HIT, MISS};
-use crate::testing::{kuhn_grid, Rng};
+use crate::testing::{random_scene, Rng};
 use crate::traverse::{
     walk_with, Aman2022, ExitMethod, Method, NoObserver, Robust, WalkEnd, WalkSetup,
 };
@@ -15,32 +15,7 @@ use std::cmp::Ordering;
 
 /// A jittered Kuhn grid with a random third of its interior faces constrained.
 fn grid_scene(seed: u64) -> (Scene, Vec<[[f64; 3]; 3]>) {
-    let mut rng = Rng(seed);
-    let (pts, tets) = kuhn_grid(4, 0.3, &mut rng);
-    let mut faces = std::collections::BTreeSet::new();
-    for t in &tets {
-        for skip in 0..4 {
-            let mut f: Vec<u32> = (0..4).filter(|&k| k != skip).map(|k| t[k]).collect();
-            f.sort();
-            faces.insert([f[0], f[1], f[2]]);
-        }
-    }
-    let on_box = |f: &[u32; 3]| {
-        (0..3).any(|a| {
-            f.iter().all(|&v| pts[v as usize][a] == 0.0)
-                || f.iter().all(|&v| pts[v as usize][a] == 1.0)
-        })
-    };
-    let faces: Vec<[u32; 3]> = faces
-        .into_iter()
-        .filter(|f| !on_box(f) && rng.f() < 0.3)
-        .collect();
-    let tris: Vec<[[f64; 3]; 3]> = faces.iter().map(|f| f.map(|v| pts[v as usize])).collect();
-    let ids: Vec<u32> = (0..faces.len() as u32).collect();
-    (
-        Scene::build(pts, &tets, &faces, &ids, tris.clone()).unwrap(),
-        tris,
-    )
+    random_scene(&mut Rng(seed), 4, 0.3)
 }
 
 /// Random rays: origins in and around the unit box, directions uniform-ish, all float32-exact.

@@ -11,32 +11,7 @@ use crate::referee::{self, Outcome, Verdict};
 use crate::scene::{CastOptions, HitsOut, Rays, Scene};
 use crate::status::{FAILED, HIT, MISS};
 
-pub(crate) use crate::testing::{kuhn_grid, Rng};
-
-/// The interior faces of the tets (sorted triples).
-fn all_faces(tets: &[[u32; 4]]) -> Vec<[u32; 3]> {
-    let mut f: Vec<[u32; 3]> = tets
-        .iter()
-        .flat_map(|t| {
-            [
-                [t[1], t[2], t[3]],
-                [t[0], t[2], t[3]],
-                [t[0], t[1], t[3]],
-                [t[0], t[1], t[2]],
-            ]
-            .map(|mut k| {
-                k.sort();
-                k
-            })
-        })
-        .collect();
-    // Interior faces only (listed twice): scene triangles never lie on the domain boundary.
-    f.sort();
-    f.chunk_by(|a, b| a == b)
-        .filter(|g| g.len() == 2)
-        .map(|g| g[0])
-        .collect()
-}
+pub(crate) use crate::testing::{all_faces, grid_scene, kuhn_grid, random_scene, GridScene, Rng};
 
 /// The referee's verdicts for rays given flat (`3 k ..`), over `[0, ∞)` as [`cast`] casts them.
 pub(crate) fn verdicts(o: &[f64], d: &[f64], tris: &[[[f64; 3]; 3]]) -> Vec<Option<Verdict>> {
@@ -158,37 +133,6 @@ fn cast<R: Real>(
         tri,
         status,
         steps,
-    }
-}
-
-fn random_scene(rng: &mut Rng, n: usize, frac: f64) -> (Scene, Vec<[[f64; 3]; 3]>) {
-    let g = grid_scene(rng, n, 0.3, frac);
-    (g.scene, g.tris)
-}
-
-struct GridScene {
-    scene: Scene,
-    tris: Vec<[[f64; 3]; 3]>,
-    pts: Vec<[f64; 3]>,
-    faces: Vec<[u32; 3]>,
-}
-
-/// A Kuhn grid (see [`kuhn_grid`]) with a random fraction `frac` of its faces as the scene's
-/// triangles.
-fn grid_scene(rng: &mut Rng, n: usize, jitter: f64, frac: f64) -> GridScene {
-    let (pts, tets) = kuhn_grid(n, jitter, rng);
-    let faces: Vec<[u32; 3]> = all_faces(&tets)
-        .into_iter()
-        .filter(|_| rng.f() < frac)
-        .collect();
-    let tris: Vec<[[f64; 3]; 3]> = faces.iter().map(|f| f.map(|v| pts[v as usize])).collect();
-    let ids: Vec<u32> = (0..faces.len() as u32).collect();
-    let scene = Scene::build(pts.clone(), &tets, &faces, &ids, tris.clone()).unwrap();
-    GridScene {
-        scene,
-        tris,
-        pts,
-        faces,
     }
 }
 
