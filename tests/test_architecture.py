@@ -123,3 +123,18 @@ def test_import_tetrace_loads_only_the_library():
     }
     assert loaded <= allowed, f"import tetrace also loads {sorted(loaded - allowed)}"
     assert "tetrace.scene" in loaded
+
+
+def test_snapshot_compare_fails_on_any_difference(tmp_path, monkeypatch, capsys):
+    """The refactor check (`python -m tetrace.dev.snapshot`) passes only when every cast's
+    hashes are equal, and names the casts that differ."""
+    from tetrace.dev import snapshot
+
+    snaps = iter([{"a": {"t": "1"}, "b": {"t": "2"}}, {"a": {"t": "1"}, "b": {"t": "3"}}])
+    monkeypatch.setattr(snapshot, "snapshot", lambda scenes_dir=None: next(snaps))
+    before, after = tmp_path / "before.json", tmp_path / "after.json"
+    assert snapshot.main([str(before)]) == 0
+    assert snapshot.main([str(after), "--compare", str(before)]) == 1
+    assert "1 differ" in capsys.readouterr().out
+    monkeypatch.setattr(snapshot, "snapshot", lambda scenes_dir=None: {"a": {"t": "1"}})
+    assert snapshot.main([str(after), "--compare", str(after)]) == 0
