@@ -3,7 +3,9 @@
 
 pub mod build;
 pub mod hilbert;
+pub mod incidence;
 pub mod surface;
 
 pub use build::{Link, TetMesh, BOUNDARY};
+pub use incidence::{Incidence, SurfaceFace};
 pub use surface::{Alternatives, Surface};

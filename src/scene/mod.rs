@@ -11,7 +11,7 @@ use crate::layout::{LayoutKind, Layouts};
 use crate::locate::{BoundaryLocator, GridLocator, Locators};
 #[cfg(feature = "gpu")]
 use crate::locate::{LocateState, Start, WalkStart};
-use crate::mesh::{Surface, TetMesh};
+use crate::mesh::{Incidence, Surface, TetMesh};
 use crate::query::ClosestHit;
 #[cfg(feature = "gpu")]
 use crate::query::RayHit;
@@ -30,6 +30,8 @@ pub struct Scene {
     pub points_f32: Vec<[f32; 3]>,
     /// The caller's triangles and the alternatives a hit may name.
     pub surface: Surface,
+    /// Constrained faces by vertex: the exact walk's touches and containment read it.
+    pub incidence: Incidence,
 }
 
 impl Scene {
@@ -106,6 +108,7 @@ impl Scene {
         let locator = GridLocator::build(&mesh);
         let entry = BoundaryLocator::build(&mesh);
         let points_f32 = mesh.points.iter().map(|p| p.map(|x| x as f32)).collect();
+        let incidence = Incidence::build(&mesh);
         let scene = Scene {
             mesh,
             locator,
@@ -116,6 +119,7 @@ impl Scene {
                 triangles,
                 alternatives: Default::default(),
             },
+            incidence,
         };
         scene.layouts.prepare(LayoutKind::DEFAULT, &scene.mesh)?;
         Ok(scene)
@@ -141,6 +145,7 @@ impl Scene {
                 "locator".to_string(),
                 self.locator.bytes() + self.entry.bytes() + self.mesh.tets.len() * 32,
             ),
+            ("incidence".to_string(), self.incidence.bytes()),
         ];
         m.extend(
             self.layouts
