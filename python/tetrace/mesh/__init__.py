@@ -56,7 +56,7 @@ import numpy as np
 from ..errors import MeshFileNotFoundError, MeshingError
 from ..io import _mesh_name, load_triangles
 from .auto import DEFAULT_ACCURACY, auto_tetrahedralize
-from .clean import clean, domain_box
+from .clean import clean, describe_degenerate, domain_box
 from .ftetwild import _ftetwild_route, ftetwild_available, neighbour_triangles
 from .options import (
     DEFAULT_PRESET,
@@ -248,7 +248,8 @@ def tetrahedralize(
     timings["clean"] = time.perf_counter() - t
     if len(cm.faces) == 0:
         raise MeshingError(
-            f"{name}: all {len(faces)} triangles are degenerate (zero area); nothing to mesh"
+            f"{name}: all {len(faces)} triangles are degenerate (zero area); nothing to "
+            f"mesh: {describe_degenerate(vertices, faces)}"
         )
     # Bounds of every vertex a caller triangle uses, degenerate ones included.
     used = vertices[np.unique(faces)]

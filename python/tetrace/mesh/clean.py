@@ -31,6 +31,82 @@ def _double_areas(vertices, faces):
     return np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
 
 
+#: A triangle whose width (its height over its longest edge) is at most this fraction of
+#: that edge has collinear vertices up to rounding: zero area, a degenerate triangle,
+#: whatever the other triangles' sizes. (The cross product of two edges is exact to a few
+#: ulps; no triangle of the shared scenes comes within 1e6 of this.)
+DEGENERATE_WIDTH = 1e-12
+
+#: A triangle narrower than this fraction of its longest edge is a *needle*: TetGen takes
+#: one for a self-intersection ("The input surface mesh contain self-intersections"), as
+#: measured on a lone needle of width 1e-6; failure messages name such triangles.
+NEEDLE_WIDTH = 1e-5
+
+
+def _widths(vertices, faces):
+    """Return each triangle's width (twice its area over its longest edge squared) and
+    its longest edge; a triangle whose longest edge is 0 has width 0."""
+    p = vertices[faces]
+    edges = [p[:, (i + 1) % 3] - p[:, i] for i in range(3)]
+    longest = np.max([np.linalg.norm(e, axis=1) for e in edges], axis=0)
+    double_area = np.linalg.norm(np.cross(edges[0], -edges[2]), axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        width = np.where(longest > 0, double_area / longest**2, 0.0)
+    return width, longest
+
+
+def describe_degenerate(vertices, faces, ids=None, *, caller_ids=None, limit=3) -> str:
+    """Name the degenerate triangles among ``faces`` and why each is degenerate.
+
+    Parameters
+    ----------
+    vertices, faces : numpy.ndarray
+        The caller's mesh (or a cleaned one, with ``ids`` the caller's triangle ids).
+    ids : array_like, optional
+        Which triangles to describe (rows of ``faces``); default all.
+    caller_ids : array_like, optional
+        The caller's triangle id of each row of ``faces`` (a :class:`CleanMesh`'s
+        ``triangle_ids``), named instead of the row.
+    limit : int
+        Name at most this many; the rest are counted.
+
+    Returns
+    -------
+    str
+        E.g. ``"triangle 4 (its vertices 2 and 7 are the same point); triangle 9 (its
+        three vertices are collinear: width 1.2e-17 of its length)"``.
+    """
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces).reshape(-1, 3)
+    ids = np.arange(len(f)) if ids is None else np.asarray(ids).reshape(-1)
+    parts = []
+    for i in ids[:limit]:
+        a, b, c = (int(k) for k in f[i])
+        label = int(i) if caller_ids is None else int(caller_ids[i])
+        p = v[[a, b, c]] + 0.0
+        same = [(x, y) for x, y in ((a, b), (b, c), (a, c)) if np.array_equal(v[x], v[y])]
+        if same:
+            x, y = same[0]
+            what = "a vertex twice" if x == y else f"vertices {x} and {y} at the same point"
+            parts.append(f"triangle {label} (it has {what})")
+            continue
+        width, _ = _widths(p, np.array([[0, 1, 2]]))
+        parts.append(
+            f"triangle {label} (a needle: its three distinct vertices are collinear or "
+            f"nearly, width {float(width[0]):.2g} of its longest edge)"
+        )
+    if len(ids) > limit:
+        parts.append(f"and {len(ids) - limit} more")
+    return "; ".join(parts)
+
+
+def needles(cm: CleanMesh) -> np.ndarray:
+    """Rows of ``cm.faces`` narrower than :data:`NEEDLE_WIDTH` of their longest edge."""
+    if len(cm.faces) == 0:
+        return np.zeros(0, np.int64)
+    return np.flatnonzero(_widths(cm.vertices, cm.faces)[0] < NEEDLE_WIDTH)
+
+
 def clean(vertices, faces, *, area_eps=1e-14) -> CleanMesh:
     """Make a triangle soup acceptable to TetGen, keeping the caller's triangle ids.
 
@@ -42,7 +118,9 @@ def clean(vertices, faces, *, area_eps=1e-14) -> CleanMesh:
         ``(F, 3)`` integer vertex indices.
     area_eps : float
         Triangles with area ``<= area_eps * (largest triangle area)`` count as
-        zero-area and are dropped.
+        zero-area and are dropped, and so do triangles whose three vertices are
+        collinear up to rounding (width at most :data:`DEGENERATE_WIDTH` of the
+        longest edge), however large the others are.
 
     Returns
     -------
@@ -64,9 +142,12 @@ def clean(vertices, faces, *, area_eps=1e-14) -> CleanMesh:
     f = inverse[faces] if n_faces else faces
     ids = np.arange(n_faces, dtype=np.int64)
 
-    # Degenerate: a repeated index, or an area negligible next to the largest triangle.
+    # Degenerate: a repeated index, collinear vertices (up to rounding, in the triangle's
+    # own scale), or an area negligible next to the largest triangle.
     distinct = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
     area = _double_areas(merged, f) if n_faces else np.zeros(0)
+    width = _widths(merged, f)[0] if n_faces else np.zeros(0)
+    distinct &= width > DEGENERATE_WIDTH
     max_area = area[distinct].max() if distinct.any() else 0.0
     keep = distinct & (area > area_eps * max_area) & (area > 0)
     dropped_degenerate = int(n_faces - keep.sum())

@@ -7,7 +7,7 @@ import time
 import numpy as np
 
 from ..errors import MeshingError
-from .clean import _box_mesh
+from .clean import _box_mesh, describe_degenerate, needles
 from .isolate import ISOLATE_TETGEN, _run_stage, _stage_message, _TetGenCrashed, _TetGenFailed
 from .options import (
     _COMMON,
@@ -227,6 +227,16 @@ def _tetgen_route(
     ``preset`` is None, or ``"constrained"`` when the last rung built it.
     """
     have_igl = _igl_cgal() is not None
+    # Needles (nearly collinear vertices) are no self-intersection, but TetGen reports them
+    # as one: name them, so the message blames the right triangles.
+    thin = needles(cm)
+    needle_note = ""
+    if len(thin):
+        named = describe_degenerate(cm.vertices, cm.faces, thin, caller_ids=cm.triangle_ids)
+        needle_note = (
+            f"{len(thin)} triangle(s) are degenerate needles, which TetGen reports as "
+            f"self-intersections: {named}"
+        )
     t = time.perf_counter()
     intersects = (
         have_igl
@@ -287,6 +297,10 @@ def _tetgen_route(
                     label = "TetGen on the scene as given"
                 if left:
                     raise MeshingError(_repair_left_message(name, snap, left, n_cut))
+                if len(work.faces) == 0:
+                    raise MeshingError(
+                        f"snap rounding to {snap:.3g} flattens every triangle of {name}"
+                    )
                 repaired_meshes[snap] = (work, n_cut is not None, label)
             except (_TetGenFailed, _TetGenCrashed) as exc:
                 repaired_meshes[snap] = _stage_message(
@@ -314,14 +328,20 @@ def _tetgen_route(
             result = _run_tetgen(work, box, opts, isolate, extra=points, timeout=timeout)
         except (_TetGenFailed, _TetGenCrashed) as exc:
             timings["tetgen"] += time.perf_counter() - t
-            attempts.append(_stage_message(label, exc, timeout))
+            message = _stage_message(label, exc, timeout)
+            if snap == 0.0 and needle_note and not intersects:
+                why = "libigl finds no intersecting pair" if have_igl else "not checked"
+                message += f" [self-intersections: {why}; {needle_note}]"
+            attempts.append(message)
             continue
         timings["tetgen"] += time.perf_counter() - t
         return (*result, work, repaired, snap, opts, preset)
-    if not have_igl:
+    if needle_note:
+        hint = f"{needle_note}; remove or widen them"
+    elif not have_igl:
         hint = (
-            "self-intersections were not checked: install libigl (pip install libigl) "
-            "to check and repair them"
+            "self-intersections were not checked: libigl, the tetrace dependency that "
+            "checks and repairs them, is missing (pip install libigl)"
         )
     elif repair is False:
         hint = "repair=False: no snap rounding was tried"
