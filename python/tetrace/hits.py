@@ -9,7 +9,7 @@ import dataclasses
 
 import numpy as np
 
-__all__ = ["MISS", "HIT", "FAILED", "INVALID", "STATUS_NAMES", "Hits"]
+__all__ = ["MISS", "HIT", "FAILED", "INVALID", "STATUS_NAMES", "Hits", "Intersections"]
 
 #: ``status`` code: the ray left the scene (or reached ``tmax``) without hitting a triangle.
 MISS = 0
@@ -26,14 +26,18 @@ INVALID = 3
 #: Names of the status codes, indexed by code.
 STATUS_NAMES = ("miss", "hit", "failed", "invalid")
 
+# Hits fields that casters other than tetrace's may leave out (None).
+_OPTIONAL = ("normal", "geometry", "scene_triangle")
+
 
 @dataclasses.dataclass(frozen=True, eq=False, repr=False)
 class Hits:
     """Per-ray results of casting ``N`` rays.
 
-    All arrays have length ``N`` (``point`` is ``(N, 3)``) and are indexed by ray.
-    Fields that have no meaning for a ray (a miss, or a failed ray) hold the
-    sentinel given below.
+    All arrays have the rays' leading shape (``(N,)`` for ``(N, 3)`` rays, ``(H, W)`` for
+    ``(H, W, 3)`` directions; ``point`` and ``normal`` add a last axis of 3) and are
+    indexed by ray; the shapes below are written for ``(N,)``. Fields that have no
+    meaning for a ray (a miss, or a failed ray) hold the sentinel given below.
 
     Parameters
     ----------
@@ -42,7 +46,9 @@ class Hits:
         direction's length (``point = origin + t * direction``). ``inf`` on miss.
     triangle : numpy.ndarray
         ``(N,)`` int32. Index of the hit triangle in the caller's face array
-        (not in any cleaned or merged copy). ``-1`` on miss.
+        (not in any cleaned or merged copy). In a scene of several meshes
+        (:meth:`tetrace.Scene.from_meshes`) the index *within the mesh* ``geometry``
+        names; ``scene_triangle`` is the index in the concatenated scene. ``-1`` on miss.
     u, v : numpy.ndarray
         ``(N,)`` float. Barycentric coordinates on that triangle, so that
         ``point = (1 - u - v) * p0 + u * p1 + v * p2`` with ``p0, p1, p2`` the
@@ -56,6 +62,18 @@ class Hits:
         ``(N,)`` uint32. Number of tetrahedra visited (``0`` for Embree).
     status : numpy.ndarray
         ``(N,)`` uint8. One of :data:`MISS`, :data:`HIT`, :data:`FAILED`, :data:`INVALID`.
+    normal : numpy.ndarray or None
+        ``(N, 3)``, the dtype of ``t``. Unit geometric normal of the hit triangle,
+        oriented by its winding in the caller's faces: ``cross(p1 - p0, p2 - p0)``
+        normalized in float64, then rounded. ``nan`` on miss. None for casters that
+        do not give it (Embree).
+    geometry : numpy.ndarray or None
+        ``(N,)`` int32. Which mesh of the scene was hit (``0`` for a scene of one mesh),
+        ``-1`` on miss. None for casters that do not give it.
+    scene_triangle : numpy.ndarray or None
+        ``(N,)`` int32. The hit triangle's index among all the scene's triangles (the
+        meshes' faces concatenated in order; equal to ``triangle`` for one mesh), ``-1``
+        on miss. None for casters that do not give it.
 
     Notes
     -----
@@ -77,18 +95,54 @@ class Hits:
     tet: np.ndarray
     steps: np.ndarray
     status: np.ndarray
+    normal: np.ndarray | None = None
+    geometry: np.ndarray | None = None
+    scene_triangle: np.ndarray | None = None
 
     def __post_init__(self) -> None:
-        n = len(self.t)
+        if not isinstance(self.t, np.ndarray):
+            raise TypeError(f"Hits.t must be a numpy array, got {type(self.t).__name__}")
+        shape = self.t.shape
+        if len(shape) == 0:
+            raise ValueError("Hits.t must have at least one dimension, got a 0-d array")
         for field in dataclasses.fields(self):
             arr = getattr(self, field.name)
+            if arr is None and field.name in _OPTIONAL:
+                continue
             if not isinstance(arr, np.ndarray):
                 raise TypeError(
                     f"Hits.{field.name} must be a numpy array, got {type(arr).__name__}"
                 )
-            want = (n, 3) if field.name == "point" else (n,)
+            want = shape + (3,) if field.name in ("point", "normal") else shape
             if arr.shape != want:
                 raise ValueError(f"Hits.{field.name} has shape {arr.shape}, expected {want}")
+
+    @property
+    def shape(self) -> tuple:
+        """tuple : The rays' leading shape (``(N,)`` for ``N`` rays in a row)."""
+        return self.t.shape
+
+    def reshape(self, shape) -> Hits:
+        """Return the same hits with every field reshaped to leading shape ``shape``.
+
+        Parameters
+        ----------
+        shape : tuple of int
+            A shape with as many elements as there are rays.
+
+        Returns
+        -------
+        Hits
+            Views of these arrays where numpy can make them.
+        """
+        shape = tuple(shape)
+        fields = {}
+        for field in dataclasses.fields(self):
+            arr = getattr(self, field.name)
+            if arr is not None:
+                arr = arr.reshape(shape + arr.shape[self.t.ndim :])
+            fields[field.name] = arr
+        return Hits(**fields)
 
     @classmethod
     def misses(cls, n: int, dtype=np.float64) -> Hits:
@@ -118,11 +172,12 @@ class Hits:
         )
 
     def __len__(self) -> int:
+        """Rays along the first axis (all rays for a 1-D batch; ``status.size`` counts all)."""
         return len(self.status)
 
     @property
     def hit(self) -> np.ndarray:
-        """numpy.ndarray : ``(N,)`` bool mask of rays with ``status == HIT``."""
+        """numpy.ndarray : bool mask of rays with ``status == HIT`` (the leading shape)."""
         return self.status == HIT
 
     def summary(self) -> dict:
@@ -135,16 +190,177 @@ class Hits:
             "mean_steps": float}``. ``mean_steps`` is the mean of ``steps`` over
             all rays (``0.0`` when ``N == 0``).
         """
-        counts = np.bincount(self.status, minlength=4)
+        counts = np.bincount(self.status.reshape(-1), minlength=4)
+        n = int(self.status.size)
         return {
-            "rays": len(self),
+            "rays": n,
             "hit": int(counts[HIT]),
             "miss": int(counts[MISS]),
             "failed": int(counts[FAILED]),
             "invalid": int(counts[INVALID]),
-            "mean_steps": float(self.steps.mean()) if len(self) else 0.0,
+            "mean_steps": float(self.steps.mean()) if n else 0.0,
         }
 
     def __repr__(self) -> str:
         s = self.summary()
         return f"Hits(N={s['rays']}, hits={s['hit']}, misses={s['miss']}, failed={s['failed']})"
+
+
+@dataclasses.dataclass(frozen=True, eq=False, repr=False)
+class Intersections:
+    """Every hit of every ray (:meth:`tetrace.Scene.intersections`), flat, in ray order.
+
+    ``M`` hits of ``N`` rays, sorted by ray (in C order of the rays' leading shape),
+    then by ``t``. The hits of ray ``i`` (flat index) are rows
+    ``offsets[i]:offsets[i + 1]``; :meth:`for_ray` selects them. Each point where a ray
+    meets the surface is one hit, even where the ray crosses a shared edge or vertex
+    (then ``triangle`` names one of the triangles that meet there).
+
+    Parameters
+    ----------
+    offsets : numpy.ndarray
+        ``(N + 1,)`` int64, nondecreasing, ``offsets[0] == 0`` and ``offsets[-1] == M``.
+    ray : numpy.ndarray
+        ``(M,)`` int64. Flat index of the ray of each hit (:attr:`ray_index` gives it as
+        an index into the leading shape).
+    t : numpy.ndarray
+        ``(M,)`` float64. Ray parameter of each hit, in units of the direction's length.
+    triangle : numpy.ndarray
+        ``(M,)`` int32. The triangle hit, within its mesh (as :attr:`Hits.triangle`).
+    u, v : numpy.ndarray
+        ``(M,)`` float64. Barycentric coordinates on that triangle, in the caller's
+        vertex order (as :attr:`Hits.u`).
+    point : numpy.ndarray
+        ``(M, 3)`` float64. ``origin + t * direction`` of the hit's ray.
+    geometry : numpy.ndarray
+        ``(M,)`` int32. Which mesh of the scene the triangle belongs to.
+    scene_triangle : numpy.ndarray
+        ``(M,)`` int32. The triangle's index among all the scene's triangles.
+    status : numpy.ndarray
+        uint8 per ray, of the rays' leading shape: :data:`HIT` (one hit or more),
+        :data:`MISS` (none), :data:`FAILED` (the walk gave up: the ray's hits are
+        unknown and none is listed) or :data:`INVALID`.
+
+    Examples
+    --------
+    >>> x = Intersections.empty((2,))
+    >>> len(x), x.counts.tolist()
+    (0, [0, 0])
+    """
+
+    offsets: np.ndarray
+    ray: np.ndarray
+    t: np.ndarray
+    triangle: np.ndarray
+    u: np.ndarray
+    v: np.ndarray
+    point: np.ndarray
+    geometry: np.ndarray
+    scene_triangle: np.ndarray
+    status: np.ndarray
+
+    def __post_init__(self) -> None:
+        for field in dataclasses.fields(self):
+            arr = getattr(self, field.name)
+            if not isinstance(arr, np.ndarray):
+                raise TypeError(
+                    f"Intersections.{field.name} must be a numpy array, got {type(arr).__name__}"
+                )
+        n = int(self.status.size)
+        m = len(self.t)
+        if self.offsets.shape != (n + 1,) or int(self.offsets[-1]) != m:
+            raise ValueError(
+                f"Intersections.offsets has shape {self.offsets.shape} and ends at "
+                f"{int(self.offsets[-1]) if self.offsets.size else None}, expected "
+                f"({n + 1},) ending at {m}"
+            )
+        for name in ("ray", "triangle", "u", "v", "geometry", "scene_triangle"):
+            if getattr(self, name).shape != (m,):
+                raise ValueError(
+                    f"Intersections.{name} has shape {getattr(self, name).shape}, expected ({m},)"
+                )
+        if self.point.shape != (m, 3):
+            raise ValueError(f"Intersections.point has shape {self.point.shape}, expected ({m}, 3)")
+
+    @classmethod
+    def empty(cls, shape) -> Intersections:
+        """Return the intersections of rays of leading shape ``shape`` that hit nothing."""
+        shape = tuple(shape)
+        n = int(np.prod(shape))
+        i32 = np.zeros(0, np.int32)
+        return cls(
+            offsets=np.zeros(n + 1, np.int64),
+            ray=np.zeros(0, np.int64),
+            t=np.zeros(0),
+            triangle=i32,
+            u=np.zeros(0),
+            v=np.zeros(0),
+            point=np.zeros((0, 3)),
+            geometry=i32.copy(),
+            scene_triangle=i32.copy(),
+            status=np.full(shape, MISS, np.uint8),
+        )
+
+    def __len__(self) -> int:
+        """Number of hits ``M`` (of all rays)."""
+        return len(self.t)
+
+    @property
+    def shape(self) -> tuple:
+        """tuple : The rays' leading shape."""
+        return self.status.shape
+
+    @property
+    def counts(self) -> np.ndarray:
+        """numpy.ndarray : int64 hits per ray, of the rays' leading shape."""
+        return np.diff(self.offsets).reshape(self.shape)
+
+    @property
+    def ray_index(self) -> tuple:
+        """tuple of numpy.ndarray : Each hit's ray as an index into the leading shape
+        (``np.unravel_index(ray, shape)``; one array for 1-D rays)."""
+        return np.unravel_index(self.ray, self.shape)
+
+    def for_ray(self, i) -> Intersections:
+        """Return the hits of one ray.
+
+        Parameters
+        ----------
+        i : int or tuple of int
+            The ray: a flat index, or an index into the leading shape.
+
+        Returns
+        -------
+        Intersections
+            Of leading shape ``(1,)``: that ray's hits in order of ``t`` (``ray`` still
+            holds its flat index) and its status.
+        """
+        if isinstance(i, tuple):
+            k = int(np.ravel_multi_index(i, self.shape))
+        else:
+            k = int(i)
+            n = self.status.size
+            if not -n <= k < n:
+                raise IndexError(f"ray {k} out of range for {n} rays")
+            k %= n
+        lo, hi = int(self.offsets[k]), int(self.offsets[k + 1])
+        rows = slice(lo, hi)
+        return Intersections(
+            offsets=np.array([0, hi - lo], np.int64),
+            ray=self.ray[rows],
+            t=self.t[rows],
+            triangle=self.triangle[rows],
+            u=self.u[rows],
+            v=self.v[rows],
+            point=self.point[rows],
+            geometry=self.geometry[rows],
+            scene_triangle=self.scene_triangle[rows],
+            status=self.status.reshape(-1)[k : k + 1],
+        )
+
+    def __repr__(self) -> str:
+        counts = np.bincount(self.status.reshape(-1), minlength=4)
+        return (
+            f"Intersections(rays={self.status.size}, hits={len(self)}, "
+            f"rays_hit={int(counts[HIT])}, failed={int(counts[FAILED])})"
+        )

@@ -14,7 +14,7 @@ import numpy as np
 
 from .errors import MeshFileNotFoundError, MeshingError
 
-__all__ = ["load_triangles"]
+__all__ = ["load_triangles", "weld"]
 
 
 def _mesh_name(mesh) -> str:
@@ -24,6 +24,49 @@ def _mesh_name(mesh) -> str:
     return "the mesh"
 
 
+def weld(triangles) -> tuple[np.ndarray, np.ndarray]:
+    """Turn a triangle soup into ``(vertices, faces)``, welding identical vertices.
+
+    Parameters
+    ----------
+    triangles : array_like
+        ``(F, 3, 3)``: triangle, corner, coordinate.
+
+    Returns
+    -------
+    vertices : numpy.ndarray
+        ``(V, 3)`` float64, the distinct corners in order of first occurrence. Corners
+        weld only when their coordinates are exactly equal (``-0.0`` equals ``0.0``):
+        no tolerance, so no triangle changes shape.
+    faces : numpy.ndarray
+        ``(F, 3)`` int64; face ``i`` is triangle ``i`` with its corners in the given
+        order (its winding kept).
+    """
+    p = np.asarray(triangles, dtype=np.float64).reshape(-1, 3) + 0.0
+    if len(p) == 0:
+        return p, np.zeros((0, 3), np.int64)
+    _, first, inverse = np.unique(p, axis=0, return_index=True, return_inverse=True)
+    order = np.argsort(first, kind="stable")
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    faces = rank[inverse.reshape(-1)].reshape(-1, 3).astype(np.int64)
+    return np.ascontiguousarray(p[first[order]]), np.ascontiguousarray(faces)
+
+
+def _is_soup(mesh) -> bool:
+    """An ``(F, 3, 3)`` array of numbers, or a list of them that is not a pair (a pair is
+    ``(vertices, faces)``; pass a soup of two triangles as an array)."""
+    if isinstance(mesh, tuple) or (isinstance(mesh, list) and len(mesh) == 2):
+        return False
+    if not isinstance(mesh, (np.ndarray, list)):
+        return False
+    try:
+        a = np.asarray(mesh)
+    except ValueError:  # ragged
+        return False
+    return a.ndim == 3 and a.shape[1:] == (3, 3) and a.dtype.kind in "biuf"
+
+
 def load_triangles(mesh) -> tuple[np.ndarray, np.ndarray]:
     """Return the caller's triangles as ``(vertices, faces)`` arrays, validated.
 
@@ -31,11 +74,13 @@ def load_triangles(mesh) -> tuple[np.ndarray, np.ndarray]:
 
     Parameters
     ----------
-    mesh : trimesh.Trimesh or str or os.PathLike or tuple
+    mesh : trimesh.Trimesh or str or os.PathLike or tuple or numpy.ndarray
         A ``trimesh.Trimesh`` (anything with ``vertices`` and ``faces``), a file
         loaded with ``trimesh.load(path, force="mesh")`` (trimesh's default
-        processing, so that every caster numbers triangles alike), or a
-        ``(vertices (V, 3), faces (F, 3))`` tuple.
+        processing, so that every caster numbers triangles alike), a
+        ``(vertices (V, 3), faces (F, 3))`` tuple, or a triangle soup: an
+        ``(F, 3, 3)`` array whose identical corners are welded exactly
+        (:func:`weld`); triangle ``i`` of the soup is face ``i``.
 
     Returns
     -------
@@ -74,14 +119,23 @@ def load_triangles(mesh) -> tuple[np.ndarray, np.ndarray]:
                 f"could not load mesh file {path}: trimesh returned "
                 f"{type(mesh).__name__}, not a triangle mesh"
             )
-    if hasattr(mesh, "vertices") and hasattr(mesh, "faces"):
+    if _is_soup(mesh):
+        soup = np.asarray(mesh)
+        if not np.isfinite(soup).all():
+            bad = ~np.isfinite(soup).all(axis=(1, 2))
+            raise MeshingError(
+                f"{int(bad.sum())} of {len(soup)} triangles of the soup have non-finite "
+                f"coordinates (NaN or inf), first triangle {int(np.argmax(bad))}"
+            )
+        vertices, faces = weld(soup)
+    elif hasattr(mesh, "vertices") and hasattr(mesh, "faces"):
         vertices, faces = mesh.vertices, mesh.faces
     elif isinstance(mesh, (tuple, list)) and len(mesh) == 2:
         vertices, faces = mesh
     else:
         raise TypeError(
-            "mesh must be a trimesh.Trimesh, a path or a (vertices, faces) tuple, "
-            f"got {type(mesh).__name__}"
+            "mesh must be a trimesh.Trimesh, a path, a (vertices, faces) tuple or an "
+            f"(F, 3, 3) triangle soup, got {type(mesh).__name__}"
         )
 
     vertices = np.asarray(vertices)

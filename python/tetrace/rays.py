@@ -2,22 +2,49 @@
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
-__all__ = ["prepare_rays", "prepare_bounds", "raise_invalid"]
+__all__ = ["RayBatch", "prepare_ray_batch", "prepare_rays", "prepare_bounds", "raise_invalid"]
 
 
-def prepare_rays(origins, directions=None, *, invalid="raise"):
-    """Return C-contiguous ``(N, 3)`` origins and directions of one float dtype.
+class RayBatch(NamedTuple):
+    """Rays flattened for the core, and the leading shape to give the answers back in.
+
+    Attributes
+    ----------
+    origins, directions : numpy.ndarray
+        C-contiguous ``(N, 3)``, one float dtype (float32 or float64).
+    shape : tuple of int
+        The rays' leading shape: ``(N,)`` for ``(N, 3)``/``(N, 6)`` inputs and for a
+        single ``(3,)``/``(6,)`` ray (``(1,)``), ``(H, W)`` for ``(H, W, 3)`` directions.
+        ``N == prod(shape)``.
+    """
+
+    origins: np.ndarray
+    directions: np.ndarray
+    shape: tuple
+
+    def unravel(self, k):
+        """Return flat ray index ``k`` as an index into :attr:`shape` (an int for 1-D)."""
+        if len(self.shape) == 1:
+            return int(k)
+        return tuple(int(i) for i in np.unravel_index(int(k), self.shape))
+
+
+def prepare_ray_batch(origins, directions=None, *, invalid="raise") -> RayBatch:
+    """Flatten rays of any leading shape to C-contiguous ``(N, 3)`` arrays.
 
     Parameters
     ----------
     origins : array_like
-        ``(N, 3)`` origins, or ``(N, 6)`` rays ``[ox, oy, oz, dx, dy, dz]`` when
-        ``directions`` is None. A single ``(3,)`` origin is shared by all directions.
+        ``(..., 3)`` origins, or ``(..., 6)`` rays ``[ox, oy, oz, dx, dy, dz]`` when
+        ``directions`` is None.
     directions : array_like, optional
-        ``(N, 3)`` directions (need not be unit length), or one ``(3,)`` direction
-        shared by all origins.
+        ``(..., 3)`` directions (need not be unit length). Origins and directions
+        broadcast against each other over their leading dimensions, as numpy does: one
+        ``(3,)`` origin with ``(H, W, 3)`` directions gives ``(H, W)`` rays.
     invalid : {"raise", "mark"}
         Checked here for its value only: the core marks rays that have a NaN or infinite
         component or a zero-length direction with status ``INVALID`` as it casts, and
@@ -26,66 +53,97 @@ def prepare_rays(origins, directions=None, *, invalid="raise"):
 
     Returns
     -------
-    origins, directions : numpy.ndarray
-        float32 if both inputs are float32 (or float16), float64 otherwise.
+    RayBatch
+        float32 if both inputs are float32 (or float16), float64 otherwise. A single
+        ray (``(3,)`` with ``(3,)``, or ``(6,)``) has shape ``(1,)``, as before leading
+        shapes were accepted.
     """
     if invalid not in ("raise", "mark"):
         raise ValueError(f'invalid must be "raise" or "mark", got {invalid!r}')
     o = _as_float(origins, "origins")
     if directions is None:
-        if o.ndim == 1:
-            o = o[None, :]
-        if o.ndim != 2 or o.shape[1] != 6:
+        if o.ndim == 0 or o.shape[-1] != 6:
             raise ValueError(
-                f"rays must have shape (N, 6) [ox, oy, oz, dx, dy, dz] when no directions are "
-                f"given, got {o.shape}"
+                f"rays must have shape (N, 6) or (..., 6) [ox, oy, oz, dx, dy, dz] when no "
+                f"directions are given, got {o.shape}"
             )
-        o, d = o[:, :3], o[:, 3:]
+        o, d = o[..., :3], o[..., 3:]
+        shape = o.shape[:-1]
     else:
         d = _as_float(directions, "directions")
         for name, a in (("origins", o), ("directions", d)):
-            if a.ndim not in (1, 2) or a.shape[-1] != 3:
-                raise ValueError(f"{name} must have shape (N, 3) or (3,), got {a.shape}")
-        if o.ndim == 1 and d.ndim == 1:
-            o, d = o[None], d[None]
-        elif o.ndim == 1:
-            o = np.broadcast_to(o, d.shape)
-        elif d.ndim == 1:
-            d = np.broadcast_to(d, o.shape)
-        if o.shape != d.shape:
+            if a.ndim == 0 or a.shape[-1] != 3:
+                raise ValueError(f"{name} must have shape (N, 3), (..., 3) or (3,), got {a.shape}")
+        try:
+            shape = np.broadcast_shapes(o.shape[:-1], d.shape[:-1])
+        except ValueError:
             raise ValueError(
-                f"origins {o.shape} and directions {d.shape} must have the same length"
-            )
+                f"origins {o.shape} and directions {d.shape} must have the same length "
+                f"(leading shapes that broadcast)"
+            ) from None
+    shape = tuple(shape) or (1,)
+    o = np.broadcast_to(o, shape + (3,))
+    d = np.broadcast_to(d, shape + (3,))
     dtype = np.float32 if (o.dtype == np.float32 and d.dtype == np.float32) else np.float64
-    o = np.ascontiguousarray(o, dtype=dtype)
-    d = np.ascontiguousarray(d, dtype=dtype)
-    return o, d
+    o = np.ascontiguousarray(o.reshape(-1, 3), dtype=dtype)
+    d = np.ascontiguousarray(d.reshape(-1, 3), dtype=dtype)
+    return RayBatch(o, d, shape)
 
 
-def raise_invalid(status, origins, directions):
-    """Raise ``ValueError`` naming the rays the core marked ``INVALID``, if any."""
+def prepare_rays(origins, directions=None, *, invalid="raise"):
+    """Return C-contiguous ``(N, 3)`` origins and directions of one float dtype.
+
+    :func:`prepare_ray_batch` without the leading shape: rays of any leading shape come
+    back flattened, in C order.
+
+    Returns
+    -------
+    origins, directions : numpy.ndarray
+    """
+    batch = prepare_ray_batch(origins, directions, invalid=invalid)
+    return batch.origins, batch.directions
+
+
+def raise_invalid(status, origins, directions, shape=None):
+    """Raise ``ValueError`` naming the rays the core marked ``INVALID``, if any.
+
+    ``shape``: the rays' leading shape, to name the first bad ray by its index in it.
+    """
     from .hits import INVALID
 
     bad = status == INVALID
     if bad.any():
         k = int(np.flatnonzero(bad)[0])
+        where = k if shape is None or len(shape) == 1 else np.unravel_index(k, shape)
+        where = tuple(int(i) for i in where) if isinstance(where, tuple) else where
         raise ValueError(
             f"{int(bad.sum())} of {len(status)} rays have a NaN/inf component or a zero-length "
-            f"direction (first: ray {k}, origin {origins[k].tolist()}, direction "
+            f"direction (first: ray {where}, origin {origins[k].tolist()}, direction "
             f'{directions[k].tolist()}); pass invalid="mark" to get status INVALID for them instead'
         )
 
 
-def prepare_bounds(value, n, name):
-    """Return tmin or tmax as a float64 array of 1 or ``n`` values."""
+def prepare_bounds(value, n, name, shape=None):
+    """Return tmin or tmax as a float64 array of 1 or ``n`` values.
+
+    ``shape``: the rays' leading shape (``n`` values in all); a value of another shape that
+    broadcasts to it is broadcast and flattened. Default ``(n,)``.
+    """
     a = np.asarray(value)
     if a.dtype.kind not in "biuf":
         raise TypeError(f"{name} must be a number or an array of numbers, got dtype {a.dtype}")
     a = a.astype(np.float64, copy=False)
-    if a.ndim == 0:
+    shape = (n,) if shape is None else tuple(shape)
+    if a.size == 1:
         a = a.reshape(1)
-    if a.ndim != 1 or len(a) not in (1, n):
-        raise ValueError(f"{name} must be a scalar or have shape ({n},), got {np.shape(value)}")
+    elif a.shape != (n,):
+        try:
+            a = np.broadcast_to(a, shape).reshape(-1)
+        except ValueError:
+            a = None
+    if a is None or a.ndim != 1 or len(a) not in (1, n):
+        want = f"have shape ({n},)" if len(shape) == 1 else f"broadcast to the rays' shape {shape}"
+        raise ValueError(f"{name} must be a scalar or {want}, got {np.shape(value)}")
     if np.isnan(a).any():
         raise ValueError(f"{name} contains NaN")
     if name == "tmin" and (a < 0).any():

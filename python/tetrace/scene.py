@@ -9,8 +9,8 @@ from importlib import resources
 import numpy as np
 
 from . import _native
-from .hits import HIT, Hits
-from .rays import prepare_bounds, prepare_rays, raise_invalid
+from .hits import FAILED, HIT, INVALID, Hits, Intersections
+from .rays import prepare_bounds, prepare_ray_batch, raise_invalid
 
 __all__ = [
     "Scene",
@@ -47,17 +47,72 @@ def layouts():
     return list(LAYOUT_BYTES)
 
 
+def _check_threads(threads):
+    if threads is not None and (not isinstance(threads, (int, np.integer)) or threads < 1):
+        raise ValueError(f"threads must be a positive int or None, got {threads!r}")
+
+
+def _names(method, layout, *, defaults=True):
+    """Check method and layout names; None becomes the core's default (CPU walks)."""
+    for what, value in (("method", method), ("layout", layout)):
+        if value is not None and not isinstance(value, str):
+            raise TypeError(f"{what} must be a name (str), got {type(value).__name__}")
+    if defaults:
+        method = _native.DEFAULT_METHOD if method is None else method
+        layout = _native.DEFAULT_LAYOUT if layout is None else layout
+    return method, layout
+
+
+class _Query:
+    """The arguments every ray query shares, checked once: flat rays (``o``, ``d``) of
+    leading ``shape``, bounds ``lo``/``hi``, ``threads``, ``max_steps``."""
+
+    def __init__(self, origins, directions, tmin, tmax, threads, max_steps, invalid, precision):
+        batch = prepare_ray_batch(origins, directions, invalid=invalid)
+        o, d = batch.origins, batch.directions
+        if precision is not None:
+            if precision not in ("f32", "f64"):
+                raise ValueError(f'precision must be "f32" or "f64", got {precision!r}')
+            want = np.float32 if precision == "f32" else np.float64
+            o, d = o.astype(want, copy=False), d.astype(want, copy=False)
+        self.o, self.d, self.shape, self.invalid = o, d, batch.shape, invalid
+        self.lo = prepare_bounds(tmin, len(o), "tmin", batch.shape)
+        self.hi = prepare_bounds(tmax, len(o), "tmax", batch.shape)
+        _check_threads(threads)
+        if max_steps is not None and (
+            not isinstance(max_steps, (int, np.integer)) or not 0 < max_steps < 2**32
+        ):
+            raise ValueError(f"max_steps must be a positive int below 2**32, got {max_steps!r}")
+        self.threads, self.max_steps = threads, max_steps
+
+    def check(self, status):
+        """Raise for rays the core marked INVALID, unless ``invalid="mark"``."""
+        if self.invalid == "raise":
+            raise_invalid(np.asarray(status).reshape(-1), self.o, self.d, self.shape)
+
+
 class Scene:
     """A triangle scene tetrahedralized for ray casting.
 
-    Build one with :meth:`Scene.from_mesh`; cast with :meth:`Scene.cast`.
+    Build one with :meth:`Scene.from_mesh` (one mesh) or :meth:`Scene.from_meshes`
+    (several); cast with :meth:`Scene.cast` (closest hits), :meth:`Scene.occluded` (any
+    hit), :meth:`Scene.intersections` (all hits), :meth:`Scene.count_intersections`;
+    test points with :meth:`Scene.contains`.
+
+    The ray queries share one contract: a ray hits a triangle when it meets the closed
+    triangle (edges and vertices included) at one point at ``t`` in ``[tmin, tmax]``; a
+    ray in a triangle's plane never hits it; each point where a ray meets the surface
+    counts once, even at an edge or vertex that triangles share.
 
     Attributes
     ----------
     tetrahedralization : tetrace.mesh.Tetrahedralization
         What the mesher produced (points, tets, constrained faces, timings).
     vertices, faces : numpy.ndarray
-        The caller's mesh, as given: hit ``triangle`` ids index ``faces``.
+        The caller's mesh, as given (a :meth:`from_meshes` scene: the meshes
+        concatenated in order): hit ``scene_triangle`` ids index ``faces``.
+    geometries : tetrace.meshes.Geometries or None
+        Where each mesh of a :meth:`from_meshes` scene sits in ``faces``; None for one mesh.
     build_times : dict
         Seconds spent in each build stage: ``clean``, ``repair``, ``mesher`` (TetGen or fTetWild),
         ``rust`` (topology, locator and layout construction), ``total``; see
@@ -69,6 +124,10 @@ class Scene:
         self.tetrahedralization = tet = tetrahedralization
         self.vertices = vertices
         self.faces = faces
+        #: tetrace.meshes.Geometries or None: the meshes of a :meth:`from_meshes` scene
+        #: (None: one mesh).
+        self.geometries = None
+        self._normals = None
         triangles = np.ascontiguousarray(vertices[faces], dtype=np.float64)
         t0 = time.perf_counter()
         # fTetWild's faces lie near the input, not on it: let hits name the neighbour of a
@@ -121,9 +180,11 @@ class Scene:
 
         Parameters
         ----------
-        mesh : trimesh.Trimesh or str or os.PathLike or tuple
-            A mesh, a file trimesh can load, or ``(vertices (V, 3), faces (F, 3))``.
-            Non-watertight, multi-component and self-intersecting scenes are accepted.
+        mesh : trimesh.Trimesh or str or os.PathLike or tuple or numpy.ndarray
+            A mesh, a file trimesh can load, ``(vertices (V, 3), faces (F, 3))``, or a
+            triangle soup ``(F, 3, 3)`` (identical corners are welded exactly; triangle
+            ``i`` keeps id ``i``). Non-watertight, multi-component and self-intersecting
+            scenes are accepted.
         preset : str
             TetGen settings (``tetrace.mesh.PRESETS``): ``"quality"`` (radius-edge
             bound 5, the default), ``"quality3"``, ``"quality2"``, ``"quality1.5"`` or any
@@ -196,6 +257,43 @@ class Scene:
         )
         return cls(tet, vertices, faces, hilbert=hilbert)
 
+    @classmethod
+    def from_meshes(cls, meshes, preset="quality", **mesh_options):
+        """Tetrahedralize a scene of several meshes as one.
+
+        Parameters
+        ----------
+        meshes : iterable
+            Each mesh is anything :meth:`from_mesh` takes: a ``(vertices, faces)`` pair, a
+            ``trimesh.Trimesh``, a path, or an ``(F, 3, 3)`` triangle soup. Meshes may
+            touch or cross each other (the scene is repaired as one).
+        preset : str
+            As for :meth:`from_mesh`.
+        **mesh_options
+            Passed to :meth:`from_mesh` (``mesher``, ``margin``, ``contain``, ...).
+
+        Returns
+        -------
+        Scene
+            Its hits report ``geometry``, the index of the mesh hit in ``meshes`` (``-1``
+            on a miss), and ``triangle``, the index of the triangle *within that mesh*;
+            ``scene_triangle`` is the index among all triangles (``vertices`` and
+            ``faces`` are the meshes concatenated in order; :attr:`geometries` has the
+            offsets).
+
+        Raises
+        ------
+        tetrace.MeshingError
+            A mesh cannot be read (the message names its index) or the scene cannot be
+            meshed.
+        """
+        from .meshes import concatenate
+
+        vertices, faces, geometries = concatenate(meshes)
+        scene = cls.from_mesh((vertices, faces), preset, **mesh_options)
+        scene.geometries = geometries
+        return scene
+
     def cast(
         self,
         origins,
@@ -216,13 +314,17 @@ class Scene:
         Parameters
         ----------
         origins : array_like
-            ``(N, 3)`` ray origins (or one ``(3,)`` origin shared by all rays), or ``(N, 6)``
-            rays when ``directions`` is None. Origins may lie anywhere, inside or outside
-            the domain.
+            ``(N, 3)`` or ``(..., 3)`` ray origins, or ``(N, 6)``/``(..., 6)`` rays
+            ``[ox, oy, oz, dx, dy, dz]`` when ``directions`` is None. Origins may lie
+            anywhere, inside or outside the domain.
         directions : array_like, optional
-            ``(N, 3)`` directions, not necessarily unit length; ``t`` is in their units.
+            ``(N, 3)`` or ``(..., 3)`` directions, not necessarily unit length; ``t`` is in
+            their units. Origins and directions broadcast over their leading axes (one
+            ``(3,)`` origin with ``(H, W, 3)`` directions: ``(H, W)`` rays); the results
+            have that leading shape (a single ray gives shape ``(1,)``).
         tmin, tmax : float or array_like
-            Only hits with ``tmin <= t <= tmax`` count (scalars or one value per ray).
+            Only hits with ``tmin <= t <= tmax`` count: scalars, or arrays that broadcast
+            to the rays' leading shape.
         threads : int, optional
             Worker threads; None uses all cores. The GIL is released while casting.
         max_steps : int, optional
@@ -248,8 +350,10 @@ class Scene:
         Returns
         -------
         Hits
-            Fields in the walk's precision (hit ``t``, ``u``, ``v`` are evaluated in float64
-            on the caller's triangle, then rounded). After a GPU cast, :attr:`gpu_timings`
+            Fields of the rays' leading shape, in the walk's precision (hit ``t``, ``u``,
+            ``v`` are evaluated in float64 on the caller's triangle, then rounded), with
+            the hit triangle's unit ``normal`` and, for a :meth:`from_meshes` scene, the
+            ``geometry`` hit and ``triangle`` within it. After a GPU cast, :attr:`gpu_timings`
             holds the seconds of each phase.
 
         Raises
@@ -257,51 +361,276 @@ class Scene:
         tetrace.gpu.GpuError
             ``device="gpu"`` without a usable adapter, or the device failed.
         """
-        o, d = prepare_rays(origins, directions, invalid=invalid)
-        if precision is not None:
-            if precision not in ("f32", "f64"):
-                raise ValueError(f'precision must be "f32" or "f64", got {precision!r}')
-            want = np.float32 if precision == "f32" else np.float64
-            o, d = o.astype(want, copy=False), d.astype(want, copy=False)
         if device not in ("cpu", "gpu", "auto"):
             raise ValueError(f'device must be "cpu", "gpu" or "auto", got {device!r}')
-        for what, value in (("method", method), ("layout", layout)):
-            if value is not None and not isinstance(value, str):
-                raise TypeError(f"{what} must be a name (str), got {type(value).__name__}")
+        if device == "gpu" and precision == "f64":
+            raise ValueError(
+                'device="gpu" walks in float32 (WGSL has no float64); use '
+                'precision="f32" or device="cpu"'
+            )
+        q = _Query(origins, directions, tmin, tmax, threads, max_steps, invalid, precision)
+        _names(method, layout, defaults=False)
         use_gpu = False
         if device == "gpu":
-            if precision == "f64":
-                raise ValueError(
-                    'device="gpu" walks in float32 (WGSL has no float64); use '
-                    'precision="f32" or device="cpu"'
-                )
             use_gpu = True
-        elif device == "auto" and o.dtype == np.float32:
+        elif device == "auto" and q.o.dtype == np.float32:
             from . import gpu
 
             use_gpu = gpu.kernel_for(method, layout) is not None and gpu.available()
-        if not use_gpu:
-            method = _native.DEFAULT_METHOD if method is None else method
-            layout = _native.DEFAULT_LAYOUT if layout is None else layout
-        n = len(o)
-        lo = prepare_bounds(tmin, n, "tmin")
-        hi = prepare_bounds(tmax, n, "tmax")
-        if threads is not None and (not isinstance(threads, (int, np.integer)) or threads < 1):
-            raise ValueError(f"threads must be a positive int or None, got {threads!r}")
-        if max_steps is not None and (
-            not isinstance(max_steps, (int, np.integer)) or not 0 < max_steps < 2**32
-        ):
-            raise ValueError(f"max_steps must be a positive int below 2**32, got {max_steps!r}")
+        method, layout = _names(method, layout, defaults=not use_gpu)
         if use_gpu:
-            o, d = o.astype(np.float32, copy=False), d.astype(np.float32, copy=False)
+            o, d = q.o.astype(np.float32, copy=False), q.d.astype(np.float32, copy=False)
             r, self.gpu_timings = self._native.cast_gpu(
-                o, d, lo, hi, threads, max_steps, method, layout
+                o, d, q.lo, q.hi, q.threads, q.max_steps, method, layout
             )
         else:
-            r = self._native.cast(o, d, lo, hi, threads, max_steps, method, layout)
-        if invalid == "raise":
-            raise_invalid(r["status"], o, d)
-        return Hits(**r)
+            r = self._native.cast(q.o, q.d, q.lo, q.hi, q.threads, q.max_steps, method, layout)
+        q.check(r["status"])
+        return self._hits(r).reshape(q.shape)
+
+    def _hits(self, r):
+        """Hits from the core's flat answer: the triangle split into mesh and triangle in
+        it, and the hit triangle's normal."""
+        scene_triangle = np.asarray(r["triangle"])
+        geometry, triangle = self._locate(scene_triangle)
+        hit = scene_triangle >= 0
+        normal = np.full((len(scene_triangle), 3), np.nan, dtype=np.asarray(r["t"]).dtype)
+        normal[hit] = self.normals()[scene_triangle[hit]]
+        return Hits(
+            **dict(r, triangle=triangle),
+            normal=normal,
+            geometry=geometry,
+            scene_triangle=scene_triangle,
+        )
+
+    def _locate(self, scene_triangle):
+        if self.geometries is None:
+            s = np.asarray(scene_triangle)
+            return np.where(s >= 0, 0, -1).astype(np.int32), s.astype(np.int32, copy=False)
+        return self.geometries.locate(scene_triangle)
+
+    def normals(self):
+        """Return the unit geometric normal of each of the scene's triangles.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(F, 3)`` float64: ``cross(p1 - p0, p2 - p0)`` normalized, with ``p0, p1, p2``
+            the triangle's vertices in the caller's face order (its winding); ``nan``
+            for a zero-area triangle (one no ray hits). Computed once.
+        """
+        if self._normals is None:
+            p = np.asarray(self.vertices, np.float64)[np.asarray(self.faces)]
+            n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+            length = np.linalg.norm(n, axis=1, keepdims=True)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                n = np.where(length > 0, n / length, np.nan)
+            n.setflags(write=False)
+            self._normals = n
+        return self._normals
+
+    # ------------------------------------------------------------------ other query kinds
+
+    def occluded(
+        self,
+        origins,
+        directions=None,
+        *,
+        tmin=0.0,
+        tmax=np.inf,
+        threads=None,
+        max_steps=None,
+        invalid="raise",
+        method=None,
+        layout=None,
+        precision=None,
+        return_status=False,
+    ):
+        """Return whether each ray hits any triangle (a shadow ray), without finding which.
+
+        A ray hits a triangle when it meets the closed triangle (edges and vertices
+        included) at one point at ``t`` in ``[tmin, tmax]``; a ray in a triangle's plane
+        never hits it. Stops at the first hit found, so it costs no more than
+        :meth:`cast` and usually less.
+
+        Parameters
+        ----------
+        origins, directions, tmin, tmax, threads, max_steps, invalid, method, layout, precision
+            As for :meth:`cast` (rays of any leading shape, CPU only).
+        return_status : bool
+            Also return the status per ray.
+
+        Returns
+        -------
+        occluded : numpy.ndarray
+            bool, the rays' leading shape: True where the ray hits a triangle. False
+            for rays whose status is ``FAILED`` or ``INVALID`` (``invalid="mark"``):
+            ask for the status to tell them apart.
+        status : numpy.ndarray
+            uint8, the same shape (``return_status=True`` only): ``HIT``, ``MISS``,
+            ``FAILED`` or ``INVALID``.
+        """
+        q = _Query(origins, directions, tmin, tmax, threads, max_steps, invalid, precision)
+        method, layout = _names(method, layout)
+        status = np.asarray(
+            self._native.occluded(q.o, q.d, q.lo, q.hi, q.threads, q.max_steps, method, layout)
+        )
+        q.check(status)
+        status = status.reshape(q.shape)
+        hit = status == HIT
+        return (hit, status) if return_status else hit
+
+    def intersections(
+        self,
+        origins,
+        directions=None,
+        *,
+        tmin=0.0,
+        tmax=np.inf,
+        threads=None,
+        max_steps=None,
+        invalid="raise",
+        method=None,
+        layout=None,
+        precision=None,
+    ):
+        """Return every hit of every ray, sorted by ray, then by ``t``.
+
+        A ray hits a triangle when it meets the closed triangle (edges and vertices
+        included) at one point at ``t`` in ``[tmin, tmax]``; a ray in a triangle's plane
+        never hits it. Each point where a ray meets the surface is reported once, even
+        where it crosses an edge or vertex that triangles share (then ``triangle`` names
+        one of them); triangles that meet the ray at one point in space (duplicates,
+        overlaps) count once there too.
+
+        Parameters
+        ----------
+        origins, directions, tmin, tmax, threads, max_steps, invalid, method, layout, precision
+            As for :meth:`cast` (rays of any leading shape, CPU only).
+
+        Returns
+        -------
+        Intersections
+            Flat arrays of the ``M`` hits (``ray``, ``t``, ``triangle``, ``u``, ``v``,
+            ``point``, ``geometry``, ``scene_triangle``), ``offsets`` into them per ray,
+            and each ray's ``status`` (``HIT`` if it hit anything; a ``FAILED`` ray lists
+            no hit). ``t``, ``u``, ``v`` are float64, evaluated on the caller's triangle;
+            ``point`` is ``origin + t * direction`` in float64.
+        """
+        q = _Query(origins, directions, tmin, tmax, threads, max_steps, invalid, precision)
+        method, layout = _names(method, layout)
+        r = self._native.intersections(q.o, q.d, q.lo, q.hi, q.threads, q.max_steps, method, layout)
+        status = np.asarray(r["status"])
+        q.check(status)
+        offsets = np.asarray(r["offsets"], np.int64)
+        ray = np.repeat(np.arange(len(offsets) - 1, dtype=np.int64), np.diff(offsets))
+        t = np.asarray(r["t"], np.float64)
+        scene_triangle = np.asarray(r["triangle"]).astype(np.int32, copy=False)
+        geometry, triangle = self._locate(scene_triangle)
+        point = q.o[ray].astype(np.float64) + t[:, None] * q.d[ray].astype(np.float64)
+        return Intersections(
+            offsets=offsets,
+            ray=ray,
+            t=t,
+            triangle=triangle,
+            u=np.asarray(r["u"], np.float64),
+            v=np.asarray(r["v"], np.float64),
+            point=point,
+            geometry=geometry,
+            scene_triangle=scene_triangle,
+            status=status.reshape(q.shape),
+        )
+
+    def count_intersections(
+        self,
+        origins,
+        directions=None,
+        *,
+        tmin=0.0,
+        tmax=np.inf,
+        threads=None,
+        max_steps=None,
+        invalid="raise",
+        method=None,
+        layout=None,
+        precision=None,
+        return_status=False,
+    ):
+        """Count the points where each ray meets the surface, in ``[tmin, tmax]``.
+
+        The count is ``len`` of that ray's :meth:`intersections` (each point where a ray
+        meets the surface counts once, even at an edge or vertex that triangles share; a
+        ray in a triangle's plane never hits it), without storing the hits.
+
+        Parameters
+        ----------
+        origins, directions, tmin, tmax, threads, max_steps, invalid, method, layout, precision
+            As for :meth:`cast` (rays of any leading shape, CPU only).
+        return_status : bool
+            Also return the status per ray.
+
+        Returns
+        -------
+        count : numpy.ndarray
+            int32, the rays' leading shape; ``-1`` for rays whose status is ``FAILED`` or
+            ``INVALID`` (``invalid="mark"``).
+        status : numpy.ndarray
+            uint8, the same shape (``return_status=True`` only).
+        """
+        q = _Query(origins, directions, tmin, tmax, threads, max_steps, invalid, precision)
+        method, layout = _names(method, layout)
+        r = self._native.count_intersections(
+            q.o, q.d, q.lo, q.hi, q.threads, q.max_steps, method, layout
+        )
+        status = np.asarray(r["status"])
+        q.check(status)
+        count = np.asarray(r["count"]).astype(np.int32, copy=True)
+        count[(status == FAILED) | (status == INVALID)] = -1
+        count, status = count.reshape(q.shape), status.reshape(q.shape)
+        return (count, status) if return_status else count
+
+    def contains(self, points, *, threads=None):
+        """Return whether each point lies inside the surface.
+
+        Exact for a closed surface (every edge shared by an even number of triangles):
+        a point is inside when a ray from it crosses the surface an odd number of times.
+        For an open surface, a point is inside when the fewest surface crossings needed
+        to reach the outside of the domain box is odd. Points on the surface count as
+        inside; points outside the domain box are outside.
+
+        Parameters
+        ----------
+        points : array_like
+            ``(..., 3)`` points (a single ``(3,)`` point gives a 0-d answer).
+        threads : int, optional
+            Worker threads; None uses all cores.
+
+        Returns
+        -------
+        numpy.ndarray
+            bool, the points' leading shape.
+
+        Raises
+        ------
+        ValueError
+            A point has a NaN or infinite coordinate, or ``points`` is not ``(..., 3)``.
+        """
+        p = np.asarray(points)
+        if p.dtype.kind not in "biuf":
+            raise TypeError(f"points must be real numbers, got dtype {p.dtype}")
+        if p.ndim == 0 or p.shape[-1] != 3:
+            raise ValueError(f"points must have shape (..., 3), got {p.shape}")
+        shape = p.shape[:-1]
+        flat = np.ascontiguousarray(p.reshape(-1, 3), dtype=np.float64)
+        bad = ~np.isfinite(flat).all(axis=1)
+        if bad.any():
+            k = int(np.argmax(bad))
+            raise ValueError(
+                f"{int(bad.sum())} of {len(flat)} points have a NaN/inf coordinate "
+                f"(first: point {k}, {flat[k].tolist()})"
+            )
+        _check_threads(threads)
+        return np.asarray(self._native.contains(flat, threads), dtype=bool).reshape(shape)
 
     def _cast_audited(
         self,
@@ -335,7 +664,7 @@ class Scene:
             audit=True,
         )
         audit = r.pop("audit")
-        return Hits(**r), audit
+        return self._hits(r), audit
 
     @property
     def n_tets(self):
