@@ -101,6 +101,48 @@ class NativeScene:
         method: str | None = None,
         layout: str | None = None,
     ) -> tuple[dict[str, np.ndarray], dict[str, float]]: ...
+    # The query kinds beside cast (src/query/): statuses MISS/HIT/FAILED/INVALID per ray.
+    # HIT: the ray meets the surface at t in [tmin, tmax] (the walk may stop at the first).
+    def occluded(
+        self,
+        origins: npt.NDArray[np.floating],
+        directions: npt.NDArray[np.floating],
+        tmin: npt.NDArray[np.float64],
+        tmax: npt.NDArray[np.float64],
+        threads: int | None = None,
+        max_steps: int | None = None,
+        method: str | None = None,
+        layout: str | None = None,
+    ) -> npt.NDArray[np.uint8]: ...
+    # "offsets" int64 (N+1,), "t" float64 (M,), "triangle" int32 (M,), "u", "v" float64 (M,),
+    # "status" uint8 (N,): every point where a ray meets the surface once, sorted by t per ray.
+    def intersections(
+        self,
+        origins: npt.NDArray[np.floating],
+        directions: npt.NDArray[np.floating],
+        tmin: npt.NDArray[np.float64],
+        tmax: npt.NDArray[np.float64],
+        threads: int | None = None,
+        max_steps: int | None = None,
+        method: str | None = None,
+        layout: str | None = None,
+    ) -> dict[str, np.ndarray]: ...
+    # "count" int32 (N,), "status" uint8 (N,).
+    def count_intersections(
+        self,
+        origins: npt.NDArray[np.floating],
+        directions: npt.NDArray[np.floating],
+        tmin: npt.NDArray[np.float64],
+        tmax: npt.NDArray[np.float64],
+        threads: int | None = None,
+        max_steps: int | None = None,
+        method: str | None = None,
+        layout: str | None = None,
+    ) -> dict[str, np.ndarray]: ...
+    # (N, 3) float64 points -> (N,) bool: inside (on the surface counts as inside).
+    def contains(
+        self, points: npt.NDArray[np.float64], threads: int | None = None
+    ) -> npt.NDArray[np.bool_]: ...
     def memory(self) -> dict[str, int]: ...
     def points(self) -> npt.NDArray[np.float64]: ...
     def tets(self) -> npt.NDArray[np.uint32]: ...
