@@ -107,3 +107,24 @@ pub(crate) fn grid_scene(rng: &mut Rng, n: usize, jitter: f64, frac: f64) -> Gri
         faces,
     }
 }
+
+/// [`grid_scene`] with no scene triangle touching the box's sides (as meshing builds scenes:
+/// the domain box has a margin).
+pub(crate) fn grid_scene_inside(rng: &mut Rng, n: usize, jitter: f64, frac: f64) -> GridScene {
+    let (pts, tets) = kuhn_grid(n, jitter, rng);
+    let on_side = |v: u32| pts[v as usize].iter().any(|&x| x == 0.0 || x == 1.0);
+    let faces: Vec<[u32; 3]> = all_faces(&tets)
+        .into_iter()
+        .filter(|f| !f.iter().any(|&v| on_side(v)))
+        .filter(|_| rng.f() < frac)
+        .collect();
+    let tris: Vec<[[f64; 3]; 3]> = faces.iter().map(|f| f.map(|v| pts[v as usize])).collect();
+    let ids: Vec<u32> = (0..faces.len() as u32).collect();
+    let scene = Scene::build(pts.clone(), &tets, &faces, &ids, tris.clone()).unwrap();
+    GridScene {
+        scene,
+        tris,
+        pts,
+        faces,
+    }
+}

@@ -31,6 +31,13 @@ pub fn clip_box(
     let (mut t0, mut t1) = (tmin, tmax);
     let mut side = None;
     for a in 0..3 {
+        if d[a] == 0.0 {
+            // Parallel to the slab (either zero's sign): in it or never.
+            if !(o[a] >= lo[a] && o[a] <= hi[a]) {
+                return None;
+            }
+            continue;
+        }
         let inv = 1.0 / d[a];
         let (mut n, mut f) = ((lo[a] - o[a]) * inv, (hi[a] - o[a]) * inv);
         if n > f {

@@ -121,6 +121,14 @@ impl BoundaryLocator {
             .sum()
     }
 
+    /// Every boundary face on the box's sides (tet, local face), some more than once: the
+    /// exact start's last resort.
+    pub fn faces(&self) -> impl Iterator<Item = (u32, usize)> + '_ {
+        self.sides
+            .iter()
+            .flat_map(|s| s.entries.iter().map(|(t, i, _)| (*t, *i as usize)))
+    }
+
     /// The boundary tet, and its local face, on side (`axis`, `high`) that holds point p (on
     /// that side). `hint` remembers the last face found: a camera's neighbouring rays mostly
     /// enter by it.

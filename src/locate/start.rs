@@ -4,6 +4,7 @@
 use super::{BoundaryLocator, GridLocator, Located};
 use crate::geom::ray::{clip_box, Ray};
 use crate::geom::real::{unit_scale, Real};
+use crate::mesh::build::OUTWARD_FACES;
 use crate::mesh::TetMesh;
 use crate::status::{FAILED, INVALID, MISS};
 use crate::traverse::robust::settle_start;
@@ -25,13 +26,18 @@ pub struct WalkStart {
     /// The face of `tet` the ray enters by, when it comes from outside the box (never for a
     /// method with a perturbed start: its entry is settled like an interior start).
     pub entry: Option<usize>,
+    /// The walk starts at the origin itself or at the box entry ([`Locators::locate_exact`]),
+    /// not at o + tmin d: the query skips what lies before tmin.
+    pub exact: bool,
 }
 
 impl WalkStart {
     /// The ray as method M's walk takes it (the CPU cast's and the GPU kernels' preparation).
     #[inline]
     pub fn prepare<R: Real, M: ExitMethod<R>>(&self, mesh: &TetMesh) -> M::Ray {
-        M::prepare(self.point, self.dir, &mesh.bounds)
+        // The exact walk's line is the ray's own: through o, not through a rounded start.
+        let through = if M::CONTACTS { self.o } else { self.point };
+        M::prepare(through, self.dir, &mesh.bounds)
     }
 }
 
@@ -168,6 +174,81 @@ impl Locators<'_> {
             point: start_point,
             tet: start,
             entry: entry_face,
+            exact: false,
         })
+    }
+
+    /// Where the exact walk of `ray` starts (method M has [`ExitMethod::CONTACTS`]), and the
+    /// ray prepared for it, or the status of a ray that does not walk. With the origin in the
+    /// box: the tet holding o + εδ (the perturbed start, `settle_start`), whatever tmin is. From
+    /// outside: the boundary face the line enters by, checked with M's exact predicates (the
+    /// face under the rounded entry point first, else every boundary face), so no rounded
+    /// point decides where the walk begins. `points` are those the walk reads.
+    pub fn locate_exact<R: Real, M: ExitMethod<R>>(
+        &self,
+        ray: &Ray,
+        points: &[[R; 3]],
+        st: &mut LocateState,
+    ) -> Result<(WalkStart, M::Ray), u8> {
+        let Ray { o, d, tmin, tmax } = *ray;
+        let finite = o.iter().chain(&d).all(|x| x.is_finite());
+        if !finite || d == [0.0; 3] || tmin.is_nan() || tmax.is_nan() {
+            return Err(INVALID);
+        }
+        let tmin = tmin.max(0.0);
+        if tmax < tmin {
+            return Err(MISS);
+        }
+        let mesh = self.mesh;
+        let dir = unit_scale(d);
+        let prepared = M::prepare(o, dir, &mesh.bounds);
+        let [lo, hi] = mesh.bounds;
+        let mut start = WalkStart {
+            o,
+            d,
+            dir,
+            tmin,
+            tmax,
+            point: o,
+            tet: 0,
+            entry: None,
+            exact: true,
+        };
+        if (0..3).all(|a| o[a] >= lo[a] && o[a] <= hi[a]) {
+            start.tet = match st.camera {
+                Some((co, _, t)) if co == o => t,
+                _ => {
+                    let Located::Inside(t) = self.grid.locate(mesh, o, st.hint, &mut st.rng) else {
+                        return Err(FAILED);
+                    };
+                    let t = settle_start(mesh, points, t, o);
+                    st.camera = Some((o, 0.0, t));
+                    st.hint = Some(t);
+                    t
+                }
+            };
+            return Ok((start, prepared));
+        }
+        let Some(span) = clip_box(o, d, lo, hi, 0.0, tmax) else {
+            return Err(MISS);
+        };
+        let enters = |&(t, i): &(u32, usize)| {
+            let tet = mesh.tets[t as usize];
+            let face = OUTWARD_FACES[i].map(|k| points[tet[k] as usize]);
+            M::enters(&prepared, &face)
+        };
+        let mut p = [0, 1, 2].map(|a| (o[a] + span.t0 * d[a]).clamp(lo[a], hi[a]));
+        let candidate = span.side.and_then(|(axis, high)| {
+            p[axis] = if high { hi[axis] } else { lo[axis] };
+            self.entry.locate(p, axis, high, &mut st.entry_hint)
+        });
+        let found = candidate
+            .filter(enters)
+            .or_else(|| self.entry.faces().find(enters));
+        let Some((t, i)) = found else {
+            return Err(MISS);
+        };
+        (start.tet, start.entry, start.point) = (t, Some(i), p);
+        Ok((start, prepared))
     }
 }

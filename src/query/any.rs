@@ -1,7 +1,8 @@
 //! Any hit (occlusion): is there a scene triangle on the ray within [tmin, tmax]? The walk stops
 //! at the first constrained face; the ray is occluded when that crossing lies within tmax.
 
-use super::{ClosestHit, QueryKind, StopAtFirst};
+use super::closest::ClosestPolicy;
+use super::{ClosestHit, QueryKind};
 use crate::locate::WalkStart;
 use crate::status::HIT;
 use crate::traverse::Walk;
@@ -10,13 +11,13 @@ use crate::traverse::Walk;
 #[derive(Clone, Copy)]
 pub struct AnyHit<'a>(pub ClosestHit<'a>);
 
-impl QueryKind for AnyHit<'_> {
-    type Policy = StopAtFirst;
+impl<'a> QueryKind for AnyHit<'a> {
+    type Policy = ClosestPolicy<'a>;
     type Answer = u8;
 
     #[inline(always)]
-    fn policy(&self, _: &WalkStart) -> StopAtFirst {
-        StopAtFirst
+    fn policy(&self, s: &WalkStart) -> ClosestPolicy<'a> {
+        self.0.policy(s)
     }
 
     #[inline]
@@ -27,8 +28,8 @@ impl QueryKind for AnyHit<'_> {
     /// The first face the walk meets is the nearest, so the ray is occluded exactly when the
     /// closest hit lies within [tmin, tmax]: the same evaluation decides both.
     #[inline]
-    fn answer(&self, s: &WalkStart, w: &Walk, _: StopAtFirst, _: [u32; 2]) -> u8 {
-        let hit = self.0.finish(s, w);
+    fn answer(&self, s: &WalkStart, w: &Walk, p: ClosestPolicy<'a>, audit: [u32; 2]) -> u8 {
+        let hit = self.0.answer(s, w, p, audit);
         debug_assert!(hit.status != HIT || hit.t <= s.tmax);
         hit.status
     }

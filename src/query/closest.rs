@@ -1,12 +1,13 @@
 //! Closest hit: stop at the first constrained face and evaluate the hit in float64 on the
 //! caller's triangle it lies on.
 
-use super::{QueryKind, StopAtFirst};
+use super::contact::{earlier, ExactRay, Meet, Range};
+use super::{Crossing, Decision, Query, QueryKind};
 use crate::geom::triangle::{intersect_triangle, on_triangle};
 use crate::locate::WalkStart;
-use crate::mesh::{Surface, TetMesh};
+use crate::mesh::{Incidence, Surface, TetMesh};
 use crate::status::{FAILED, HIT, MISS};
-use crate::traverse::{Walk, WalkEnd};
+use crate::traverse::{Contact, Touch, Walk, WalkEnd};
 
 /// One ray's closest hit before it is written out.
 #[derive(Clone, Copy, Debug)]
@@ -41,15 +42,75 @@ impl RayHit {
 pub struct ClosestHit<'a> {
     pub mesh: &'a TetMesh,
     pub surface: &'a Surface,
+    pub incidence: &'a Incidence,
 }
 
-impl QueryKind for ClosestHit<'_> {
-    type Policy = StopAtFirst;
+/// The closest-hit walk policy. A float method's walk stops at the first constrained face
+/// (`exact` is None). The exact walk's stops at the first point, in order along the ray, where
+/// it meets the surface within [tmin, tmax]: a constrained face crossed through its interior or
+/// a touched vertex or edge; a face whose plane holds the line is walked through. The points a
+/// line in a face's plane meets on that face's boundary are not in walk order: they are kept
+/// (`best`) and the walk goes on to the next point in order, the answer being the earlier.
+pub struct ClosestPolicy<'a> {
+    pub exact: Option<ExactRay<'a>>,
+    pub best: Option<Meet>,
+}
+
+impl Query for ClosestPolicy<'_> {
+    #[inline(always)]
+    fn crossed(&mut self, at: &Crossing) -> Decision {
+        let Some(ray) = &self.exact else {
+            return Decision::Stop;
+        };
+        if at.contact != Contact::Interior {
+            // In the face's plane: not a hit. Through its boundary: `touched` decided.
+            return Decision::Continue;
+        }
+        let (meet, range) = ray.crossing(at.constrained, ray.ids(at.tet, at.face, at.slots));
+        match range {
+            Range::Before => Decision::Continue,
+            Range::In => {
+                self.best = Some(earlier(self.best, meet));
+                Decision::Stop
+            }
+            Range::After => Decision::Stop,
+        }
+    }
+
+    fn touched(&mut self, at: &Touch) -> Decision {
+        let Some(ray) = &self.exact else {
+            return Decision::Continue;
+        };
+        let (mut best, mut found, mut past) = (self.best, false, false);
+        let ordered = ray.touch(at, |meet, range| match range {
+            Range::In => {
+                best = Some(earlier(best, meet));
+                found = true;
+            }
+            Range::After => past = true,
+            Range::Before => {}
+        });
+        self.best = best;
+        if ordered && (found || past) {
+            Decision::Stop
+        } else {
+            Decision::Continue
+        }
+    }
+}
+
+impl<'a> QueryKind for ClosestHit<'a> {
+    type Policy = ClosestPolicy<'a>;
     type Answer = RayHit;
 
     #[inline(always)]
-    fn policy(&self, _: &WalkStart) -> StopAtFirst {
-        StopAtFirst
+    fn policy(&self, s: &WalkStart) -> ClosestPolicy<'a> {
+        ClosestPolicy {
+            exact: s
+                .exact
+                .then(|| ExactRay::new(self.mesh, self.incidence, self.surface, s)),
+            best: None,
+        }
     }
 
     #[inline]
@@ -58,15 +119,36 @@ impl QueryKind for ClosestHit<'_> {
     }
 
     #[inline]
-    fn answer(&self, s: &WalkStart, w: &Walk, _: StopAtFirst, audit: [u32; 2]) -> RayHit {
-        RayHit {
-            audit,
-            ..self.finish(s, w)
-        }
+    fn answer(&self, s: &WalkStart, w: &Walk, p: ClosestPolicy<'a>, audit: [u32; 2]) -> RayHit {
+        let hit = if p.exact.is_some() {
+            self.exact_answer(w, p.best)
+        } else {
+            self.finish(s, w)
+        };
+        RayHit { audit, ..hit }
     }
 }
 
 impl ClosestHit<'_> {
+    /// The exact walk's answer: the point its policy kept, else a miss (or FAILED when the step
+    /// guard ended the walk first).
+    fn exact_answer(&self, w: &Walk, best: Option<Meet>) -> RayHit {
+        let mut r = RayHit {
+            tet: w.tet as i32,
+            steps: w.steps,
+            ..RayHit::nothing(MISS)
+        };
+        match best {
+            Some(m) => {
+                r.status = HIT;
+                (r.t, r.u, r.v, r.triangle) = (m.t, m.u, m.v, m.triangle as i32);
+            }
+            None if w.end == WalkEnd::StepLimit => r.status = FAILED,
+            None => {}
+        }
+        r
+    }
+
     /// The hit of a finished walk, evaluated in f64 on the caller's triangle (the CPU cast's
     /// and the GPU's second half).
     #[inline]
@@ -78,7 +160,7 @@ impl ClosestHit<'_> {
             ..RayHit::nothing(MISS)
         };
         match w.end {
-            WalkEnd::Boundary => {}
+            WalkEnd::Boundary | WalkEnd::Touched => {}
             WalkEnd::StepLimit => r.status = FAILED,
             WalkEnd::Hit { constrained } => {
                 let named = mesh.constrained[constrained as usize].triangle;

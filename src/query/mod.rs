@@ -6,6 +6,7 @@
 
 pub mod any;
 pub mod closest;
+pub mod contact;
 
 use crate::geom::ray::Ray;
 use crate::locate::WalkStart;

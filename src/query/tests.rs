@@ -181,3 +181,157 @@ fn continuing_policy_crosses_every_triangle_once() {
     }
     assert!(checked > 1000, "only {checked} rays checked");
 }
+
+/// Rays built to hit the cases a perturbed or float walk gets wrong, on an unjittered Kuhn grid
+/// (every face plane is an axis plane or a diagonal one, shared by many faces): aimed exactly
+/// at vertices, edge midpoints and face points, running along edges and in face planes,
+/// starting on vertices, edges and faces, from inside and outside the box, with directions
+/// scaled from 1e-30 to 1e30. Dyadic coordinates keep every claim exact.
+fn exact_case_rays(rng: &mut Rng, pts: &[[f64; 3]], faces: &[[u32; 3]], n: usize) -> Vec<Ray6> {
+    let mut rays = Vec::new();
+    let grid = |rng: &mut Rng, lo: f64, hi: f64| {
+        [0, 1, 2].map(|_| ((lo + rng.f() * (hi - lo)) * 16.0).round() / 16.0)
+    };
+    let feature = |rng: &mut Rng| -> [f64; 3] {
+        let f = faces[(rng.f() * faces.len() as f64) as usize].map(|v| pts[v as usize]);
+        match (rng.f() * 3.0) as usize {
+            0 => f[0],
+            1 => [0, 1, 2].map(|k| (f[0][k] + f[1][k]) * 0.5),
+            _ => [0, 1, 2].map(|k| (f[0][k] + f[1][k] + 2.0 * f[2][k]) * 0.25),
+        }
+    };
+    while rays.len() < n {
+        let kind = rays.len() % 5;
+        let (o, d) = match kind {
+            // Aimed at a feature from a grid point inside or outside the box.
+            0 | 1 => {
+                let o = if kind == 0 {
+                    grid(rng, 0.0, 1.0)
+                } else {
+                    grid(rng, -0.5, 1.5)
+                };
+                let t = feature(rng);
+                (o, [0, 1, 2].map(|k| t[k] - o[k]))
+            }
+            // From a feature (origin on the surface or a vertex) towards a grid point.
+            2 => {
+                let o = feature(rng);
+                let t = grid(rng, -0.25, 1.25);
+                (o, [0, 1, 2].map(|k| t[k] - o[k]))
+            }
+            // Along an axis or a face diagonal through a feature (along edges, in planes).
+            3 => {
+                let o = feature(rng);
+                let axes = [
+                    [1., 0., 0.],
+                    [0., 1., 0.],
+                    [0., 0., 1.],
+                    [1., 1., 0.],
+                    [0., 1., 1.],
+                    [1., 0., 1.],
+                    [1., 1., 1.],
+                ];
+                let a = axes[(rng.f() * 7.0) as usize];
+                let s = if rng.f() < 0.5 { -1.0 } else { 1.0 };
+                let back = (rng.f() * 4.0).floor() / 4.0;
+                ([0, 1, 2].map(|k| o[k] - back * s * a[k]), a.map(|x| s * x))
+            }
+            // Between two features.
+            _ => {
+                let (a, b) = (feature(rng), feature(rng));
+                (a, [0, 1, 2].map(|k| b[k] - a[k]))
+            }
+        };
+        if d == [0.0; 3] {
+            continue;
+        }
+        let scale = [1.0, 1e-30, 1e30, 3.0][rays.len() / 5 % 4];
+        rays.push((o, d.map(|x| x * scale)));
+    }
+    rays
+}
+
+type Ray6 = ([f64; 3], [f64; 3]);
+
+/// The exact default agrees with the exact referee on every ray of [`exact_case_rays`], in
+/// float64 and float32, with tmin 0 and a tmin/tmax window: hit or miss, a triangle of the tie
+/// set, and t within the referee's derived bound.
+#[test]
+fn exact_walk_is_right_where_float_walks_fail() {
+    for seed in [51u64, 52, 53] {
+        let mut rng = Rng(seed);
+        // Scene triangles off the box's sides, as meshing makes them (a ray touching the box
+        // at a single point of a triangle on its side is the one case the entry test skips).
+        let g = crate::testing::grid_scene_inside(&mut rng, 4, 0.0, 0.35);
+        let rays = exact_case_rays(&mut rng, &g.pts, &g.faces, 3000);
+        let mut touched = 0;
+        for window in [false, true] {
+            let o: Vec<f64> = rays.iter().flat_map(|r| r.0).collect();
+            let d: Vec<f64> = rays.iter().flat_map(|r| r.1).collect();
+            let (tmin, tmax): (Vec<f64>, Vec<f64>) = if window {
+                rays.iter()
+                    .map(|r| {
+                        let l = r.1.iter().fold(0f64, |m, x| m.max(x.abs()));
+                        (0.25 / l, 1.0 / l)
+                    })
+                    .unzip()
+            } else {
+                (vec![0.0], vec![f64::INFINITY])
+            };
+            let o32: Vec<f32> = o.iter().map(|&x| x as f32).collect();
+            let d32: Vec<f32> = d.iter().map(|&x| x as f32).collect();
+            let n = rays.len();
+            let mut h64 = HitBuffers::<f64>::new(n, false);
+            let r64 = Rays {
+                origins: &o[..],
+                directions: &d[..],
+                tmin: &tmin,
+                tmax: &tmax,
+            };
+            g.scene
+                .cast(&r64, h64.out(), &CastOptions::default())
+                .unwrap();
+            let mut h32 = HitBuffers::<f32>::new(n, false);
+            let r32 = Rays {
+                origins: &o32[..],
+                directions: &d32[..],
+                tmin: &tmin,
+                tmax: &tmax,
+            };
+            g.scene
+                .cast(&r32, h32.out(), &CastOptions::default())
+                .unwrap();
+            for i in 0..n {
+                for (f32_rays, status, t, tri) in [
+                    (false, h64.status[i], h64.t[i], h64.triangle[i]),
+                    (true, h32.status[i], h32.t[i] as f64, h32.triangle[i]),
+                ] {
+                    let ray = if f32_rays { r32.ray(i) } else { r64.ray(i) };
+                    let v = referee::first_hit(ray.o, ray.d, ray.tmin.max(0.0), ray.tmax, &g.tris);
+                    touched += v.as_ref().is_some_and(|v| v.ties.len() > 1) as usize;
+                    let ulp = if f32_rays {
+                        referee::ulp_f32(t)
+                    } else {
+                        referee::ulp_f64(t)
+                    };
+                    let hit = (status == HIT).then_some((tri as usize, t));
+                    let outcome =
+                        referee::judge(v.as_ref(), status == crate::status::FAILED, hit, ulp);
+                    assert_eq!(
+                        outcome,
+                        referee::Outcome::Right,
+                        "seed {seed} ray {i} ({}, window {window}): o {:?} d {:?} got status {status} t {t} tri {tri}, referee {:?}",
+                        if f32_rays { "f32" } else { "f64" },
+                        ray.o,
+                        ray.d,
+                        v.map(|v| (v.t, v.ties))
+                    );
+                }
+            }
+        }
+        assert!(
+            touched > 500,
+            "the rays touch shared edges and vertices ({touched})"
+        );
+    }
+}

@@ -8,7 +8,9 @@ use crate::geom::real::Real;
 use crate::layout::{Layout, LayoutKind, LayoutVisitor};
 use crate::query::{chunks, AnyHit, QueryKind, Sink};
 use crate::traverse::robust::ExactAudit;
-use crate::traverse::{ExitMethod, Method, MethodVisitor, NoObserver, WalkObserver, WalkSetup};
+use crate::traverse::{
+    Exact, ExitMethod, Method, MethodVisitor, NoObserver, WalkObserver, WalkSetup,
+};
 use rayon::prelude::*;
 
 /// How a cast runs; `CastOptions::default()` is what Python's defaults mean.
@@ -50,7 +52,7 @@ pub const CHUNK: usize = 4096;
 /// Answers `query` for every ray of `rays` into `out` with `accel`, chunk by chunk on
 /// `threads` (see [`CastOptions::threads`]). Each chunk starts from fresh accelerator state, so
 /// answers do not depend on the thread count.
-pub fn cast_accel<R: Real, A: Accel<R>, K: QueryKind, S: Sink<K::Answer>>(
+pub fn cast_accel<R: Real, W: Real, A: Accel<W>, K: QueryKind, S: Sink<K::Answer>>(
     accel: &A,
     query: &K,
     rays: &Rays<R>,
@@ -163,10 +165,10 @@ impl Scene {
     }
 
     /// Closest hits with an explicit precision, layout and exit method (what the dispatch
-    /// reaches, and what tests of one method call).
-    pub fn cast_generic<R: Real, L: Layout, M: ExitMethod<R>>(
+    /// reaches, and what tests of one method call): rays in precision R, walked in W.
+    pub fn cast_generic<R: Real, W: Real, L: Layout, M: ExitMethod<W>>(
         &self,
-        points: &[[R; 3]],
+        points: &[[W; 3]],
         layout: &L,
         rays: &Rays<R>,
         out: HitsOut<R>,
@@ -175,16 +177,16 @@ impl Scene {
         check_lengths(rays, &out)?;
         let query = self.closest();
         if out.audit.is_empty() {
-            self.run::<R, L, M, NoObserver, _, _>(points, layout, &query, rays, out, opts)
+            self.run::<R, W, L, M, NoObserver, _, _>(points, layout, &query, rays, out, opts)
         } else {
-            self.run::<R, L, M, ExactAudit, _, _>(points, layout, &query, rays, out, opts)
+            self.run::<R, W, L, M, ExactAudit, _, _>(points, layout, &query, rays, out, opts)
         }
     }
 
     /// The tet walk (method M on layout L, observer O) answering `query` for every ray.
-    fn run<R, L, M, O, K, S>(
+    fn run<R, W, L, M, O, K, S>(
         &self,
-        points: &[[R; 3]],
+        points: &[[W; 3]],
         layout: &L,
         query: &K,
         rays: &Rays<R>,
@@ -193,9 +195,10 @@ impl Scene {
     ) -> Result<()>
     where
         R: Real,
+        W: Real,
         L: Layout,
-        M: ExitMethod<R>,
-        O: WalkObserver<R>,
+        M: ExitMethod<W>,
+        O: WalkObserver<W>,
         K: QueryKind,
         S: Sink<K::Answer>,
     {
@@ -205,7 +208,7 @@ impl Scene {
             sides: &self.mesh.constrained,
             max_steps: opts.max_steps_for(self.mesh.len()),
         };
-        let walk = TetWalk::<R, L, M, O>::new(self.locators(), setup);
+        let walk = TetWalk::<W, L, M, O>::new(self.locators(), setup);
         cast_accel(&walk, query, rays, out, opts.threads)
     }
 }
@@ -230,6 +233,11 @@ impl<R: Real> LayoutVisitor for LayoutStep<'_, R> {
             )));
         }
         let step = MethodStep { step: self, layout };
+        if step.step.method == Method::Exact && !L::INLINE {
+            // The exact walk reads the mesh's float64 points whatever the rays' precision: the
+            // mesh rounded to float32 is not the mesh (Steiner points move, tets may fold).
+            return step.run::<f64, Exact>();
+        }
         step.step.method.visit::<R, _>(step)
     }
 }
@@ -243,6 +251,13 @@ struct MethodStep<'a, 'b, R, L> {
 impl<R: Real, L: Layout> MethodVisitor<R> for MethodStep<'_, '_, R, L> {
     type Out = Result<()>;
     fn visit<M: ExitMethod<R>>(self) -> Result<()> {
+        self.run::<R, M>()
+    }
+}
+
+impl<R: Real, L: Layout> MethodStep<'_, '_, R, L> {
+    /// Runs method M walking in precision W on rays of precision R.
+    fn run<W: Real, M: ExitMethod<W>>(self) -> Result<()> {
         let LayoutStep {
             scene,
             rays,
@@ -250,14 +265,21 @@ impl<R: Real, L: Layout> MethodVisitor<R> for MethodStep<'_, '_, R, L> {
             opts,
             ..
         } = self.step;
-        let points = scene.points::<R>();
+        let points = scene.points::<W>();
         match job {
             Job::Closest(out) => {
-                scene.cast_generic::<R, L, M>(points, self.layout, rays, out, opts)
+                scene.cast_generic::<R, W, L, M>(points, self.layout, rays, out, opts)
             }
             Job::Any(out) => {
                 let query = AnyHit(scene.closest());
-                scene.run::<R, L, M, NoObserver, _, _>(points, self.layout, &query, rays, out, opts)
+                scene.run::<R, W, L, M, NoObserver, _, _>(
+                    points,
+                    self.layout,
+                    &query,
+                    rays,
+                    out,
+                    opts,
+                )
             }
         }
     }

@@ -175,6 +175,7 @@ impl Scene {
         ClosestHit {
             mesh: &self.mesh,
             surface: &self.surface,
+            incidence: &self.incidence,
         }
     }
 

@@ -5,6 +5,7 @@
 //! candidate exit faces (a,b,d), (b,c,d), (c,a,d), each already in that order for the next tet.
 
 pub mod aman2022;
+pub mod exact;
 pub mod lagae2008_halfspace;
 pub mod lagae2008_plane;
 pub mod lagae2008_plucker;
@@ -18,6 +19,7 @@ use crate::error::{Error, Result};
 use crate::geom::real::{Real, V3};
 
 pub use aman2022::Aman2022;
+pub use exact::Exact;
 pub use lagae2008_halfspace::Lagae2008Halfspace;
 pub use lagae2008_plane::Lagae2008Plane;
 pub use lagae2008_plucker::Lagae2008Plucker;
@@ -25,7 +27,7 @@ pub use lagae2008_stp::Lagae2008Stp;
 pub use maria2017::Maria2017;
 pub use ms06::Ms06;
 pub use robust::Robust;
-pub use walk::{walk, walk_with, Walk, WalkEnd, WalkSetup};
+pub use walk::{walk, walk_with, Touch, Walk, WalkEnd, WalkSetup};
 
 /// Which of the three candidate faces a ray leaves by (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -38,11 +40,33 @@ pub enum Exit {
     Cad,
 }
 
+/// Where the exact line meets a face the walk leaves by (or, at the start, where the ray's
+/// origin lies): what a method with exact contacts reports besides the exit face. Indices are
+/// 0..3 into the face's vertices (a, b, c); edge k is (k, k+1 mod 3).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Contact {
+    /// Through the face's interior (nothing to report).
+    Interior,
+    /// Through vertex k of the face.
+    Vertex(u8),
+    /// Through the interior of edge k.
+    Edge(u8),
+    /// The line lies in the face's plane; it meets the face's boundary at the vertices in the
+    /// bit mask `vertices` and in the interiors of the edges in `edges` (in no order along it).
+    Coplanar { vertices: u8, edges: u8 },
+    /// The ray's origin lies in the face's interior (the start only).
+    Face,
+}
+
 pub trait ExitMethod<R: Real> {
     const NAME: &'static str;
     /// The walk follows a symbolically perturbed line starting at s + εδ (the robust walk):
     /// the start tet must be the one holding that point (`robust::settle_start`).
     const PERTURBED_START: bool = false;
+    /// The walk follows the ray's own line (o, d) exactly and reports where it touches the
+    /// vertices and edges of exit faces ([`Contact`]); it starts at the origin itself or, from
+    /// outside, at the exact entry face (`locate::Locators::locate_exact`).
+    const CONTACTS: bool = false;
     /// Per-ray data computed once (e.g. a basis).
     type Ray: Copy;
     /// Per-vertex data computed once per fetched vertex (e.g. its 2D projection).
@@ -83,6 +107,22 @@ pub trait ExitMethod<R: Real> {
         _d: &Self::Vert,
     ) -> bool {
         true
+    }
+    /// Whether the line may pass through the boundary of the exit face (a, b, c) (vertex data
+    /// only; methods with CONTACTS): false when every edge's side is certain.
+    #[inline(always)]
+    fn may_touch(_ray: &Self::Ray, _a: &Self::Vert, _b: &Self::Vert, _c: &Self::Vert) -> bool {
+        false
+    }
+    /// Whether the line enters a tet through `face` (positions in the tet's outward order):
+    /// the exact start's test of a boundary face (methods with CONTACTS).
+    fn enters(_ray: &Self::Ray, _face: &[V3<R>; 3]) -> bool {
+        false
+    }
+    /// Where the line meets the exit face (positions a, b, c; `w` is the tet's fourth vertex,
+    /// off the face's plane). Exact; called only when `may_touch`.
+    fn contact(_ray: &Self::Ray, _face: &[V3<R>; 3], _w: V3<R>) -> Contact {
+        Contact::Interior
     }
 }
 
@@ -164,15 +204,14 @@ method_table! {
     Maria2017,
     Aman2022,
     Robust,
+    Exact,
 }
 
 impl Method {
-    /// The default: the fastest robust combination measured. Bunny, 1024² camera, f32, one
-    /// thread (python -m tetrace.bench bunny.obj --method all --layout all): aman2022 and
-    /// maria2017 on tet32 both ran at 0.62x embreex, ahead of tet20 (0.57-0.58x); aman2022
-    /// projects each vertex once per ray, so neighbouring tets agree bit for bit on every edge,
-    /// where maria2017 recomputes side products in each tet's frame.
-    pub const DEFAULT: Method = Method::Aman2022;
+    /// The default: the exact walk, the only method that keeps tetrace's contract (closed
+    /// triangles, in-plane rays never hit, the answer exact arithmetic gives) for every ray.
+    /// The float methods stay selectable for the speed–accuracy chart.
+    pub const DEFAULT: Method = Method::Exact;
 
     /// The method named `name`, or an error listing the known ones.
     pub fn from_name(name: &str) -> Result<Method> {

@@ -50,7 +50,7 @@ pub struct LineRay<R> {
 /// where r = |x| + |y|. With |P|₁, |Q|₁ ≤ N (the L1 reach of the domain from s) the error is
 /// below 11 u N (r_p + r_q). 32 leaves a margin of about 3: a bound too small would break
 /// consistency, one too large only costs exact evaluations.
-const FILTER_ULPS: f64 = 32.0;
+pub(crate) const FILTER_ULPS: f64 = 32.0;
 
 /// The line the robust walk (and the audit) uses for a ray starting at `start` along `dir`
 /// in precision R: (s, b), see the module docs.
@@ -78,14 +78,14 @@ pub fn exact_line<R: Real>(
 }
 
 #[inline(always)]
-fn det2<R: Real>(p: &[R; 3], q: &[R; 3]) -> R {
+pub(crate) fn det2<R: Real>(p: &[R; 3], q: &[R; 3]) -> R {
     p[0] * q[1] - p[1] * q[0]
 }
 
 /// The side of edge p→q seen along the ray (true: counter-clockwise), when the 2D determinant
 /// is certain of it; None when it is within its error bound of zero.
 #[inline(always)]
-fn certain_side<R: Real>(p: &[R; 3], q: &[R; 3]) -> Option<bool> {
+pub(crate) fn certain_side<R: Real>(p: &[R; 3], q: &[R; 3]) -> Option<bool> {
     let det = det2(p, q);
     let bound = p[2] + q[2];
     if det > bound {
@@ -124,7 +124,7 @@ fn exact_side<R: Real>(ray: &LineRay<R>, p: V3<R>, q: V3<R>) -> bool {
 
 /// The walk's start: `start` rounded to R and clamped into the domain box rounded to R (whose
 /// corners are the float32 walk's box corners), so the start is in the mesh the walk reads.
-fn start_point<R: Real>(start: V3<f64>, domain: &[V3<f64>; 2]) -> V3<f64> {
+pub(crate) fn start_point<R: Real>(start: V3<f64>, domain: &[V3<f64>; 2]) -> V3<f64> {
     let r = |x: f64| R::from_f64(x).to_f64();
     [0, 1, 2].map(|k| r(start[k]).clamp(r(domain[0][k]), r(domain[1][k])))
 }
@@ -160,20 +160,32 @@ const DELTA2: V3<f64> = [-0.2915382917263, 0.8419846213571, 0.4503218740313];
 /// changes sign with p ↔ q, and each is the orientation of a real nearby line, so the signs of
 /// all edges are those of one line in general position: the walk is that line's exact walk.
 fn perturbed_side(s: V3<f64>, b: V3<f64>, p: V3<f64>, q: V3<f64>, delta: V3<f64>) -> bool {
-    use num_rational::BigRational;
+    use crate::geom::exact::rationals;
+    let (sr, br) = (rationals(s), rationals(b));
+    let d = [0, 1, 2].map(|k| &br[k] - &sr[k]);
+    perturbed_sign(&sr, &d, p, q, delta)
+}
+
+/// [`perturbed_side`] for the line through s with direction `d`, given in rationals (the exact
+/// walk's line is (o, d) itself).
+pub(crate) fn perturbed_sign(
+    s: &[num_rational::BigRational; 3],
+    d: &[num_rational::BigRational; 3],
+    p: V3<f64>,
+    q: V3<f64>,
+    delta: V3<f64>,
+) -> bool {
+    use crate::geom::exact::{rationals, rdet};
     use num_traits::{Signed, Zero};
-    let r = |x: f64| BigRational::from_float(x).unwrap_or_else(BigRational::zero);
-    let v3 = |a: V3<f64>| a.map(r);
-    let sub = |a: &[BigRational; 3], b: &[BigRational; 3]| [0, 1, 2].map(|k| &a[k] - &b[k]);
-    let det = |a: &[BigRational; 3], b: &[BigRational; 3], c: &[BigRational; 3]| {
-        &a[0] * (&b[1] * &c[2] - &b[2] * &c[1]) - &a[1] * (&b[0] * &c[2] - &b[2] * &c[0])
-            + &a[2] * (&b[0] * &c[1] - &b[1] * &c[0])
-    };
-    let (s, b, p, q) = (v3(s), v3(b), v3(p), v3(q));
-    let (dl, dl2) = (v3(delta), v3(DELTA2));
-    let d = sub(&b, &s);
-    let (pv, qv, v) = (sub(&p, &s), sub(&q, &s), sub(&q, &p));
-    let terms = [-det(&d, &dl, &v), det(&dl2, &pv, &qv), -det(&dl2, &dl, &v)];
+    let sub = |a: &[_; 3], b: &[_; 3]| [0, 1, 2].map(|k| &a[k] - &b[k]);
+    let (p, q) = (rationals(p), rationals(q));
+    let (dl, dl2) = (rationals(delta), rationals(DELTA2));
+    let (pv, qv, v) = (sub(&p, s), sub(&q, s), sub(&q, &p));
+    let terms = [
+        -rdet(d, &dl, &v),
+        rdet(&dl2, &pv, &qv),
+        -rdet(&dl2, &dl, &v),
+    ];
     for t in terms {
         if !t.is_zero() {
             return t.is_positive();

@@ -309,11 +309,11 @@ pub(crate) fn check_agreement<M: ExitMethod<f32> + ExitMethod<f64>>(seed: u64) {
         let name = format!("{}/{}", <M as ExitMethod<f32>>::NAME, L::NAME);
         if f64_too {
             agreement::<f64>(seed, &name, |s, r, o| {
-                s.cast_generic::<f64, L, M>(&s.mesh.points, &L::build(&s.mesh)?, r, o, &opts)
+                s.cast_generic::<f64, f64, L, M>(&s.mesh.points, &L::build(&s.mesh)?, r, o, &opts)
             });
         }
         agreement::<f32>(seed + 1, &name, |s, r, o| {
-            s.cast_generic::<f32, L, M>(&s.points_f32, &L::build(&s.mesh)?, r, o, &opts)
+            s.cast_generic::<f32, f32, L, M>(&s.points_f32, &L::build(&s.mesh)?, r, o, &opts)
         });
     }
     on::<Plain, M>(seed, true);

@@ -3,7 +3,7 @@
 //! it, and a [`Query`] decides at each constrained face whether the walk stops there or records
 //! it and walks on through (closest hit stops at the first; all hits and counts go on).
 
-use super::{Exit, ExitMethod, WalkObserver};
+use super::{Contact, Exit, ExitMethod, WalkObserver};
 use crate::geom::real::{Real, V3};
 use crate::layout::Layout;
 use crate::mesh::build::{ConstrainedSide, CONSTRAINED_BIT, OUTWARD_FACES};
@@ -29,12 +29,34 @@ pub struct Crossing {
     pub tet: u32,
     pub face: [u32; 3],
     pub slots: bool,
+    /// Where the line meets the face, for methods with exact contacts (else `Interior`):
+    /// `Coplanar` (the line lies in its plane: never a hit) or a vertex or edge, which the
+    /// query has already been told of through [`Query::touched`].
+    pub contact: Contact,
+}
+
+/// The exact line touches a vertex or an edge of the face it leaves a tet by, lies in its
+/// plane, or (at the start) has its origin on a face, edge or vertex of the start tet: every
+/// scene triangle around that vertex or edge is met there, whichever tets the walk goes on
+/// through, so the query must look them up.
+#[derive(Clone, Copy, Debug)]
+pub struct Touch {
+    pub tet: u32,
+    /// The face's vertices (as for [`Crossing::face`]); `contact` indexes them.
+    pub face: [u32; 3],
+    pub slots: bool,
+    pub contact: Contact,
 }
 
 /// A walk policy (the query kinds in `crate::query` implement it): called at every
 /// constrained face the walk reaches, in order along the ray.
 pub trait Query {
     fn crossed(&mut self, at: &Crossing) -> Decision;
+    /// Called, in order along the walk, where a method with exact contacts touches a vertex
+    /// or an edge (see [`Touch`]); before `crossed` when that face is constrained.
+    fn touched(&mut self, _at: &Touch) -> Decision {
+        Decision::Continue
+    }
 }
 
 /// Stops at the first constrained face: closest hit and any hit (the first face a walk meets
@@ -54,6 +76,8 @@ impl Query for StopAtFirst {
 pub enum WalkEnd {
     /// Stopped at a constrained face (the query said so): index into the constrained table.
     Hit { constrained: u32 },
+    /// Stopped at a touch (the query said so, and holds the answer).
+    Touched,
     /// Left the domain.
     Boundary,
     /// The step guard fired (a cycle or a degenerate mesh): the ray is reported as FAILED.
@@ -137,6 +161,26 @@ pub fn walk_with<R: Real, L: Layout, M: ExitMethod<R>, Q: Query, O: WalkObserver
     let (mut a, mut b, mut c, mut pa, mut pb, mut pc, mut link, mut t, mut steps);
     // INLINE layouts: the entered tet's face by which the walk came in.
     let mut entry_face = 0usize;
+    // Where the line meets the current exit face (methods with exact contacts).
+    let mut contact = Contact::Interior;
+    let touch = |query: &mut Q, t: u32, face: [u32; 3], contact: Contact, steps: u32| {
+        if contact == Contact::Interior {
+            return None;
+        }
+        let at = Touch {
+            tet: t,
+            face,
+            slots: L::INLINE,
+            contact,
+        };
+        (query.touched(&at) == Decision::Stop).then_some(Walk {
+            end: WalkEnd::Touched,
+            tet: t,
+            face,
+            slots: L::INLINE,
+            steps,
+        })
+    };
     if let Some(i) = entry {
         // Entering through face i: reversed from its outward order it turns counter-clockwise
         // around the ray, as the loop expects of an entry face.
@@ -148,6 +192,16 @@ pub fn walk_with<R: Real, L: Layout, M: ExitMethod<R>, Q: Query, O: WalkObserver
             M::vertex(ray, position(start, c)),
         );
         (link, t, steps, entry_face) = (start, start, 0u32, i);
+        if M::CONTACTS && M::may_touch(ray, &pa, &pb, &pc) {
+            // Entering from outside: the entry point may be a vertex or on an edge where
+            // scene triangles meet the box.
+            let face = [position(start, a), position(start, b), position(start, c)];
+            contact = M::contact(ray, &face, position(start, names[i]));
+            if let Some(w) = touch(query, t, [a, b, c], contact, steps) {
+                return w;
+            }
+            contact = Contact::Interior;
+        }
     } else {
         let ps = names.map(|v| position(start, v));
         let vs = ps.map(|p| M::vertex(ray, p));
@@ -164,6 +218,13 @@ pub fn walk_with<R: Real, L: Layout, M: ExitMethod<R>, Q: Query, O: WalkObserver
             link = layout.link_opposite(start, start_tet[i], [a, b, c]);
         }
         (t, steps) = (start, 1u32);
+        if M::CONTACTS && M::may_touch(ray, &pa, &pb, &pc) {
+            let face = [ps[f[0]], ps[f[1]], ps[f[2]]];
+            contact = M::contact(ray, &face, ps[i]);
+            if let Some(w) = touch(query, t, [a, b, c], contact, steps) {
+                return w;
+            }
+        }
     }
     loop {
         if link & CONSTRAINED_BIT != 0 {
@@ -176,6 +237,7 @@ pub fn walk_with<R: Real, L: Layout, M: ExitMethod<R>, Q: Query, O: WalkObserver
                     tet: t,
                     face: [a, b, c],
                     slots: L::INLINE,
+                    contact,
                 };
                 match query.crossed(&at) {
                     Decision::Stop => Some(WalkEnd::Hit { constrained }),
@@ -261,6 +323,16 @@ pub fn walk_with<R: Real, L: Layout, M: ExitMethod<R>, Q: Query, O: WalkObserver
         };
         if O::ACTIVE {
             observer.exit([position(t, a), position(t, b), position(t, c)], found);
+        }
+        if M::CONTACTS {
+            contact = Contact::Interior;
+            if M::may_touch(ray, &pa, &pb, &pc) {
+                let face = [position(t, a), position(t, b), position(t, c)];
+                contact = M::contact(ray, &face, position(t, opposite));
+                if let Some(w) = touch(query, t, [a, b, c], contact, steps) {
+                    return w;
+                }
+            }
         }
         if L::INLINE {
             (link, entry_face) = layout.inline_face(t, opposite as usize);

@@ -1,0 +1,220 @@
+//! Exact predicates on a ray given as numbers: the sign of the Plücker side product of the ray
+//! (o, d) with an edge, and where the ray crosses a plane, decided exactly for the float64
+//! numbers passed in. Each is a float64 evaluation with a certified error bound first, and
+//! exact rational arithmetic only when the bound cannot decide (near-degenerate cases).
+
+use super::real::V3;
+use num_rational::BigRational;
+use num_traits::{Signed, Zero};
+use std::cmp::Ordering;
+
+const EPS: f64 = f64::EPSILON * 0.5;
+/// Shewchuk's bound for a 3×3 determinant whose rows are differences of inputs, relative to
+/// its permanent: (7 + 56ε)ε. Rounded up.
+const DET_BOUND: f64 = 8.0 * EPS;
+/// Below this permanent, products may underflow and the bound no longer holds: exact.
+const TINY: f64 = 1e-250;
+
+fn rat(x: f64) -> BigRational {
+    BigRational::from_float(x).unwrap_or_else(BigRational::zero)
+}
+
+fn rat3(v: V3<f64>) -> [BigRational; 3] {
+    v.map(rat)
+}
+
+fn rsub(a: &[BigRational; 3], b: &[BigRational; 3]) -> [BigRational; 3] {
+    [0, 1, 2].map(|k| &a[k] - &b[k])
+}
+
+/// det(a, b, c) in rationals.
+pub fn rdet(a: &[BigRational; 3], b: &[BigRational; 3], c: &[BigRational; 3]) -> BigRational {
+    &a[0] * (&b[1] * &c[2] - &b[2] * &c[1]) - &a[1] * (&b[0] * &c[2] - &b[2] * &c[0])
+        + &a[2] * (&b[0] * &c[1] - &b[1] * &c[0])
+}
+
+fn sign_of(x: &BigRational) -> i8 {
+    if x.is_zero() {
+        0
+    } else if x.is_positive() {
+        1
+    } else {
+        -1
+    }
+}
+
+#[inline(always)]
+fn det_perm(a: V3<f64>, b: V3<f64>, c: V3<f64>) -> (f64, f64) {
+    let m0 = b[1] * c[2] - b[2] * c[1];
+    let m1 = b[0] * c[2] - b[2] * c[0];
+    let m2 = b[0] * c[1] - b[1] * c[0];
+    let det = a[0] * m0 - a[1] * m1 + a[2] * m2;
+    let perm = a[0].abs() * ((b[1] * c[2]).abs() + (b[2] * c[1]).abs())
+        + a[1].abs() * ((b[0] * c[2]).abs() + (b[2] * c[0]).abs())
+        + a[2].abs() * ((b[0] * c[1]).abs() + (b[1] * c[0]).abs());
+    (det, perm)
+}
+
+/// The sign of det(d, p − s, q − s): the side of edge p→q seen along the line through s with
+/// direction d (positive: counter-clockwise). Zero when the line and the edge's line are
+/// coplanar (they meet, or are parallel). Exact.
+pub fn side(d: V3<f64>, s: V3<f64>, p: V3<f64>, q: V3<f64>) -> i8 {
+    let pv = [0, 1, 2].map(|k| p[k] - s[k]);
+    let qv = [0, 1, 2].map(|k| q[k] - s[k]);
+    let (det, perm) = det_perm(d, pv, qv);
+    let bound = DET_BOUND * perm;
+    if perm.is_finite() && perm > TINY {
+        if det > bound {
+            return 1;
+        }
+        if -det > bound {
+            return -1;
+        }
+    }
+    let (d, s, p, q) = (rat3(d), rat3(s), rat3(p), rat3(q));
+    sign_of(&rdet(&d, &rsub(&p, &s), &rsub(&q, &s)))
+}
+
+/// Whether the line (s, d) lies in the plane of triangle (a, b, c), for a line known to meet
+/// that plane at a point of the triangle: then it lies in the plane iff d is parallel to it.
+pub fn in_plane(d: V3<f64>, a: V3<f64>, b: V3<f64>, c: V3<f64>) -> bool {
+    side(d, a, b, c) == 0
+}
+
+/// Where the line o + t d crosses the plane of (a, b, c): t = num / den with
+/// num = det(a − o, b − o, c − o) and den = d · ((b − a) × (c − a)), evaluated in float64
+/// (the evaluation whose forward error the referee bounds), and that error bound.
+pub fn plane_t(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3]) -> (f64, f64) {
+    let [a, b, c] = *tri;
+    let (av, bv, cv) = (
+        [0, 1, 2].map(|k| a[k] - o[k]),
+        [0, 1, 2].map(|k| b[k] - o[k]),
+        [0, 1, 2].map(|k| c[k] - o[k]),
+    );
+    let (num, pnum) = det_perm(av, bv, cv);
+    let (e1, e2) = (
+        [0, 1, 2].map(|k| b[k] - a[k]),
+        [0, 1, 2].map(|k| c[k] - a[k]),
+    );
+    let (den, pden) = det_perm(d, e1, e2);
+    let t = num / den;
+    let err = (DET_BOUND * pnum + t.abs() * DET_BOUND * pden) / den.abs() + 4.0 * EPS * t.abs();
+    (t, err)
+}
+
+/// The exact t of the line o + t d on the plane of (a, b, c) compared with x: Less when the
+/// crossing comes before x. The plane must not be parallel to d.
+pub fn cmp_t(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3], x: f64) -> Ordering {
+    if x == f64::INFINITY {
+        return Ordering::Less;
+    }
+    if x == f64::NEG_INFINITY {
+        return Ordering::Greater;
+    }
+    let (t, err) = plane_t(o, d, tri);
+    if err.is_finite() && t.is_finite() {
+        if t + err < x {
+            return Ordering::Less;
+        }
+        if t - err > x {
+            return Ordering::Greater;
+        }
+    }
+    let (o, d) = (rat3(o), rat3(d));
+    let [a, b, c] = tri.map(rat3);
+    let num = rdet(&rsub(&a, &o), &rsub(&b, &o), &rsub(&c, &o));
+    let den = rdet(&d, &rsub(&b, &a), &rsub(&c, &a));
+    if den.is_zero() {
+        return Ordering::Greater;
+    }
+    (num / den).cmp(&rat(x))
+}
+
+/// The ray's hit on one of the caller's triangles: t (as [`plane_t`]) and barycentrics (u, v)
+/// of b and c, from the Plücker side products (each a sum of the others' share of den).
+pub fn triangle_hit(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3]) -> (f64, f64, f64) {
+    let (t, _) = plane_t(o, d, tri);
+    let [a, b, c] = *tri;
+    let sub = |x: V3<f64>| [0, 1, 2].map(|k| x[k] - o[k]);
+    let (av, bv, cv) = (sub(a), sub(b), sub(c));
+    // S_ca weighs b, S_ab weighs c (their sum with S_bc is den).
+    let s_bc = det_perm(d, bv, cv).0;
+    let s_ca = det_perm(d, cv, av).0;
+    let s_ab = det_perm(d, av, bv).0;
+    let den = s_bc + s_ca + s_ab;
+    (t, s_ca / den, s_ab / den)
+}
+
+/// Where point x lies against the plane of (a, b, c): the exact sign of orient (tetrace's
+/// convention, `predicates::orient`).
+pub fn orient_sign(a: V3<f64>, b: V3<f64>, c: V3<f64>, x: V3<f64>) -> i8 {
+    let o = super::predicates::orient(a, b, c, x);
+    if o > 0.0 {
+        1
+    } else if o < 0.0 {
+        -1
+    } else {
+        0
+    }
+}
+
+/// Rationals for the callers that evaluate a perturbation (the exact walk).
+pub fn rationals(v: V3<f64>) -> [BigRational; 3] {
+    rat3(v)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The filtered sign equals the rational one, on near-degenerate edges at many scales.
+    #[test]
+    fn side_is_exact() {
+        let mut x = 0x9e37_79b9_7f4a_7c15u64;
+        let mut f = move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut zeros = 0;
+        for k in 0..20_000 {
+            let scale = [1.0, 1e-20, 1e7, 1e30][k % 4];
+            let off = [0.0, 1e4, -1e7, 3.0][k / 4 % 4];
+            let pt = |f: &mut dyn FnMut() -> f64| [0, 1, 2].map(|_| off + scale * (f() - 0.5));
+            let (s, p) = (pt(&mut f), pt(&mut f));
+            let d = [f() - 0.5, f() - 0.5, f() - 0.5];
+            // q on the plane through the line and p (often exactly: dyadic combinations).
+            let (a, b) = ((f() * 8.0).floor() / 4.0, (f() * 8.0).floor() / 4.0);
+            let q = if k % 3 == 0 {
+                pt(&mut f)
+            } else {
+                [0, 1, 2].map(|i| s[i] + a * (p[i] - s[i]) + b * d[i] * scale)
+            };
+            let exact = {
+                let (dr, sr, pr, qr) = (rat3(d), rat3(s), rat3(p), rat3(q));
+                sign_of(&rdet(&dr, &rsub(&pr, &sr), &rsub(&qr, &sr)))
+            };
+            zeros += (exact == 0) as usize;
+            assert_eq!(side(d, s, p, q), exact, "case {k}");
+            assert_eq!(side(d, s, q, p), -exact, "case {k}");
+        }
+        assert!(zeros > 100, "the cases include exact zeros ({zeros})");
+    }
+
+    #[test]
+    fn t_comparison_is_exact() {
+        let tri = [[1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [1.0, 0.0, 1.0]];
+        let o = [0.0, 0.25, 0.25];
+        let d = [3.0, 0.0, 0.0];
+        // t = 1/3 exactly: not a float.
+        let third = 1.0 / 3.0;
+        let big = BigRational::new(1.into(), 3.into());
+        let expect = big.cmp(&rat(third));
+        assert_eq!(cmp_t(o, d, &tri, third), expect);
+        assert_eq!(cmp_t(o, d, &tri, 0.5), Ordering::Less);
+        assert_eq!(cmp_t(o, d, &tri, 0.2), Ordering::Greater);
+        let (t, u, v) = triangle_hit(o, d, &tri);
+        assert!((t - third).abs() <= 1e-16 && (u - 0.25).abs() < 1e-15 && (v - 0.25).abs() < 1e-15);
+    }
+}

@@ -1,0 +1,191 @@
+//! What the exact walk's queries share: where the ray meets the surface at a constrained face
+//! it crosses or at a vertex or edge it touches, with t, the caller's triangle and its range
+//! against [tmin, tmax], each decided exactly (`geom::exact`).
+
+use crate::geom::exact::{cmp_t, in_plane, triangle_hit};
+use crate::locate::WalkStart;
+use crate::mesh::{Incidence, Surface, TetMesh};
+use crate::traverse::{Contact, Touch};
+use std::cmp::Ordering;
+
+/// One point where a ray meets the surface.
+#[derive(Clone, Copy, Debug)]
+pub struct Meet {
+    pub t: f64,
+    pub u: f64,
+    pub v: f64,
+    /// The caller's triangle (of those met at this point, the smallest id).
+    pub triangle: u32,
+    /// The mesh feature the point lies in: sorted point ids of a vertex, edge or face, padded
+    /// with u32::MAX. The same point is the same feature, however many tets report it.
+    pub key: [u32; 3],
+}
+
+/// Where a point lies against [tmin, tmax].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Range {
+    Before,
+    In,
+    After,
+}
+
+/// The scene's parts the exact queries read, and the ray.
+#[derive(Clone, Copy)]
+pub struct ExactRay<'a> {
+    pub mesh: &'a TetMesh,
+    pub incidence: &'a Incidence,
+    pub surface: &'a Surface,
+    pub o: [f64; 3],
+    pub d: [f64; 3],
+    /// d scaled by a power of two (signs only).
+    pub dir: [f64; 3],
+    pub tmin: f64,
+    pub tmax: f64,
+}
+
+fn sorted_key(mut k: [u32; 3]) -> [u32; 3] {
+    k.sort_unstable();
+    k
+}
+
+impl<'a> ExactRay<'a> {
+    pub fn new(
+        mesh: &'a TetMesh,
+        incidence: &'a Incidence,
+        surface: &'a Surface,
+        s: &WalkStart,
+    ) -> Self {
+        ExactRay {
+            mesh,
+            incidence,
+            surface,
+            o: s.o,
+            d: s.d,
+            dir: s.dir,
+            tmin: s.tmin,
+            tmax: s.tmax,
+        }
+    }
+
+    /// Point ids of a face the walk names (ids, or slots of tet `tet`).
+    #[inline]
+    pub fn ids(&self, tet: u32, names: [u32; 3], slots: bool) -> [u32; 3] {
+        if slots {
+            names.map(|k| self.mesh.tets[tet as usize][k as usize])
+        } else {
+            names
+        }
+    }
+
+    /// Where the crossing of triangle `tri`'s plane lies against [tmin, tmax], exactly.
+    pub fn range(&self, tri: &[[f64; 3]; 3]) -> Range {
+        if self.tmin > 0.0 && cmp_t(self.o, self.d, tri, self.tmin) == Ordering::Less {
+            Range::Before
+        } else if self.tmax.is_finite()
+            && cmp_t(self.o, self.d, tri, self.tmax) == Ordering::Greater
+        {
+            Range::After
+        } else {
+            Range::In
+        }
+    }
+
+    fn meet_on(&self, triangle: u32, key: [u32; 3]) -> (Meet, Range) {
+        let tri = &self.surface.triangles[triangle as usize];
+        let (t, u, v) = triangle_hit(self.o, self.d, tri);
+        let meet = Meet {
+            t: t.max(self.tmin).min(self.tmax),
+            u,
+            v,
+            triangle,
+            key,
+        };
+        (meet, self.range(tri))
+    }
+
+    /// The crossing of constrained face `constrained` (a side index) whose points are `ids`,
+    /// through its interior.
+    pub fn crossing(&self, constrained: u32, ids: [u32; 3]) -> (Meet, Range) {
+        let triangle = self.mesh.constrained[constrained as usize].triangle;
+        self.meet_on(triangle, sorted_key(ids))
+    }
+
+    /// The point where the line meets the surface at feature `points` (1, 2 or 3 ids, padded
+    /// with u32::MAX), if a caller's triangle around it is met there at one point: of the
+    /// constrained faces having the feature, those whose plane does not hold the line.
+    fn at_feature(&self, key: [u32; 3]) -> Option<(Meet, Range)> {
+        let faces = self.incidence.at_vertex(key[0]);
+        let mut best: Option<u32> = None;
+        for &f in faces {
+            let face = &self.incidence.faces[f as usize];
+            if !key[1..]
+                .iter()
+                .all(|&k| k == u32::MAX || face.points.contains(&k))
+            {
+                continue;
+            }
+            let triangle = self.mesh.constrained[face.side as usize].triangle;
+            if best.is_some_and(|b| b <= triangle) {
+                continue;
+            }
+            let tri = &self.surface.triangles[triangle as usize];
+            if !in_plane(self.dir, tri[0], tri[1], tri[2]) {
+                best = Some(triangle);
+            }
+        }
+        best.map(|triangle| self.meet_on(triangle, key))
+    }
+
+    /// The points a touch reports (one, or up to three for a line in a face's plane), each
+    /// with its range; `ordered` is false for the in-plane case, whose points are not at the
+    /// walk's current position.
+    pub fn touch(&self, at: &Touch, mut each: impl FnMut(Meet, Range)) -> bool {
+        let ids = self.ids(at.tet, at.face, at.slots);
+        let m = u32::MAX;
+        let vertex = |k: u8| [ids[k as usize], m, m];
+        let edge = |k: u8| {
+            let (p, q) = (ids[k as usize], ids[(k as usize + 1) % 3]);
+            [p.min(q), p.max(q), m]
+        };
+        let mut report = |key: [u32; 3]| {
+            if let Some((meet, range)) = self.at_feature(key) {
+                each(meet, range);
+            }
+        };
+        match at.contact {
+            Contact::Interior => true,
+            Contact::Vertex(k) => {
+                report(vertex(k));
+                true
+            }
+            Contact::Edge(k) => {
+                report(edge(k));
+                true
+            }
+            Contact::Face => {
+                report(sorted_key(ids));
+                true
+            }
+            Contact::Coplanar { vertices, edges } => {
+                for k in 0..3u8 {
+                    if vertices & (1 << k) != 0 {
+                        report(vertex(k));
+                    }
+                    if edges & (1 << k) != 0 {
+                        report(edge(k));
+                    }
+                }
+                false
+            }
+        }
+    }
+}
+
+/// The earlier of two meets (ties: the smaller triangle id).
+#[inline]
+pub fn earlier(a: Option<Meet>, b: Meet) -> Meet {
+    match a {
+        Some(a) if (a.t, a.triangle) <= (b.t, b.triangle) => a,
+        _ => b,
+    }
+}

@@ -1,0 +1,209 @@
+//! The exact walk (the default): the robust walk's decisions, taken on the ray's own line.
+//!
+//! The line is (o, d): the caller's origin and direction, exactly (d scaled by a power of two,
+//! which changes no sign). The side of an edge p→q is the sign of det(d, p − o, q − o), the
+//! Plücker side product the referee uses, evaluated exactly (`geom::exact::side`); the walk's
+//! hot loop is the robust walk's (Aman et al.'s 2D determinants with a certified bound) with
+//! the projection centred on o. A zero side means the line meets the edge: the walk still
+//! needs one exit face, which the symbolic perturbation of the robust walk picks consistently,
+//! but the zero itself is kept: the line *touches* that edge (or a vertex, two zeros; or lies in
+//! the face's plane, three), and [`Contact`] tells the query, which finds every scene triangle
+//! around the vertex or edge (`mesh::Incidence`). So a ray through a vertex hits the triangles
+//! there even where the perturbed walk passes beside them, and a ray in a triangle's plane
+//! never hits it.
+//!
+//! The walk starts at o itself (`locate::Locators::locate_exact`) or, from outside the box, at
+//! the boundary face the line enters by, decided by the same predicates: no rounded start
+//! point. Hits before tmin are skipped by the query.
+//!
+//! Precision: exact on the points the walk reads, which are the mesh's float64 points (casts of
+//! float32 rays walk in float64, see `scene::cast`); on the float32-only tet80 layout it is
+//! exact on the mesh rounded to float32, which is not the caller's mesh where the mesher added
+//! points.
+
+use super::robust::{certain_side, det2, perturbed_sign, start_delta, FILTER_ULPS};
+use super::{Contact, Exit, ExitMethod};
+use crate::geom::exact::{rationals, side};
+use crate::geom::real::{abs, dot3, sub3, Real, V3};
+use crate::mesh::build::OUTWARD_FACES;
+use num_rational::BigRational;
+
+pub struct Exact;
+
+#[derive(Clone, Copy, Debug)]
+pub struct ExactRay<R> {
+    /// The line: the ray's origin and its direction scaled by a power of two.
+    pub o: V3<f64>,
+    pub d: V3<f64>,
+    /// The perturbation of the start (as the robust walk's, `robust::start_delta`).
+    pub delta: V3<f64>,
+    /// o in the walk's precision, and the 2D basis perpendicular to d.
+    pub or: V3<R>,
+    pub u: V3<R>,
+    pub w: V3<R>,
+    /// The filter's bound per unit of L1 distance from the line (as the robust walk's).
+    pub bound_scale: R,
+}
+
+impl<R: Real> ExactRay<R> {
+    /// The exact side of p→q (0: the line meets the edge's line).
+    #[inline]
+    fn sign(&self, p: V3<R>, q: V3<R>) -> i8 {
+        side(self.d, self.o, p.map(R::to_f64), q.map(R::to_f64))
+    }
+
+    /// The side of p→q with zeros decided by the perturbation: the walk's decision.
+    #[inline(never)]
+    fn perturbed(&self, p: V3<R>, q: V3<R>) -> bool {
+        match self.sign(p, q) {
+            0 => {
+                let (o, d): ([BigRational; 3], _) = (rationals(self.o), rationals(self.d));
+                perturbed_sign(&o, &d, p.map(R::to_f64), q.map(R::to_f64), self.delta)
+            }
+            s => s > 0,
+        }
+    }
+
+    /// Whether the (perturbed) line enters a tet through the face (a, b, c) given in its
+    /// outward order: then it turns clockwise around the line on every edge.
+    pub fn enters(&self, face: &[V3<R>; 3]) -> bool {
+        let [a, b, c] = *face;
+        !self.perturbed(a, b) && !self.perturbed(b, c) && !self.perturbed(c, a)
+    }
+}
+
+impl<R: Real> ExitMethod<R> for Exact {
+    const NAME: &'static str = "exact";
+    const CONTACTS: bool = true;
+    type Ray = ExactRay<R>;
+    type Vert = [R; 3];
+
+    fn prepare(origin: V3<f64>, dir: V3<f64>, domain: &[V3<f64>; 2]) -> ExactRay<R> {
+        let inv = 1.0 / (dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]).sqrt();
+        let (u, w) = crate::geom::onb::onb(dir.map(|x| x * inv));
+        let or = origin.map(R::from_f64);
+        // The robust walk's bound (see FILTER_ULPS) with the reach measured from o; and where
+        // o is not a number of the walk's precision (float32 layouts), the projection's centre
+        // is off the line by |o − or|, which moves a determinant by at most that much per unit
+        // of the two vertices' distances from the line.
+        let reach: f64 = (0..3)
+            .map(|k| {
+                (domain[0][k] - origin[k])
+                    .abs()
+                    .max((domain[1][k] - origin[k]).abs())
+            })
+            .sum();
+        let off: f64 = (0..3).map(|k| (origin[k] - or[k].to_f64()).abs()).sum();
+        let scale = FILTER_ULPS * R::UNIT_ROUNDOFF.to_f64() * reach * (1.0 + 1e-6) + 2.0 * off;
+        ExactRay {
+            o: origin,
+            d: dir,
+            delta: start_delta::<R>(origin, domain),
+            or,
+            u: u.map(R::from_f64),
+            w: w.map(R::from_f64),
+            bound_scale: R::from_f64(scale) * R::from_f64(1.0 + 1e-6),
+        }
+    }
+
+    #[inline(always)]
+    fn vertex(ray: &ExactRay<R>, p: V3<R>) -> [R; 3] {
+        let q = sub3(p, ray.or);
+        let (x, y) = (dot3(q, ray.u), dot3(q, ray.w));
+        [x, y, ray.bound_scale * (abs(x) + abs(y)) + R::MIN_NORMAL]
+    }
+
+    fn start_exit(ray: &ExactRay<R>, v: &[[R; 3]; 4], p: &[V3<R>; 4]) -> usize {
+        // As the robust walk's: the face turning counter-clockwise on all three edges.
+        let side = |i: usize, j: usize| {
+            certain_side(&v[i], &v[j]).unwrap_or_else(|| ray.perturbed(p[i], p[j]))
+        };
+        let mut best = (0usize, 0u32);
+        for (i, f) in OUTWARD_FACES.iter().enumerate() {
+            let n = side(f[0], f[1]) as u32 + side(f[1], f[2]) as u32 + side(f[2], f[0]) as u32;
+            if n == 3 {
+                return i;
+            }
+            if n > best.1 {
+                best = (i, n);
+            }
+        }
+        best.0
+    }
+
+    #[inline(always)]
+    fn step(_ray: &ExactRay<R>, a: &[R; 3], b: &[R; 3], c: &[R; 3], d: &[R; 3]) -> Option<Exit> {
+        // The robust walk's step (see there).
+        let xa = det2(d, a);
+        let (exit, x2, e2) = if xa >= R::ZERO {
+            let xb = det2(d, b);
+            (if xb <= R::ZERO { Exit::Abd } else { Exit::Bcd }, xb, b)
+        } else {
+            let xc = det2(d, c);
+            (if xc >= R::ZERO { Exit::Cad } else { Exit::Bcd }, xc, c)
+        };
+        if abs(xa) > d[2] + a[2] && abs(x2) > d[2] + e2[2] {
+            Some(exit)
+        } else {
+            None
+        }
+    }
+
+    #[inline(never)]
+    fn step_exact(ray: &ExactRay<R>, p: &[V3<R>; 4]) -> Exit {
+        let [a, b, c, d] = *p;
+        if ray.perturbed(d, a) {
+            if !ray.perturbed(d, b) {
+                Exit::Abd
+            } else {
+                Exit::Bcd
+            }
+        } else if ray.perturbed(d, c) {
+            Exit::Cad
+        } else {
+            Exit::Bcd
+        }
+    }
+
+    fn enters(ray: &ExactRay<R>, face: &[V3<R>; 3]) -> bool {
+        ray.enters(face)
+    }
+
+    #[inline(always)]
+    fn may_touch(_ray: &ExactRay<R>, a: &[R; 3], b: &[R; 3], c: &[R; 3]) -> bool {
+        certain_side(a, b).is_none() || certain_side(b, c).is_none() || certain_side(c, a).is_none()
+    }
+
+    #[inline(never)]
+    fn contact(ray: &ExactRay<R>, face: &[V3<R>; 3], w: V3<R>) -> Contact {
+        let [a, b, c] = *face;
+        let s = [ray.sign(a, b), ray.sign(b, c), ray.sign(c, a)];
+        match s.map(|x| x == 0) {
+            [false, false, false] => Contact::Interior,
+            [true, false, false] => Contact::Edge(0),
+            [false, true, false] => Contact::Edge(1),
+            [false, false, true] => Contact::Edge(2),
+            // Two zero edges meet at their shared vertex: (ab, bc) at b, (bc, ca) at c, (ca, ab) at a.
+            [true, true, false] => Contact::Vertex(1),
+            [false, true, true] => Contact::Vertex(2),
+            [true, false, true] => Contact::Vertex(0),
+            [true, true, true] => {
+                // In the face's plane. The plane through the line and w (off the face's plane)
+                // cuts the face's plane along the line, so det(d, x − o, w − o) is the side of
+                // each vertex x of the line within the face's plane: zero on it.
+                let at = [a, b, c].map(|x| ray.sign(x, w));
+                let mut vertices = 0u8;
+                let mut edges = 0u8;
+                for k in 0..3 {
+                    if at[k] == 0 {
+                        vertices |= 1 << k;
+                    }
+                    if at[k] * at[(k + 1) % 3] < 0 {
+                        edges |= 1 << k;
+                    }
+                }
+                Contact::Coplanar { vertices, edges }
+            }
+        }
+    }
+}
