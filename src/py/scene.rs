@@ -5,6 +5,7 @@ use super::errors::guarded;
 use super::names::{LayoutArg, MethodArg};
 use crate::geom::real::Real;
 use crate::layout::LayoutKind;
+use crate::query::Listed;
 use crate::scene::{CastOptions, HitBuffers, HitsOut, Rays, Scene};
 use crate::traverse::Method;
 use numpy::{
@@ -127,6 +128,125 @@ impl PyScene {
                 "origins and directions must be 2-D arrays, both float32 or both float64",
             )),
         }
+    }
+
+    /// Any hit (occlusion) per ray: status HIT when a scene triangle lies on the ray within
+    /// [tmin, tmax], else MISS (FAILED, INVALID as for casts). Arguments as for `cast`.
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None))]
+    #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
+    fn occluded<'py>(
+        &self,
+        py: Python<'py>,
+        origins: &Bound<'py, PyAny>,
+        directions: &Bound<'py, PyAny>,
+        tmin: PyReadonlyArray1<'py, f64>,
+        tmax: PyReadonlyArray1<'py, f64>,
+        threads: Option<usize>,
+        max_steps: Option<u32>,
+        method: Option<MethodArg>,
+        layout: Option<LayoutArg>,
+    ) -> PyResult<Bound<'py, numpy::PyArray1<u8>>> {
+        let job = Occluded {
+            method: method.map_or(Method::DEFAULT, |m| m.0),
+            layout: layout.map_or(LayoutKind::DEFAULT, |l| l.0),
+        };
+        let opts = CastOptions { threads, max_steps };
+        let out = query_rays(py, &self.inner, origins, directions, tmin, tmax, &opts, job)?;
+        Ok(out.into_pyarray(py))
+    }
+
+    /// Every point where each ray meets the surface in [tmin, tmax] (the exact walk): a dict
+    /// of flat arrays "offsets" (N + 1), "t", "triangle", "u", "v" sorted by t within each
+    /// ray, and "status" (N). `method` must be None or "exact"; `layout` is ignored.
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None))]
+    #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
+    fn intersections<'py>(
+        &self,
+        py: Python<'py>,
+        origins: &Bound<'py, PyAny>,
+        directions: &Bound<'py, PyAny>,
+        tmin: PyReadonlyArray1<'py, f64>,
+        tmax: PyReadonlyArray1<'py, f64>,
+        threads: Option<usize>,
+        max_steps: Option<u32>,
+        method: Option<MethodArg>,
+        layout: Option<LayoutArg>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let _ = layout;
+        let listed = all_hits(
+            py,
+            &self.inner,
+            origins,
+            directions,
+            (tmin, tmax),
+            threads,
+            max_steps,
+            method,
+        )?;
+        let n = listed.len();
+        let total: usize = listed.iter().map(|l| l.meets.len()).sum();
+        let mut offsets = Vec::with_capacity(n + 1);
+        let (mut t, mut tri, mut u, mut v) = (
+            Vec::with_capacity(total),
+            Vec::with_capacity(total),
+            Vec::with_capacity(total),
+            Vec::with_capacity(total),
+        );
+        let mut status = Vec::with_capacity(n);
+        offsets.push(0i64);
+        for l in &listed {
+            for m in &l.meets {
+                t.push(m.t);
+                tri.push(m.triangle as i32);
+                u.push(m.u);
+                v.push(m.v);
+            }
+            offsets.push(t.len() as i64);
+            status.push(l.status);
+        }
+        let out = PyDict::new(py);
+        out.set_item("offsets", offsets.into_pyarray(py))?;
+        out.set_item("t", t.into_pyarray(py))?;
+        out.set_item("triangle", tri.into_pyarray(py))?;
+        out.set_item("u", u.into_pyarray(py))?;
+        out.set_item("v", v.into_pyarray(py))?;
+        out.set_item("status", status.into_pyarray(py))?;
+        Ok(out)
+    }
+
+    /// The number of points where each ray meets the surface in [tmin, tmax] (as
+    /// `intersections`): a dict of "count" (int32, N) and "status" (N).
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None))]
+    #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
+    fn count_intersections<'py>(
+        &self,
+        py: Python<'py>,
+        origins: &Bound<'py, PyAny>,
+        directions: &Bound<'py, PyAny>,
+        tmin: PyReadonlyArray1<'py, f64>,
+        tmax: PyReadonlyArray1<'py, f64>,
+        threads: Option<usize>,
+        max_steps: Option<u32>,
+        method: Option<MethodArg>,
+        layout: Option<LayoutArg>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let _ = layout;
+        let listed = all_hits(
+            py,
+            &self.inner,
+            origins,
+            directions,
+            (tmin, tmax),
+            threads,
+            max_steps,
+            method,
+        )?;
+        let count: Vec<i32> = listed.iter().map(|l| l.meets.len() as i32).collect();
+        let status: Vec<u8> = listed.iter().map(|l| l.status).collect();
+        let out = PyDict::new(py);
+        out.set_item("count", count.into_pyarray(py))?;
+        out.set_item("status", status.into_pyarray(py))?;
+        Ok(out)
     }
 
     /// Casts float32 rays on the GPU (start location and hits on the CPU, the walk on the
@@ -283,4 +403,143 @@ fn cast_impl<'py, R: Real + Element>(
         out.set_item("audit", buffers.audit.into_pyarray(py).reshape([n, 2])?)?;
     }
     Ok(out)
+}
+
+/// A query over rays of either precision: what the query bindings share.
+trait RayQuery: Sync {
+    type Out: Send;
+    fn output(&self, n: usize) -> Self::Out;
+    fn run<R: Real>(
+        &self,
+        scene: &Scene,
+        rays: &Rays<R>,
+        out: &mut Self::Out,
+        opts: &CastOptions,
+    ) -> crate::Result<()>;
+}
+
+struct Occluded {
+    method: Method,
+    layout: LayoutKind,
+}
+
+impl RayQuery for Occluded {
+    type Out = Vec<u8>;
+    fn output(&self, n: usize) -> Vec<u8> {
+        vec![0; n]
+    }
+    fn run<R: Real>(
+        &self,
+        scene: &Scene,
+        rays: &Rays<R>,
+        out: &mut Vec<u8>,
+        opts: &CastOptions,
+    ) -> crate::Result<()> {
+        scene.occluded(self.method, self.layout, rays, out, opts)
+    }
+}
+
+struct AllHitsJob;
+
+impl RayQuery for AllHitsJob {
+    type Out = Vec<Listed>;
+    fn output(&self, n: usize) -> Vec<Listed> {
+        vec![Listed::default(); n]
+    }
+    fn run<R: Real>(
+        &self,
+        scene: &Scene,
+        rays: &Rays<R>,
+        out: &mut Vec<Listed>,
+        opts: &CastOptions,
+    ) -> crate::Result<()> {
+        scene.intersections(rays, out, opts)
+    }
+}
+
+#[allow(clippy::too_many_arguments)] // the bindings' shared arguments
+fn all_hits<'py>(
+    py: Python<'py>,
+    scene: &Scene,
+    origins: &Bound<'py, PyAny>,
+    directions: &Bound<'py, PyAny>,
+    (tmin, tmax): (PyReadonlyArray1<'py, f64>, PyReadonlyArray1<'py, f64>),
+    threads: Option<usize>,
+    max_steps: Option<u32>,
+    method: Option<MethodArg>,
+) -> PyResult<Vec<Listed>> {
+    if let Some(m) = method {
+        if m.0 != Method::Exact {
+            return Err(PyValueError::new_err(format!(
+                "all hits and counts need the exact method, not {:?}",
+                m.0.name()
+            )));
+        }
+    }
+    let opts = CastOptions { threads, max_steps };
+    query_rays(
+        py, scene, origins, directions, tmin, tmax, &opts, AllHitsJob,
+    )
+}
+
+/// Validates rays of either precision and runs `query` with the GIL released.
+#[allow(clippy::too_many_arguments)] // the bindings' shared arguments
+fn query_rays<'py, Q: RayQuery>(
+    py: Python<'py>,
+    scene: &Scene,
+    origins: &Bound<'py, PyAny>,
+    directions: &Bound<'py, PyAny>,
+    tmin: PyReadonlyArray1<'py, f64>,
+    tmax: PyReadonlyArray1<'py, f64>,
+    opts: &CastOptions,
+    query: Q,
+) -> PyResult<Q::Out> {
+    fn go<'py, R: Real + Element, Q: RayQuery>(
+        py: Python<'py>,
+        scene: &Scene,
+        rays: RayArrays<'py, R>,
+        opts: &CastOptions,
+        query: Q,
+    ) -> PyResult<Q::Out> {
+        let n = check_cols(&rays.origins, 3, "origins")?;
+        if check_cols(&rays.directions, 3, "directions")? != n {
+            return Err(PyValueError::new_err(
+                "origins and directions must have the same number of rows",
+            ));
+        }
+        opts.check()?;
+        let (o, d) = (
+            slice(&rays.origins, "origins")?,
+            slice(&rays.directions, "directions")?,
+        );
+        let (lo, hi) = (slice(&rays.tmin, "tmin")?, slice(&rays.tmax, "tmax")?);
+        let mut out = query.output(n);
+        py.detach(|| {
+            guarded(|| {
+                let rays = Rays {
+                    origins: o,
+                    directions: d,
+                    tmin: lo,
+                    tmax: hi,
+                };
+                query.run(scene, &rays, &mut out, opts)
+            })
+        })?;
+        Ok(out)
+    }
+    if let (Ok(o), Ok(d)) = (
+        origins.extract::<PyReadonlyArray2<'py, f32>>(),
+        directions.extract::<PyReadonlyArray2<'py, f32>>(),
+    ) {
+        return go(py, scene, RayArrays::new(o, d, tmin, tmax), opts, query);
+    }
+    match (
+        origins.extract::<PyReadonlyArray2<'py, f64>>(),
+        directions.extract::<PyReadonlyArray2<'py, f64>>(),
+    ) {
+        (Ok(o), Ok(d)) => go(py, scene, RayArrays::new(o, d, tmin, tmax), opts, query),
+        _ => Err(pyo3::exceptions::PyTypeError::new_err(
+            "origins and directions must be 2-D arrays, both float32 or both float64",
+        )),
+    }
 }

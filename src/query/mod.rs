@@ -4,6 +4,7 @@
 //! and a [`Sink`] stores answers. Closest hit and any hit live here; all hits, counts and
 //! containment are further policies of the same walk (they continue through faces).
 
+pub mod all;
 pub mod any;
 pub mod closest;
 pub mod contact;
@@ -12,6 +13,7 @@ use crate::geom::ray::Ray;
 use crate::locate::WalkStart;
 use crate::traverse::Walk;
 
+pub use all::{AllHits, Listed};
 pub use any::AnyHit;
 pub use closest::{ClosestHit, RayHit};
 // The walk declares what it asks at constrained faces; the policies live here.
@@ -20,7 +22,7 @@ pub use crate::traverse::walk::{Crossing, Decision, Query, StopAtFirst};
 /// A query as a cast answers it for each ray: the walk policy, and the answer made of the walk.
 pub trait QueryKind: Sync {
     type Policy: Query;
-    type Answer: Copy + Send;
+    type Answer: Send;
     /// The policy for one ray's walk.
     fn policy(&self, start: &WalkStart) -> Self::Policy;
     /// The answer for a ray that never walked (invalid, missing the domain, no start tet).
@@ -45,7 +47,7 @@ pub trait Sink<A>: Send + Sized {
     /// The first `n` entries and the rest.
     fn split_at(self, n: usize) -> (Self, Self);
     /// Writes entry j, the answer for `ray`.
-    fn put(&mut self, j: usize, answer: &A, ray: &Ray);
+    fn put(&mut self, j: usize, answer: A, ray: &Ray);
 }
 
 /// Splits `sink` into pieces of `size` entries (the last may be shorter).
@@ -70,8 +72,8 @@ impl Sink<u8> for &mut [u8] {
         self.split_at_mut(n)
     }
     #[inline]
-    fn put(&mut self, j: usize, answer: &u8, _: &Ray) {
-        self[j] = *answer;
+    fn put(&mut self, j: usize, answer: u8, _: &Ray) {
+        self[j] = answer;
     }
 }
 

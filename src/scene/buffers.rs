@@ -132,8 +132,8 @@ impl<R: Real + Send> Sink<RayHit> for HitsOut<'_, R> {
         HitsOut::split_at(self, n)
     }
     #[inline]
-    fn put(&mut self, j: usize, r: &RayHit, ray: &Ray) {
-        self.set(j, r, ray);
+    fn put(&mut self, j: usize, r: RayHit, ray: &Ray) {
+        self.set(j, &r, ray);
         if !self.audit.is_empty() {
             self.audit[2 * j..2 * j + 2].copy_from_slice(&r.audit);
         }

@@ -6,7 +6,7 @@ use crate::accel::{Accel, TetWalk};
 use crate::error::{Error, Result};
 use crate::geom::real::Real;
 use crate::layout::{Layout, LayoutKind, LayoutVisitor};
-use crate::query::{chunks, AnyHit, QueryKind, Sink};
+use crate::query::{chunks, AllHits, AnyHit, Listed, QueryKind, Sink};
 use crate::traverse::robust::ExactAudit;
 use crate::traverse::{
     Exact, ExitMethod, Method, MethodVisitor, NoObserver, WalkObserver, WalkSetup,
@@ -65,7 +65,7 @@ pub fn cast_accel<R: Real, W: Real, A: Accel<W>, K: QueryKind, S: Sink<K::Answer
         for j in 0..chunk.len() {
             let ray = rays.ray(base + j);
             let answer = accel.trace(query, &ray, &mut state);
-            chunk.put(j, &answer, &ray);
+            chunk.put(j, answer, &ray);
         }
     };
     let pieces: Vec<_> = chunks(out, CHUNK).into_iter().enumerate().collect();
@@ -81,10 +81,11 @@ pub fn cast_accel<R: Real, W: Real, A: Accel<W>, K: QueryKind, S: Sink<K::Answer
     Ok(())
 }
 
-/// What a cast writes: closest hits, or any-hit statuses.
+/// What a cast writes: closest hits, any-hit statuses, or every hit.
 enum Job<'a, R> {
     Closest(HitsOut<'a, R>),
     Any(&'a mut [u8]),
+    All(&'a mut [Listed]),
 }
 
 impl Scene {
@@ -143,6 +144,31 @@ impl Scene {
             )));
         }
         self.dispatch(method, layout, rays, Job::Any(out), opts)
+    }
+
+    /// Every point where each ray meets the surface in [tmin, tmax], sorted by t, each once
+    /// (the exact walk only: the points at vertices and edges are its touches).
+    pub fn intersections<R: Real>(
+        &self,
+        rays: &Rays<R>,
+        out: &mut [Listed],
+        opts: &CastOptions,
+    ) -> Result<()> {
+        if rays.origins.len() != 3 * out.len() || rays.directions.len() != 3 * out.len() {
+            return Err(Error::InvalidInput(format!(
+                "{} rays expected 3N origin and direction values, got {} and {}",
+                out.len(),
+                rays.origins.len(),
+                rays.directions.len()
+            )));
+        }
+        self.dispatch(
+            Method::Exact,
+            LayoutKind::DEFAULT,
+            rays,
+            Job::All(out),
+            opts,
+        )
     }
 
     fn dispatch<R: Real>(
@@ -272,6 +298,23 @@ impl<R: Real, L: Layout> MethodStep<'_, '_, R, L> {
             }
             Job::Any(out) => {
                 let query = AnyHit(scene.closest());
+                scene.run::<R, W, L, M, NoObserver, _, _>(
+                    points,
+                    self.layout,
+                    &query,
+                    rays,
+                    out,
+                    opts,
+                )
+            }
+            Job::All(out) => {
+                if !M::CONTACTS {
+                    return Err(Error::InvalidOption(format!(
+                        "all hits and counts need the exact method, not {}",
+                        M::NAME
+                    )));
+                }
+                let query = AllHits(scene.closest());
                 scene.run::<R, W, L, M, NoObserver, _, _>(
                     points,
                     self.layout,

@@ -1,0 +1,125 @@
+//! All hits and counts: every point where the ray meets the surface within [tmin, tmax], in
+//! order of t, each point once (a ray through a shared edge or vertex meets the surface once
+//! there, however many triangles share it). The exact walk's policy: it walks on through
+//! constrained faces and collects what `contact` reports, skipping points it already has.
+
+use super::contact::{ExactRay, Meet, Range};
+use super::{ClosestHit, Crossing, Decision, Query, QueryKind, Sink};
+use crate::geom::ray::Ray;
+use crate::locate::WalkStart;
+use crate::status::{FAILED, HIT, MISS};
+use crate::traverse::{Contact, Touch, Walk, WalkEnd};
+
+/// One ray's points, sorted by t (ties: by triangle), and its status (HIT when there is one).
+#[derive(Clone, Debug, Default)]
+pub struct Listed {
+    pub status: u8,
+    pub meets: Vec<Meet>,
+}
+
+/// The all-hits query (needs the exact walk: its policy reads the touches).
+#[derive(Clone, Copy)]
+pub struct AllHits<'a>(pub ClosestHit<'a>);
+
+pub struct AllPolicy<'a> {
+    exact: Option<ExactRay<'a>>,
+    meets: Vec<Meet>,
+}
+
+impl AllPolicy<'_> {
+    fn add(&mut self, meet: Meet) {
+        if !self.meets.iter().any(|m| m.key == meet.key) {
+            self.meets.push(meet);
+        }
+    }
+}
+
+impl Query for AllPolicy<'_> {
+    fn crossed(&mut self, at: &Crossing) -> Decision {
+        let Some(ray) = self.exact else {
+            return Decision::Stop;
+        };
+        if at.contact != Contact::Interior {
+            return Decision::Continue;
+        }
+        let (meet, range) = ray.crossing(at.constrained, ray.ids(at.tet, at.face, at.slots));
+        match range {
+            Range::Before => Decision::Continue,
+            Range::In => {
+                self.add(meet);
+                Decision::Continue
+            }
+            Range::After => Decision::Stop,
+        }
+    }
+
+    fn touched(&mut self, at: &Touch) -> Decision {
+        let Some(ray) = self.exact else {
+            return Decision::Continue;
+        };
+        let mut past = false;
+        let mut found = Vec::new();
+        let ordered = ray.touch(at, |meet, range| match range {
+            Range::In => found.push(meet),
+            Range::After => past = true,
+            Range::Before => {}
+        });
+        for m in found {
+            self.add(m);
+        }
+        if ordered && past {
+            Decision::Stop
+        } else {
+            Decision::Continue
+        }
+    }
+}
+
+impl<'a> QueryKind for AllHits<'a> {
+    type Policy = AllPolicy<'a>;
+    type Answer = Listed;
+
+    fn policy(&self, s: &WalkStart) -> AllPolicy<'a> {
+        let c = &self.0;
+        AllPolicy {
+            exact: s
+                .exact
+                .then(|| ExactRay::new(c.mesh, c.incidence, c.surface, s)),
+            meets: Vec::new(),
+        }
+    }
+
+    fn skipped(&self, status: u8) -> Listed {
+        Listed {
+            status,
+            meets: Vec::new(),
+        }
+    }
+
+    fn answer(&self, _: &WalkStart, w: &Walk, p: AllPolicy<'a>, _: [u32; 2]) -> Listed {
+        let mut meets = p.meets;
+        // In-plane touches arrive out of order: sort (t, then triangle: deterministic).
+        meets.sort_by(|a, b| a.t.total_cmp(&b.t).then(a.triangle.cmp(&b.triangle)));
+        let status = if w.end == WalkEnd::StepLimit {
+            FAILED
+        } else if meets.is_empty() {
+            MISS
+        } else {
+            HIT
+        };
+        Listed { status, meets }
+    }
+}
+
+impl Sink<Listed> for &mut [Listed] {
+    fn len(&self) -> usize {
+        <[Listed]>::len(self)
+    }
+    fn split_at(self, n: usize) -> (Self, Self) {
+        self.split_at_mut(n)
+    }
+    #[inline]
+    fn put(&mut self, j: usize, answer: Listed, _: &Ray) {
+        self[j] = answer;
+    }
+}
