@@ -4,11 +4,14 @@ Each family is reproducible from a seed and yields a :class:`StressCase`: a scen
 per-ray ``tmin`` and ``tmax``) and **claims** about each ray: that its first hit is exactly at
 a mesh vertex (``zero_signs == 2``), on an edge (1) or inside a face (0), at an exact ``t``;
 that it hits or misses; that a named triangle is, or is not, in its tie set; that its line
-passes exactly through a given point, or lies exactly in a triangle's plane.
+passes exactly through a given point, lies exactly in a triangle's plane, or runs exactly
+parallel to it off the plane.
 
 Exactness is built in. Every synthetic scene lies on a grid of small integers scaled by a
-power of two (a sphere's vertices rounded to the grid and checked convex in integers, a box,
-a height field), placed with an exact offset or power-of-two scaling; rays are built from grid
+power of two (a sphere's vertices rounded to the grid and checked convex in integers, a box
+of 12 triangles or of grids of squares, a box rotated onto integer orthogonal edges, a
+scan-like bumpy noisy closed surface whose kernel is checked in integers, a height field),
+placed with an exact offset or power-of-two scaling; rays are built from grid
 points by differences and dyadic combinations whose every bit fits float32's 24: the float32
 rays are the same numbers as the float64 ones. Real meshes (Spot; fandisk and the bunny from
 ``$TETRACE_SCENES``) have their vertices rounded to a dyadic grid of 2^-19 of their largest
@@ -32,7 +35,8 @@ the first thing they meet (others are occluded) and report the fraction.
 Each ray is judged twice. Per ray, against the referee's verdict (:func:`judge_cast`, after
 ``docs/referee.md``): ``failed`` (the walk gave up, e.g. its step guard fired on a cycle),
 ``leaked`` (a miss where the referee hits), ``late`` (a triangle past the first hit), ``wrong``
-(anything else: a phantom or early hit, a triangle not in the tie set, ``t`` off its bound). Per
+(anything else: a phantom or early hit, a triangle not in the tie set, ``t`` off its bound),
+of which ``fabricated`` counts the phantoms (a hit where the referee has none). Per
 step, by the walk's exact audit (:func:`audited_cast`): every exit face the method took is
 checked with exact orientation predicates against the line the robust walk in the same precision
 follows (``wrong_exit``), and methods with a fallback report the steps where their own tests
@@ -42,7 +46,14 @@ found no exit face (``no_exit``).
 from __future__ import annotations
 
 from .case import CLAIMS, StressCase
-from .certify import certify, check_claims, exact_in_plane, exact_through
+from .certify import (
+    certify,
+    check_claims,
+    exact_in_plane,
+    exact_parallel,
+    exact_through,
+    subset,
+)
 from .judge import OUTCOMES, audited_cast, build_scene, cast_case, count, examples, judge_cast
 from .real import SHARED_SCENES
 from .registry import EXACT_FAMILIES, FAMILIES, REAL_FAMILIES, cases, family_unavailable, make_case
@@ -60,6 +71,8 @@ __all__ = [
     "check_claims",
     "exact_through",
     "exact_in_plane",
+    "exact_parallel",
+    "subset",
     "family_unavailable",
     "OUTCOMES",
     "audited_cast",

@@ -11,8 +11,20 @@ import numpy as np
 #: in the tie set; [-1]); ``not_tie`` (N, 2) int64 (triangles not in the tie set, e.g. those
 #: whose plane holds the line; [-1]); ``through`` (N, 3) float64 and ``through_t`` float64 (the
 #: line passes exactly through this point at this parameter; [nan]); ``plane`` int64 (a
-#: triangle whose plane holds the line exactly; [-1]).
-CLAIMS = ("hit", "t", "zs_lo", "zs_hi", "in_tie", "not_tie", "through", "through_t", "plane")
+#: triangle whose plane holds the line exactly; [-1]); ``parallel`` int64 (a triangle whose
+#: plane is parallel to the line and does not hold it: the line never meets it; [-1]).
+CLAIMS = (
+    "hit",
+    "t",
+    "zs_lo",
+    "zs_hi",
+    "in_tie",
+    "not_tie",
+    "through",
+    "through_t",
+    "plane",
+    "parallel",
+)
 
 
 @dataclasses.dataclass
@@ -104,6 +116,7 @@ class _Rays:
             through=np.full((n, 3), np.nan),
             through_t=np.full(n, np.nan),
             plane=np.full(n, -1, np.int64),
+            parallel=np.full(n, -1, np.int64),
         )
         for k, v in claims.items():
             if k == "zs":

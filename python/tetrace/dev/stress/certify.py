@@ -40,9 +40,9 @@ def exact_through(o, d, p, t):
     return ok
 
 
-def exact_in_plane(o, d, tri):
-    """Whether the line ``o + t d`` lies exactly in the plane of each triangle ``(N, 3, 3)``:
-    ``det(b - a, c - a, o - a) == 0`` and ``det(b - a, c - a, d) == 0`` in exact integers."""
+def _plane_dets(o, d, tri):
+    """Per ray, the exact integers ``det(b - a, c - a, o - a)`` and ``det(b - a, c - a, d)``
+    (each row scaled by one positive power of two, so their signs and zeros are exact)."""
     O, D, A, B, C = _ints(o, d, tri[:, 0], tri[:, 1], tri[:, 2])
 
     def det(x, y, z):
@@ -53,9 +53,24 @@ def exact_in_plane(o, d, tri):
         )
 
     e1, e2 = B - A, C - A
-    return np.array([x == 0 for x in det(e1, e2, O - A)], bool) & np.array(
-        [x == 0 for x in det(e1, e2, D)], bool
-    )
+    return det(e1, e2, O - A), det(e1, e2, D)
+
+
+def exact_in_plane(o, d, tri):
+    """Whether the line ``o + t d`` lies exactly in the plane of each triangle ``(N, 3, 3)``:
+    ``det(b - a, c - a, o - a) == 0`` and ``det(b - a, c - a, d) == 0`` in exact integers."""
+    off, along = _plane_dets(o, d, tri)
+    return np.array([x == 0 for x in off], bool) & np.array([x == 0 for x in along], bool)
+
+
+def exact_parallel(o, d, tri):
+    """Whether the line ``o + t d`` is exactly parallel to the plane of each triangle
+    ``(N, 3, 3)`` without lying in it (``det(b - a, c - a, d) == 0 != det(b - a, c - a, o - a)``):
+    it never meets the triangle. Returns ``(parallel, side)``, ``side`` the sign of
+    ``det(b - a, c - a, o - a)`` (the side of the plane the line runs on; 0 in it)."""
+    off, along = _plane_dets(o, d, tri)
+    side = np.array([(x > 0) - (x < 0) for x in off], np.int8)
+    return np.array([x == 0 for x in along], bool) & (side != 0), side
 
 
 def check_claims(case, verdict, precision):
@@ -93,6 +108,13 @@ def check_claims(case, verdict, precision):
         tri = case.vertices[case.faces[c["plane"][idx]]]
         bad[idx] = ~exact_in_plane(o[idx], d[idx], tri)
     fail["plane"] = bad
+    pa = c["parallel"] >= 0
+    bad = np.zeros(len(o), bool)
+    if pa.any():
+        idx = np.flatnonzero(pa)
+        tri = case.vertices[case.faces[c["parallel"][idx]]]
+        bad[idx] = ~exact_parallel(o[idx], d[idx], tri)[0]
+    fail["parallel"] = bad | (pa & verdict.in_ties(np.where(pa, c["parallel"], -1)))
     fail["invalid"] = verdict.invalid
     ok = np.ones(len(o), bool)
     for m in fail.values():
@@ -129,6 +151,20 @@ def _take(case, keep):
     case.origins, case.directions = case.origins[keep], case.directions[keep]
     case.tmin, case.tmax, case.kind = case.tmin[keep], case.tmax[keep], case.kind[keep]
     case.claims = {k: v[keep] for k, v in case.claims.items()}
+
+
+def subset(case, n):
+    """A copy of a certified case keeping about ``n`` of its rays, evenly strided (so every
+    kind keeps its share: the rays are stored kind by kind), with their verdicts."""
+    import dataclasses
+
+    step = max(1, -(-len(case) // max(n, 1)))
+    keep = np.arange(len(case)) % step == 0
+    out = dataclasses.replace(case, claims=dict(case.claims), verdicts=dict(case.verdicts))
+    _take(out, keep)
+    out.verdicts = {p: _subset_verdict(v, keep) for p, v in case.verdicts.items()}
+    out.uncertified = getattr(case, "uncertified", 0)
+    return out
 
 
 def certify(case, keep_uncertified=False):

@@ -2,7 +2,9 @@
 surface, at tmin, from the domain, axis-parallel, tiny/huge/far/flat, terrain, long, scaled.
 
 Over 500 lines on purpose: one function per synthetic family, each beside the claims it
-makes; splitting them would scatter families that share the ray kinds of scenes.py.
+makes; splitting them would scatter families that share the ray kinds of scenes.py. The
+families on closed meshes added for the exact default (scan, boxes, icosphere, parallel) are in
+closed.py.
 """
 
 import numpy as np

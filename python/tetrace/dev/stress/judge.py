@@ -6,8 +6,10 @@ import numpy as np
 
 #: What is counted per family x method x layout x precision (a ray counts in each that holds):
 #: ``late``, ``leaked``, ``failed``, ``wrong`` (the referee's judgement: exactly one or none
-#: per ray) and the audit's ``wrong_exit`` and ``no_exit``.
-OUTCOMES = ("late", "leaked", "failed", "wrong", "wrong_exit", "no_exit")
+#: per ray), ``fabricated`` (the part of ``wrong`` where the caster reports a hit and the
+#: referee has none: a hit made up, e.g. on a triangle whose plane holds the line; the
+#: referee's ``phantom``) and the audit's ``wrong_exit`` and ``no_exit``.
+OUTCOMES = ("late", "leaked", "failed", "wrong", "fabricated", "wrong_exit", "no_exit")
 
 
 def build_scene(case, **kw):
@@ -67,6 +69,7 @@ def judge_cast(hits, audit, verdict):
     from ...referee import judge
 
     j = judge(hits, verdict)
+    j["fabricated"] = j["phantom"]
     j["wrong_exit"] = audit[:, 0] > 0
     j["no_exit"] = audit[:, 1] > 0
     return j
@@ -101,9 +104,12 @@ def cast_case(case, scene, method, layout, precision, *, verdict=None, threads=N
 
 
 def count(masks):
-    """Counts of :data:`OUTCOMES` (and ``rays``, ``right``) from :func:`judge_cast`'s masks."""
+    """Counts of :data:`OUTCOMES` (and ``rays``, ``right``) from :func:`judge_cast`'s masks (or
+    ``tetrace.referee.judge``'s, whose ``phantom`` is ``fabricated``)."""
     out = {"rays": len(masks["right"]), "right": int(masks["right"].sum())}
-    out.update({k: int(masks[k].sum()) for k in OUTCOMES})
+    for k in OUTCOMES:
+        m = masks[k] if k in masks or k != "fabricated" else masks["phantom"]
+        out[k] = int(m.sum())
     return out
 
 

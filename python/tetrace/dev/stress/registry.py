@@ -5,6 +5,15 @@ import zlib
 import numpy as np
 
 from .certify import certify
+from .closed import (
+    fam_box_axis,
+    fam_box_edges,
+    fam_box_grid_axis,
+    fam_icosphere,
+    fam_parallel,
+    fam_parallel_ball,
+    fam_scan,
+)
 from .families import (
     fam_along_edges,
     fam_axis,
@@ -47,6 +56,13 @@ FAMILIES = {
     "far1e4": lambda rng, n: fam_far(rng, n, 1e4, "far1e4"),
     "far1e5": lambda rng, n: fam_far(rng, n, 1e5, "far1e5"),
     "far1e7": lambda rng, n: fam_far(rng, n, 1e7, "far1e7"),
+    "scan": fam_scan,
+    "box_axis": fam_box_axis,
+    "box_grid_axis": fam_box_grid_axis,
+    "box_edges": fam_box_edges,
+    "icosphere": fam_icosphere,
+    "parallel": fam_parallel,
+    "parallel_ball": fam_parallel_ball,
     "spot": fam_spot,
     "fandisk": _fam_shared("fandisk"),
     "bunny": _fam_shared("bunny"),

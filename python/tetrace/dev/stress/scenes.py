@@ -48,8 +48,8 @@ def _ball_ints(grid_exp, max_sub=3):
 BALL_GRID = -16
 
 
-def _ball(grid_exp=BALL_GRID):
-    q, f = _ball_ints(grid_exp)
+def _ball(grid_exp=BALL_GRID, max_sub=3):
+    q, f = _ball_ints(grid_exp, max_sub)
     return q * 2.0**grid_exp, f.copy()
 
 
@@ -58,6 +58,115 @@ def _box():
 
     b = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
     return np.asarray(b.vertices, np.float64), np.asarray(b.faces, np.int64)
+
+
+#: Edge vectors of the rotated box (``box_edges``): integer, mutually orthogonal, each of
+#: length 3, none along an axis, so that no face plane is an axis plane.
+ROTATED_BASIS = ((1, 2, 2), (2, 1, -2), (2, -2, 1))
+
+
+@functools.cache
+def _grid_box_ints(k, basis=((1, 0, 0), (0, 1, 0), (0, 0, 1))):
+    """A closed box surface whose faces are ``k x k`` grids of squares, each split in two
+    triangles (the diagonals alternate in a checkerboard): ``(lat, q, f)``, ``lat`` the
+    integer lattice coordinates ``(a, b, c)`` in ``{0..k}^3`` of each vertex (on the box's
+    surface: some coordinate 0 or ``k``), ``q = lat @ basis`` the integer points (``basis``
+    rows: the box's edge vectors, orthogonal) and ``f`` the faces, oriented outwards
+    (checked exactly). ``k = 1`` is the 12-triangle box."""
+    basis = np.asarray(basis, np.int64)
+    g = np.arange(k + 1)
+    lat = np.array(
+        [(a, b, c) for a in g for b in g for c in g if {a, b, c} & {0, k}], np.int64
+    ).reshape(-1, 3)
+    index = {tuple(x): i for i, x in enumerate(lat.tolist())}
+    faces = []
+    for axis in range(3):
+        u, w = (axis + 1) % 3, (axis + 2) % 3
+        for side in (0, k):
+            for i in range(k):
+                for j in range(k):
+                    quad = []
+                    for di, dj in ((0, 0), (1, 0), (1, 1), (0, 1)):
+                        x = [0, 0, 0]
+                        x[axis], x[u], x[w] = side, i + di, j + dj
+                        quad.append(index[tuple(x)])
+                    a, b, c, d = quad
+                    if (i + j) % 2:
+                        faces += [(a, b, c), (a, c, d)]
+                    else:
+                        faces += [(a, b, d), (b, c, d)]
+    f = np.array(faces, np.int64)
+    q = lat @ basis
+    # outwards: the normal points away from the centre (3 x centroid - 3 x centre, exact)
+    centre2 = k * basis.sum(axis=0)  # twice the centre
+    a, b, c = q[f[:, 0]], q[f[:, 1]], q[f[:, 2]]
+    n = np.cross(b - a, c - a)
+    out = np.einsum("ij,ij->i", n, 2 * (a + b + c) - 3 * centre2)
+    if (out == 0).any() or (n == 0).all(axis=1).any():
+        raise AssertionError("degenerate box face")
+    f[out < 0] = f[out < 0][:, ::-1]
+    for x in (lat, q, f):
+        x.setflags(write=False)
+    return lat, q, f
+
+
+def _grid_box(k, basis=((1, 0, 0), (0, 1, 0), (0, 0, 1)), scale=1.0):
+    """:func:`_grid_box_ints` as points ``scale * q``, centred on the origin (exact: the
+    centre is ``scale * k / 2 * sum(basis)``, dyadic for the ``scale`` used):
+    ``(lat, points, faces)``."""
+    lat, q, f = _grid_box_ints(k, tuple(map(tuple, np.asarray(basis).tolist())))
+    centre = np.asarray(basis, np.float64).sum(axis=0) * (k / 2.0)
+    return lat, (q - centre) * scale, f.copy()
+
+
+@functools.cache
+def _scan_ints(grid_exp=BALL_GRID, sub=3, seed=14):
+    """A closed scan-like surface on the grid ``2^grid_exp``: an icosphere (``sub``
+    subdivisions) made an ellipsoid (1, 0.85, 0.7), with smooth bumps (it is not convex)
+    and per-vertex noise of 1.5% of the radius, rounded to the grid: integer vertices ``q``,
+    faces ``f`` and the **kernel** origins ``ker`` (integer points, multiples of ``2^-6``
+    within 0.2 of the centre, strictly on the inner side of every face's plane: decided
+    exactly in int64). From a kernel point the surface is seen from the inside, every face
+    oriented the same way: every ray from it crosses the surface exactly once, so the first
+    hit of a ray aimed at a vertex or an edge point is exactly there."""
+    import trimesh
+
+    s = trimesh.creation.icosphere(subdivisions=sub)
+    u = np.asarray(s.vertices, np.float64)
+    rng = np.random.default_rng(seed)
+    r = (
+        1.0
+        + 0.1 * np.sin(3 * u[:, 0] + 1.0) * np.cos(2 * u[:, 1])
+        + 0.06 * np.cos(4 * u[:, 2])
+        + rng.uniform(-0.015, 0.015, len(u))
+    )
+    p = u * r[:, None] * np.array([1.0, 0.85, 0.7])
+    q = np.round(p / 2.0**grid_exp).astype(np.int64)
+    f = np.asarray(s.faces, np.int64)
+    a, b, c = q[f[:, 0]], q[f[:, 1]], q[f[:, 2]]
+    n = np.cross(b - a, c - a)  # outward (icosphere faces are), |n| < 2^40
+    if (n == 0).all(axis=1).any():
+        raise AssertionError("zero-area face in the scan surface")
+    step = 2 ** (-6 - grid_exp)
+    k = int(0.2 * 2**6)
+    g = np.arange(-k, k + 1) * step
+    cand = np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3)
+    inside = np.ones(len(cand), bool)
+    for s0 in range(0, len(f), 128):  # (o - a) . n < 0 for every face, |.| < 2^60: exact
+        side = np.einsum("ofk,fk->of", cand[:, None] - a[None, s0 : s0 + 128], n[s0 : s0 + 128])
+        inside &= (side < 0).all(axis=1)
+    ker = cand[inside]
+    if len(ker) < 1000:
+        raise AssertionError(f"scan surface: only {len(ker)} kernel origins")
+    for x in (q, f, ker):
+        x.setflags(write=False)
+    return q, f, ker
+
+
+def _scan(grid_exp=BALL_GRID):
+    """:func:`_scan_ints` as points: ``(vertices, faces, kernel origins)``."""
+    q, f, ker = _scan_ints(grid_exp)
+    return q * 2.0**grid_exp, f.copy(), ker * 2.0**grid_exp
 
 
 def _edge_neighbours(f):
