@@ -228,7 +228,7 @@ def test_bad_input(vertices, faces, exc, match):
 
 
 def test_bad_mesh_argument(tmp_path):
-    with pytest.raises(TypeError, match="trimesh.Trimesh, a path or a"):
+    with pytest.raises(TypeError, match="trimesh.Trimesh, a path, a"):
         load_triangles(42)
     missing = tmp_path / "nope.obj"
     with pytest.raises(MeshFileNotFoundError, match="not found"):

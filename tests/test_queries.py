@@ -28,7 +28,7 @@ from tetrace import referee
 from tetrace.hits import HIT, INVALID, MISS, Intersections
 
 #: Every ray walks with the exact method: rays here pass through vertices and edges.
-METHOD = "robust"
+METHOD = tetrace._native.DEFAULT_METHOD  # the exact walk
 
 # --------------------------------------------------------------------------- brute force
 

@@ -333,19 +333,23 @@ class Scene:
             Rays with NaN/inf components or zero directions raise ``ValueError``, or with
             ``"mark"`` come back with status ``INVALID``.
         method : str, optional
-            Exit-face method, one of :func:`tetrace.methods` (default: the fastest robust one).
+            Exit-face method, one of :func:`tetrace.methods` (default: ``exact``, the only
+            one that keeps tetrace's contract on every ray; the others are faster float
+            methods for the speed-accuracy chart).
         layout : str, optional
             Tet layout, one of :func:`tetrace.layouts`; built on first use.
         precision : {"f32", "f64"}, optional
-            Precision of the walk; default: float32 for float32 rays, float64 otherwise.
-            Rays are converted when it differs.
+            Precision of the rays as the core takes them; default: the rays' own. Rays are
+            converted when it differs. Float methods walk in that precision; ``exact`` walks
+            the float64 mesh either way (exactly, on the rays' numbers).
         device : {"cpu", "gpu", "auto"}
             Where the walk runs. ``"gpu"``: on the GPU (:mod:`tetrace.gpu`), in float32:
             float64 rays are rounded to float32 and ``precision="f64"`` is refused; method
             and layout must name a GPU kernel (:func:`tetrace.gpu.kernels`; by default
             ``aman2022`` on ``tet20``). Start location and the hit on your triangle stay on
             the CPU. ``"auto"``: the GPU when a device opens, the walk is float32 and a kernel
-            exists for the method and layout, else the CPU.
+            exists for the method (named explicitly: the default ``exact`` has none) and
+            layout, else the CPU.
 
         Returns
         -------
@@ -376,7 +380,13 @@ class Scene:
         elif device == "auto" and q.o.dtype == np.float32:
             from . import gpu
 
-            use_gpu = gpu.kernel_for(method, layout) is not None and gpu.available()
+            # Only a float method named explicitly: the exact default has no GPU kernel, and
+            # "auto" must not trade the contract for speed behind the caller's back.
+            use_gpu = (
+                method is not None
+                and gpu.kernel_for(method, layout) is not None
+                and gpu.available()
+            )
         method, layout = _names(method, layout, defaults=not use_gpu)
         if use_gpu:
             o, d = q.o.astype(np.float32, copy=False), q.d.astype(np.float32, copy=False)

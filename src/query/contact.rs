@@ -2,7 +2,7 @@
 //! it crosses or at a vertex or edge it touches, with t, the caller's triangle and its range
 //! against [tmin, tmax], each decided exactly (`geom::exact`).
 
-use crate::geom::exact::{cmp_t, in_plane, triangle_hit};
+use crate::geom::exact::{cmp_t, in_plane, plane_t, triangle_hit};
 use crate::locate::WalkStart;
 use crate::mesh::{Incidence, Surface, TetMesh};
 use crate::traverse::{Contact, Touch};
@@ -92,9 +92,15 @@ impl<'a> ExactRay<'a> {
 
     fn meet_on(&self, triangle: u32, key: [u32; 3]) -> (Meet, Range) {
         let tri = &self.surface.triangles[triangle as usize];
-        let (t, u, v) = triangle_hit(self.o, self.d, tri);
+        let (mut t, u, v) = triangle_hit(self.o, self.d, tri);
+        // A touch at the origin (a ray starting on the surface) is at t = 0 exactly, which
+        // the quotient may miss by an ulp of nothing: decide it exactly when t is that close.
+        if t.abs() <= plane_t(self.o, self.d, tri).1 && cmp_t(self.o, self.d, tri, 0.0).is_eq() {
+            t = 0.0;
+        }
+        let t = t.max(self.tmin).min(self.tmax);
         let meet = Meet {
-            t: t.max(self.tmin).min(self.tmax),
+            t: if t == 0.0 { 0.0 } else { t },
             u,
             v,
             triangle,
