@@ -9,10 +9,10 @@ use crate::query::Listed;
 use crate::scene::{CastOptions, HitBuffers, HitsOut, Rays, Scene};
 use crate::traverse::Method;
 use numpy::{
-    Element, IntoPyArray, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3,
-    PyUntypedArrayMethods,
+    Element, IntoPyArray, PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
+    PyReadonlyArray3, PyUntypedArrayMethods,
 };
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -286,6 +286,37 @@ impl PyScene {
         }
     }
 
+    /// Containment: per row of `points` ((N, 3), float32 or float64), True when the point is
+    /// inside the scene's surface or on it (the fewest scene-triangle crossings to outside the
+    /// domain box is odd; points outside the box or not finite are False). Returns (N,) bool.
+    #[pyo3(signature = (points, threads=None))]
+    fn contains<'py>(
+        &self,
+        py: Python<'py>,
+        points: &Bound<'py, PyAny>,
+        threads: Option<usize>,
+    ) -> PyResult<Bound<'py, PyArray1<bool>>> {
+        if let Ok(p) = points.extract::<PyReadonlyArray2<'py, f32>>() {
+            return contains_impl(py, &self.inner, p, threads);
+        }
+        if let Ok(p) = points.extract::<PyReadonlyArray2<'py, f64>>() {
+            return contains_impl(py, &self.inner, p, threads);
+        }
+        let shape = points.getattr("shape").map(|s| s.to_string());
+        let dtype = points.getattr("dtype").map(|s| s.to_string());
+        match (shape, dtype) {
+            (Ok(shape), Ok(_)) if points.getattr("ndim")?.extract::<usize>()? != 2 => Err(
+                PyValueError::new_err(format!("points must have shape (N, 3), got {shape}")),
+            ),
+            (Ok(_), Ok(dtype)) => Err(PyTypeError::new_err(format!(
+                "points must be float32 or float64, got {dtype}"
+            ))),
+            _ => Err(PyTypeError::new_err(
+                "points must be a numpy array of shape (N, 3), float32 or float64",
+            )),
+        }
+    }
+
     /// Bytes used by each part of the structure (`gpu_<layout>`: on the device).
     fn memory<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let d = PyDict::new(py);
@@ -331,6 +362,21 @@ impl PyScene {
         let flat: Vec<u32> = self.inner.mesh.tets.iter().flatten().copied().collect();
         flat.into_pyarray(py).reshape([self.inner.mesh.len(), 4])
     }
+}
+
+/// Validates, answers with the GIL released, returns the answers (the vector becomes the numpy
+/// array without a copy).
+fn contains_impl<'py, R: Real + Element>(
+    py: Python<'py>,
+    scene: &Scene,
+    points: PyReadonlyArray2<'py, R>,
+    threads: Option<usize>,
+) -> PyResult<Bound<'py, PyArray1<bool>>> {
+    let n = check_cols(&points, 3, "points")?;
+    let p = slice(&points, "points")?;
+    let mut out = vec![false; n];
+    py.detach(|| guarded(|| scene.contains(p, &mut out, threads)))?;
+    Ok(out.into_pyarray(py))
 }
 
 /// A cast's ray arrays as numpy passed them.

@@ -1,13 +1,15 @@
 //! The question a walk answers. The walk (`traverse::walk`) is written once; at every
 //! constrained face it reaches, a [`Query`] policy (declared by the walk) decides whether it stops there or records the
 //! crossing and walks on through. A [`QueryKind`] turns a finished walk into one ray's answer,
-//! and a [`Sink`] stores answers. Closest hit and any hit live here; all hits, counts and
-//! containment are further policies of the same walk (they continue through faces).
+//! and a [`Sink`] stores answers. Closest hit, any hit, all hits and counts are policies of the
+//! same walk (the last two continue through faces; `contact` resolves the exact walk's touches). Containment (`contains`)
+//! needs no walk: it locates the point and reads a per-region parity.
 
 pub mod all;
 pub mod any;
 pub mod closest;
 pub mod contact;
+pub mod contains;
 
 use crate::geom::ray::Ray;
 use crate::locate::WalkStart;

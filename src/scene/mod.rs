@@ -12,11 +12,13 @@ use crate::locate::{BoundaryLocator, GridLocator, Locators};
 #[cfg(feature = "gpu")]
 use crate::locate::{LocateState, Start, WalkStart};
 use crate::mesh::{Incidence, Surface, TetMesh};
+use crate::query::contains::{self, Containment, Parity};
 use crate::query::ClosestHit;
 #[cfg(feature = "gpu")]
 use crate::query::RayHit;
 #[cfg(feature = "gpu")]
 use crate::traverse::Walk;
+use std::sync::OnceLock;
 
 pub use buffers::{check_lengths, HitBuffers, HitsOut, Rays};
 pub use cast::{CastOptions, CHUNK};
@@ -32,6 +34,8 @@ pub struct Scene {
     pub surface: Surface,
     /// Constrained faces by vertex: the exact walk's touches and containment read it.
     pub incidence: Incidence,
+    /// Containment's parity of each tet's region, built by the first `contains`.
+    pub parity: OnceLock<Parity>,
 }
 
 impl Scene {
@@ -120,6 +124,7 @@ impl Scene {
                 alternatives: Default::default(),
             },
             incidence,
+            parity: OnceLock::new(),
         };
         scene.layouts.prepare(LayoutKind::DEFAULT, &scene.mesh)?;
         Ok(scene)
@@ -177,6 +182,26 @@ impl Scene {
             surface: &self.surface,
             incidence: &self.incidence,
         }
+    }
+
+    /// Containment of points (`points`: x y z of each, 3N values): `out[i]` is true when point
+    /// i is inside the scene's surface or on it (see [`crate::query::contains`] for the rule).
+    /// The first call builds the parity of each region.
+    pub fn contains<R: Real>(
+        &self,
+        points: &[R],
+        out: &mut [bool],
+        threads: Option<usize>,
+    ) -> Result<()> {
+        contains::check(points.len(), out.len(), threads)?;
+        let parity = self.parity.get_or_init(|| Parity::build(&self.mesh));
+        Containment {
+            mesh: &self.mesh,
+            grid: &self.locator,
+            incidence: &self.incidence,
+            parity,
+        }
+        .points(points, out, threads)
     }
 
     /// Where ray i of `rays` starts (the GPU cast's first half, as the CPU cast locates).

@@ -1,0 +1,678 @@
+//! Containment (occupancy): is a point inside the scene's surface? Exact, with no ray cast.
+//!
+//! **The rule.** A point is inside when the fewest scene-triangle crossings needed to go from
+//! it to outside the domain box is odd. For a closed (watertight) surface that is exactly
+//! "inside the closed surface", and nested shells alternate (inside the outer shell but
+//! inside the inner one too is outside). For an open surface it is a rule of its own: the
+//! inside of a cup, or of a sphere with a hole, is reached from outside with no crossing, so it
+//! is outside. Points exactly on the surface (on a scene triangle, its edge or its corner,
+//! decided by exact predicates) are inside. Points outside the domain box are outside, and so
+//! are points with a NaN or infinite coordinate (no separate status).
+//!
+//! **How.** Tets connected across faces that are not scene triangles form a region
+//! ([`TetMesh::regions`]); every point of a region (off the surface) needs the same fewest
+//! number of crossings. A breadth-first search over the region graph, whose edges are the
+//! constrained faces, from the outside (regions with a free boundary face are at distance 0,
+//! a scene triangle on the box is one crossing from outside) gives each region that number;
+//! [`Parity`] keeps its parity per tet, built once per scene. A point is then located (the seed
+//! grid and a walk), its tet is confirmed with the four exact orientations (walking on when the
+//! locator's float answer was wrong), and the zeros among them say whether it lies on a face,
+//! an edge or a vertex of the tet, where [`Incidence`] tells whether a scene triangle is there.
+
+use crate::error::{Error, Result};
+use crate::geom::predicates::orient;
+use crate::geom::real::Real;
+use crate::locate::{GridLocator, Located};
+use crate::mesh::build::{CONSTRAINED_BIT, OUTWARD_FACES};
+use crate::mesh::{Incidence, TetMesh, BOUNDARY};
+use rayon::prelude::*;
+use std::collections::VecDeque;
+
+/// Points per parallel task; each task starts from fresh state, so answers do not depend on
+/// the thread count (they are exact anyway).
+pub const CHUNK: usize = 4096;
+
+/// Steps of the exact walk that confirms a located tet before it falls back to a scan.
+const SETTLE_STEPS: u32 = 1 << 12;
+
+/// Per tet, whether the fewest scene-triangle crossings from its region to outside the domain
+/// is odd (one bit per tet).
+#[derive(Clone, Debug, Default)]
+pub struct Parity {
+    odd: Vec<u64>,
+}
+
+impl Parity {
+    /// Regions, then a breadth-first search from outside over the constrained faces. Regions
+    /// the search never reaches (a mesh piece that touches neither the box nor any other
+    /// piece) count as even: outside.
+    pub fn build(mesh: &TetMesh) -> Parity {
+        let region = mesh.regions();
+        let nr = region.iter().max().map_or(0, |&r| r as usize + 1);
+        let outside = nr; // the node beyond the domain box
+        let across = |l: u32| -> Option<usize> {
+            if l == BOUNDARY || l & CONSTRAINED_BIT == 0 {
+                return None;
+            }
+            let beyond = mesh.constrained[(l & !CONSTRAINED_BIT) as usize].beyond;
+            Some(if beyond == BOUNDARY {
+                outside
+            } else {
+                region[beyond as usize] as usize
+            })
+        };
+        // Edges as compressed rows over nr + 1 nodes. Each constrained side is listed by the
+        // tet it belongs to, so a face between two tets gives both directions; a scene
+        // triangle on the box has one side, and outside's edge to it is added here.
+        let mut offsets = vec![0u32; nr + 2];
+        let mut free = vec![false; nr];
+        for (t, links) in mesh.links.iter().enumerate() {
+            let r = region[t] as usize;
+            for &l in links {
+                if l == BOUNDARY {
+                    free[r] = true;
+                } else if let Some(o) = across(l) {
+                    offsets[r + 1] += 1;
+                    if o == outside {
+                        offsets[outside + 1] += 1;
+                    }
+                }
+            }
+        }
+        for k in 0..=nr {
+            offsets[k + 1] += offsets[k];
+        }
+        let mut fill = offsets.clone();
+        let mut adj = vec![0u32; offsets[nr + 1] as usize];
+        for (t, links) in mesh.links.iter().enumerate() {
+            let r = region[t] as usize;
+            for &l in links {
+                if let Some(o) = across(l) {
+                    adj[fill[r] as usize] = o as u32;
+                    fill[r] += 1;
+                    if o == outside {
+                        adj[fill[outside] as usize] = r as u32;
+                        fill[outside] += 1;
+                    }
+                }
+            }
+        }
+        // Distance 0: outside and every region it reaches through a free boundary face.
+        let mut dist = vec![u32::MAX; nr + 1];
+        let mut queue = VecDeque::new();
+        dist[outside] = 0;
+        queue.push_back(outside);
+        for r in (0..nr).filter(|&r| free[r]) {
+            dist[r] = 0;
+            queue.push_back(r);
+        }
+        while let Some(a) = queue.pop_front() {
+            for &b in &adj[offsets[a] as usize..offsets[a + 1] as usize] {
+                if dist[b as usize] == u32::MAX {
+                    dist[b as usize] = dist[a] + 1;
+                    queue.push_back(b as usize);
+                }
+            }
+        }
+        let mut odd = vec![0u64; mesh.len().div_ceil(64)];
+        for (t, &r) in region.iter().enumerate() {
+            let d = dist[r as usize];
+            if d != u32::MAX && d % 2 == 1 {
+                odd[t / 64] |= 1 << (t % 64);
+            }
+        }
+        Parity { odd }
+    }
+
+    /// Whether tet t's region needs an odd number of crossings to get outside.
+    #[inline]
+    pub fn odd(&self, t: u32) -> bool {
+        let t = t as usize;
+        self.odd.get(t / 64).is_some_and(|w| w >> (t % 64) & 1 == 1)
+    }
+
+    pub fn bytes(&self) -> usize {
+        self.odd.len() * 8
+    }
+}
+
+/// What containment reads: the topology, the seed grid, the constrained faces by vertex and the
+/// parity of each tet's region.
+pub struct Containment<'a> {
+    pub mesh: &'a TetMesh,
+    pub grid: &'a GridLocator,
+    pub incidence: &'a Incidence,
+    pub parity: &'a Parity,
+}
+
+/// Refuses arguments no containment query can run with: `points` must hold 3 values per
+/// entry of `out`, and `threads` must not be `Some(0)`.
+pub fn check(n_values: usize, n_out: usize, threads: Option<usize>) -> Result<()> {
+    if n_values != 3 * n_out {
+        return Err(Error::InvalidInput(format!(
+            "{n_out} answers expected 3N = {} point coordinates, got {n_values}",
+            3 * n_out
+        )));
+    }
+    if threads == Some(0) {
+        return Err(Error::InvalidOption(
+            "threads must be at least 1 (or None for all cores)".into(),
+        ));
+    }
+    Ok(())
+}
+
+impl Containment<'_> {
+    /// `out[i]`: whether point i (`points[3i..3i+3]`, x y z, in either precision: float32
+    /// values convert to f64 exactly) is inside (see the module's rule). Runs over chunks of
+    /// [`CHUNK`] points on `threads` (None: all cores; Some(1): this thread only).
+    pub fn points<R: Real>(
+        &self,
+        points: &[R],
+        out: &mut [bool],
+        threads: Option<usize>,
+    ) -> Result<()> {
+        check(points.len(), out.len(), threads)?;
+        let run = |(k, (pts, o)): (usize, (&[R], &mut [bool]))| {
+            // A nonzero xorshift seed per chunk (the walks' random face order).
+            let mut rng = 0x9E37_79B9u32 ^ (k as u32).wrapping_mul(0x85EB_CA6B) | 1;
+            for (j, slot) in o.iter_mut().enumerate() {
+                let p = [0, 1, 2].map(|a| pts[3 * j + a].to_f64());
+                *slot = self.point(p, &mut rng);
+            }
+        };
+        let pieces: Vec<_> = points
+            .chunks(3 * CHUNK)
+            .zip(out.chunks_mut(CHUNK))
+            .enumerate()
+            .collect();
+        match threads {
+            Some(1) => pieces.into_iter().for_each(run),
+            None => pieces.into_par_iter().for_each(run),
+            Some(k) => rayon::ThreadPoolBuilder::new()
+                .num_threads(k)
+                .build()
+                .map_err(|e| Error::InvalidOption(format!("cannot start {k} threads: {e}")))?
+                .install(|| pieces.into_par_iter().for_each(run)),
+        }
+        Ok(())
+    }
+
+    /// Whether the point p is inside; `rng`: the walks' xorshift state (nonzero).
+    pub fn point(&self, p: [f64; 3], rng: &mut u32) -> bool {
+        if !p.iter().all(|x| x.is_finite()) {
+            return false;
+        }
+        let t = match self.grid.locate(self.mesh, p, None, rng) {
+            Located::Inside(t) => t,
+            Located::Outside => return false,
+        };
+        let Some((t, side)) = self.settle(t, p, rng) else {
+            return false;
+        };
+        // side[i] == 0: p lies on the plane of face i (opposite vertex i); the others are < 0.
+        let zero = |i: usize| side[i] == 0.0;
+        let tet = self.mesh.tets[t as usize];
+        let on_surface = match (0..4).filter(|&i| zero(i)).count() {
+            0 => false,
+            1 => {
+                let i = (0..4).find(|&i| zero(i)).unwrap();
+                let l = self.mesh.links[t as usize][i];
+                l != BOUNDARY && l & CONSTRAINED_BIT != 0
+            }
+            2 => {
+                // The edge shared by the two faces: the two vertices they do not exclude.
+                let mut ends = (0..4).filter(|&k| !zero(k)).map(|k| tet[k]);
+                let (a, b) = (ends.next().unwrap(), ends.next().unwrap());
+                self.incidence.at_edge(a, b).next().is_some()
+            }
+            3 => {
+                let v = (0..4).find(|&k| !zero(k)).unwrap();
+                !self.incidence.at_vertex(tet[v]).is_empty()
+            }
+            _ => false, // four zeros: a flat tet, which construction refuses
+        };
+        on_surface || self.parity.odd(t)
+    }
+
+    /// From the located tet t, a tet that holds p by exact predicates, with the orientation of
+    /// p against each of its outward faces (all ≤ 0: positive would be beyond that face). The
+    /// grid walk already decides with `orient` but may stop early (it skips the face it came
+    /// through); an exact visibility walk confirms, and a scan ends it if that walk stalls.
+    /// None: p is outside the domain.
+    fn settle(&self, mut t: u32, p: [f64; 3], rng: &mut u32) -> Option<(u32, [f64; 4])> {
+        let mesh = self.mesh;
+        let sides = |t: u32| {
+            let v = mesh.tet_points(t);
+            OUTWARD_FACES.map(|f| orient(v[f[0]], v[f[1]], v[f[2]], p))
+        };
+        for _ in 0..SETTLE_STEPS {
+            let s = sides(t);
+            *rng ^= *rng << 13;
+            *rng ^= *rng >> 17;
+            *rng ^= *rng << 5;
+            let first = (*rng % 4) as usize;
+            match (0..4).map(|k| (first + k) % 4).find(|&i| s[i] > 0.0) {
+                None => return Some((t, s)),
+                Some(i) => {
+                    t = mesh.neighbor(t, i);
+                    if t == BOUNDARY {
+                        return None;
+                    }
+                }
+            }
+        }
+        (0..mesh.len() as u32)
+            .map(|t| (t, sides(t)))
+            .find(|(_, s)| s.iter().all(|&x| x <= 0.0))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    //! Judged by geometry the code does not use: boxes known analytically (which points are in
+    //! them, on their sides), the winding number of a closed surface (solid angles in f64), and
+    //! a tet-level 0-1 breadth-first search for the fewest crossings (no regions).
+    use super::*;
+    use crate::mesh::build::OUTWARD_FACES;
+    use crate::scene::Scene;
+    use crate::testing::{grid_scene, kuhn_grid, Rng};
+
+    /// Kuhn grid of n³ cubes (6 tets each, cube by cube, x fastest) and the boundary faces of
+    /// the union of the cubes `keep` selects (by cube index), oriented out of that union.
+    fn block_surface(
+        pts: &[[f64; 3]],
+        tets: &[[u32; 4]],
+        n: usize,
+        keep: impl Fn([usize; 3]) -> bool,
+    ) -> Vec<[u32; 3]> {
+        let mut faces: Vec<([u32; 3], [u32; 3])> = Vec::new();
+        for (k, t) in tets.iter().enumerate() {
+            let c = k / 6;
+            if !keep([c % n, (c / n) % n, c / (n * n)]) {
+                continue;
+            }
+            let mut t = *t;
+            let [a, b, cc, d] = t.map(|v| pts[v as usize]);
+            if orient(a, b, cc, d) < 0.0 {
+                t.swap(2, 3);
+            }
+            for f in OUTWARD_FACES {
+                let f = f.map(|i| t[i]);
+                let mut key = f;
+                key.sort();
+                faces.push((key, f));
+            }
+        }
+        faces.sort();
+        faces
+            .chunk_by(|a, b| a.0 == b.0)
+            .filter(|g| g.len() == 1)
+            .map(|g| g[0].1)
+            .collect()
+    }
+
+    fn scene_of(pts: &[[f64; 3]], tets: &[[u32; 4]], faces: &[[u32; 3]]) -> Scene {
+        let tris: Vec<_> = faces.iter().map(|f| f.map(|v| pts[v as usize])).collect();
+        let ids: Vec<u32> = (0..faces.len() as u32).collect();
+        Scene::build(pts.to_vec(), tets, faces, &ids, tris).unwrap()
+    }
+
+    /// A closed axis-aligned box [lo, hi]³.
+    #[derive(Clone, Copy)]
+    struct Cube(f64, f64);
+    impl Cube {
+        fn closed(&self, p: [f64; 3]) -> bool {
+            p.iter().all(|&x| self.0 <= x && x <= self.1)
+        }
+        fn open(&self, p: [f64; 3]) -> bool {
+            p.iter().all(|&x| self.0 < x && x < self.1)
+        }
+        fn on_side(&self, p: [f64; 3]) -> bool {
+            self.closed(p) && !self.open(p)
+        }
+    }
+
+    /// Test points: uniform ones in and around the unit box, dyadic ones (k/16, exactly on
+    /// block sides, edges, corners and mesh vertices, or off them), mixes of both, and
+    /// non-finite ones. More than two chunks, so threads split them.
+    fn test_points(rng: &mut Rng) -> Vec<[f64; 3]> {
+        let mut v = Vec::new();
+        let dyadic = |rng: &mut Rng| ((rng.f() * 19.0).floor() - 1.0) / 16.0;
+        for k in 0..3 * CHUNK + 123 {
+            let p = match k % 3 {
+                0 => rng.p3().map(|x| 1.4 * x - 0.2),
+                1 => [(); 3].map(|_| dyadic(rng)),
+                _ => [(); 3].map(|_| if rng.f() < 0.5 { dyadic(rng) } else { rng.f() }),
+            };
+            v.push(p);
+        }
+        v.extend([
+            [f64::NAN, 0.5, 0.5],
+            [0.5, f64::INFINITY, 0.5],
+            [0.5, 0.5, f64::NEG_INFINITY],
+            [0.5, 0.5, 0.5],
+            [0.0, 0.0, 0.0],
+            [1.0, 0.5, 0.5],
+            [1.0 + 1e-12, 0.5, 0.5],
+        ]);
+        v
+    }
+
+    /// Answers with 1, 2 and all threads; asserts they agree and returns them.
+    fn contains(scene: &Scene, pts: &[[f64; 3]]) -> Vec<bool> {
+        let flat: Vec<f64> = pts.iter().flatten().copied().collect();
+        let mut outs = Vec::new();
+        for threads in [Some(1), Some(2), None] {
+            let mut out = vec![false; pts.len()];
+            scene.contains(&flat, &mut out, threads).unwrap();
+            outs.push(out);
+        }
+        assert_eq!(outs[0], outs[1], "1 and 2 threads differ");
+        assert_eq!(outs[0], outs[2], "1 and all threads differ");
+        outs.pop().unwrap()
+    }
+
+    fn check_all(scene: &Scene, pts: &[[f64; 3]], expect: impl Fn([f64; 3]) -> bool) {
+        let got = contains(scene, pts);
+        let mut bad = 0;
+        for (p, &g) in pts.iter().zip(&got) {
+            let e = expect(*p) && p.iter().all(|x| x.is_finite());
+            if g != e {
+                if bad < 10 {
+                    eprintln!("{p:?}: got {g}, expected {e}");
+                }
+                bad += 1;
+            }
+        }
+        assert_eq!(bad, 0, "{bad} of {} points answered wrong", pts.len());
+    }
+
+    #[test]
+    fn closed_block_holds_its_inside_and_its_surface() {
+        let (pts, tets) = kuhn_grid(4, 0.0, &mut Rng(1));
+        let faces = block_surface(&pts, &tets, 4, |c| c.iter().all(|&x| (1..3).contains(&x)));
+        assert_eq!(faces.len(), 6 * 4 * 2);
+        let scene = scene_of(&pts, &tets, &faces);
+        let block = Cube(0.25, 0.75);
+        check_all(&scene, &test_points(&mut Rng(2)), |p| block.closed(p));
+    }
+
+    #[test]
+    fn nested_shells_alternate() {
+        // Three shells: [1/8, 7/8]³ ⊃ [2/8, 6/8]³ ⊃ [3/8, 5/8]³.
+        let (pts, tets) = kuhn_grid(8, 0.0, &mut Rng(3));
+        let shells = [Cube(0.125, 0.875), Cube(0.25, 0.75), Cube(0.375, 0.625)];
+        let mut faces = Vec::new();
+        for k in 1..=3 {
+            let range = k..8 - k;
+            faces.extend(block_surface(&pts, &tets, 8, |c| {
+                c.iter().all(|x| range.contains(x))
+            }));
+        }
+        let scene = scene_of(&pts, &tets, &faces);
+        check_all(&scene, &test_points(&mut Rng(4)), |p| {
+            shells.iter().any(|s| s.on_side(p))
+                || shells.iter().filter(|s| s.open(p)).count() % 2 == 1
+        });
+    }
+
+    #[test]
+    fn open_surface_holds_only_itself() {
+        // The block's surface without its side at x = 3/4: its inside is reached from outside
+        // with no crossing, so only points on the remaining sides are inside.
+        let (pts, tets) = kuhn_grid(4, 0.0, &mut Rng(5));
+        let faces: Vec<_> =
+            block_surface(&pts, &tets, 4, |c| c.iter().all(|&x| (1..3).contains(&x)))
+                .into_iter()
+                .filter(|f| !f.iter().all(|&v| pts[v as usize][0] == 0.75))
+                .collect();
+        assert_eq!(faces.len(), 5 * 4 * 2);
+        let scene = scene_of(&pts, &tets, &faces);
+        let block = Cube(0.25, 0.75);
+        check_all(&scene, &test_points(&mut Rng(6)), |p| {
+            block.closed(p)
+                && (p[0] == 0.25 || [1, 2].iter().any(|&a| p[a] == 0.25 || p[a] == 0.75))
+        });
+    }
+
+    #[test]
+    fn surface_on_the_domain_box_encloses_the_whole_domain() {
+        // Scene triangles on the box itself: one crossing from outside to anywhere inside.
+        let (pts, tets) = kuhn_grid(3, 0.0, &mut Rng(7));
+        let faces = block_surface(&pts, &tets, 3, |_| true);
+        let scene = scene_of(&pts, &tets, &faces);
+        check_all(&scene, &test_points(&mut Rng(8)), |p| {
+            Cube(0.0, 1.0).closed(p)
+        });
+    }
+
+    /// The generalized winding number of a closed, outward oriented triangle surface at p
+    /// (Van Oosterom & Strackee's solid angle per triangle): 1 inside, 0 outside.
+    fn winding(tris: &[[[f64; 3]; 3]], p: [f64; 3]) -> f64 {
+        let sub = |a: [f64; 3]| [a[0] - p[0], a[1] - p[1], a[2] - p[2]];
+        let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        let norm = |a: [f64; 3]| dot(a, a).sqrt();
+        let cross = |a: [f64; 3], b: [f64; 3]| {
+            [
+                a[1] * b[2] - a[2] * b[1],
+                a[2] * b[0] - a[0] * b[2],
+                a[0] * b[1] - a[1] * b[0],
+            ]
+        };
+        let total: f64 = tris
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(sub);
+                let (la, lb, lc) = (norm(a), norm(b), norm(c));
+                let num = dot(a, cross(b, c));
+                let den = la * lb * lc + dot(a, b) * lc + dot(b, c) * la + dot(c, a) * lb;
+                2.0 * num.atan2(den)
+            })
+            .sum();
+        total / (4.0 * std::f64::consts::PI)
+    }
+
+    #[test]
+    fn jittered_closed_surfaces_agree_with_the_winding_number() {
+        // A jittered grid: the shells' sides are no longer planes. Two shells, so the parity
+        // of the winding number is the answer; the surfaces' vertices lie on them (inside).
+        let n = 6;
+        let (pts, tets) = kuhn_grid(n, 0.3, &mut Rng(9));
+        let mut faces = Vec::new();
+        for k in [1, 2] {
+            let range = k..n - k;
+            faces.extend(block_surface(&pts, &tets, n, |c| {
+                c.iter().all(|x| range.contains(x))
+            }));
+        }
+        let tris: Vec<_> = faces.iter().map(|f| f.map(|v| pts[v as usize])).collect();
+        let scene = scene_of(&pts, &tets, &faces);
+        let mut rng = Rng(10);
+        let sample: Vec<[f64; 3]> = (0..3 * CHUNK)
+            .map(|_| rng.p3().map(|x| 1.2 * x - 0.1))
+            .collect();
+        let mut on: Vec<[f64; 3]> = faces.iter().flatten().map(|&v| pts[v as usize]).collect();
+        on.sort_by(|a, b| a.partial_cmp(b).unwrap());
+        on.dedup();
+        let got = contains(&scene, &sample);
+        let mut judged = 0;
+        for (p, &g) in sample.iter().zip(&got) {
+            let w = winding(&tris, *p);
+            if (w - w.round()).abs() > 1e-6 {
+                continue; // too near the surface for a float judge
+            }
+            judged += 1;
+            let e = (0.0..=1.0).contains(&p[0])
+                && (0.0..=1.0).contains(&p[1])
+                && (0.0..=1.0).contains(&p[2])
+                && (w.round() as i64) % 2 != 0;
+            assert_eq!(g, e, "{p:?}: winding number {w}");
+        }
+        assert!(judged > sample.len() * 9 / 10);
+        assert!(
+            contains(&scene, &on).iter().all(|&x| x),
+            "surface vertices are inside"
+        );
+    }
+
+    /// The fewest crossings from outside to each tet, by a 0-1 breadth-first search over tets
+    /// (free faces cost 0, scene triangles 1), without regions.
+    fn fewest_crossings(mesh: &TetMesh) -> Vec<u32> {
+        let mut dist = vec![u32::MAX; mesh.len()];
+        let mut dq = VecDeque::new();
+        for (t, links) in mesh.links.iter().enumerate() {
+            for &l in links {
+                let d = if l == BOUNDARY {
+                    0
+                } else if l & CONSTRAINED_BIT != 0
+                    && mesh.constrained[(l & !CONSTRAINED_BIT) as usize].beyond == BOUNDARY
+                {
+                    1
+                } else {
+                    continue;
+                };
+                if d < dist[t] {
+                    dist[t] = d;
+                    dq.push_back((d, t as u32));
+                }
+            }
+        }
+        let mut sorted: Vec<_> = dq.drain(..).collect();
+        sorted.sort();
+        dq.extend(sorted);
+        while let Some((d, t)) = dq.pop_front() {
+            if d > dist[t as usize] {
+                continue;
+            }
+            for i in 0..4 {
+                let u = mesh.neighbor(t, i);
+                if u == BOUNDARY {
+                    continue;
+                }
+                let w = u32::from(mesh.links[t as usize][i] & CONSTRAINED_BIT != 0);
+                if d + w < dist[u as usize] {
+                    dist[u as usize] = d + w;
+                    if w == 0 {
+                        dq.push_front((d, u));
+                    } else {
+                        dq.push_back((d + 1, u));
+                    }
+                }
+            }
+        }
+        dist
+    }
+
+    #[test]
+    fn parity_is_that_of_the_fewest_crossings() {
+        for (seed, frac) in [(11, 0.1), (12, 0.3), (13, 0.6)] {
+            let g = grid_scene(&mut Rng(seed), 5, 0.3, frac);
+            let mesh = &g.scene.mesh;
+            let parity = Parity::build(mesh);
+            let dist = fewest_crossings(mesh);
+            for (t, &d) in dist.iter().enumerate() {
+                assert_eq!(parity.odd(t as u32), d % 2 == 1, "tet {t}: {d} crossings");
+            }
+        }
+    }
+
+    #[test]
+    fn settling_corrects_a_wrong_tet() {
+        let g = grid_scene(&mut Rng(14), 4, 0.3, 0.3);
+        let scene = &g.scene;
+        let parity = Parity::build(&scene.mesh);
+        let c = Containment {
+            mesh: &scene.mesh,
+            grid: &scene.locator,
+            incidence: &scene.incidence,
+            parity: &parity,
+        };
+        let mut rng = Rng(15);
+        let mut state = 1u32;
+        for k in 0..500 {
+            let p = rng.p3();
+            let start = (k * 37 % scene.mesh.len()) as u32;
+            let (t, _) = c.settle(start, p, &mut state).unwrap();
+            // Barycentric coordinates in f64: all ≥ 0 up to rounding.
+            let v = scene.mesh.tet_points(t);
+            let vol = |a: [f64; 3], b: [f64; 3], c: [f64; 3], d: [f64; 3]| {
+                let (u, w, x) = (
+                    [b[0] - a[0], b[1] - a[1], b[2] - a[2]],
+                    [c[0] - a[0], c[1] - a[1], c[2] - a[2]],
+                    [d[0] - a[0], d[1] - a[1], d[2] - a[2]],
+                );
+                u[0] * (w[1] * x[2] - w[2] * x[1]) - u[1] * (w[0] * x[2] - w[2] * x[0])
+                    + u[2] * (w[0] * x[1] - w[1] * x[0])
+            };
+            let whole = vol(v[0], v[1], v[2], v[3]);
+            for i in 0..4 {
+                let mut w = v;
+                w[i] = p;
+                assert!(
+                    vol(w[0], w[1], w[2], w[3]) / whole >= -1e-12,
+                    "{p:?} not in {t}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn float32_points_and_bad_arguments() {
+        let (pts, tets) = kuhn_grid(4, 0.0, &mut Rng(16));
+        let faces = block_surface(&pts, &tets, 4, |c| c.iter().all(|&x| (1..3).contains(&x)));
+        let scene = scene_of(&pts, &tets, &faces);
+        let p32: [f32; 12] = [0.5, 0.5, 0.5, 0.25, 0.3, 0.6, 0.1, 0.5, 0.5, 2.0, 0.5, 0.5];
+        let mut out = [false; 4];
+        scene.contains(&p32, &mut out, None).unwrap();
+        assert_eq!(out, [true, true, false, false]);
+        assert!(matches!(
+            scene.contains(&p32[..11], &mut out, None),
+            Err(Error::InvalidInput(_))
+        ));
+        assert!(matches!(
+            scene.contains(&p32, &mut out, Some(0)),
+            Err(Error::InvalidOption(_))
+        ));
+        let mut none: [bool; 0] = [];
+        scene.contains::<f64>(&[], &mut none, None).unwrap();
+    }
+
+    /// The cost of the parity (run by hand: `cargo test --lib contains_cost -- --ignored
+    /// --nocapture`).
+    #[test]
+    #[ignore]
+    fn contains_cost() {
+        for (n, frac) in [(40, 0.05), (55, 0.05), (55, 0.5)] {
+            let g = grid_scene(&mut Rng(17), n, 0.3, frac);
+            let scene = &g.scene;
+            let t0 = std::time::Instant::now();
+            let regions = scene.mesh.regions();
+            let t_regions = t0.elapsed();
+            let t0 = std::time::Instant::now();
+            let parity = Parity::build(&scene.mesh);
+            let t_parity = t0.elapsed();
+            let nr = regions.iter().max().unwrap() + 1;
+            let mut rng = Rng(18);
+            let pts: Vec<f64> = (0..1_000_000).flat_map(|_| rng.p3()).collect();
+            let mut out = vec![false; 1_000_000];
+            let t0 = std::time::Instant::now();
+            scene.contains(&pts, &mut out, None).unwrap();
+            let t_first = t0.elapsed();
+            let t0 = std::time::Instant::now();
+            scene.contains(&pts, &mut out, None).unwrap();
+            let t_query = t0.elapsed();
+            eprintln!(
+                "n={n}: {} tets, {} constrained sides, {nr} regions; regions() {:.1} ms, \
+                 Parity::build {:.1} ms ({} KiB); 1M points: first call {:.1} ms, next {:.1} ms",
+                scene.mesh.len(),
+                scene.mesh.constrained.len(),
+                t_regions.as_secs_f64() * 1e3,
+                t_parity.as_secs_f64() * 1e3,
+                parity.bytes() / 1024,
+                t_first.as_secs_f64() * 1e3,
+                t_query.as_secs_f64() * 1e3,
+            );
+        }
+    }
+}
