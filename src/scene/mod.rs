@@ -151,6 +151,10 @@ impl Scene {
                 self.locator.bytes() + self.entry.bytes() + self.mesh.tets.len() * 32,
             ),
             ("incidence".to_string(), self.incidence.bytes()),
+            (
+                "parity".to_string(),
+                self.parity.get().map_or(0, |p| p.bytes()),
+            ),
         ];
         m.extend(
             self.layouts
