@@ -57,7 +57,9 @@ def box():
 def test_rays_through_icosphere_vertices_and_edges(sphere):
     """From the centre and from outside, aimed exactly at every vertex and edge midpoint."""
     scene, v, f = sphere
-    edges = np.unique(np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), 1), axis=0)
+    edges = np.unique(
+        np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), 1), axis=0
+    )
     targets = np.concatenate([v, (v[edges[:, 0]] + v[edges[:, 1]]) * 0.5])
     for origin in ([0.0, 0.0, 0.0], [0.375, -0.25, 0.125], [3.0, 2.5, -4.0]):
         o = np.broadcast_to(np.asarray(origin), targets.shape)
@@ -163,7 +165,9 @@ def test_answers_do_not_depend_on_the_batch_or_threads(sphere):
     scene, v, f = sphere
     rng = np.random.default_rng(7)
     n = 3000
-    o = np.concatenate([v[rng.integers(0, len(v), n // 2)], _snap(rng.uniform(-2, 2, (n // 2, 3)), 6)])
+    o = np.concatenate(
+        [v[rng.integers(0, len(v), n // 2)], _snap(rng.uniform(-2, 2, (n // 2, 3)), 6)]
+    )
     d = np.concatenate([rng.normal(size=(n // 2, 3)), v[rng.integers(0, len(v), n // 2)]]) - 0.0
     d[n // 2 :] -= o[n // 2 :]
     d[~np.any(d, axis=1)] = 1.0

@@ -3,12 +3,10 @@
 //! deciding at constrained faces; O observes every step (the exact audit) or nothing.
 
 use super::Accel;
-use crate::geom::exact::orient_sign;
 use crate::geom::ray::Ray;
 use crate::geom::real::Real;
 use crate::layout::Layout;
 use crate::locate::{LocateState, Locators, Start};
-use crate::mesh::build::OUTWARD_FACES;
 use crate::query::QueryKind;
 use crate::query::{Decision, Query};
 use crate::traverse::{
@@ -71,7 +69,7 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> Accel<R>
 
 impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L, M, O> {
     /// The exact walk's trace: it starts at the origin (or the exact box entry), and an origin
-    /// lying on a face, edge or vertex of its start tet is a touch at t = 0.
+    /// on one of the caller's triangles is a hit at t = 0 (`Contact::Origin`).
     fn trace_exact<K: QueryKind>(&self, query: &K, ray: &Ray, st: &mut LocateState) -> K::Answer {
         let points = self.setup.points;
         let (s, prepared) = match self.locators.locate_exact::<R, M>(ray, points, st) {
@@ -83,17 +81,21 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
         let mut observer = O::for_ray(s.o, s.dir, &mesh.bounds);
         let mut policy = query.policy(&s);
         if s.entry.is_none() && s.tmin == 0.0 {
-            if let Some(at) = origin_touch(s.tet, tet, points, s.o) {
-                if policy.touched(&at) == Decision::Stop {
-                    let w = Walk {
-                        end: WalkEnd::Touched,
-                        tet: s.tet,
-                        face: at.face,
-                        slots: false,
-                        steps: 0,
-                    };
-                    return query.answer(&s, &w, policy, observer.counts());
-                }
+            let at = Touch {
+                tet: s.tet,
+                face: [tet[0], tet[1], tet[2]],
+                slots: false,
+                contact: Contact::Origin,
+            };
+            if policy.touched(&at) == Decision::Stop {
+                let w = Walk {
+                    end: WalkEnd::Touched,
+                    tet: s.tet,
+                    face: at.face,
+                    slots: false,
+                    steps: 0,
+                };
+                return query.answer(&s, &w, policy, observer.counts());
             }
         }
         let w = walk_with::<R, L, M, _, O>(
@@ -106,25 +108,4 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
         );
         query.answer(&s, &w, policy, observer.counts())
     }
-}
-
-/// Where the origin o lies on the boundary of the tet holding it (ids `tet`), exactly: on a
-/// face (one zero orientation), an edge (two) or a vertex (three), as a touch at t = 0.
-fn origin_touch<R: Real>(t: u32, tet: [u32; 4], points: &[[R; 3]], o: [f64; 3]) -> Option<Touch> {
-    let p = tet.map(|v| points[v as usize].map(R::to_f64));
-    let zero = OUTWARD_FACES.map(|f| orient_sign(p[f[0]], p[f[1]], p[f[2]], o) == 0);
-    // Face i is opposite vertex i: the vertices on every zero face span the feature.
-    let on: Vec<usize> = (0..4).filter(|&v| !zero[v]).collect();
-    let (face, contact) = match on.as_slice() {
-        [a, b, c] => ([tet[*a], tet[*b], tet[*c]], Contact::Face),
-        [a, b] => ([tet[*a], tet[*b], tet[*a]], Contact::Edge(0)),
-        [a] => ([tet[*a], tet[*a], tet[*a]], Contact::Vertex(0)),
-        _ => return None,
-    };
-    Some(Touch {
-        tet: t,
-        face,
-        slots: false,
-        contact,
-    })
 }

@@ -28,7 +28,9 @@ pub struct AllPolicy<'a> {
 
 impl AllPolicy<'_> {
     fn add(&mut self, meet: Meet) {
-        if !self.meets.iter().any(|m| m.key == meet.key) {
+        // The origin (t = 0) is one point, reported as such or as the vertex or edge it is on.
+        let same = |m: &Meet| m.key == meet.key || (m.t == 0.0 && meet.t == 0.0);
+        if !self.meets.iter().any(same) {
             self.meets.push(meet);
         }
     }
@@ -42,7 +44,10 @@ impl Query for AllPolicy<'_> {
         if at.contact != Contact::Interior {
             return Decision::Continue;
         }
-        let (meet, range) = ray.crossing(at.constrained, ray.ids(at.tet, at.face, at.slots));
+        let Some((meet, range)) = ray.crossing(at.constrained, ray.ids(at.tet, at.face, at.slots))
+        else {
+            return Decision::Continue;
+        };
         match range {
             Range::Before => Decision::Continue,
             Range::In => {

@@ -66,7 +66,10 @@ impl Query for ClosestPolicy<'_> {
             // In the face's plane: not a hit. Through its boundary: `touched` decided.
             return Decision::Continue;
         }
-        let (meet, range) = ray.crossing(at.constrained, ray.ids(at.tet, at.face, at.slots));
+        let Some((meet, range)) = ray.crossing(at.constrained, ray.ids(at.tet, at.face, at.slots))
+        else {
+            return Decision::Continue;
+        };
         match range {
             Range::Before => Decision::Continue,
             Range::In => {

@@ -2,7 +2,7 @@
 //! it crosses or at a vertex or edge it touches, with t, the caller's triangle and its range
 //! against [tmin, tmax], each decided exactly (`geom::exact`).
 
-use crate::geom::exact::{cmp_t, in_plane, plane_t, triangle_hit};
+use crate::geom::exact::{cmp_t, in_plane, orient_sign, plane_t, side, triangle_hit};
 use crate::locate::WalkStart;
 use crate::mesh::{Incidence, Surface, TetMesh};
 use crate::traverse::{Contact, Touch};
@@ -42,6 +42,9 @@ pub struct ExactRay<'a> {
     pub tmin: f64,
     pub tmax: f64,
 }
+
+/// The key of the ray's origin (t = 0): the same point however it is reported.
+pub const ORIGIN_KEY: [u32; 3] = [u32::MAX - 1; 3];
 
 fn sorted_key(mut k: [u32; 3]) -> [u32; 3] {
     k.sort_unstable();
@@ -111,9 +114,47 @@ impl<'a> ExactRay<'a> {
 
     /// The crossing of constrained face `constrained` (a side index) whose points are `ids`,
     /// through its interior.
-    pub fn crossing(&self, constrained: u32, ids: [u32; 3]) -> (Meet, Range) {
+    /// None when the line lies in the plane of the caller's triangle the face lies on (a
+    /// mesher's Steiner points can tilt a face off that plane by an ulp).
+    pub fn crossing(&self, constrained: u32, ids: [u32; 3]) -> Option<(Meet, Range)> {
         let triangle = self.mesh.constrained[constrained as usize].triangle;
-        self.meet_on(triangle, sorted_key(ids))
+        let tri = &self.surface.triangles[triangle as usize];
+        if in_plane(self.dir, tri[0], tri[1], tri[2]) {
+            return None;
+        }
+        Some(self.meet_on(triangle, sorted_key(ids)))
+    }
+
+    /// The ray's origin on one of the caller's triangles (t = 0): of the triangles of the
+    /// constrained faces around the start tet's vertices, the smallest id that holds o (closed)
+    /// and whose plane does not hold the line. Decided on the caller's triangles, not on the
+    /// faces: where a mesher split a triangle, its faces may be an ulp off it.
+    fn at_origin(&self, tet: u32) -> Option<(Meet, Range)> {
+        let mut best: Option<u32> = None;
+        for v in self.mesh.tets[tet as usize] {
+            for &f in self.incidence.at_vertex(v) {
+                let triangle =
+                    self.mesh.constrained[self.incidence.faces[f as usize].side as usize].triangle;
+                if best.is_some_and(|b| b <= triangle) {
+                    continue;
+                }
+                let [a, b, c] = self.surface.triangles[triangle as usize];
+                if orient_sign(a, b, c, self.o) != 0 || in_plane(self.dir, a, b, c) {
+                    continue;
+                }
+                // o in the triangle's plane: in the closed triangle when the line's sides of
+                // its edges agree (the line meets the plane at o only).
+                let s = [
+                    side(self.dir, self.o, a, b),
+                    side(self.dir, self.o, b, c),
+                    side(self.dir, self.o, c, a),
+                ];
+                if s.iter().all(|&x| x >= 0) || s.iter().all(|&x| x <= 0) {
+                    best = Some(triangle);
+                }
+            }
+        }
+        best.map(|triangle| self.meet_on(triangle, ORIGIN_KEY))
     }
 
     /// The point where the line meets the surface at feature `points` (1, 2 or 3 ids, padded
@@ -168,8 +209,10 @@ impl<'a> ExactRay<'a> {
                 report(edge(k));
                 true
             }
-            Contact::Face => {
-                report(sorted_key(ids));
+            Contact::Origin => {
+                if let Some((meet, range)) = self.at_origin(at.tet) {
+                    each(meet, range);
+                }
                 true
             }
             Contact::Coplanar { vertices, edges } => {

@@ -54,8 +54,9 @@ pub enum Contact {
     /// The line lies in the face's plane; it meets the face's boundary at the vertices in the
     /// bit mask `vertices` and in the interiors of the edges in `edges` (in no order along it).
     Coplanar { vertices: u8, edges: u8 },
-    /// The ray's origin lies in the face's interior (the start only).
-    Face,
+    /// The ray's origin, at the start of the walk in tet `Touch::tet` (t = 0): the query
+    /// checks the caller's triangles around it.
+    Origin,
 }
 
 pub trait ExitMethod<R: Real> {
