@@ -17,6 +17,11 @@ pub struct SurfaceFace {
 #[derive(Clone, Debug, Default)]
 pub struct Incidence {
     pub faces: Vec<SurfaceFace>,
+    /// Some constrained face has a corner that is not a corner of its caller's triangle (the
+    /// mesher split triangles with Steiner points, which sit an ulp off them): the exact
+    /// queries then also check the caller's triangles around in-plane faces and touches
+    /// (`query::contact`). Set by the scene, which knows the caller's triangles.
+    pub split: bool,
     offsets: Vec<u32>,
     around: Vec<u32>,
 }
@@ -61,6 +66,7 @@ impl Incidence {
             faces,
             offsets,
             around,
+            split: false,
         }
     }
 

@@ -29,7 +29,14 @@ pub struct AllPolicy<'a> {
 impl AllPolicy<'_> {
     fn add(&mut self, meet: Meet) {
         // The origin (t = 0) is one point, reported as such or as the vertex or edge it is on.
-        let same = |m: &Meet| m.key == meet.key || (m.t == 0.0 && meet.t == 0.0);
+        // Points found around an in-plane face (`ExactRay::around`) are keyed by triangle:
+        // the same t is the same point there.
+        let around = |k: [u32; 3]| k[0] == u32::MAX - 2;
+        let same = |m: &Meet| {
+            m.key == meet.key
+                || (m.t == 0.0 && meet.t == 0.0)
+                || ((around(m.key) || around(meet.key)) && m.t == meet.t)
+        };
         if !self.meets.iter().any(same) {
             self.meets.push(meet);
         }
@@ -44,8 +51,17 @@ impl Query for AllPolicy<'_> {
         if at.contact != Contact::Interior {
             return Decision::Continue;
         }
-        let Some((meet, range)) = ray.crossing(at.constrained, ray.ids(at.tet, at.face, at.slots))
-        else {
+        let ids = ray.ids(at.tet, at.face, at.slots);
+        let Some((meet, range)) = ray.crossing(at.constrained, ids) else {
+            let mut found = Vec::new();
+            ray.around(ids, |m, range| {
+                if range == Range::In {
+                    found.push(m);
+                }
+            });
+            for m in found {
+                self.add(m);
+            }
             return Decision::Continue;
         };
         match range {
@@ -69,6 +85,13 @@ impl Query for AllPolicy<'_> {
             Range::After => past = true,
             Range::Before => {}
         });
+        if at.contact != Contact::Origin {
+            ray.around(ray.ids(at.tet, at.face, at.slots), |m, range| {
+                if range == Range::In {
+                    found.push(m);
+                }
+            });
+        }
         for m in found {
             self.add(m);
         }

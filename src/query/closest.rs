@@ -66,8 +66,15 @@ impl Query for ClosestPolicy<'_> {
             // In the face's plane: not a hit. Through its boundary: `touched` decided.
             return Decision::Continue;
         }
-        let Some((meet, range)) = ray.crossing(at.constrained, ray.ids(at.tet, at.face, at.slots))
-        else {
+        let ids = ray.ids(at.tet, at.face, at.slots);
+        let Some((meet, range)) = ray.crossing(at.constrained, ids) else {
+            let mut best = self.best;
+            ray.around(ids, |m, range| {
+                if range == Range::In {
+                    best = Some(earlier(best, m));
+                }
+            });
+            self.best = best;
             return Decision::Continue;
         };
         match range {
@@ -93,6 +100,13 @@ impl Query for ClosestPolicy<'_> {
             Range::After => past = true,
             Range::Before => {}
         });
+        if at.contact != Contact::Origin {
+            ray.around(ray.ids(at.tet, at.face, at.slots), |m, range| {
+                if range == Range::In {
+                    best = Some(earlier(best, m));
+                }
+            });
+        }
         self.best = best;
         if ordered && (found || past) {
             Decision::Stop

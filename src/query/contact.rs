@@ -125,6 +125,42 @@ impl<'a> ExactRay<'a> {
         Some(self.meet_on(triangle, sorted_key(ids)))
     }
 
+    /// Where the line lies in the plane of the caller's triangle of a face it crosses (see
+    /// `crossing`): the caller's triangles around that face's vertices that it meets at one
+    /// point, each decided exactly on the triangle. Where a mesher split a triangle, the line
+    /// leaves it at an edge point the tilted faces do not mark as a touch; its neighbours there
+    /// are among these. Not in walk order.
+    pub fn around(&self, ids: [u32; 3], mut each: impl FnMut(Meet, Range)) {
+        if !self.incidence.split {
+            return;
+        }
+        let mut seen: Vec<u32> = Vec::new();
+        for v in ids {
+            for &f in self.incidence.at_vertex(v) {
+                let triangle =
+                    self.mesh.constrained[self.incidence.faces[f as usize].side as usize].triangle;
+                if seen.contains(&triangle) {
+                    continue;
+                }
+                seen.push(triangle);
+                let [a, b, c] = self.surface.triangles[triangle as usize];
+                let s = [
+                    side(self.dir, self.o, a, b),
+                    side(self.dir, self.o, b, c),
+                    side(self.dir, self.o, c, a),
+                ];
+                let meets = (s.iter().all(|&x| x >= 0) || s.iter().all(|&x| x <= 0))
+                    && s.iter().any(|&x| x != 0);
+                // The line, not the ray: behind the origin (or before tmin) is no meet.
+                let tri = [a, b, c];
+                if meets && cmp_t(self.o, self.d, &tri, self.tmin) != Ordering::Less {
+                    let (meet, range) = self.meet_on(triangle, [u32::MAX - 2, triangle, 0]);
+                    each(meet, range);
+                }
+            }
+        }
+    }
+
     /// The ray's origin on one of the caller's triangles (t = 0): of the triangles of the
     /// constrained faces around the start tet's vertices, the smallest id that holds o (closed)
     /// and whose plane does not hold the line. Decided on the caller's triangles, not on the

@@ -112,7 +112,14 @@ impl Scene {
         let locator = GridLocator::build(&mesh);
         let entry = BoundaryLocator::build(&mesh);
         let points_f32 = mesh.points.iter().map(|p| p.map(|x| x as f32)).collect();
-        let incidence = Incidence::build(&mesh);
+        let mut incidence = Incidence::build(&mesh);
+        incidence.split = incidence.faces.iter().any(|f| {
+            let named = mesh.constrained[f.side as usize].triangle as usize;
+            let tri = &triangles[named];
+            f.points
+                .iter()
+                .any(|&p| !tri.contains(&mesh.points[p as usize]))
+        });
         let scene = Scene {
             mesh,
             locator,

@@ -9,7 +9,17 @@ import re
 # order, which is what keeps its Delaunay phase fast; quiet/nowarning: TetGen prints
 # to the C stdout, which Python cannot capture (in a forked child it prints its phases
 # to a log file instead, see _tetgen_arrays).
-_COMMON = dict(plc=True, brio_hilbert=True, quiet=True, nowarning=True, verbose=0)
+# nobisect (TetGen -Y): no Steiner point on the scene's triangles, so every constrained face
+# is exactly one of them (or a piece the repair cut) and the exact walk's touches at their
+# vertices and edges are the caller's (a split triangle's faces sit an ulp off it, where a
+# ray in its plane can leave it unseen). Where TetGen cannot recover the surface so, the
+# ladder tries again with splitting allowed (``SPLIT_FALLBACK``).
+_COMMON = dict(plc=True, brio_hilbert=True, quiet=True, nowarning=True, verbose=0, nobisect=True)
+
+#: TetGen overrides of the rung that lets TetGen split the scene's triangles after the
+#: unsplit attempt failed (the exact walk is then exact on the faces, which the caller's
+#: triangles contain up to the Steiner points' rounding).
+SPLIT_FALLBACK = dict(nobisect=False)
 
 #: The named TetGen presets: ``minratio`` is the radius-edge bound (TetGen ``-q``;
 #: None: no refinement), ``sizing`` a target edge length that grows away from the

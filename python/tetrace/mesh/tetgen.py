@@ -16,6 +16,7 @@ from .options import (
     _STEINER_PER_VERTEX,
     DEFAULT_PRESET,
     SNAP_LADDER,
+    SPLIT_FALLBACK,
     preset_options,
 )
 from .repair import _igl_cgal, _repair, _repair_left_message, _snap_cell, count_intersecting_pairs
@@ -253,7 +254,7 @@ def _tetgen_route(
             )
     timings["repair"] += time.perf_counter() - t
     # Rungs: (snap cell, TetGen overrides, preset override).
-    ladder = [(0.0, {}, None)]
+    ladder = [(0.0, {}, None), (0.0, SPLIT_FALLBACK, None)]
     if repair is not False and have_igl:
         ladder += [(_snap_cell(box, rel), overrides, None) for rel, overrides in SNAP_LADDER]
         if constrained_last and options.get("quality") and SNAP_LADDER:
@@ -323,6 +324,8 @@ def _tetgen_route(
             points = None
         if overrides.get("opt_iterations") == 0:
             label += ", mesh optimisation off"
+        if overrides.get("nobisect") is False:
+            label += ", scene triangles split (TetGen could not keep them whole)"
         t = time.perf_counter()
         try:
             result = _run_tetgen(work, box, opts, isolate, extra=points, timeout=timeout)
