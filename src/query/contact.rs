@@ -117,7 +117,8 @@ impl<'a> ExactRay<'a> {
     /// None when the line lies in the plane of the caller's triangle the face lies on (a
     /// mesher's Steiner points can tilt a face off that plane by an ulp).
     pub fn crossing(&self, constrained: u32, ids: [u32; 3]) -> Option<(Meet, Range)> {
-        let triangle = self.mesh.constrained[constrained as usize].triangle;
+        let named = self.mesh.constrained[constrained as usize].triangle;
+        let triangle = self.on_face(named, ids);
         let tri = &self.surface.triangles[triangle as usize];
         if in_plane(self.dir, tri[0], tri[1], tri[2]) {
             return None;
@@ -143,22 +144,49 @@ impl<'a> ExactRay<'a> {
                     continue;
                 }
                 seen.push(triangle);
-                let [a, b, c] = self.surface.triangles[triangle as usize];
-                let s = [
-                    side(self.dir, self.o, a, b),
-                    side(self.dir, self.o, b, c),
-                    side(self.dir, self.o, c, a),
-                ];
-                let meets = (s.iter().all(|&x| x >= 0) || s.iter().all(|&x| x <= 0))
-                    && s.iter().any(|&x| x != 0);
+                let tri = self.surface.triangles[triangle as usize];
                 // The line, not the ray: behind the origin (or before tmin) is no meet.
-                let tri = [a, b, c];
-                if meets && cmp_t(self.o, self.d, &tri, self.tmin) != Ordering::Less {
+                if self.line_meets(&tri) && cmp_t(self.o, self.d, &tri, self.tmin) != Ordering::Less
+                {
                     let (meet, range) = self.meet_on(triangle, [u32::MAX - 2, triangle, 0]);
                     each(meet, range);
                 }
             }
         }
+    }
+
+    /// Whether the line meets the closed triangle at one point (the referee's test: the
+    /// three side products agree in sign and are not all zero), exactly.
+    fn line_meets(&self, &[a, b, c]: &[[f64; 3]; 3]) -> bool {
+        let s = [
+            side(self.dir, self.o, a, b),
+            side(self.dir, self.o, b, c),
+            side(self.dir, self.o, c, a),
+        ];
+        (s.iter().all(|&x| x >= 0) || s.iter().all(|&x| x <= 0)) && s.iter().any(|&x| x != 0)
+    }
+
+    /// The caller's triangle a crossed face lies on: the one it names, unless the scene lists
+    /// alternatives for it (overlapping input the cleaning merged): then, of those the line
+    /// meets at one point (exact), the one it meets nearest to the face's plane.
+    fn on_face(&self, named: u32, ids: [u32; 3]) -> u32 {
+        let alternatives = self.surface.alternatives.of(named);
+        if alternatives.is_empty() {
+            return named;
+        }
+        let face = ids.map(|v| self.mesh.points[v as usize]);
+        let (t_face, _) = plane_t(self.o, self.d, &face);
+        let mut best = (f64::INFINITY, named);
+        for &k in std::iter::once(&named).chain(alternatives) {
+            let tri = self.surface.triangles[k as usize];
+            if self.line_meets(&tri) {
+                let gap = (plane_t(self.o, self.d, &tri).0 - t_face).abs();
+                if gap < best.0 {
+                    best = (gap, k);
+                }
+            }
+        }
+        best.1
     }
 
     /// The ray's origin on one of the caller's triangles (t = 0): of the triangles of the
@@ -178,14 +206,8 @@ impl<'a> ExactRay<'a> {
                 if orient_sign(a, b, c, self.o) != 0 || in_plane(self.dir, a, b, c) {
                     continue;
                 }
-                // o in the triangle's plane: in the closed triangle when the line's sides of
-                // its edges agree (the line meets the plane at o only).
-                let s = [
-                    side(self.dir, self.o, a, b),
-                    side(self.dir, self.o, b, c),
-                    side(self.dir, self.o, c, a),
-                ];
-                if s.iter().all(|&x| x >= 0) || s.iter().all(|&x| x <= 0) {
+                // o in the triangle's plane: in the closed triangle when the line meets it.
+                if self.line_meets(&[a, b, c]) {
                     best = Some(triangle);
                 }
             }
