@@ -209,9 +209,12 @@ def test_gpu_hits_fields_and_options(spot, device):
         spot.cast(o, d, device="tpu")
     with pytest.raises(ValueError, match="aman2022/tet20"):
         spot.cast(o, d, device="gpu", method="ms06")
-    # auto: the GPU for float32 walks with a kernel, else the CPU.
+    # auto: the GPU for float32 walks of a method named with a kernel, else the CPU (the
+    # exact default has no GPU kernel: auto does not trade it away).
     spot.gpu_timings = None
-    assert spot.cast(o, d, device="auto").t.dtype == np.float32 and spot.gpu_timings
+    assert spot.cast(o, d, device="auto").t.dtype == np.float32 and spot.gpu_timings is None
+    assert spot.cast(o, d, device="auto", method="aman2022").t.dtype == np.float32
+    assert spot.gpu_timings
     spot.gpu_timings = None
     assert (
         spot.cast(o.astype(np.float64), d.astype(np.float64), device="auto").t.dtype == np.float64

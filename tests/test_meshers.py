@@ -235,20 +235,51 @@ def test_snap_ladder_after_a_tetgen_failure(monkeypatch):
 
     def flaky(cm, box, options, *args, **kwargs):
         calls.append(dict(options))
-        if len(calls) == 1:
+        if len(calls) <= 2:  # the scene as given, whole and then split
             raise isolate._TetGenFailed("Internal TetGen error within `repair_tet`.")
         return real(cm, box, options, *args, **kwargs)
 
     monkeypatch.setattr(tetgen, "_run_tetgen", flaky)
     tz = tetrahedralize((vertices, faces), "quality")
-    assert len(calls) == 2 and calls[1]["opt_iterations"] == 0
+    assert len(calls) == 3 and calls[2]["opt_iterations"] == 0
+    assert calls[0]["nobisect"] is True and calls[1]["nobisect"] is False
     assert "opt_iterations" not in calls[0]
     assert tz.snap > 0 and tz.repaired and tz.preset == "quality"
-    assert len(tz.attempts) == 1 and "repair_tet" in tz.attempts[0]
+    assert len(tz.attempts) == 2 and all("repair_tet" in a for a in tz.attempts)
+    assert "split" in tz.attempts[1]
     assert count_intersecting_pairs(tz.clean.vertices, tz.clean.faces) == 0
     # every point of the snapped scene is on the grid
     assert np.all(np.round(tz.clean.vertices / tz.snap) * tz.snap == tz.clean.vertices)
     check_ct(tz, vertices, faces, tiles=False)
+
+
+def test_scene_triangles_stay_whole_unless_tetgen_needs_to_split(monkeypatch):
+    """The first rung keeps every scene triangle whole (TetGen -Y): each constrained face is a
+    cleaned triangle, so the exact walk's vertices and edges are the caller's. When TetGen
+    fails so, the next rung lets it split them and says so."""
+    vertices, faces = synthetic.cube()
+    tz = tetrahedralize((vertices, faces), "quality")
+    assert tz.options["nobisect"] is True and not tz.attempts and not tz.repaired
+    assert len(tz.faces) == len(faces)
+    # every constrained face's corners are the corners of the triangle it names
+    tri = vertices[faces[tz.face_triangle]]
+    face = tz.points[tz.faces]
+    for k in range(3):
+        assert (np.abs(face[:, k, None, :] - tri).max(axis=2).min(axis=1) == 0).all()
+    real = tetgen._run_tetgen
+    calls = []
+
+    def whole_fails(cm, box, options, *args, **kwargs):
+        calls.append(dict(options))
+        if options.get("nobisect"):
+            raise isolate._TetGenFailed("refused")
+        return real(cm, box, options, *args, **kwargs)
+
+    monkeypatch.setattr(tetgen, "_run_tetgen", whole_fails)
+    split = tetrahedralize((vertices, faces), "quality")
+    assert [c["nobisect"] for c in calls] == [True, False] and split.snap == 0
+    assert len(split.attempts) == 1 and "refused" in split.attempts[0]
+    check_ct(split, vertices, faces, tiles=False)
 
 
 def test_fallback_constrained_rung(monkeypatch):
@@ -267,7 +298,7 @@ def test_fallback_constrained_rung(monkeypatch):
         tetrahedralize((vertices, faces), "quality")
     tz = tetrahedralize((vertices, faces), "quality", mesher="fallback")
     assert tz.mesher == "tetgen" and tz.preset == "constrained" and tz.snap > 0
-    assert len(tz.attempts) == 1 + len(options.SNAP_LADDER)
+    assert len(tz.attempts) == 2 + len(options.SNAP_LADDER)
     check_ct(tz, vertices, faces)
 
 
@@ -702,7 +733,8 @@ def test_happy_buddha_builds_after_snap_rounding(scene_path):
     assert tz.mesher == "tetgen" and tz.preset == "quality" and tz.repaired
     # The first rung's cell, exactly: the power of two nearest 1e-7 of the domain diagonal.
     assert tz.snap == repair._snap_cell(tz.domain, options.SNAP_LADDER[0][0]) > 0
-    assert len(tz.attempts) == 1 and "TetGen after exact repair of" in tz.attempts[0]
+    # The repaired scene fails whole and split (TetGen -Y, then without it).
+    assert len(tz.attempts) == 2 and all("TetGen after exact repair of" in a for a in tz.attempts)
     check_ct(tz, vertices, faces, tiles=False)
     scene = tetrace.Scene(tz, vertices, faces)
     cm = tz.clean

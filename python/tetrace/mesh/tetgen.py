@@ -180,7 +180,10 @@ def tetgen_options(preset=DEFAULT_PRESET, *, minratio=None, maxvolume=None, n_ve
         maxvolume = float(maxvolume)
         if not (np.isfinite(maxvolume) and maxvolume > 0):
             raise ValueError(f"maxvolume must be a positive number, got {maxvolume!r}")
-        options.update(fixedvolume=True, maxvolume=maxvolume)
+        # A volume bound needs Steiner points on the boundary too (TetGen -Y would leave the
+        # tets along the box and the scene as large as they are): triangles may be split,
+        # and the exact walk is then exact on their faces (docs/exact_walk.md).
+        options.update(fixedvolume=True, maxvolume=maxvolume, nobisect=False)
     if (maxvolume is not None or p["sizing"] is not None) and not options.get("quality"):
         # TetGen enforces -a and -m only while refining; a bound this loose splits
         # tets for their volume or size alone.
