@@ -95,12 +95,6 @@ START32 = (
     "2^-40 or a crossing 2^-30 before tmin rounds back onto the surface; it reports the "
     "triangle there with t clamped to tmin though its crossing is before tmin (wrong)"
 )
-POINTS32 = (
-    "float32 tetrahedralization: the float32 walk reads the tet points rounded to "
-    "float32; at 1e7 the domain box corners and Steiner points are not float32 numbers "
-    "and most tets become flat or inverted, so the walk leaves the line (late)"
-)
-
 BATCH = (
     "the walk depends on the batch: a ray's walk starts where the ray before it in the batch "
     "led (one from exactly a sphere vertex with tmin = 2^-6 takes 39 steps alone, 43 after "
