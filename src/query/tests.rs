@@ -335,3 +335,122 @@ fn exact_walk_is_right_where_float_walks_fail() {
         );
     }
 }
+
+/// All hits and counts agree with the exact referee's crossings of every triangle: the distinct
+/// exact t in [tmin, tmax] (a point where several triangles meet the ray is one point), each
+/// listed once with a triangle met there and t within the referee's bound; and occlusion
+/// agrees with the first hit. On the degenerate rays of [`exact_case_rays`] (through vertices,
+/// along edges, in planes, from the surface), with and without a [tmin, tmax] window.
+#[test]
+fn all_hits_counts_and_occlusion_agree_with_the_referee() {
+    let mut rng = Rng(61);
+    let g = crate::testing::grid_scene_inside(&mut rng, 4, 0.0, 0.35);
+    let rays = exact_case_rays(&mut rng, &g.pts, &g.faces, 4000);
+    let n = rays.len();
+    let o: Vec<f64> = rays.iter().flat_map(|r| r.0).collect();
+    let d: Vec<f64> = rays.iter().flat_map(|r| r.1).collect();
+    let (mut shared, mut points) = (0, 0);
+    for window in [false, true] {
+        let (tmin, tmax): (Vec<f64>, Vec<f64>) = if window {
+            rays.iter()
+                .map(|r| {
+                    let l = r.1.iter().fold(0f64, |m, x| m.max(x.abs()));
+                    (0.25 / l, 1.0 / l)
+                })
+                .unzip()
+        } else {
+            (vec![0.0; n], vec![f64::INFINITY; n])
+        };
+        let r = Rays {
+            origins: &o[..],
+            directions: &d[..],
+            tmin: &tmin,
+            tmax: &tmax,
+        };
+        let mut listed = vec![crate::query::Listed::default(); n];
+        g.scene
+            .intersections(&r, &mut listed, &CastOptions::default())
+            .unwrap();
+        let mut occluded = vec![0u8; n];
+        g.scene
+            .occluded(
+                Method::DEFAULT,
+                LayoutKind::DEFAULT,
+                &r,
+                &mut occluded,
+                &CastOptions::default(),
+            )
+            .unwrap();
+        for i in 0..n {
+            let ray = r.ray(i);
+            let mut crossings: Vec<(referee::Crossing, usize)> = g
+                .tris
+                .iter()
+                .enumerate()
+                .filter_map(|(k, t)| referee::crossing(ray.o, ray.d, t).map(|c| (c, k)))
+                .filter(|(c, _)| {
+                    c.cmp_t(ray.tmin) != Ordering::Less && c.cmp_t(ray.tmax) != Ordering::Greater
+                })
+                .collect();
+            crossings.sort_by(|a, b| a.0.cmp_t_of(&b.0));
+            // Distinct points: groups of equal exact t.
+            let mut groups: Vec<Vec<(referee::Crossing, usize)>> = Vec::new();
+            for c in crossings {
+                match groups.last_mut() {
+                    Some(g) if g[0].0.cmp_t_of(&c.0) == Ordering::Equal => g.push(c),
+                    _ => groups.push(vec![c]),
+                }
+            }
+            shared += groups.iter().filter(|g| g.len() > 1).count();
+            points += groups.len();
+            let got = &listed[i];
+            assert_eq!(
+                got.meets.len(),
+                groups.len(),
+                "ray {i} (window {window}): o {:?} d {:?}: {} points listed, referee {} ({:?})",
+                ray.o,
+                ray.d,
+                got.meets.len(),
+                groups.len(),
+                groups
+                    .iter()
+                    .map(|g| (g[0].0.t(), g.iter().map(|c| c.1).collect::<Vec<_>>()))
+                    .collect::<Vec<_>>()
+            );
+            assert_eq!(got.status, if groups.is_empty() { MISS } else { HIT });
+            assert_eq!(occluded[i], got.status, "ray {i}: occluded");
+            // Each listed point is a distinct referee point with a triangle met there and t
+            // within the bound (two points whose exact t round to one float64 may come in
+            // either order).
+            let mut used = vec![false; groups.len()];
+            for m in &got.meets {
+                let found = groups.iter().enumerate().position(|(k, grp)| {
+                    let tri = &g.tris[grp[0].1];
+                    let bound =
+                        referee::t_bound(ray.o, ray.d, tri, grp[0].0.t()) + referee::ulp_f64(m.t);
+                    !used[k]
+                        && grp.iter().any(|c| c.1 == m.triangle as usize)
+                        && (m.t - grp[0].0.t()).abs() <= bound
+                });
+                let Some(k) = found else {
+                    panic!(
+                        "ray {i}: triangle {} at t {} is no referee point: listed {:?}, referee {:?}",
+                        m.triangle,
+                        m.t,
+                        got.meets.iter().map(|m| (m.t, m.triangle)).collect::<Vec<_>>(),
+                        groups
+                            .iter()
+                            .map(|g| (g[0].0.t(), g.iter().map(|c| c.1).collect::<Vec<_>>()))
+                            .collect::<Vec<_>>()
+                    );
+                };
+                used[k] = true;
+            }
+        }
+    }
+    eprintln!("all hits: {n} rays x 2 windows, {points} points, {shared} met by several triangles");
+    assert!(
+        shared > 1000 && points > 5000,
+        "{shared} shared points of {points}"
+    );
+}
