@@ -19,10 +19,20 @@ fallback, judging) in one file, read side by side with docs/referee.md and its R
 from __future__ import annotations
 
 import dataclasses
+from fractions import Fraction
 
 import numpy as np
 
-__all__ = ["Referee", "Verdict", "first_hits", "judge", "JUDGEMENTS", "ulp"]
+__all__ = [
+    "Crossings",
+    "Referee",
+    "Verdict",
+    "first_hits",
+    "judge",
+    "judge_lists",
+    "JUDGEMENTS",
+    "ulp",
+]
 
 EPS = 2.0**-53
 #: Shewchuk's error bound for a float64 3x3 determinant of rounded differences, times its
@@ -104,6 +114,53 @@ class Verdict:
         keys = rows * width + self.tie_ids
         probe = np.arange(n, dtype=np.int64) * width + np.where(triangle >= 0, triangle, width - 1)
         return np.isin(probe, keys)
+
+
+@dataclasses.dataclass
+class Crossings:
+    """Every point where each of ``N`` rays meets the surface, exactly (``P`` points).
+
+    A point is a distinct exact ``t`` in ``[tmin, tmax]`` at which the ray meets one or more
+    closed triangles (never one whose plane holds the ray): where triangles share the edge or
+    vertex the ray passes through, or overlap, they are one point.
+
+    Attributes
+    ----------
+    ray_ptr : numpy.ndarray
+        ``(N + 1,)`` int64: ray ``i``'s points are ``ray_ptr[i]:ray_ptr[i + 1]``, by exact
+        ``t`` ascending.
+    t : numpy.ndarray
+        ``(P,)`` float64: each point's exact ``t`` rounded to the nearest float64.
+    point_ptr : numpy.ndarray
+        ``(P + 1,)`` int64: point ``p``'s triangles are ``point_ptr[p]:point_ptr[p + 1]`` of
+        the next three arrays.
+    triangle, zero_signs, t_bound : numpy.ndarray
+        Per (point, triangle) pair: the triangle id, the number of its side products that
+        are exactly zero (1: through an edge, 2: through a vertex) and ``B`` of
+        ``docs/referee.md`` for a float64 evaluation of ``t`` on that triangle.
+    invalid : numpy.ndarray
+        ``(N,)`` bool: rays the referee refuses (as :attr:`Verdict.invalid`).
+    """
+
+    ray_ptr: np.ndarray
+    t: np.ndarray
+    point_ptr: np.ndarray
+    triangle: np.ndarray
+    zero_signs: np.ndarray
+    t_bound: np.ndarray
+    invalid: np.ndarray
+
+    def __len__(self):
+        return len(self.ray_ptr) - 1
+
+    @property
+    def count(self):
+        """numpy.ndarray : ``(N,)`` int64, the points of each ray."""
+        return np.diff(self.ray_ptr)
+
+    def triangles_at(self, p):
+        """numpy.ndarray : the triangles met at point ``p``."""
+        return self.triangle[self.point_ptr[p] : self.point_ptr[p + 1]]
 
 
 # -- small vector helpers over (K, 3) arrays ------------------------------------------------
@@ -213,6 +270,25 @@ def _cmp_t(num, den, x):
         num, den = -num, -den
     lhs, rhs = num * q, p * den
     return (lhs > rhs) - (lhs < rhs)
+
+
+def _prepare(origins, directions, tmin, tmax):
+    """Rays as ``(N, 3)`` float64 (exact for float32 input), per-ray bounds, invalid rays."""
+    o = np.asarray(origins, dtype=np.float64).reshape(-1, 3)
+    d = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
+    n = len(o)
+    if d.shape != o.shape:
+        raise ValueError("origins and directions must both be (N, 3)")
+    tmin = np.broadcast_to(np.asarray(tmin, np.float64), (n,)).copy()
+    tmax = np.broadcast_to(np.asarray(tmax, np.float64), (n,)).copy()
+    invalid = (
+        ~np.isfinite(o).all(1)
+        | ~np.isfinite(d).all(1)
+        | ~(d != 0).any(1)
+        | np.isnan(tmin)
+        | np.isnan(tmax)
+    )
+    return o, d, tmin, tmax, invalid
 
 
 # -- the hierarchy ---------------------------------------------------------------------------
@@ -344,20 +420,8 @@ class Referee:
         -------
         Verdict
         """
-        o = np.asarray(origins, dtype=np.float64).reshape(-1, 3)
-        d = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
+        o, d, tmin, tmax, invalid = _prepare(origins, directions, tmin, tmax)
         n = len(o)
-        if d.shape != o.shape:
-            raise ValueError("origins and directions must both be (N, 3)")
-        tmin = np.broadcast_to(np.asarray(tmin, np.float64), (n,)).copy()
-        tmax = np.broadcast_to(np.asarray(tmax, np.float64), (n,)).copy()
-        invalid = (
-            ~np.isfinite(o).all(1)
-            | ~np.isfinite(d).all(1)
-            | ~(d != 0).any(1)
-            | np.isnan(tmin)
-            | np.isnan(tmax)
-        )
         if hint is not None:
             hint = np.broadcast_to(np.asarray(hint, np.int64), (n,))
             hint = np.where((hint >= 0) & (hint < len(self.tris)), hint, -1)
@@ -392,6 +456,87 @@ class Referee:
             invalid=invalid,
             exact_pairs=exact_pairs,
         )
+
+    def crossings(self, origins, directions, tmin=0.0, tmax=np.inf, *, chunk=2048):
+        """Every point where each ray meets the surface in ``[tmin, tmax]``, exactly.
+
+        The reference for all hits, crossing counts and parity: each distinct exact ``t`` at
+        which the ray meets a closed triangle (not one whose plane holds the ray) is one
+        point, with every triangle met there.
+
+        Parameters
+        ----------
+        origins, directions, tmin, tmax, chunk
+            As for :meth:`first_hits`.
+
+        Returns
+        -------
+        Crossings
+        """
+        o, d, tmin, tmax, invalid = _prepare(origins, directions, tmin, tmax)
+        n = len(o)
+        parts = []  # per chunk: (ray, point key within the ray, t, triangle, zeros, bound)
+        for s in range(0, n, chunk):
+            idx = np.arange(s, min(s + chunk, n))
+            idx = idx[~invalid[idx]]
+            if len(idx):
+                parts.append(self._crossings_chunk(o, d, tmin, tmax, idx))
+        cols = [np.concatenate([p[k] for p in parts] + [np.zeros(0)]) for k in range(6)]
+        ray = cols[0].astype(np.int64)
+        new_point = cols[1].astype(bool)
+        tri, zeros, bound = cols[3].astype(np.int64), cols[4].astype(np.uint8), cols[5]
+        starts = np.flatnonzero(new_point)
+        point_ptr = np.r_[starts, len(ray)].astype(np.int64)
+        ray_ptr = np.zeros(n + 1, np.int64)
+        np.cumsum(np.bincount(ray[starts], minlength=n), out=ray_ptr[1:])
+        return Crossings(
+            ray_ptr=ray_ptr,
+            t=cols[2][starts],
+            point_ptr=point_ptr,
+            triangle=tri,
+            zero_signs=zeros,
+            t_bound=bound,
+            invalid=invalid,
+        )
+
+    def _crossings_chunk(self, o, d, tmin, tmax, idx):
+        """The (ray, triangle) pairs of ``idx``'s rays met in ``[tmin, tmax]``, ordered by ray
+        and exact ``t``, with a flag on each pair that starts a new point."""
+        empty = tuple(np.zeros(0) for _ in range(6))
+        r, f = self._candidates(o[idx], d[idx], tmin[idx], tmax[idx])
+        r = idx[r]
+        if not len(r):
+            return empty
+        pairs = _Pairs(self, o, d, r, f)
+        h = np.flatnonzero(pairs.inside(tmin[r], tmax[r]))
+        if not len(h):
+            return empty
+        want = np.zeros(len(r), bool)
+        want[h] = True
+        pairs.fill(want)
+        te = _exact_t(pairs.num[h], pairs.den[h])
+        order = np.lexsort((te, r[h]))
+        h, te = h[order], te[order]
+        rr = r[h]
+        # Different rounded t: different exact t, in that order. Equal rounded t: compared
+        # exactly (a run of pairs with one rounded t is sorted by exact value and split).
+        same = np.r_[False, (rr[1:] == rr[:-1]) & (te[1:] == te[:-1])]
+        new_point = ~same
+        run_starts = np.flatnonzero(~same)
+        run_ends = np.r_[run_starts[1:], len(h)]
+        for a, b in zip(run_starts, run_ends):
+            if b - a < 2:
+                continue
+            keyed = []
+            for j in range(a, b):
+                nm, dn = pairs.num[h[j]], pairs.den[h[j]]
+                keyed.append((Fraction(nm, dn), j))
+            keyed.sort()
+            h[a:b] = [h[j] for _, j in keyed]
+            new_point[a:b] = [k == 0 or keyed[k][0] != keyed[k - 1][0] for k in range(b - a)]
+        zeros = (pairs.sign[h] == 0).sum(1)
+        bound = _t_bound(pairs.O[h], pairs.D[h], pairs.A[h], pairs.B[h], pairs.C[h], te)
+        return r[h], new_point, te, f[h], zeros, bound
 
     def _chunk(self, o, d, tmin, tmax, idx, hint, out_t, out_tri, zeros, bound, ties):
         prune = tmax.copy()
@@ -628,5 +773,104 @@ def judge(hits, verdict, arithmetic="f64"):
         early=early,
         other_triangle=other,
         t_off=t_off,
+        invalid=~valid,
+    )
+
+
+def judge_lists(offsets, t, triangle, crossings, arithmetic="f64", status=None):
+    """Judge all-hits lists against the referee's :class:`Crossings`, ray by ray.
+
+    Parameters
+    ----------
+    offsets : array_like
+        ``(N + 1,)``: ray ``i``'s listed hits are ``offsets[i]:offsets[i + 1]``.
+    t, triangle : array_like
+        ``(M,)`` each listed hit's ``t`` and triangle id.
+    crossings : Crossings
+        The referee's points for the same rays.
+    arithmetic : {"f64", "f32"}
+        The precision the caster evaluates ``t`` in (see :func:`judge`).
+    status : array_like, optional
+        ``(N,)`` per-ray status; ``FAILED`` rays are judged failed.
+
+    Returns
+    -------
+    dict of numpy.ndarray
+        ``(N,)`` boolean masks: ``right`` (one listed hit per exact point, in order up to
+        points whose exact ``t`` round alike, each naming a triangle met there, ``t`` within
+        ``ulp + B``), ``failed``, ``missing`` (fewer hits listed than points), ``extra``
+        (more: a point listed twice, or a hit the referee has not), ``wrong`` (as many, but
+        a triangle or ``t`` that is not the point's), and ``invalid``.
+    """
+    from .hits import FAILED
+
+    offsets = np.asarray(offsets, np.int64)
+    t = np.asarray(t, np.float64)
+    triangle = np.asarray(triangle, np.int64)
+    n = len(offsets) - 1
+    listed = np.diff(offsets)
+    exact = crossings.count
+    valid = ~crossings.invalid
+    failed = valid & (
+        np.zeros(n, bool) if status is None else (np.asarray(status).ravel() == FAILED)
+    )
+    judged = valid & ~failed
+    missing = judged & (listed < exact)
+    extra = judged & (listed > exact)
+    same = judged & (listed == exact)
+    dtype = np.float32 if arithmetic == "f32" else np.float64
+    scale = {"f64": 1.0, "f32": 2.0**29}[arithmetic]
+    # Listed hit j of a ray with as many hits as points is checked against point j first.
+    ray_of = np.repeat(np.arange(n), listed)
+    rank = np.arange(len(t)) - offsets[ray_of]
+    point = crossings.ray_ptr[ray_of] + rank
+    ok = np.zeros(len(t), bool)
+    sel = np.flatnonzero(same[ray_of])
+    if len(sel):
+        width = int(max(crossings.triangle.max(initial=0), triangle.max(initial=0))) + 2
+        pair_point = np.repeat(np.arange(len(crossings.t)), np.diff(crossings.point_ptr))
+        keys = pair_point * width + crossings.triangle
+        order = np.argsort(keys, kind="stable")
+        probe = point[sel] * width + np.where(triangle[sel] >= 0, triangle[sel], width - 1)
+        at = np.clip(np.searchsorted(keys[order], probe), 0, max(len(keys) - 1, 0))
+        found = len(keys) > 0
+        member = keys[order][at] == probe if found else np.zeros(len(sel), bool)
+        bound = crossings.t_bound[order][at] if found else np.zeros(len(sel))
+        t_star = crossings.t[point[sel]]
+        with np.errstate(invalid="ignore"):
+            tol = ulp(t_star, dtype) + scale * bound
+            ok[sel] = member & (np.abs(t[sel] - t_star) <= tol)
+    bad_rays = np.unique(ray_of[~ok & same[ray_of]])
+    right = same.copy()
+    for i in bad_rays:  # points whose exact t round alike may be listed in either order
+        pts = list(range(crossings.ray_ptr[i], crossings.ray_ptr[i + 1]))
+        used = set()
+        if np.any(np.diff(t[offsets[i] : offsets[i + 1]]) < 0):
+            right[i] = False  # not sorted by t
+            continue
+        for j in range(offsets[i], offsets[i + 1]):
+            match = None
+            for p in pts:
+                if p in used:
+                    continue
+                tris = crossings.triangles_at(p)
+                k = np.flatnonzero(tris == triangle[j])
+                if len(k):
+                    b = crossings.t_bound[crossings.point_ptr[p] + k[0]]
+                    tol = ulp(crossings.t[p], dtype) + scale * b
+                    if abs(t[j] - crossings.t[p]) <= tol:
+                        match = p
+                        break
+            if match is None:
+                right[i] = False
+                break
+            used.add(match)
+    wrong = same & ~right
+    return dict(
+        right=right,
+        failed=failed,
+        missing=missing,
+        extra=extra,
+        wrong=wrong,
         invalid=~valid,
     )
