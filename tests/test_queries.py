@@ -180,6 +180,78 @@ def test_brute_force_counts_points_once():
     assert [float(t) for t, _ in bf[0]] == [1.5, 2.5]
 
 
+# ------------------------------------------------------------------------ the referee's crossings
+
+
+def test_referee_crossings_are_the_brute_force_points(case):
+    """``Referee.crossings`` (the bench's judge of all hits and counts) finds the brute
+    force's points: the same exact ``t`` (rounded to nearest) and the same triangles there."""
+    _, v, f, o, d = case
+    ref = referee.Referee(v, f)
+    for tmin, tmax in ((0.0, np.inf), (0.25, 1.25)):
+        bf = brute_force(v, f, o, d, tmin, tmax)
+        c = ref.crossings(o, d, tmin, tmax)
+        assert c.count.tolist() == [len(h) for h in bf]
+        for i, hits in enumerate(bf):
+            for k, (t, tris) in enumerate(hits):
+                p = c.ray_ptr[i] + k
+                assert c.t[p] == float(t)  # float(Fraction) rounds to nearest
+                assert sorted(c.triangles_at(p).tolist()) == sorted(tris)
+    assert sum(len(h) > 1 for hits in brute_force(v, f, o, d) for _, h in hits) > 0
+
+
+def test_judge_lists_finds_missing_extra_and_wrong_hits(cube):
+    """``referee.judge_lists`` passes the exact lists and catches each kind of fault."""
+    scene, v, f = cube
+    o, d = _cube_rays()
+    c = referee.Referee(v, f).crossings(o, d)
+    r = scene.intersections(o, d, method=METHOD)
+    ok = referee.judge_lists(r.offsets, r.t, r.triangle, c)
+    assert ok["right"].all()
+    i = int(np.flatnonzero(c.count == 2)[0])
+    a, b = r.offsets[i], r.offsets[i + 1]
+    counts = np.diff(r.offsets)
+
+    def judged(t, tri, cnt):
+        off = np.concatenate([[0], np.cumsum(cnt)])
+        j = referee.judge_lists(off, t, tri, c)
+        return {k for k in ("right", "missing", "extra", "wrong") if j[k][i]}
+
+    cnt = counts.copy()
+    cnt[i] -= 1
+    assert judged(np.delete(r.t, a), np.delete(r.triangle, a), cnt) == {"missing"}
+    cnt = counts.copy()
+    cnt[i] += 1
+    assert judged(np.insert(r.t, a, r.t[a]), np.insert(r.triangle, a, r.triangle[a]), cnt) == {
+        "extra"
+    }
+    far = [k for k in range(len(f)) if k not in c.triangles_at(c.ray_ptr[i])]
+    tri = r.triangle.copy()
+    tri[a] = far[0]
+    assert judged(r.t, tri, counts) == {"wrong"}
+    t = r.t.copy()
+    t[b - 1] = np.nextafter(t[b - 1], np.inf) * (1 + 2.0**-40)  # past ulp + B
+    assert judged(t, r.triangle, counts) == {"wrong"}
+    swapped_t, swapped_tri = r.t.copy(), r.triangle.copy()
+    swapped_t[a:b], swapped_tri[a:b] = r.t[a:b][::-1], r.triangle[a:b][::-1]
+    assert judged(swapped_t, swapped_tri, counts) == {"wrong"}  # distinct t: order matters
+
+
+def test_reference_containment_is_the_cube(cube):
+    """The bench's containment reference (crossing parity along generic random rays) is
+    the cube's inside, away from its surface."""
+    from tetrace.bench.queries import reference_contains
+
+    _, v, f = cube
+    rng = np.random.default_rng(9)
+    p = rng.uniform(-1.0, 1.0, (2000, 3))
+    p = p[np.abs(np.abs(p) - 0.5).min(axis=1) > 0]  # none on a face plane (a formality)
+    inside, decided = reference_contains(referee.Referee(v, f), p)
+    assert decided.all()
+    assert inside.tolist() == np.all(np.abs(p) < 0.5, axis=1).tolist()
+    assert 0 < inside.sum() < len(p)
+
+
 # --------------------------------------------------------------------------- the native queries
 
 
