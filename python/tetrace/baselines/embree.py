@@ -358,6 +358,40 @@ class EmbreeReference:
         run_chunks(n, threads, one, chunk)
         return prim, tfar32, u, v
 
+    def occluded(self, origins32, directions32, tfar32=None, *, threads=None, chunk=CHUNK):
+        """The bare Embree occlusion call: whether each ray hits anything in ``[0, tfar]``.
+
+        ``EmbreeScene.run(query="OCCLUDED")`` (``rtcOccluded1`` per ray), in chunks on
+        ``threads`` threads as :meth:`intersect`.
+
+        Parameters
+        ----------
+        origins32, directions32, tfar32, threads, chunk
+            As for :meth:`intersect` (``tfar32`` is not written).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N,)`` bool.
+        """
+        n = len(origins32)
+        tfar32 = (
+            np.full(n, np.inf, dtype=np.float32)
+            if tfar32 is None
+            else np.array(tfar32, dtype=np.float32)
+        )
+        threads = cpu_count() if threads is None else int(threads)
+        out = np.empty(n, dtype=bool)
+
+        def one(a, b):
+            ids = self._scene.run(
+                origins32[a:b], directions32[a:b], dists=tfar32[a:b], query="OCCLUDED"
+            )
+            out[a:b] = np.asarray(ids) != -1  # -1: not occluded
+
+        run_chunks(n, threads, one, chunk)
+        return out
+
     @property
     def label(self) -> str:
         """str : What this caster is, exactly: binding, library, call and scene flag."""

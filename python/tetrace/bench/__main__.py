@@ -137,6 +137,35 @@ def stability_main(argv):
     return 0
 
 
+def queries_main(argv):
+    import json
+
+    from .queries import run_queries
+
+    p = argparse.ArgumentParser(
+        prog="python -m tetrace.bench queries",
+        description="Every query kind (closest, any, all hits, counts, containment) timed "
+        "against embreex and Open3D on the same float32 rays, and judged ray by ray by the "
+        "exact referee, on the scene and on the stress families.",
+    )
+    p.add_argument("scene", nargs="?", default=None, help="mesh file (default: the bundled scene)")
+    p.add_argument("--res", type=int, default=256, help="camera resolution")
+    p.add_argument("--random", type=int, default=20_000, help="random rays and points")
+    p.add_argument("--repeat", type=int, default=3, help="timed repetitions; the best is kept")
+    p.add_argument(
+        "--stress", type=int, default=300, help="rays per stress family judged (0: none)"
+    )
+    p.add_argument("--json", default=None, help="also write the rows as JSON here")
+    args = p.parse_args(argv)
+    rows = run_queries(
+        args.scene, res=args.res, n_random=args.random, repeat=args.repeat, stress=args.stress
+    )
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump(rows, fh, indent=1)
+    return 0
+
+
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
     if argv[:1] == ["matrix"]:
@@ -155,6 +184,8 @@ def main(argv=None):
         return exitface_main(argv[1:])
     if argv[:1] == ["scenes"]:
         return scenes_main(argv[1:])
+    if argv[:1] == ["queries"]:
+        return queries_main(argv[1:])
     p = argparse.ArgumentParser(
         prog="python -m tetrace.bench",
         description="Full-scene benchmark: a pinhole camera cast by tetrace and by embreex on "
