@@ -140,6 +140,8 @@ def run_stability(
     out(table(rows))
     out("")
     out(summary(rows))
+    out("")
+    out(grid(rows))
     if json_path:
         with open(json_path, "w") as fh:
             json.dump(rows, fh, indent=1)
@@ -220,4 +222,38 @@ def summary(rows):
         "all families together, per million rays (counts in brackets); last column: "
         "families with no late, leaked, failed, wrong, wrong_exit or no_exit ray\n"
         + _table(body, ["method", "layout", "precision", "rays", *OUTCOMES, "clean families"])
+    )
+
+
+def grid(rows):
+    """Family x method, one row per family and precision: each cell is
+    ``late/leaked/failed/wrong/fabricated`` rays (``0`` when all are zero; fabricated is the
+    part of wrong that is a hit where the referee has none): the contract's failures without
+    the exit-face audit (the form of docs/stability.md)."""
+    from .scene_bench import _table
+
+    methods, keys = [], []
+    for r in rows:
+        if r["method"] not in methods:
+            methods.append(r["method"])
+        k = (r["family"], r["precision"])
+        if k not in keys:
+            keys.append(k)
+    cells = {(r["family"], r["precision"], r["method"]): r for r in rows}
+    body = []
+    for fam, prec in keys:
+        row = [fam, prec, f"{max(r['rays'] for r in rows if r['family'] == fam):,}"]
+        for m in methods:
+            r = cells.get((fam, prec, m))
+            keys = ("late", "leaked", "failed", "wrong", "fabricated")
+            counts = [r[k] for k in keys] if r else None
+            row.append(
+                "-" if r is None else ("0" if not any(counts) else "/".join(map(str, counts)))
+            )
+        body.append(row)
+    names = [m + (" *" if m == _native.DEFAULT_METHOD else "") for m in methods]
+    return (
+        "late/leaked/failed/wrong/fabricated rays per family (0: none; fabricated: the "
+        "wrong hits where the referee has none); * the default\n"
+        + _table(body, ["family", "prec", "rays", *names])
     )
