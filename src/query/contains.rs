@@ -637,42 +637,4 @@ mod tests {
         let mut none: [bool; 0] = [];
         scene.contains::<f64>(&[], &mut none, None).unwrap();
     }
-
-    /// The cost of the parity (run by hand: `cargo test --lib contains_cost -- --ignored
-    /// --nocapture`).
-    #[test]
-    #[ignore]
-    fn contains_cost() {
-        for (n, frac) in [(40, 0.05), (55, 0.05), (55, 0.5)] {
-            let g = grid_scene(&mut Rng(17), n, 0.3, frac);
-            let scene = &g.scene;
-            let t0 = std::time::Instant::now();
-            let regions = scene.mesh.regions();
-            let t_regions = t0.elapsed();
-            let t0 = std::time::Instant::now();
-            let parity = Parity::build(&scene.mesh);
-            let t_parity = t0.elapsed();
-            let nr = regions.iter().max().unwrap() + 1;
-            let mut rng = Rng(18);
-            let pts: Vec<f64> = (0..1_000_000).flat_map(|_| rng.p3()).collect();
-            let mut out = vec![false; 1_000_000];
-            let t0 = std::time::Instant::now();
-            scene.contains(&pts, &mut out, None).unwrap();
-            let t_first = t0.elapsed();
-            let t0 = std::time::Instant::now();
-            scene.contains(&pts, &mut out, None).unwrap();
-            let t_query = t0.elapsed();
-            eprintln!(
-                "n={n}: {} tets, {} constrained sides, {nr} regions; regions() {:.1} ms, \
-                 Parity::build {:.1} ms ({} KiB); 1M points: first call {:.1} ms, next {:.1} ms",
-                scene.mesh.len(),
-                scene.mesh.constrained.len(),
-                t_regions.as_secs_f64() * 1e3,
-                t_parity.as_secs_f64() * 1e3,
-                parity.bytes() / 1024,
-                t_first.as_secs_f64() * 1e3,
-                t_query.as_secs_f64() * 1e3,
-            );
-        }
-    }
 }
