@@ -17,6 +17,9 @@ core built on the brute force (``FakeNative``), so it is checked without the nat
 
 from __future__ import annotations
 
+import sys
+import threading
+import time
 from fractions import Fraction
 
 import numpy as np
@@ -524,3 +527,58 @@ def test_wrappers_shape_and_split_the_native_answers(fake_scenes):
         scene.contains(p, threads=0)
     with pytest.raises(ValueError, match="tmax"):
         scene.occluded(o, d, tmax=np.ones(4))
+
+
+# --------------------------------------------------------------------------- the GIL
+
+
+def _progress_during(fn):
+    """How far another Python thread got while ``fn()`` ran on this one.
+
+    The other thread counts in a loop that gives the GIL up at every step (``sleep(0)``), and
+    the switch interval is set far longer than the call: a call that holds the GIL lets it
+    make no step at all between the two reads of its counter; one that releases the GIL lets
+    it run for the whole call.
+    """
+    count, stop = [0], threading.Event()
+
+    def spin():
+        while not stop.is_set():
+            count[0] += 1
+            time.sleep(0)
+
+    old = sys.getswitchinterval()
+    sys.setswitchinterval(30.0)
+    spinner = threading.Thread(target=spin)
+    spinner.start()
+    try:
+        while count[0] == 0:  # the spinner is running
+            time.sleep(0.001)
+        before = count[0]
+        fn()
+        return count[0] - before
+    finally:
+        stop.set()
+        spinner.join()
+        sys.setswitchinterval(old)
+
+
+def test_every_query_releases_the_gil(sphere):
+    """Each query kind runs without the GIL (the bindings' promise): another Python thread
+    makes progress during the call. A control that holds the GIL makes none."""
+    scene, v, _ = sphere
+    rng = np.random.default_rng(2)
+    o = rng.uniform(-1.5, 1.5, (200_000, 3))
+    d = rng.standard_normal((200_000, 3))
+    calls = {
+        "cast": lambda: scene.cast(o, d, threads=1),
+        "occluded": lambda: scene.occluded(o, d, threads=1),
+        "intersections": lambda: scene.intersections(o, d, threads=1),
+        "count_intersections": lambda: scene.count_intersections(o, d, threads=1),
+        "contains": lambda: scene.contains(np.tile(o, (5, 1)), threads=1),
+    }
+    # The control: numpy's sort of object arrays (Python comparisons) holds the GIL.
+    held = np.array([str(x) for x in range(100_000)], dtype=object)
+    assert _progress_during(lambda: np.sort(held)) == 0
+    for name, call in calls.items():
+        assert _progress_during(call) > 0, f"{name} held the GIL"
