@@ -140,3 +140,11 @@ def test_thin_needle_is_named_not_blamed_on_self_intersection(have_igl, monkeypa
     else:
         with pytest.raises(MeshingError, match=r"degenerate needle.*triangle 12"):
             tetrace.Scene.from_mesh((v, f))
+
+
+def test_errors_name_the_file(tmp_path):
+    """A mesh given by path is named by its file in the error (not 'the mesh')."""
+    path = tmp_path / "needle_only.obj"
+    path.write_text("v 0 0 0\nv 1 2 3\nv 0.5 1 1.5\nf 1 2 3\n")
+    with pytest.raises(MeshingError, match=r"^needle_only\.obj: .*degenerate"):
+        tetrace.Scene.from_mesh(path)

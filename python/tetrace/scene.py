@@ -236,6 +236,7 @@ class Scene:
         tetrace.MeshingError
             The scene cannot be meshed; the message names the stage and the cause.
         """
+        from .io import _mesh_name
         from .mesh import FTETWILD_EDGE_LENGTH, FTETWILD_EPSILON, load_triangles, tetrahedralize
 
         vertices, faces = load_triangles(mesh)
@@ -254,6 +255,7 @@ class Scene:
             timeout=timeout,
             accuracy=accuracy,
             measure=measure_accuracy,
+            name=_mesh_name(mesh),
         )
         return cls(tet, vertices, faces, hilbert=hilbert)
 

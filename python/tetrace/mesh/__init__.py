@@ -116,6 +116,7 @@ def tetrahedralize(
     stop_energy=10.0,
     accuracy=None,
     measure=None,
+    name=None,
 ) -> Tetrahedralization:
     """Build a constrained tetrahedralization of a triangle scene inside a box.
 
@@ -188,6 +189,8 @@ def tetrahedralize(
         ``mesher="auto"`` only: how an inexact candidate's accuracy is measured
         (:meth:`tetrace.Scene.from_mesh` passes :func:`tetrace.scene.measure_accuracy`);
         see :func:`tetrace.mesh.auto.auto_tetrahedralize`.
+    name : str, optional
+        What error messages call the mesh (default: a path's file name, else "the mesh").
 
     Returns
     -------
@@ -237,7 +240,7 @@ def tetrahedralize(
             raise ValueError(f"{what} must be a positive number, got {value!r}")
     if timeout is not None and not (float(timeout) > 0):
         raise ValueError(f"timeout must be a positive number of seconds, got {timeout!r}")
-    name = _mesh_name(mesh)
+    name = name or _mesh_name(mesh)
     vertices, faces = load_triangles(mesh)
     timings = dict(
         clean=0.0, repair=0.0, tetgen=0.0, ftetwild=0.0, recover=0.0, mesher=0.0, total=0.0
