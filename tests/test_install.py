@@ -31,11 +31,14 @@ def _dependencies():
     return {re.split(r"[<>=!~;\[ ]", d, maxsplit=1)[0].lower() for d in deps}
 
 
-def test_plain_install_needs_pillow_and_libigl():
+def test_plain_install_needs_pillow_libigl_and_pytetwild():
+    """Pillow loads the bundled scene, libigl repairs self-intersections, pytetwild builds
+    the scenes no exact TetGen route can (conference, the two-cylinder engine)."""
     deps = _dependencies()
-    assert {"numpy", "trimesh", "tetgen", "libigl", "pillow"} <= deps
+    assert {"numpy", "trimesh", "tetgen", "libigl", "pillow", "pytetwild"} <= deps
     import igl.copyleft.cgal  # noqa: F401
     import PIL  # noqa: F401
+    import pytetwild  # noqa: F401
 
 
 def test_cast_into_the_bundled_scene():

@@ -400,7 +400,7 @@ def judge_stress(n, *, peers_too=True, out=print):
 
 def _print_timing(rows, out):
     out("\nThroughput (million queries/s; float32 rays; best of the repeats):")
-    keys = sorted({(r["query"], r["rays"]) for r in rows}, key=lambda x: QUERIES.index(x[0]))
+    keys = list(dict.fromkeys((r["query"], r["rays"]) for r in rows))  # as run
     table = []
     for q, rs in keys:
         sel = [r for r in rows if r["query"] == q and r["rays"] == rs]
@@ -444,7 +444,8 @@ def _print_judged(rows, out):
         a[0] += r["right"]
         a[1] += r["judged"]
     table = []
-    for q, rs in sorted({(k[0], k[1]) for k in agg}, key=lambda x: QUERIES.index(x[0])):
+    pairs = list(dict.fromkeys((k[0], k[1]) for k in agg))
+    for q, rs in sorted(pairs, key=lambda x: QUERIES.index(x[0])):  # stable: as run within
         row = [q, rs]
         for c in ("tetrace", "embreex", "open3d"):
             a = agg.get((q, rs, c))
