@@ -7,7 +7,8 @@ pub mod tetwalk;
 
 use crate::geom::ray::Ray;
 use crate::geom::real::Real;
-use crate::query::QueryKind;
+use crate::query::{QueryKind, Sink};
+use crate::scene::Rays;
 
 pub use tetwalk::TetWalk;
 
@@ -22,4 +23,21 @@ pub trait Accel<R: Real>: Sync {
     fn state(&self, chunk: usize) -> Self::State;
     /// Answers `query` for one ray.
     fn trace<K: QueryKind>(&self, query: &K, ray: &Ray, state: &mut Self::State) -> K::Answer;
+    /// Answers `query` for rays `base..base + out.len()` of `rays` into `out` (entry j for ray
+    /// base + j), in any order, each answer the one [`Accel::trace`] gives with `state` carried
+    /// from ray to ray in ray order.
+    fn trace_chunk<RR: Real, K: QueryKind, S: Sink<K::Answer>>(
+        &self,
+        query: &K,
+        rays: &Rays<RR>,
+        base: usize,
+        out: &mut S,
+        state: &mut Self::State,
+    ) {
+        for j in 0..out.len() {
+            let ray = rays.ray(base + j);
+            let answer = self.trace(query, &ray, state);
+            out.put(j, answer, &ray);
+        }
+    }
 }

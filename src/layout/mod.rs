@@ -163,6 +163,23 @@ pub trait Layout: Sized + Sync + Send {
     }
 
     fn bytes(&self) -> usize;
+
+    /// Asks the cache for tet t's record ahead of its use (the lanes' walk: by the time the
+    /// other lanes have stepped, the record has arrived). A hint only.
+    #[inline(always)]
+    fn prefetch(&self, _t: u32) {}
+}
+
+/// Asks the cache for the line holding `*p` (no-op where there is no prefetch instruction).
+#[inline(always)]
+pub fn prefetch<T>(p: *const T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch is a hint: it never faults, whatever the address.
+    unsafe {
+        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p as *const i8)
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = p;
 }
 
 /// The slot (0..4) of each tet's vertex `v`: used by layouts that store per-slot data.

@@ -69,6 +69,12 @@ impl Layout for Tet32 {
         r.links[i]
     }
 
+    #[inline(always)]
+    fn prefetch(&self, t: u32) {
+        // wrapping: a boundary or constrained link is no tet, and prefetching it is harmless.
+        super::prefetch(self.records.as_ptr().wrapping_add(t as usize));
+    }
+
     fn bytes(&self) -> usize {
         self.records.len() * Self::BYTES_PER_TET
     }

@@ -2,8 +2,10 @@
 //!
 //! The grid brings the walk within a few tets of the point; the walk (Devillers et al.'s
 //! "remembering stochastic walk": start each test at a random face) terminates with
-//! probability one even in non-Delaunay meshes. A hint tet (the previous ray's) replaces the
-//! grid seed for coherent rays. A step guard falls back to a scan so that location always ends.
+//! probability one even in non-Delaunay meshes. A hint tet (the previous point's) replaces the
+//! grid seed when the point falls in the hint's cell: coherent points start next to their
+//! answer, scattered ones (random ray origins) from their own cell's seed, never from a tet
+//! across the domain. A step guard falls back to a scan so that location always ends.
 
 use crate::geom::predicates::orient;
 use crate::mesh::build::OUTWARD_FACES;
@@ -107,13 +109,33 @@ impl GridLocator {
     }
 
     /// The tet holding `p` (on its boundary counts), or Outside when p is outside the domain.
-    /// `hint` is a tet near p, e.g. the previous ray's start tet.
-    pub fn locate(&self, mesh: &TetMesh, p: [f64; 3], hint: Option<u32>, rng: &mut u32) -> Located {
+    /// `hint`: the previous point's cell and tet, used when p falls in that cell, and set to
+    /// p's cell and tet when p is found.
+    pub fn locate(
+        &self,
+        mesh: &TetMesh,
+        p: [f64; 3],
+        hint: &mut Option<(usize, u32)>,
+        rng: &mut u32,
+    ) -> Located {
         let [lo, hi] = mesh.bounds;
         if mesh.domain_is_box && (0..3).any(|a| !(p[a] >= lo[a] && p[a] <= hi[a])) {
             return Located::Outside;
         }
-        let mut t = hint.unwrap_or_else(|| self.seeds[self.cell(p)]);
+        let cell = self.cell(p);
+        let start = match *hint {
+            Some((c, t)) if c == cell => t,
+            _ => self.seeds[cell],
+        };
+        let found = self.walk_to(mesh, p, start, rng);
+        if let Located::Inside(t) = found {
+            *hint = Some((cell, t));
+        }
+        found
+    }
+
+    /// The visibility walk from tet `t` to the tet holding p.
+    fn walk_to(&self, mesh: &TetMesh, p: [f64; 3], mut t: u32, rng: &mut u32) -> Located {
         let mut prev = BOUNDARY;
         for _ in 0..WALK_GUARD {
             let v = mesh.tet_points(t);

@@ -53,7 +53,8 @@ pub enum Start {
 /// for every chunk (seeded by its index), so results do not depend on scheduling.
 #[derive(Clone, Copy, Debug)]
 pub struct LocateState {
-    hint: Option<u32>,
+    /// The last located point's grid cell and tet.
+    hint: Option<(usize, u32)>,
     camera: Option<([f64; 3], f64, u32)>,
     entry_hint: Option<(usize, usize)>,
     rng: u32,
@@ -116,7 +117,9 @@ impl Locators<'_> {
             match st.camera {
                 Some((co, ct, t)) if co == o && ct == tmin => Located::Inside(t),
                 _ => {
-                    let mut l = self.grid.locate(mesh, start_point, st.hint, &mut st.rng);
+                    let mut l = self
+                        .grid
+                        .locate(mesh, start_point, &mut st.hint, &mut st.rng);
                     if let (Some(points), Located::Inside(t)) = (settle, l) {
                         // Depends on the start point only: cached with the camera's tet.
                         l = Located::Inside(settle_start(mesh, points, t, start_point));
@@ -147,17 +150,20 @@ impl Locators<'_> {
                             entry_face = Some(i);
                             Located::Inside(t)
                         }
-                        None => self.grid.locate(mesh, start_point, st.hint, &mut st.rng),
+                        None => self
+                            .grid
+                            .locate(mesh, start_point, &mut st.hint, &mut st.rng),
                     }
                 }
-                None => self.grid.locate(mesh, start_point, st.hint, &mut st.rng),
+                None => self
+                    .grid
+                    .locate(mesh, start_point, &mut st.hint, &mut st.rng),
             }
         };
         let Located::Inside(mut start) = start else {
             // Inside the box but no tet holds the point: only a broken mesh can do this.
             return Start::Done(if inside { FAILED } else { MISS });
         };
-        st.hint = Some(start);
         if let (Some(points), false) = (settle, inside) {
             // Entering through the box: the perturbed start lies just inside it, in the tet
             // settle_start finds; the exit from there is the method's to decide.
@@ -218,12 +224,12 @@ impl Locators<'_> {
             start.tet = match st.camera {
                 Some((co, _, t)) if co == o => t,
                 _ => {
-                    let Located::Inside(t) = self.grid.locate(mesh, o, st.hint, &mut st.rng) else {
+                    let Located::Inside(t) = self.grid.locate(mesh, o, &mut st.hint, &mut st.rng)
+                    else {
                         return Err(FAILED);
                     };
                     let t = settle_start(mesh, points, t, o);
                     st.camera = Some((o, 0.0, t));
-                    st.hint = Some(t);
                     t
                 }
             };

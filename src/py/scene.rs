@@ -101,7 +101,11 @@ impl PyScene {
         audit: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
         let scene = &self.inner;
-        let opts = CastOptions { threads, max_steps };
+        let opts = CastOptions {
+            threads,
+            max_steps,
+            ..Default::default()
+        };
         let method = method.map_or(Method::DEFAULT, |m| m.0);
         let layout = layout.map_or(LayoutKind::DEFAULT, |l| l.0);
         let f32s = (
@@ -150,7 +154,11 @@ impl PyScene {
             method: method.map_or(Method::DEFAULT, |m| m.0),
             layout: layout.map_or(LayoutKind::DEFAULT, |l| l.0),
         };
-        let opts = CastOptions { threads, max_steps };
+        let opts = CastOptions {
+            threads,
+            max_steps,
+            ..Default::default()
+        };
         let out = query_rays(py, &self.inner, origins, directions, tmin, tmax, &opts, job)?;
         Ok(out.into_pyarray(py))
     }
@@ -274,7 +282,11 @@ impl PyScene {
         #[cfg(feature = "gpu")]
         {
             let scene = &self.inner;
-            let opts = CastOptions { threads, max_steps };
+            let opts = CastOptions {
+                threads,
+                max_steps,
+                ..Default::default()
+            };
             let (method, layout) = (method.map(|m| m.0.name()), layout.map(|l| l.0.name()));
             let mut timings = crate::gpu::GpuTimings::default();
             let rays = RayArrays::new(origins, directions, tmin, tmax);
@@ -522,7 +534,11 @@ fn all_hits<'py>(
             )));
         }
     }
-    let opts = CastOptions { threads, max_steps };
+    let opts = CastOptions {
+        threads,
+        max_steps,
+        ..Default::default()
+    };
     query_rays(
         py, scene, origins, directions, tmin, tmax, &opts, AllHitsJob,
     )

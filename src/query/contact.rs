@@ -194,6 +194,17 @@ impl<'a> ExactRay<'a> {
     /// and whose plane does not hold the line. Decided on the caller's triangles, not on the
     /// faces: where a mesher split a triangle, its faces may be an ulp off it.
     fn at_origin(&self, tet: u32) -> Option<(Meet, Range)> {
+        if !self.incidence.split {
+            // Faces are whole caller's triangles: an origin strictly inside the tet lies on none
+            // (four orientations instead of one per face around the tet's vertices).
+            let v = self.mesh.tet_points(tet);
+            let strictly_inside = crate::mesh::build::OUTWARD_FACES
+                .iter()
+                .all(|f| orient_sign(v[f[0]], v[f[1]], v[f[2]], self.o) < 0);
+            if strictly_inside {
+                return None;
+            }
+        }
         let mut best: Option<u32> = None;
         for v in self.mesh.tets[tet as usize] {
             for &f in self.incidence.at_vertex(v) {

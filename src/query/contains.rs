@@ -203,7 +203,7 @@ impl Containment<'_> {
         if !p.iter().all(|x| x.is_finite()) {
             return false;
         }
-        let t = match self.grid.locate(self.mesh, p, None, rng) {
+        let t = match self.grid.locate(self.mesh, p, &mut None, rng) {
             Located::Inside(t) => t,
             Located::Outside => return false,
         };

@@ -454,3 +454,130 @@ fn all_hits_counts_and_occlusion_agree_with_the_referee() {
         "{shared} shared points of {points}"
     );
 }
+
+/// Walking in interleaved lanes changes no answer: every query, both precisions, every method
+/// on the default layout, a tmin/tmax window, on the exact stress rays (vertices, edges, planes,
+/// origins on the surface, tiny and huge directions), random rays and a camera (shared origin),
+/// bit for bit against the one-ray walk.
+#[test]
+fn lanes_answer_as_the_one_ray_walk() {
+    use crate::scene::Lanes;
+    let mut rng = Rng(73);
+    let g = crate::testing::grid_scene_inside(&mut rng, 4, 0.0, 0.35);
+    let mut rays = exact_case_rays(&mut rng, &g.pts, &g.faces, 1500);
+    let (ro, rd) = random_rays(&mut rng, 1000);
+    rays.extend((0..1000).map(|i| {
+        (
+            [ro[3 * i], ro[3 * i + 1], ro[3 * i + 2]],
+            [rd[3 * i], rd[3 * i + 1], rd[3 * i + 2]],
+        )
+    }));
+    let eye = [-0.75, 0.3125, 0.4375];
+    rays.extend((0..1024).map(|k| {
+        let (x, y) = ((k % 32) as f64 / 32.0, (k / 32) as f64 / 32.0);
+        (eye, [1.0, x - 0.5, y - 0.5])
+    }));
+    let n = rays.len();
+    let o: Vec<f64> = rays.iter().flat_map(|r| r.0).collect();
+    let d: Vec<f64> = rays.iter().flat_map(|r| r.1).collect();
+    let o32: Vec<f32> = o.iter().map(|&x| x as f32).collect();
+    let d32: Vec<f32> = d.iter().map(|&x| x as f32).collect();
+    let opts = |lanes| CastOptions {
+        lanes,
+        ..Default::default()
+    };
+    let bits = |x: f64| x.to_bits();
+    for window in [false, true] {
+        let (tmin, tmax): (Vec<f64>, Vec<f64>) = if window {
+            rays.iter()
+                .map(|r| {
+                    let l = r.1.iter().fold(0f64, |m, x| m.max(x.abs()));
+                    (0.125 / l, 1.0 / l)
+                })
+                .unzip()
+        } else {
+            (vec![0.0], vec![f64::INFINITY])
+        };
+        let r64 = Rays {
+            origins: &o[..],
+            directions: &d[..],
+            tmin: &tmin,
+            tmax: &tmax,
+        };
+        let r32 = Rays {
+            origins: &o32[..],
+            directions: &d32[..],
+            tmin: &tmin,
+            tmax: &tmax,
+        };
+        for &method in Method::ALL {
+            let closest64 = |lanes| {
+                let mut b = HitBuffers::<f64>::new(n, false);
+                g.scene
+                    .cast_with(method, LayoutKind::DEFAULT, &r64, b.out(), &opts(lanes))
+                    .unwrap();
+                b
+            };
+            let (on, off) = (closest64(Lanes::On), closest64(Lanes::Off));
+            assert_eq!(on.status, off.status, "{method:?} window {window}");
+            assert_eq!(on.triangle, off.triangle, "{method:?} window {window}");
+            assert_eq!(on.tet, off.tet, "{method:?} window {window}");
+            assert_eq!(on.steps, off.steps, "{method:?} window {window}");
+            for (a, b) in [
+                (&on.t, &off.t),
+                (&on.u, &off.u),
+                (&on.v, &off.v),
+                (&on.point, &off.point),
+            ] {
+                assert!(
+                    a.iter().zip(b.iter()).all(|(x, y)| bits(*x) == bits(*y)),
+                    "{method:?}"
+                );
+            }
+            let closest32 = |lanes| {
+                let mut b = HitBuffers::<f32>::new(n, false);
+                g.scene
+                    .cast_with(method, LayoutKind::DEFAULT, &r32, b.out(), &opts(lanes))
+                    .unwrap();
+                b
+            };
+            let (on, off) = (closest32(Lanes::On), closest32(Lanes::Off));
+            assert_eq!(on.status, off.status, "{method:?} f32 window {window}");
+            assert_eq!(on.triangle, off.triangle, "{method:?} f32");
+            assert_eq!(on.steps, off.steps, "{method:?} f32");
+            assert!(on
+                .t
+                .iter()
+                .zip(&off.t)
+                .all(|(x, y)| x.to_bits() == y.to_bits()));
+            let occluded = |lanes| {
+                let mut out = vec![0u8; n];
+                g.scene
+                    .occluded(method, LayoutKind::DEFAULT, &r64, &mut out, &opts(lanes))
+                    .unwrap();
+                out
+            };
+            assert_eq!(
+                occluded(Lanes::On),
+                occluded(Lanes::Off),
+                "{method:?} any hit"
+            );
+        }
+        let listed = |lanes| {
+            let mut out = vec![crate::query::Listed::default(); n];
+            g.scene.intersections(&r64, &mut out, &opts(lanes)).unwrap();
+            out
+        };
+        let (on, off) = (listed(Lanes::On), listed(Lanes::Off));
+        for (i, (a, b)) in on.iter().zip(&off).enumerate() {
+            assert_eq!(a.status, b.status, "ray {i}");
+            let key = |l: &crate::query::Listed| {
+                l.meets
+                    .iter()
+                    .map(|m| (bits(m.t), bits(m.u), bits(m.v), m.triangle, m.key))
+                    .collect::<Vec<_>>()
+            };
+            assert_eq!(key(a), key(b), "ray {i}: all hits");
+        }
+    }
+}

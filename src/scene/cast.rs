@@ -20,6 +20,22 @@ pub struct CastOptions {
     pub threads: Option<usize>,
     /// The step guard; None: [`default_max_steps`] of the scene.
     pub max_steps: Option<u32>,
+    /// Whether to walk rays in interleaved lanes (`accel::tetwalk`): answers are the same
+    /// either way, bit for bit; only speed differs.
+    pub lanes: Lanes,
+}
+
+/// When a chunk of rays is walked in interleaved lanes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Lanes {
+    /// Lanes for scattered rays, the one-ray walk for rays that share their origin (a camera,
+    /// shadow rays to one light): those walk the same tets, which stay in cache, and there the
+    /// one-ray walk measured faster; scattered rays wait on memory at every step, and lanes
+    /// overlap those waits (`docs/performance.md`).
+    #[default]
+    Auto,
+    Off,
+    On,
 }
 
 impl CastOptions {
@@ -61,12 +77,7 @@ pub fn cast_accel<R: Real, W: Real, A: Accel<W>, K: QueryKind, S: Sink<K::Answer
 ) -> Result<()> {
     let run_chunk = |(k, mut chunk): (usize, S)| {
         let mut state = accel.state(k);
-        let base = k * CHUNK;
-        for j in 0..chunk.len() {
-            let ray = rays.ray(base + j);
-            let answer = accel.trace(query, &ray, &mut state);
-            chunk.put(j, answer, &ray);
-        }
+        accel.trace_chunk(query, rays, k * CHUNK, &mut chunk, &mut state);
     };
     let pieces: Vec<_> = chunks(out, CHUNK).into_iter().enumerate().collect();
     match threads {
@@ -234,7 +245,7 @@ impl Scene {
             sides: &self.mesh.constrained,
             max_steps: opts.max_steps_for(self.mesh.len()),
         };
-        let walk = TetWalk::<W, L, M, O>::new(self.locators(), setup);
+        let walk = TetWalk::<W, L, M, O>::new(self.locators(), setup).with_lanes(opts.lanes);
         cast_accel(&walk, query, rays, out, opts.threads)
     }
 }

@@ -149,6 +149,22 @@ impl<R: Real> ExitMethod<R> for Exact {
         }
     }
 
+    #[inline(always)]
+    fn step_plain(_: &ExactRay<R>, a: &[R; 3], b: &[R; 3], c: &[R; 3], d: &[R; 3]) -> Option<Exit> {
+        // The three sides d→a, d→b, d→c decide `step` the same way; all three certain, each
+        // exit face (a, b, d), (b, c, d), (c, a, d) has two certain edges through d and one of
+        // the entry face's, certain by the caller's precondition: no touch.
+        let (xa, xb, xc) = (det2(d, a), det2(d, b), det2(d, c));
+        if !(abs(xa) > d[2] + a[2] && abs(xb) > d[2] + b[2] && abs(xc) > d[2] + c[2]) {
+            return None;
+        }
+        // `step`'s choice, without branches: xa ≥ 0 → Abd unless xb > 0 (Bcd); else Cad
+        // unless xc < 0 (Bcd).
+        let (sa, sb, sc) = (xa >= R::ZERO, xb <= R::ZERO, xc >= R::ZERO);
+        let r = (sa & !sb) as u8 + (!sa) as u8 * (1 + sc as u8);
+        Some(Exit::ROTATIONS[r as usize])
+    }
+
     #[inline(never)]
     fn step_exact(ray: &ExactRay<R>, p: &[V3<R>; 4]) -> Exit {
         let [a, b, c, d] = *p;

@@ -27,7 +27,10 @@ pub use lagae2008_stp::Lagae2008Stp;
 pub use maria2017::Maria2017;
 pub use ms06::Ms06;
 pub use robust::Robust;
-pub use walk::{walk, walk_with, Touch, Walk, WalkEnd, WalkSetup};
+pub use walk::{
+    plain_step, walk, walk_begin, walk_resume, walk_with, Touch, Walk, WalkEnd, WalkSetup,
+    WalkState,
+};
 
 /// Which of the three candidate faces a ray leaves by (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -38,6 +41,11 @@ pub enum Exit {
     Bcd,
     /// (c, a, d): the face opposite b.
     Cad,
+}
+
+impl Exit {
+    /// By rotation of the entry face (a, b, c): the exit face keeps (a, b), (b, c) or (c, a).
+    pub const ROTATIONS: [Exit; 3] = [Exit::Abd, Exit::Bcd, Exit::Cad];
 }
 
 /// Where the exact line meets a face the walk leaves by (or, at the start, where the ray's
@@ -91,6 +99,24 @@ pub trait ExitMethod<R: Real> {
         c: &Self::Vert,
         d: &Self::Vert,
     ) -> Option<Exit>;
+    /// `step` where its answer is all a walk step needs (`walk::plain_step`, the lanes' step):
+    /// for methods with contacts only when, besides, the exit face's edges are certain, so the
+    /// walk cannot touch it. Given an entry face whose edges are all certain, a methods with
+    /// contacts must return Some only when the new exit face's are too. None: the full step.
+    #[inline(always)]
+    fn step_plain(
+        ray: &Self::Ray,
+        a: &Self::Vert,
+        b: &Self::Vert,
+        c: &Self::Vert,
+        d: &Self::Vert,
+    ) -> Option<Exit> {
+        if Self::CONTACTS {
+            None
+        } else {
+            Self::step(ray, a, b, c, d)
+        }
+    }
     /// The exit face from the positions of a, b, c, d. Only methods whose `step` can return
     /// None need to provide it; for the others it is `step` on the same data.
     fn step_exact(ray: &Self::Ray, p: &[V3<R>; 4]) -> Exit {

@@ -304,6 +304,7 @@ pub(crate) fn check_agreement<M: ExitMethod<f32> + ExitMethod<f64>>(seed: u64) {
         let opts = CastOptions {
             threads: None,
             max_steps: Some(100_000),
+            ..Default::default()
         };
         // agreement() casts once per scene: the layout is built there, for that scene.
         let name = format!("{}/{}", <M as ExitMethod<f32>>::NAME, L::NAME);
@@ -337,6 +338,7 @@ fn agrees_with_brute_force_f64() {
             &CastOptions {
                 threads: Some(1),
                 max_steps: Some(100_000),
+                ..Default::default()
             },
         )
     });
@@ -351,6 +353,7 @@ fn agrees_with_brute_force_f32() {
             &CastOptions {
                 threads: None,
                 max_steps: Some(100_000),
+                ..Default::default()
             },
         )
     });
@@ -369,6 +372,7 @@ fn empty_scene_misses_and_counts_steps() {
             &CastOptions {
                 threads: Some(1),
                 max_steps: Some(1000),
+                ..Default::default()
             },
         )
     });
@@ -546,6 +550,7 @@ fn robust_survives_rays_through_vertices_and_edges() {
                 &CastOptions {
                     threads: Some(1),
                     max_steps: Some(10_000),
+                    ..Default::default()
                 },
             )
         });
@@ -661,6 +666,7 @@ fn robust_rays_from_the_domain_boundary() {
     let opts = CastOptions {
         threads: Some(1),
         max_steps: Some(100_000),
+        ..Default::default()
     };
     let res = cast::<f64>(&scene, &o, &d, |s, r, out| {
         s.cast_named("robust", "tet32", r, out, &opts)
@@ -764,6 +770,7 @@ fn hits_name_the_alternative_the_ray_crosses() {
     let opts = CastOptions {
         threads: None,
         max_steps: Some(100_000),
+        ..Default::default()
     };
     let want = verdicts(&o, &d, &tris);
     let hits = want.iter().flatten().count();

@@ -127,6 +127,27 @@ pub fn walk<R: Real, L: Layout, M: ExitMethod<R>>(
     walk_with::<R, L, M, _, _>(&setup, ray, start, entry, &mut StopAtFirst, &mut NoObserver)
 }
 
+/// A walk between two steps: in tet `t`, having chosen the face (a, b, c) it leaves by
+/// (counter-clockwise around the ray), with `link` what lies across it. The loop of
+/// [`walk_resume`] starts from here; [`plain_step`] advances it one tet when nothing there
+/// needs more than the vertex data (the lanes of `accel::tetwalk`).
+#[derive(Clone, Copy, Debug)]
+pub struct WalkState<V> {
+    pub a: u32,
+    pub b: u32,
+    pub c: u32,
+    pub pa: V,
+    pub pb: V,
+    pub pc: V,
+    pub link: u32,
+    pub t: u32,
+    pub steps: u32,
+    /// INLINE layouts: the entered tet's face by which the walk came in.
+    entry_face: usize,
+    /// Where the line meets the current exit face (methods with exact contacts).
+    contact: Contact,
+}
+
 /// Walks from tet `start.0` (vertex ids `start.1`, positively oriented) until `query` stops at a
 /// constrained face, the walk leaves the domain, or `max_steps`; `observer` sees every exit
 /// face. With `entry = Some(i)` the ray comes from outside through the tet's face i (opposite
@@ -140,92 +161,213 @@ pub fn walk<R: Real, L: Layout, M: ExitMethod<R>>(
 pub fn walk_with<R: Real, L: Layout, M: ExitMethod<R>, Q: Query, O: WalkObserver<R>>(
     setup: &WalkSetup<R, L>,
     ray: &M::Ray,
-    (start, start_tet): (u32, [u32; 4]),
+    start: (u32, [u32; 4]),
     entry: Option<usize>,
     query: &mut Q,
     observer: &mut O,
 ) -> Walk {
-    let (layout, points, max_steps) = (setup.layout, setup.points, setup.max_steps);
-    let position = |t: u32, v: u32| -> V3<R> {
-        if L::INLINE {
-            layout.inline_vertices(t)[v as usize].map(R::from_f32)
-        } else {
-            debug_assert!((v as usize) < points.len());
-            // SAFETY: v is a vertex id of a validated tet (ids, and xors of ids, were checked
-            // against the point count at build), so it indexes `points`.
-            unsafe { *points.get_unchecked(v as usize) }
-        }
+    match walk_begin::<R, L, M, Q, O>(setup, ray, start, entry, query, observer) {
+        Ok(state) => walk_resume::<R, L, M, Q, O>(setup, ray, state, query, observer),
+        Err(done) => done,
+    }
+}
+
+/// A vertex's position: from the points, or for INLINE layouts from the record of tet t.
+#[inline(always)]
+fn position<R: Real, L: Layout>(layout: &L, points: &[[R; 3]], t: u32, v: u32) -> V3<R> {
+    if L::INLINE {
+        layout.inline_vertices(t)[v as usize].map(R::from_f32)
+    } else {
+        debug_assert!((v as usize) < points.len());
+        // SAFETY: v is a vertex id of a validated tet (ids, and xors of ids, were checked
+        // against the point count at build), so it indexes `points`.
+        unsafe { *points.get_unchecked(v as usize) }
+    }
+}
+
+/// Tells the query of a touch at the exit face; the finished walk when it stops there.
+#[inline(always)]
+fn touch<L: Layout, Q: Query>(
+    query: &mut Q,
+    t: u32,
+    face: [u32; 3],
+    contact: Contact,
+    steps: u32,
+) -> Option<Walk> {
+    if contact == Contact::Interior {
+        return None;
+    }
+    let at = Touch {
+        tet: t,
+        face,
+        slots: L::INLINE,
+        contact,
     };
+    (query.touched(&at) == Decision::Stop).then_some(Walk {
+        end: WalkEnd::Touched,
+        tet: t,
+        face,
+        slots: L::INLINE,
+        steps,
+    })
+}
+
+/// The walk's first exit: the start tet's exit face (or, entering from outside, the entry
+/// face as the one to cross), with its touches told to the query. Err: the walk ended there.
+#[inline]
+pub fn walk_begin<R: Real, L: Layout, M: ExitMethod<R>, Q: Query, O: WalkObserver<R>>(
+    setup: &WalkSetup<R, L>,
+    ray: &M::Ray,
+    (start, start_tet): (u32, [u32; 4]),
+    entry: Option<usize>,
+    query: &mut Q,
+    observer: &mut O,
+) -> Result<WalkState<M::Vert>, Walk> {
+    let (layout, points) = (setup.layout, setup.points);
+    let position = |t: u32, v: u32| position(layout, points, t, v);
     // Vertex names in the start tet: ids, or slots 0..4 for INLINE layouts.
     let names = if L::INLINE { [0, 1, 2, 3] } else { start_tet };
-    let (mut a, mut b, mut c, mut pa, mut pb, mut pc, mut link, mut t, mut steps);
-    // INLINE layouts: the entered tet's face by which the walk came in.
-    let mut entry_face = 0usize;
-    // Where the line meets the current exit face (methods with exact contacts).
     let mut contact = Contact::Interior;
-    let touch = |query: &mut Q, t: u32, face: [u32; 3], contact: Contact, steps: u32| {
-        if contact == Contact::Interior {
-            return None;
-        }
-        let at = Touch {
-            tet: t,
-            face,
-            slots: L::INLINE,
-            contact,
-        };
-        (query.touched(&at) == Decision::Stop).then_some(Walk {
-            end: WalkEnd::Touched,
-            tet: t,
-            face,
-            slots: L::INLINE,
-            steps,
-        })
-    };
     if let Some(i) = entry {
         // Entering through face i: reversed from its outward order it turns counter-clockwise
         // around the ray, as the loop expects of an entry face.
         let f = OUTWARD_FACES[i];
-        (a, b, c) = (names[f[0]], names[f[2]], names[f[1]]);
-        (pa, pb, pc) = (
+        let (a, b, c) = (names[f[0]], names[f[2]], names[f[1]]);
+        let (pa, pb, pc) = (
             M::vertex(ray, position(start, a)),
             M::vertex(ray, position(start, b)),
             M::vertex(ray, position(start, c)),
         );
-        (link, t, steps, entry_face) = (start, start, 0u32, i);
         if M::CONTACTS && M::may_touch(ray, &pa, &pb, &pc) {
             // Entering from outside: the entry point may be a vertex or on an edge where
             // scene triangles meet the box.
             let face = [position(start, a), position(start, b), position(start, c)];
             contact = M::contact(ray, &face, position(start, names[i]));
-            if let Some(w) = touch(query, t, [a, b, c], contact, steps) {
-                return w;
+            if let Some(w) = touch::<L, Q>(query, start, [a, b, c], contact, 0) {
+                return Err(w);
             }
             contact = Contact::Interior;
         }
+        return Ok(WalkState {
+            a,
+            b,
+            c,
+            pa,
+            pb,
+            pc,
+            link: start,
+            t: start,
+            steps: 0,
+            entry_face: i,
+            contact,
+        });
+    }
+    let ps = names.map(|v| position(start, v));
+    let vs = ps.map(|p| M::vertex(ray, p));
+    let i = M::start_exit(ray, &vs, &ps);
+    let f = OUTWARD_FACES[i];
+    let (a, b, c) = (names[f[0]], names[f[1]], names[f[2]]);
+    let (pa, pb, pc) = (vs[f[0]], vs[f[1]], vs[f[2]]);
+    if O::ACTIVE {
+        observer.exit([ps[f[0]], ps[f[1]], ps[f[2]]], true);
+    }
+    let (link, entry_face) = if L::INLINE {
+        layout.inline_face(start, i)
     } else {
-        let ps = names.map(|v| position(start, v));
-        let vs = ps.map(|p| M::vertex(ray, p));
-        let i = M::start_exit(ray, &vs, &ps);
-        let f = OUTWARD_FACES[i];
-        (a, b, c) = (names[f[0]], names[f[1]], names[f[2]]);
-        (pa, pb, pc) = (vs[f[0]], vs[f[1]], vs[f[2]]);
-        if O::ACTIVE {
-            observer.exit([ps[f[0]], ps[f[1]], ps[f[2]]], true);
-        }
-        if L::INLINE {
-            (link, entry_face) = layout.inline_face(start, i);
-        } else {
-            link = layout.link_opposite(start, start_tet[i], [a, b, c]);
-        }
-        (t, steps) = (start, 1u32);
-        if M::CONTACTS && M::may_touch(ray, &pa, &pb, &pc) {
-            let face = [ps[f[0]], ps[f[1]], ps[f[2]]];
-            contact = M::contact(ray, &face, ps[i]);
-            if let Some(w) = touch(query, t, [a, b, c], contact, steps) {
-                return w;
-            }
+        (layout.link_opposite(start, start_tet[i], [a, b, c]), 0)
+    };
+    if M::CONTACTS && M::may_touch(ray, &pa, &pb, &pc) {
+        let face = [ps[f[0]], ps[f[1]], ps[f[2]]];
+        contact = M::contact(ray, &face, ps[i]);
+        if let Some(w) = touch::<L, Q>(query, start, [a, b, c], contact, 1) {
+            return Err(w);
         }
     }
+    Ok(WalkState {
+        a,
+        b,
+        c,
+        pa,
+        pb,
+        pc,
+        link,
+        t: start,
+        steps: 1,
+        entry_face,
+        contact,
+    })
+}
+
+/// One step of the walk when it is plain: the next tet is not across a constrained face or
+/// the boundary, the step guard is far, and [`ExitMethod::step_plain`] decides the exit from
+/// the vertex data (for methods with contacts: no touch at the new exit face). Then `state`
+/// moves on exactly as [`walk_resume`]'s loop would move it, and true; else false, with
+/// `state` unchanged, for the loop to take that step. Id layouts only.
+#[inline(always)]
+pub fn plain_step<R: Real, L: Layout, M: ExitMethod<R>>(
+    setup: &WalkSetup<R, L>,
+    ray: &M::Ray,
+    st: &mut WalkState<M::Vert>,
+) -> bool {
+    debug_assert!(!L::INLINE);
+    if st.link & CONSTRAINED_BIT != 0 || st.steps >= setup.max_steps {
+        return false;
+    }
+    let t = st.link;
+    let d = setup.layout.new_vertex(t, st.a, st.b, st.c);
+    let pd = M::vertex(ray, position(setup.layout, setup.points, t, d));
+    let Some(exit) = M::step_plain(ray, &st.pa, &st.pb, &st.pc, &pd) else {
+        return false;
+    };
+    let opposite = match exit {
+        Exit::Abd => {
+            let o = st.c;
+            (st.c, st.pc) = (d, pd);
+            o
+        }
+        Exit::Bcd => {
+            let o = st.a;
+            (st.a, st.pa, st.b, st.pb, st.c, st.pc) = (st.b, st.pb, st.c, st.pc, d, pd);
+            o
+        }
+        Exit::Cad => {
+            let o = st.b;
+            (st.a, st.pa, st.b, st.pb, st.c, st.pc) = (st.c, st.pc, st.a, st.pa, d, pd);
+            o
+        }
+    };
+    st.t = t;
+    st.steps += 1;
+    st.contact = Contact::Interior;
+    st.link = setup.layout.link_opposite(t, opposite, [st.a, st.b, st.c]);
+    setup.layout.prefetch(st.link);
+    true
+}
+
+/// The walk's loop from `state` on (see [`walk_with`]).
+#[inline]
+pub fn walk_resume<R: Real, L: Layout, M: ExitMethod<R>, Q: Query, O: WalkObserver<R>>(
+    setup: &WalkSetup<R, L>,
+    ray: &M::Ray,
+    state: WalkState<M::Vert>,
+    query: &mut Q,
+    observer: &mut O,
+) -> Walk {
+    let (layout, points, max_steps) = (setup.layout, setup.points, setup.max_steps);
+    let position = |t: u32, v: u32| position(layout, points, t, v);
+    let WalkState {
+        mut a,
+        mut b,
+        mut c,
+        mut pa,
+        mut pb,
+        mut pc,
+        mut link,
+        mut t,
+        mut steps,
+        mut entry_face,
+        mut contact,
+    } = state;
     loop {
         if link & CONSTRAINED_BIT != 0 {
             let end = if link == BOUNDARY {
@@ -329,7 +471,7 @@ pub fn walk_with<R: Real, L: Layout, M: ExitMethod<R>, Q: Query, O: WalkObserver
             if M::may_touch(ray, &pa, &pb, &pc) {
                 let face = [position(t, a), position(t, b), position(t, c)];
                 contact = M::contact(ray, &face, position(t, opposite));
-                if let Some(w) = touch(query, t, [a, b, c], contact, steps) {
+                if let Some(w) = touch::<L, Q>(query, t, [a, b, c], contact, steps) {
                     return w;
                 }
             }

@@ -78,6 +78,7 @@ fn gpu_cast_refuses_the_audit() {
     let opts = CastOptions {
         threads: Some(1),
         max_steps: Some(100),
+        ..Default::default()
     };
     let e = cast_gpu(&scene, None, None, &rays, out, &opts).unwrap_err();
     assert!(matches!(e, crate::Error::InvalidOption(_)), "{e}");

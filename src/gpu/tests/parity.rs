@@ -25,6 +25,7 @@ fn parity(scene: &Scene, kernel: &KernelSpec, o: &[f32], d: &[f32]) -> Parity {
     let opts = CastOptions {
         threads: None,
         max_steps: Some(scene.mesh.len() as u32 + 1),
+        ..Default::default()
     };
     let cpu = run(scene, o, d, |r, out| {
         scene.cast_named(kernel.method, kernel.layout.name, r, out, &opts)
@@ -170,6 +171,7 @@ fn gpu_batches_do_not_change_results() {
     let opts = CastOptions {
         threads: None,
         max_steps: Some(1 << 20),
+        ..Default::default()
     };
     let one = run(&scene, &o, &d, |r, out| {
         cast_gpu(&scene, None, None, r, out, &opts).map(|_| ())
@@ -220,6 +222,7 @@ fn gpu_robust_defers_degenerate_rays() {
     let opts = CastOptions {
         threads: None,
         max_steps: Some(scene.mesh.len() as u32 + 1),
+        ..Default::default()
     };
     let cpu = run(&scene, &o, &d, |r, out| {
         scene.cast_named("robust", "tet20", r, out, &opts)
@@ -277,6 +280,7 @@ fn gpu_prepares_rays_as_the_cpu_cast() {
     let opts = CastOptions {
         threads: None,
         max_steps: Some(scene.mesh.len() as u32 + 1),
+        ..Default::default()
     };
     for scale in [1e-30f32, 1e-3, 1.0, 1e30] {
         let d: Vec<f32> = d0.iter().map(|x| x * scale).collect();
