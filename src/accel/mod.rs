@@ -8,12 +8,24 @@ pub mod tetwalk;
 use crate::geom::ray::Ray;
 use crate::geom::real::Real;
 use crate::query::{QueryKind, Sink};
-use crate::scene::Rays;
 
 pub use tetwalk::TetWalk;
 
 /// The acceleration structures there are, by name.
 pub const ACCELS: [&str; 1] = ["tetwalk"];
+
+/// When a chunk of rays is walked in interleaved lanes (`tetwalk`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Lanes {
+    /// Lanes for scattered rays, the one-ray walk for rays that share their origin (a camera,
+    /// shadow rays to one light): those walk the same tets, which stay in cache, and there the
+    /// one-ray walk measured faster; scattered rays wait on memory at every step, and lanes
+    /// overlap those waits (`docs/performance.md`).
+    #[default]
+    Auto,
+    Off,
+    On,
+}
 
 pub trait Accel<R: Real>: Sync {
     const NAME: &'static str;
@@ -23,19 +35,18 @@ pub trait Accel<R: Real>: Sync {
     fn state(&self, chunk: usize) -> Self::State;
     /// Answers `query` for one ray.
     fn trace<K: QueryKind>(&self, query: &K, ray: &Ray, state: &mut Self::State) -> K::Answer;
-    /// Answers `query` for rays `base..base + out.len()` of `rays` into `out` (entry j for ray
-    /// base + j), in any order, each answer the one [`Accel::trace`] gives with `state` carried
-    /// from ray to ray in ray order.
-    fn trace_chunk<RR: Real, K: QueryKind, S: Sink<K::Answer>>(
+    /// Answers `query` for rays `ray(0..out.len())` into `out` (entry j for `ray(j)`), in any
+    /// order, each answer the one [`Accel::trace`] gives with `state` carried from ray to ray
+    /// in ray order.
+    fn trace_chunk<K: QueryKind, S: Sink<K::Answer>>(
         &self,
         query: &K,
-        rays: &Rays<RR>,
-        base: usize,
+        ray: impl Fn(usize) -> Ray,
         out: &mut S,
         state: &mut Self::State,
     ) {
         for j in 0..out.len() {
-            let ray = rays.ray(base + j);
+            let ray = ray(j);
             let answer = self.trace(query, &ray, state);
             out.put(j, answer, &ray);
         }

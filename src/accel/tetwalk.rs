@@ -10,12 +10,12 @@
 //! from the same state, so every answer is the one-ray walk's, bit for bit.
 
 use super::Accel;
+use super::Lanes;
 use crate::geom::ray::Ray;
 use crate::geom::real::Real;
 use crate::layout::Layout;
 use crate::locate::{LocateState, Locators, Start, WalkStart};
 use crate::query::{Decision, Query, QueryKind, Sink};
-use crate::scene::{Lanes, Rays};
 use crate::traverse::{
     plain_step, walk_begin, walk_resume, Contact, ExitMethod, Touch, Walk, WalkEnd, WalkObserver,
     WalkSetup, WalkState,
@@ -78,11 +78,10 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> Accel<R>
         }
     }
 
-    fn trace_chunk<RR: Real, K: QueryKind, S: Sink<K::Answer>>(
+    fn trace_chunk<K: QueryKind, S: Sink<K::Answer>>(
         &self,
         query: &K,
-        rays: &Rays<RR>,
-        base: usize,
+        ray_at: impl Fn(usize) -> Ray,
         out: &mut S,
         st: &mut LocateState,
     ) {
@@ -90,13 +89,13 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> Accel<R>
             Lanes::On => true,
             Lanes::Off => false,
             // Rays sharing an origin (the chunk's first two) are taken as coherent.
-            Lanes::Auto => out.len() < 2 || rays.ray(base).o != rays.ray(base + 1).o,
+            Lanes::Auto => out.len() < 2 || ray_at(0).o != ray_at(1).o,
         };
         if O::ACTIVE || L::INLINE || !lanes {
             // The audit observes every step, and INLINE layouts name vertices by slot: the
             // one-ray walk (and where lanes are not wanted).
             for j in 0..out.len() {
-                let ray = rays.ray(base + j);
+                let ray = ray_at(j);
                 let answer = self.trace(query, &ray, st);
                 out.put(j, answer, &ray);
             }
@@ -110,7 +109,7 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> Accel<R>
                 while next < n {
                     let j = next;
                     next += 1;
-                    let ray = rays.ray(base + j);
+                    let ray = ray_at(j);
                     match self.begin(query, &ray, st) {
                         Err(answer) => out.put(j, answer, &ray),
                         // A lane's exit faces must have certain edges (`ExitMethod::step_plain`).

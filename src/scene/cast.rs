@@ -2,6 +2,7 @@
 //! monomorphized walk, run over 4096-ray chunks on the threads asked for.
 
 use super::{check_lengths, HitsOut, Rays, Scene};
+pub use crate::accel::Lanes;
 use crate::accel::{Accel, TetWalk};
 use crate::error::{Error, Result};
 use crate::geom::real::Real;
@@ -23,19 +24,6 @@ pub struct CastOptions {
     /// Whether to walk rays in interleaved lanes (`accel::tetwalk`): answers are the same
     /// either way, bit for bit; only speed differs.
     pub lanes: Lanes,
-}
-
-/// When a chunk of rays is walked in interleaved lanes.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Lanes {
-    /// Lanes for scattered rays, the one-ray walk for rays that share their origin (a camera,
-    /// shadow rays to one light): those walk the same tets, which stay in cache, and there the
-    /// one-ray walk measured faster; scattered rays wait on memory at every step, and lanes
-    /// overlap those waits (`docs/performance.md`).
-    #[default]
-    Auto,
-    Off,
-    On,
 }
 
 impl CastOptions {
@@ -77,7 +65,8 @@ pub fn cast_accel<R: Real, W: Real, A: Accel<W>, K: QueryKind, S: Sink<K::Answer
 ) -> Result<()> {
     let run_chunk = |(k, mut chunk): (usize, S)| {
         let mut state = accel.state(k);
-        accel.trace_chunk(query, rays, k * CHUNK, &mut chunk, &mut state);
+        let base = k * CHUNK;
+        accel.trace_chunk(query, |j| rays.ray(base + j), &mut chunk, &mut state);
     };
     let pieces: Vec<_> = chunks(out, CHUNK).into_iter().enumerate().collect();
     match threads {

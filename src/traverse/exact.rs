@@ -67,8 +67,13 @@ impl<R: Real> ExactRay<R> {
     /// Whether the (perturbed) line enters a tet through the face (a, b, c) given in its
     /// outward order: then it turns clockwise around the line on every edge.
     pub fn enters(&self, face: &[V3<R>; 3]) -> bool {
-        let [a, b, c] = *face;
-        !self.perturbed(a, b) && !self.perturbed(b, c) && !self.perturbed(c, a)
+        // The walk's filter first (the face lies in the domain, which its bound covers): a
+        // certain side is the exact sign, so the perturbation is never needed there.
+        let v = face.map(|p| <Exact as ExitMethod<R>>::vertex(self, p));
+        let side = |i: usize, j: usize| {
+            certain_side(&v[i], &v[j]).unwrap_or_else(|| self.perturbed(face[i], face[j]))
+        };
+        !side(0, 1) && !side(1, 2) && !side(2, 0)
     }
 }
 
