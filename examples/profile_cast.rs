@@ -11,6 +11,7 @@
 //! first k rays only, `LANES=on|off` forces the lanes' choice.
 
 use std::time::Instant;
+use tetrace::geom::real::Real;
 use tetrace::scene::{CastOptions, HitBuffers, Lanes, Rays, Scene};
 
 /// A raw little-endian array of N-tuples of 4- or 8-byte numbers, as numpy's `tofile` writes.
@@ -37,6 +38,32 @@ fn f32le(b: &[u8]) -> f32 {
 }
 fn u32le(b: &[u8]) -> u32 {
     u32::from_le_bytes(b.try_into().expect("4 bytes"))
+}
+
+/// The best of `repeat` casts of the rays (seconds), and the total steps and hits of the last.
+fn time_cast<R: Real>(
+    scene: &Scene,
+    origins: &[R],
+    directions: &[R],
+    opts: &CastOptions,
+    repeat: usize,
+) -> (f64, u64, usize) {
+    let rays = Rays {
+        origins,
+        directions,
+        tmin: &[0.0],
+        tmax: &[f64::INFINITY],
+    };
+    let (mut best, mut steps, mut hits) = (f64::INFINITY, 0u64, 0usize);
+    for _ in 0..repeat {
+        let mut buf = HitBuffers::<R>::new(rays.len(), false);
+        let t = Instant::now();
+        scene.cast(&rays, buf.out(), opts).expect("cast");
+        best = best.min(t.elapsed().as_secs_f64());
+        steps = buf.steps.iter().map(|&s| s as u64).sum();
+        hits = buf.status.iter().filter(|&&s| s == tetrace::HIT).count();
+    }
+    (best, steps, hits)
 }
 
 fn main() {
@@ -82,40 +109,12 @@ fn main() {
             _ => Lanes::Auto,
         },
     };
-    let (mut best, mut steps, mut hits) = (f64::INFINITY, 0u64, 0usize);
-    if args.get(4).map(|s| s.as_str()) == Some("f64") {
-        let o: Vec<f64> = origins.iter().map(|&x| x as f64).collect();
-        let d: Vec<f64> = directions.iter().map(|&x| x as f64).collect();
-        let rays = Rays {
-            origins: &o,
-            directions: &d,
-            tmin: &[0.0],
-            tmax: &[f64::INFINITY],
-        };
-        for _ in 0..repeat {
-            let mut buf = HitBuffers::<f64>::new(n, false);
-            let t = Instant::now();
-            scene.cast(&rays, buf.out(), &opts).expect("cast");
-            best = best.min(t.elapsed().as_secs_f64());
-            steps = buf.steps.iter().map(|&s| s as u64).sum();
-            hits = buf.status.iter().filter(|&&s| s == 1).count();
-        }
+    let (best, steps, hits) = if args.get(4).map(|s| s.as_str()) == Some("f64") {
+        let widen = |v: &[f32]| v.iter().map(|&x| x as f64).collect::<Vec<f64>>();
+        time_cast(&scene, &widen(&origins), &widen(&directions), &opts, repeat)
     } else {
-        let rays = Rays {
-            origins: &origins,
-            directions: &directions,
-            tmin: &[0.0],
-            tmax: &[f64::INFINITY],
-        };
-        for _ in 0..repeat {
-            let mut buf = HitBuffers::<f32>::new(n, false);
-            let t = Instant::now();
-            scene.cast(&rays, buf.out(), &opts).expect("cast");
-            best = best.min(t.elapsed().as_secs_f64());
-            steps = buf.steps.iter().map(|&s| s as u64).sum();
-            hits = buf.status.iter().filter(|&&s| s == 1).count();
-        }
-    }
+        time_cast(&scene, &origins, &directions, &opts, repeat)
+    };
     println!(
         "{which}: {n} rays, {:.3} Mrays/s, {:.0} ns/ray, {:.1} steps/ray, {hits} hits",
         n as f64 / best / 1e6,

@@ -12,7 +12,8 @@ passed in; there is no edge band and no excuse.
   bounded by a number from a run. Every float32 walk walks the mesh rounded to float32, so even
   ``robust`` (exact on the points it is given) can answer for the rounded scene rather than the
   one passed in; ``test_robust_f32_answers_for_the_scene_passed_in`` pins one such ray as a
-  strict xfail until the exact-default issue fixes it.
+  strict xfail. That is robust's design (docs/robust_walk.md); the default exact walk reads the
+  float64 points whatever the rays' precision and answers for the scene passed in.
 * Embree's own answers are judged the same way and printed; they are not asserted on (it is
   the peer, not the code under test), but they must be judged on the same rays.
 """

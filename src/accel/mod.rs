@@ -45,10 +45,22 @@ pub trait Accel<R: Real>: Sync {
         out: &mut S,
         state: &mut Self::State,
     ) {
-        for j in 0..out.len() {
-            let ray = ray(j);
-            let answer = self.trace(query, &ray, state);
-            out.put(j, answer, &ray);
-        }
+        trace_each(self, query, ray, out, state)
+    }
+}
+
+/// [`Accel::trace_chunk`] one ray after the other with [`Accel::trace`] (the default, and what
+/// an accelerator falls back to where its batched way does not apply).
+pub fn trace_each<R: Real, A: Accel<R> + ?Sized, K: QueryKind, S: Sink<K::Answer>>(
+    accel: &A,
+    query: &K,
+    ray: impl Fn(usize) -> Ray,
+    out: &mut S,
+    state: &mut A::State,
+) {
+    for j in 0..out.len() {
+        let ray = ray(j);
+        let answer = accel.trace(query, &ray, state);
+        out.put(j, answer, &ray);
     }
 }

@@ -10,7 +10,7 @@
 //! from the same state, so every answer is the one-ray walk's, bit for bit.
 
 use super::Accel;
-use super::Lanes;
+use super::{trace_each, Lanes};
 use crate::geom::ray::Ray;
 use crate::geom::real::Real;
 use crate::layout::Layout;
@@ -94,12 +94,7 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> Accel<R>
         if O::ACTIVE || L::INLINE || !lanes {
             // The audit observes every step, and INLINE layouts name vertices by slot: the
             // one-ray walk (and where lanes are not wanted).
-            for j in 0..out.len() {
-                let ray = ray_at(j);
-                let answer = self.trace(query, &ray, st);
-                out.put(j, answer, &ray);
-            }
-            return;
+            return trace_each(self, query, ray_at, out, st);
         }
         let mut lanes: [Lane<R, M, K::Policy, O>; LANES] = std::array::from_fn(|_| None);
         let (n, mut next, mut active) = (out.len(), 0usize, 0usize);

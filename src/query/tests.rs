@@ -455,6 +455,42 @@ fn all_hits_counts_and_occlusion_agree_with_the_referee() {
     );
 }
 
+/// Closest hits of `rays` with lanes forced on and off: every field, bit for bit.
+fn same_closest_with_and_without_lanes<R: crate::geom::real::Real>(
+    scene: &Scene,
+    method: Method,
+    rays: &Rays<R>,
+    window: bool,
+) {
+    use crate::scene::Lanes;
+    let closest = |lanes| {
+        let mut b = HitBuffers::<R>::new(rays.len(), false);
+        let opts = CastOptions {
+            lanes,
+            ..Default::default()
+        };
+        scene
+            .cast_with(method, LayoutKind::DEFAULT, rays, b.out(), &opts)
+            .unwrap();
+        b
+    };
+    let (on, off) = (closest(Lanes::On), closest(Lanes::Off));
+    let what = format!("{method:?} {} window {window}", R::NAME);
+    assert_eq!(on.status, off.status, "{what}");
+    assert_eq!(on.triangle, off.triangle, "{what}");
+    assert_eq!(on.tet, off.tet, "{what}");
+    assert_eq!(on.steps, off.steps, "{what}");
+    for (a, b) in [
+        (&on.t, &off.t),
+        (&on.u, &off.u),
+        (&on.v, &off.v),
+        (&on.point, &off.point),
+    ] {
+        let bits = |x: &R| x.to_f64().to_bits();
+        assert!(a.iter().map(bits).eq(b.iter().map(bits)), "{what}");
+    }
+}
+
 /// Walking in interleaved lanes changes no answer: every query, both precisions, every method
 /// on the default layout, a tmin/tmax window, on the exact stress rays (vertices, edges, planes,
 /// origins on the surface, tiny and huge directions), random rays and a camera (shared origin),
@@ -511,45 +547,8 @@ fn lanes_answer_as_the_one_ray_walk() {
             tmax: &tmax,
         };
         for &method in Method::ALL {
-            let closest64 = |lanes| {
-                let mut b = HitBuffers::<f64>::new(n, false);
-                g.scene
-                    .cast_with(method, LayoutKind::DEFAULT, &r64, b.out(), &opts(lanes))
-                    .unwrap();
-                b
-            };
-            let (on, off) = (closest64(Lanes::On), closest64(Lanes::Off));
-            assert_eq!(on.status, off.status, "{method:?} window {window}");
-            assert_eq!(on.triangle, off.triangle, "{method:?} window {window}");
-            assert_eq!(on.tet, off.tet, "{method:?} window {window}");
-            assert_eq!(on.steps, off.steps, "{method:?} window {window}");
-            for (a, b) in [
-                (&on.t, &off.t),
-                (&on.u, &off.u),
-                (&on.v, &off.v),
-                (&on.point, &off.point),
-            ] {
-                assert!(
-                    a.iter().zip(b.iter()).all(|(x, y)| bits(*x) == bits(*y)),
-                    "{method:?}"
-                );
-            }
-            let closest32 = |lanes| {
-                let mut b = HitBuffers::<f32>::new(n, false);
-                g.scene
-                    .cast_with(method, LayoutKind::DEFAULT, &r32, b.out(), &opts(lanes))
-                    .unwrap();
-                b
-            };
-            let (on, off) = (closest32(Lanes::On), closest32(Lanes::Off));
-            assert_eq!(on.status, off.status, "{method:?} f32 window {window}");
-            assert_eq!(on.triangle, off.triangle, "{method:?} f32");
-            assert_eq!(on.steps, off.steps, "{method:?} f32");
-            assert!(on
-                .t
-                .iter()
-                .zip(&off.t)
-                .all(|(x, y)| x.to_bits() == y.to_bits()));
+            same_closest_with_and_without_lanes(&g.scene, method, &r64, window);
+            same_closest_with_and_without_lanes(&g.scene, method, &r32, window);
             let occluded = |lanes| {
                 let mut out = vec![0u8; n];
                 g.scene
