@@ -8,11 +8,12 @@
 //! ```
 //! Arguments: the dump folder, the ray file (`camera` or `random`), repetitions (best is
 //! printed), and optionally `f64` to cast the rays as float64. Environment: `RAYS=k` casts the
-//! first k rays only, `LANES=on|off` forces the lanes' choice.
+//! first k rays only, `LANES=on|off` forces the lanes' choice, `PACKETS=off` turns
+//! packets off.
 
 use std::time::Instant;
 use tetrace::geom::real::Real;
-use tetrace::scene::{CastOptions, HitBuffers, Lanes, Rays, Scene};
+use tetrace::scene::{CastOptions, HitBuffers, Lanes, Packets, Rays, Scene};
 
 /// A raw little-endian array of N-tuples of 4- or 8-byte numbers, as numpy's `tofile` writes.
 fn read<T: Copy + Default, const N: usize>(path: &str, parse: fn(&[u8]) -> T) -> Vec<[T; N]> {
@@ -107,6 +108,10 @@ fn main() {
             Ok("on") => Lanes::On,
             Ok("off") => Lanes::Off,
             _ => Lanes::Auto,
+        },
+        packets: match std::env::var("PACKETS").as_deref() {
+            Ok("off") => Packets::Off,
+            _ => Packets::Auto,
         },
     };
     let (best, steps, hits) = if args.get(4).map(|s| s.as_str()) == Some("f64") {

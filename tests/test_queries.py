@@ -120,6 +120,16 @@ def _cube_rays():
     return np.vstack([o, ro]), np.vstack([d, rd])
 
 
+def _cube_eye_rays():
+    """Rays from one eye outside the cube (a camera: they share their origin, so they walk
+    as packets) through a 1/8 grid on the plane of the cube's far face, which holds its
+    vertices and edges; all dyadic (exact)."""
+    eye = np.array([-2.0, 0.125, 0.25])
+    ys, zs = np.meshgrid(np.arange(-6, 7) / 8, np.arange(-6, 7) / 8)
+    targets = np.stack([np.full(ys.size, 0.5), ys.ravel(), zs.ravel()], 1)
+    return np.tile(eye, (len(targets), 1)), targets - eye
+
+
 def _sphere():
     m = trimesh.creation.icosphere(1)
     return np.asarray(m.vertices, np.float64), np.asarray(m.faces)
@@ -149,10 +159,11 @@ def sphere():
     return tetrace.Scene.from_mesh((v, f)), v, f
 
 
-@pytest.fixture(scope="module", params=["cube", "sphere"])
+@pytest.fixture(scope="module", params=["cube", "sphere", "cube_eye"])
 def case(request, cube, sphere):
-    scene, v, f = cube if request.param == "cube" else sphere
-    o, d = _cube_rays() if request.param == "cube" else _sphere_rays()
+    scene, v, f = sphere if request.param == "sphere" else cube
+    rays = {"cube": _cube_rays, "sphere": _sphere_rays, "cube_eye": _cube_eye_rays}
+    o, d = rays[request.param]()
     return scene, v, f, o, d
 
 
@@ -329,6 +340,23 @@ def test_occluded_matches_brute_force(case):
         assert hit.tolist() == [len(h) > 0 for h in brute_force(v, f, o, d, 0.0, tmax)]
 
 
+def test_packets_change_no_answer(case):
+    """``packets=False`` (every ray walks alone) gives the same answers, bit for bit."""
+    scene, _, _, o, d = case
+    with pytest.raises(TypeError, match="packets"):
+        scene.cast(o, d, packets="no")
+    pair = [scene.cast(o, d, packets=p) for p in (True, False)]
+    for field in ("t", "u", "v", "triangle", "status", "point", "steps"):
+        np.testing.assert_array_equal(getattr(pair[0], field), getattr(pair[1], field))
+    pair = [scene.intersections(o, d, packets=p) for p in (True, False)]
+    for field in ("offsets", "t", "u", "v", "triangle", "status"):
+        np.testing.assert_array_equal(getattr(pair[0], field), getattr(pair[1], field))
+    for query in (scene.occluded, scene.count_intersections):
+        a, b = (query(o, d, packets=p, return_status=True) for p in (True, False))
+        np.testing.assert_array_equal(a[0], b[0])
+        np.testing.assert_array_equal(a[1], b[1])
+
+
 def test_queries_keep_the_leading_shape(cube):
     scene, v, f = cube
     o, d = _cube_rays()
@@ -456,18 +484,23 @@ class FakeNative:
         status = np.where(bad, INVALID, [HIT if h else MISS for h in bf]).astype(np.uint8)
         return bf, status
 
-    def occluded(self, o, d, tmin, tmax, threads=None, max_steps=None, method=None, layout=None):
+    def occluded(
+        self, o, d, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packets=True
+    ):
+        assert isinstance(packets, bool)
         return self._check(o, d, tmin, tmax, method, layout)[1]
 
     def count_intersections(
-        self, o, d, tmin, tmax, threads=None, max_steps=None, method=None, layout=None
+        self, o, d, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packets=True
     ):
+        assert isinstance(packets, bool)
         bf, status = self._check(o, d, tmin, tmax, method, layout)
         return {"count": np.array([len(h) for h in bf], np.int32), "status": status}
 
     def intersections(
-        self, o, d, tmin, tmax, threads=None, max_steps=None, method=None, layout=None
+        self, o, d, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packets=True
     ):
+        assert isinstance(packets, bool)
         bf, status = self._check(o, d, tmin, tmax, method, layout)
         tri = self.v[self.f]
         t, ids, u, w = [], [], [], []

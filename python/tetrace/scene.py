@@ -65,9 +65,11 @@ def _names(method, layout, *, defaults=True):
 
 class _Query:
     """The arguments every ray query shares, checked once: flat rays (``o``, ``d``) of
-    leading ``shape``, bounds ``lo``/``hi``, ``threads``, ``max_steps``."""
+    leading ``shape``, bounds ``lo``/``hi``, ``threads``, ``max_steps``, ``packets``."""
 
-    def __init__(self, origins, directions, tmin, tmax, threads, max_steps, invalid, precision):
+    def __init__(
+        self, origins, directions, tmin, tmax, threads, max_steps, invalid, precision, packets
+    ):
         batch = prepare_ray_batch(origins, directions, invalid=invalid)
         o, d = batch.origins, batch.directions
         if precision is not None:
@@ -84,6 +86,9 @@ class _Query:
         ):
             raise ValueError(f"max_steps must be a positive int below 2**32, got {max_steps!r}")
         self.threads, self.max_steps = threads, max_steps
+        if not isinstance(packets, (bool, np.bool_)):
+            raise TypeError(f"packets must be True or False, got {packets!r}")
+        self.packets = bool(packets)
 
     def check(self, status):
         """Raise for rays the core marked INVALID, unless ``invalid="mark"``."""
@@ -310,6 +315,7 @@ class Scene:
         layout=None,
         precision=None,
         device="cpu",
+        packets=True,
     ):
         """Cast rays and return their closest hits.
 
@@ -352,6 +358,12 @@ class Scene:
             the CPU. ``"auto"``: the GPU when a device opens, the walk is float32 and a kernel
             exists for the method (named explicitly: the default ``exact`` has none) and
             layout, else the CPU.
+        packets : bool
+            Let rays that share an origin (a camera, rays from one point) walk as packets
+            where the method allows (the ``exact`` default): a chunk of rays is taken as
+            sharing one when its first two rays do, and a packet steps once for all its
+            rays while every ray leaves a tet by the same face, exactly. Answers are the
+            same, bit for bit, either way; ``False`` walks every ray on its own.
 
         Returns
         -------
@@ -374,7 +386,7 @@ class Scene:
                 'device="gpu" walks in float32 (WGSL has no float64); use '
                 'precision="f32" or device="cpu"'
             )
-        q = _Query(origins, directions, tmin, tmax, threads, max_steps, invalid, precision)
+        q = _Query(origins, directions, tmin, tmax, threads, max_steps, invalid, precision, packets)
         _names(method, layout, defaults=False)
         use_gpu = False
         if device == "gpu":
@@ -396,7 +408,9 @@ class Scene:
                 o, d, q.lo, q.hi, q.threads, q.max_steps, method, layout
             )
         else:
-            r = self._native.cast(q.o, q.d, q.lo, q.hi, q.threads, q.max_steps, method, layout)
+            r = self._native.cast(
+                q.o, q.d, q.lo, q.hi, q.threads, q.max_steps, method, layout, packets=q.packets
+            )
         q.check(r["status"])
         return self._hits(r).reshape(q.shape)
 
@@ -457,6 +471,7 @@ class Scene:
         layout=None,
         precision=None,
         return_status=False,
+        packets=True,
     ):
         """Return whether each ray hits any triangle (a shadow ray), without finding which.
 
@@ -467,8 +482,10 @@ class Scene:
 
         Parameters
         ----------
-        origins, directions, tmin, tmax, threads, max_steps, invalid, method, layout, precision
+        origins, directions, tmin, tmax, threads, max_steps, invalid, method, layout
             As for :meth:`cast` (rays of any leading shape, CPU only).
+        precision, packets
+            As for :meth:`cast`.
         return_status : bool
             Also return the status per ray.
 
@@ -482,10 +499,12 @@ class Scene:
             uint8, the same shape (``return_status=True`` only): ``HIT``, ``MISS``,
             ``FAILED`` or ``INVALID``.
         """
-        q = _Query(origins, directions, tmin, tmax, threads, max_steps, invalid, precision)
+        q = _Query(origins, directions, tmin, tmax, threads, max_steps, invalid, precision, packets)
         method, layout = _names(method, layout)
         status = np.asarray(
-            self._native.occluded(q.o, q.d, q.lo, q.hi, q.threads, q.max_steps, method, layout)
+            self._native.occluded(
+                q.o, q.d, q.lo, q.hi, q.threads, q.max_steps, method, layout, packets=q.packets
+            )
         )
         q.check(status)
         status = status.reshape(q.shape)
@@ -505,6 +524,7 @@ class Scene:
         method=None,
         layout=None,
         precision=None,
+        packets=True,
     ):
         """Return every hit of every ray, sorted by ray, then by ``t``.
 
@@ -517,8 +537,10 @@ class Scene:
 
         Parameters
         ----------
-        origins, directions, tmin, tmax, threads, max_steps, invalid, method, layout, precision
+        origins, directions, tmin, tmax, threads, max_steps, invalid, method, layout
             As for :meth:`cast` (rays of any leading shape, CPU only).
+        precision, packets
+            As for :meth:`cast`.
 
         Returns
         -------
@@ -529,9 +551,11 @@ class Scene:
             no hit). ``t``, ``u``, ``v`` are float64, evaluated on the caller's triangle;
             ``point`` is ``origin + t * direction`` in float64.
         """
-        q = _Query(origins, directions, tmin, tmax, threads, max_steps, invalid, precision)
+        q = _Query(origins, directions, tmin, tmax, threads, max_steps, invalid, precision, packets)
         method, layout = _names(method, layout)
-        r = self._native.intersections(q.o, q.d, q.lo, q.hi, q.threads, q.max_steps, method, layout)
+        r = self._native.intersections(
+            q.o, q.d, q.lo, q.hi, q.threads, q.max_steps, method, layout, packets=q.packets
+        )
         status = np.asarray(r["status"])
         q.check(status)
         offsets = np.asarray(r["offsets"], np.int64)
@@ -567,6 +591,7 @@ class Scene:
         layout=None,
         precision=None,
         return_status=False,
+        packets=True,
     ):
         """Count the points where each ray meets the surface, in ``[tmin, tmax]``.
 
@@ -576,8 +601,10 @@ class Scene:
 
         Parameters
         ----------
-        origins, directions, tmin, tmax, threads, max_steps, invalid, method, layout, precision
+        origins, directions, tmin, tmax, threads, max_steps, invalid, method, layout
             As for :meth:`cast` (rays of any leading shape, CPU only).
+        precision, packets
+            As for :meth:`cast`.
         return_status : bool
             Also return the status per ray.
 
@@ -589,10 +616,10 @@ class Scene:
         status : numpy.ndarray
             uint8, the same shape (``return_status=True`` only).
         """
-        q = _Query(origins, directions, tmin, tmax, threads, max_steps, invalid, precision)
+        q = _Query(origins, directions, tmin, tmax, threads, max_steps, invalid, precision, packets)
         method, layout = _names(method, layout)
         r = self._native.count_intersections(
-            q.o, q.d, q.lo, q.hi, q.threads, q.max_steps, method, layout
+            q.o, q.d, q.lo, q.hi, q.threads, q.max_steps, method, layout, packets=q.packets
         )
         status = np.asarray(r["status"])
         q.check(status)

@@ -17,14 +17,25 @@ pub const ACCELS: [&str; 1] = ["tetwalk"];
 /// When a chunk of rays is walked in interleaved lanes (`tetwalk`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Lanes {
-    /// Lanes for scattered rays, the one-ray walk for rays that share their origin (a camera,
-    /// shadow rays to one light): those walk the same tets, which stay in cache, and there the
-    /// one-ray walk measured faster; scattered rays wait on memory at every step, and lanes
-    /// overlap those waits (`docs/performance.md`).
+    /// Lanes for scattered rays, not for rays that share their origin (a camera, rays from one
+    /// point): those walk the same tets, which stay in cache, and there the one-ray walk (or
+    /// a packet, see [`Packets`]) measured faster; scattered rays wait on memory at every
+    /// step, and lanes overlap those waits (`docs/performance.md`).
     #[default]
     Auto,
     Off,
     On,
+}
+
+/// Whether rays that share an origin walk as packets (`traverse::packet`, `tetwalk`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Packets {
+    /// Packets where a chunk's rays share their origin (its first two do) and the method's
+    /// exits are exact sides (the exact walk); elsewhere as [`Lanes`] says.
+    #[default]
+    Auto,
+    /// Never.
+    Off,
 }
 
 pub trait Accel<R: Real>: Sync {

@@ -8,14 +8,21 @@
 //! (`traverse::plain_step`); a ray whose next step is anything else (a constrained face, the
 //! boundary, an uncertain or touching exit) leaves its lane and finishes with the one-ray walk
 //! from the same state, so every answer is the one-ray walk's, bit for bit.
+//!
+//! A chunk of rays that share an origin (a camera) walks in packets instead
+//! ([`TetWalk::trace_packets`], `traverse::packet`): sorted along a Morton curve of their
+//! directions, 64 at a time, a packet steps once for all its rays while they leave each tet by
+//! one face, and splits into groups by exit where they part; each ray finishes alone from
+//! where its group left it, so again every answer is the one-ray walk's, bit for bit.
 
 use super::Accel;
-use super::{trace_each, Lanes};
+use super::{trace_each, Lanes, Packets};
 use crate::geom::ray::Ray;
 use crate::geom::real::Real;
 use crate::layout::Layout;
 use crate::locate::{LocateState, Locators, Start, WalkStart};
 use crate::query::{Decision, Query, QueryKind, Sink};
+use crate::traverse::packet::{DirBox, Packet};
 use crate::traverse::{
     plain_step, walk_begin, walk_resume, Contact, ExitMethod, Touch, Walk, WalkEnd, WalkObserver,
     WalkSetup, WalkState,
@@ -25,10 +32,34 @@ use std::marker::PhantomData;
 /// Rays walked side by side in one chunk.
 pub const LANES: usize = 8;
 
+/// The most rays in one packet, and the fewest worth walking as one (smaller ones walk ray
+/// by ray).
+pub const PACKET: usize = 64;
+const MIN_PACKET: usize = 3;
+
+#[cfg(test)]
+thread_local! {
+    /// Packet steps taken on this thread (tests check that packets walked at all).
+    static PACKET_STEPS: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
+}
+
+/// Packet steps taken so far on this thread.
+#[cfg(test)]
+pub fn packet_steps() -> u64 {
+    PACKET_STEPS.with(|c| c.get())
+}
+
+#[inline(always)]
+fn count_packet_step() {
+    #[cfg(test)]
+    PACKET_STEPS.with(|c| c.set(c.get() + 1));
+}
+
 pub struct TetWalk<'a, R, L, M, O> {
     pub locators: Locators<'a>,
     pub setup: WalkSetup<'a, R, L>,
     pub lanes: Lanes,
+    pub packets: Packets,
     // fn() -> _: the method and observer are types only, so the walk is Sync whatever they are.
     _types: PhantomData<fn() -> (M, O)>,
 }
@@ -39,12 +70,17 @@ impl<'a, R, L, M, O> TetWalk<'a, R, L, M, O> {
             locators,
             setup,
             lanes: Lanes::Auto,
+            packets: Packets::Auto,
             _types: PhantomData,
         }
     }
 
-    pub fn with_lanes(self, lanes: Lanes) -> Self {
-        TetWalk { lanes, ..self }
+    pub fn with_lanes(self, lanes: Lanes, packets: Packets) -> Self {
+        TetWalk {
+            lanes,
+            packets,
+            ..self
+        }
     }
 }
 
@@ -57,7 +93,17 @@ struct Walking<R: Real, M: ExitMethod<R>, P, O> {
     state: WalkState<M::Vert>,
 }
 
-/// A lane: empty, or the index in its chunk, the ray and its walk.
+/// A packet's rays and the room to regroup them (kept from packet to packet).
+#[derive(Default)]
+struct PacketRays {
+    /// Index into the walkers, and the ray's direction (as its walk's line has it).
+    rays: Vec<(u32, [f64; 3])>,
+    spare: Vec<(u32, [f64; 3])>,
+    exits: Vec<u8>,
+    stack: Vec<(usize, usize, Packet)>,
+}
+
+/// A lane (or a packet's ray): empty, or the index in its chunk, the ray and its walk.
 type Lane<R, M, P, O> = Option<(usize, Ray, Walking<R, M, P, O>)>;
 
 impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> Accel<R>
@@ -85,11 +131,16 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> Accel<R>
         out: &mut S,
         st: &mut LocateState,
     ) {
+        // Rays sharing an origin (the chunk's first two) are taken as coherent.
+        let shared_origin = out.len() >= 2 && ray_at(0).o == ray_at(1).o;
+        if shared_origin && self.packets == Packets::Auto && M::PACKETS && !O::ACTIVE && !L::INLINE
+        {
+            return self.trace_packets(query, ray_at, out, st);
+        }
         let lanes = match self.lanes {
             Lanes::On => true,
             Lanes::Off => false,
-            // Rays sharing an origin (the chunk's first two) are taken as coherent.
-            Lanes::Auto => out.len() < 2 || ray_at(0).o != ray_at(1).o,
+            Lanes::Auto => !shared_origin,
         };
         if O::ACTIVE || L::INLINE || !lanes {
             // The audit observes every step, and INLINE layouts name vertices by slot: the
@@ -143,9 +194,198 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> Accel<R>
 }
 
 impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L, M, O> {
+    /// The chunk in packets: runs of rays sharing an origin (at most [`PACKET`]) are located
+    /// and started one by one, grouped by the face their walks stand at, and each group walks
+    /// as one packet (`traverse::packet`), split in halves where its rays part; every ray
+    /// finishes with its own walk from where its packet left it.
+    fn trace_packets<K: QueryKind, S: Sink<K::Answer>>(
+        &self,
+        query: &K,
+        ray_at: impl Fn(usize) -> Ray,
+        out: &mut S,
+        st: &mut LocateState,
+    ) {
+        let n = out.len();
+        // Rays in order of origin, then of direction along a Morton curve: consecutive rays
+        // then fill square-ish tiles of the image, whose rays part late.
+        let origin0 = ray_at(0).o;
+        let mut one_origin = true;
+        let mut by_direction: Vec<u64> = (0..n)
+            .map(|j| {
+                let ray = ray_at(j);
+                one_origin &= ray.o == origin0;
+                (direction_key(ray.d) as u64) << 32 | j as u64
+            })
+            .collect();
+        if one_origin {
+            by_direction.sort_unstable();
+        } else {
+            let origin = |k: &u64| ray_at((*k & 0xffff_ffff) as usize).o.map(f64::to_bits);
+            by_direction.sort_unstable_by_key(|k| (origin(k), *k));
+        }
+        let ray_of = |k: usize| (by_direction[k] & 0xffff_ffff) as usize;
+        let mut walkers: Vec<Lane<R, M, K::Policy, O>> = Vec::with_capacity(PACKET);
+        let mut order: Vec<(u32, [u32; 3], u32, u32, u32)> = Vec::with_capacity(PACKET);
+        let mut group = PacketRays::default();
+        let mut first = 0;
+        while first < n {
+            let origin = ray_at(ray_of(first)).o;
+            walkers.clear();
+            let mut k = first;
+            while k < n && k - first < PACKET {
+                let j = ray_of(k);
+                let ray = ray_at(j);
+                if ray.o != origin {
+                    break;
+                }
+                match self.begin(query, &ray, st) {
+                    Err(answer) => out.put(j, answer, &ray),
+                    // A packet's faces must have certain edges, as a lane's.
+                    Ok(w) if M::may_touch(&w.prepared, &w.state.pa, &w.state.pb, &w.state.pc) => {
+                        out.put(j, self.finish(query, w), &ray)
+                    }
+                    Ok(w) => walkers.push(Some((j, ray, w))),
+                }
+                k += 1;
+            }
+            first = k;
+            // Groups: rays whose walks stand at the same face (stable: ray order within).
+            order.clear();
+            order.extend(walkers.iter().enumerate().map(|(i, w)| {
+                let s = &w.as_ref().expect("a started ray").2.state;
+                (s.link, [s.a, s.b, s.c], s.t, s.steps, i as u32)
+            }));
+            order.sort_unstable();
+            let mut g = 0;
+            while g < order.len() {
+                let key = |x: &(u32, [u32; 3], u32, u32, u32)| (x.0, x.1, x.2, x.3);
+                let end = g + order[g..]
+                    .iter()
+                    .take_while(|x| key(x) == key(&order[g]))
+                    .count();
+                let (link, face, t, steps, _) = order[g];
+                group.rays.clear();
+                group.rays.extend(order[g..end].iter().map(|x| {
+                    let w = &walkers[x.4 as usize].as_ref().expect("a started ray").2;
+                    (x.4, M::line(&w.prepared).1)
+                }));
+                let origin = M::line(
+                    &walkers[order[g].4 as usize]
+                        .as_ref()
+                        .expect("a ray")
+                        .2
+                        .prepared,
+                )
+                .0;
+                let packet = Packet::new(&self.setup, origin, face, link, t, steps);
+                self.walk_packet(query, &mut walkers, &mut group, origin, packet, out);
+                g = end;
+            }
+        }
+    }
+
+    /// Walks the rays `group.rays` (one face, one origin) as a packet from `packet`, and
+    /// finishes each ray: while the box of their directions leaves each tet by one certain
+    /// exit, in one step for all; where it does not, each ray's exit is decided alone (three
+    /// dot products with the packet's edges) and the rays are regrouped by exit, each group a
+    /// packet again (a trie of the rays' tet paths). A ray whose exit is not certain, or a
+    /// group too small, finishes with its own walk.
+    fn walk_packet<K: QueryKind, S: Sink<K::Answer>>(
+        &self,
+        query: &K,
+        walkers: &mut [Lane<R, M, K::Policy, O>],
+        group: &mut PacketRays,
+        origin: [f64; 3],
+        packet: Packet,
+        out: &mut S,
+    ) {
+        let PacketRays {
+            rays,
+            spare,
+            exits,
+            stack,
+        } = group;
+        exits.resize(rays.len(), 0);
+        stack.clear();
+        stack.push((0, rays.len(), packet));
+        while let Some((lo, hi, mut packet)) = stack.pop() {
+            let dirs = DirBox::of(rays[lo..hi].iter().map(|r| &r.1));
+            loop {
+                let next = (hi - lo >= MIN_PACKET)
+                    .then(|| packet.next(&self.setup, origin))
+                    .flatten();
+                let Some((d, pd, edges)) = next else {
+                    self.finish_rays(query, walkers, &rays[lo..hi], &packet, out);
+                    break;
+                };
+                if let Some(r) = Packet::exit_of_box(&edges, &dirs) {
+                    packet.advance(&self.setup, (d, pd), r);
+                    count_packet_step();
+                    continue;
+                }
+                let mut counts = [0usize; 4];
+                for k in lo..hi {
+                    exits[k] = Packet::exit_of(&edges, &rays[k].1);
+                    counts[exits[k] as usize] += 1;
+                }
+                if let Some(r) = (0..3).find(|&r| counts[r] == hi - lo) {
+                    packet.advance(&self.setup, (d, pd), r as u8);
+                    count_packet_step();
+                    continue;
+                }
+                // The rays part here: regroup them by exit, in order.
+                let mut starts = [lo; 4];
+                for r in 1..4 {
+                    starts[r] = starts[r - 1] + counts[r - 1];
+                }
+                spare.clear();
+                spare.extend_from_slice(&rays[lo..hi]);
+                let mut at = starts;
+                for (k, ray) in spare.iter().enumerate() {
+                    let e = exits[lo + k] as usize;
+                    rays[at[e]] = *ray;
+                    at[e] += 1;
+                }
+                // An uncertain exit: the ray takes this step alone.
+                self.finish_rays(query, walkers, &rays[starts[3]..hi], &packet, out);
+                for r in (0..3).filter(|&r| counts[r] > 0) {
+                    let mut beyond = packet;
+                    beyond.advance(&self.setup, (d, pd), r as u8);
+                    count_packet_step();
+                    stack.push((starts[r], starts[r] + counts[r], beyond));
+                }
+                break;
+            }
+        }
+    }
+
+    /// Finishes each of `rays` (indices into `walkers`) with its own walk from where `packet`
+    /// stands.
+    fn finish_rays<K: QueryKind, S: Sink<K::Answer>>(
+        &self,
+        query: &K,
+        walkers: &mut [Lane<R, M, K::Policy, O>],
+        rays: &[(u32, [f64; 3])],
+        packet: &Packet,
+        out: &mut S,
+    ) {
+        for &(i, _) in rays {
+            let (j, ray, mut w) = walkers[i as usize].take().expect("a walking ray");
+            w.state = WalkState::plain::<R, L, M>(
+                &self.setup,
+                &w.prepared,
+                [packet.a, packet.b, packet.c],
+                packet.link,
+                packet.t,
+                packet.steps,
+            );
+            out.put(j, self.finish(query, w), &ray);
+        }
+    }
+
     /// Locates the ray and takes its walk's first exit; Err: its answer already (it does not
     /// walk, or its walk ended at the start).
-    #[inline]
+    #[inline(always)]
     fn begin<K: QueryKind>(
         &self,
         query: &K,
@@ -169,6 +409,7 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
 
     /// The exact walk's start: at the origin (or the exact box entry); an origin on one of the
     /// caller's triangles is a hit at t = 0 (`Contact::Origin`).
+    #[inline(always)]
     fn begin_exact<K: QueryKind>(
         &self,
         query: &K,
@@ -205,7 +446,7 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
         self.first_exit(query, s, prepared, policy, observer)
     }
 
-    #[inline]
+    #[inline(always)]
     fn first_exit<K: QueryKind>(
         &self,
         query: &K,
@@ -248,4 +489,26 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
             walk_resume::<R, L, M, _, O>(&self.setup, &prepared, state, &mut policy, &mut observer);
         query.answer(&start, &walk, policy, observer.counts())
     }
+}
+
+/// Where a direction lies on a Morton curve over the cube's faces: the face (major axis and
+/// its sign) in the top bits, then the other two coordinates over the major one, 14 bits
+/// each, interleaved. Nearby directions get nearby keys (mostly).
+fn direction_key(d: [f64; 3]) -> u32 {
+    let major = (0..3)
+        .max_by(|&i, &j| d[i].abs().total_cmp(&d[j].abs()))
+        .expect("three axes");
+    let (u, v) = (d[(major + 1) % 3], d[(major + 2) % 3]);
+    let scale = 1.0 / d[major].abs();
+    // u/|d_major| and v/|d_major| lie in [-1, 1] (NaN and zero directions land anywhere).
+    let quantize = |x: f64| (((x * scale).clamp(-1.0, 1.0) + 1.0) * 8191.5) as u32;
+    let spread = |x: u32| {
+        let mut x = x & 0x3fff;
+        x = (x | x << 8) & 0x00ff_00ff;
+        x = (x | x << 4) & 0x0f0f_0f0f;
+        x = (x | x << 2) & 0x3333_3333;
+        (x | x << 1) & 0x5555_5555
+    };
+    let face = (major as u32) << 1 | (d[major] < 0.0) as u32;
+    face << 28 | spread(quantize(u)) << 1 | spread(quantize(v))
 }

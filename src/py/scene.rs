@@ -6,7 +6,7 @@ use super::names::{LayoutArg, MethodArg};
 use crate::geom::real::Real;
 use crate::layout::LayoutKind;
 use crate::query::Listed;
-use crate::scene::{CastOptions, HitBuffers, HitsOut, Rays, Scene};
+use crate::scene::{CastOptions, HitBuffers, HitsOut, Packets, Rays, Scene};
 use crate::traverse::Method;
 use numpy::{
     Element, IntoPyArray, PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
@@ -85,7 +85,7 @@ impl PyScene {
     /// "audit": (N, 2) uint32, per ray the exit faces taken that exact predicates reject and
     /// the steps where the method found no exit face. `method`, `layout`: None for the core's
     /// defaults.
-    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, audit=false))]
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, audit=false, packets=true))]
     #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
     fn cast<'py>(
         &self,
@@ -99,13 +99,10 @@ impl PyScene {
         method: Option<MethodArg>,
         layout: Option<LayoutArg>,
         audit: bool,
+        packets: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
         let scene = &self.inner;
-        let opts = CastOptions {
-            threads,
-            max_steps,
-            ..Default::default()
-        };
+        let opts = cast_options(threads, max_steps, packets);
         let method = method.map_or(Method::DEFAULT, |m| m.0);
         let layout = layout.map_or(LayoutKind::DEFAULT, |l| l.0);
         let f32s = (
@@ -136,7 +133,7 @@ impl PyScene {
 
     /// Any hit (occlusion) per ray: status HIT when a scene triangle lies on the ray within
     /// [tmin, tmax], else MISS (FAILED, INVALID as for casts). Arguments as for `cast`.
-    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None))]
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packets=true))]
     #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
     fn occluded<'py>(
         &self,
@@ -149,16 +146,13 @@ impl PyScene {
         max_steps: Option<u32>,
         method: Option<MethodArg>,
         layout: Option<LayoutArg>,
+        packets: bool,
     ) -> PyResult<Bound<'py, numpy::PyArray1<u8>>> {
         let job = Occluded {
             method: method.map_or(Method::DEFAULT, |m| m.0),
             layout: layout.map_or(LayoutKind::DEFAULT, |l| l.0),
         };
-        let opts = CastOptions {
-            threads,
-            max_steps,
-            ..Default::default()
-        };
+        let opts = cast_options(threads, max_steps, packets);
         let out = query_rays(py, &self.inner, origins, directions, tmin, tmax, &opts, job)?;
         Ok(out.into_pyarray(py))
     }
@@ -166,7 +160,7 @@ impl PyScene {
     /// Every point where each ray meets the surface in [tmin, tmax] (the exact walk): a dict
     /// of flat arrays "offsets" (N + 1), "t", "triangle", "u", "v" sorted by t within each
     /// ray, and "status" (N). `method` must be None or "exact"; `layout` is ignored.
-    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None))]
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packets=true))]
     #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
     fn intersections<'py>(
         &self,
@@ -179,16 +173,17 @@ impl PyScene {
         max_steps: Option<u32>,
         method: Option<MethodArg>,
         layout: Option<LayoutArg>,
+        packets: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
         let _ = layout;
+        let opts = cast_options(threads, max_steps, packets);
         let listed = all_hits(
             py,
             &self.inner,
             origins,
             directions,
             (tmin, tmax),
-            threads,
-            max_steps,
+            &opts,
             method,
         )?;
         let n = listed.len();
@@ -224,7 +219,7 @@ impl PyScene {
 
     /// The number of points where each ray meets the surface in [tmin, tmax] (as
     /// `intersections`): a dict of "count" (int32, N) and "status" (N).
-    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None))]
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packets=true))]
     #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
     fn count_intersections<'py>(
         &self,
@@ -237,16 +232,17 @@ impl PyScene {
         max_steps: Option<u32>,
         method: Option<MethodArg>,
         layout: Option<LayoutArg>,
+        packets: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
         let _ = layout;
+        let opts = cast_options(threads, max_steps, packets);
         let listed = all_hits(
             py,
             &self.inner,
             origins,
             directions,
             (tmin, tmax),
-            threads,
-            max_steps,
+            &opts,
             method,
         )?;
         let count: Vec<i32> = listed.iter().map(|l| l.meets.len() as i32).collect();
@@ -515,15 +511,23 @@ impl RayQuery for AllHitsJob {
     }
 }
 
-#[allow(clippy::too_many_arguments)] // the bindings' shared arguments
+/// The options the bindings share (`packets=False`: never walk rays as packets).
+fn cast_options(threads: Option<usize>, max_steps: Option<u32>, packets: bool) -> CastOptions {
+    CastOptions {
+        threads,
+        max_steps,
+        packets: if packets { Packets::Auto } else { Packets::Off },
+        ..Default::default()
+    }
+}
+
 fn all_hits<'py>(
     py: Python<'py>,
     scene: &Scene,
     origins: &Bound<'py, PyAny>,
     directions: &Bound<'py, PyAny>,
     (tmin, tmax): (PyReadonlyArray1<'py, f64>, PyReadonlyArray1<'py, f64>),
-    threads: Option<usize>,
-    max_steps: Option<u32>,
+    opts: &CastOptions,
     method: Option<MethodArg>,
 ) -> PyResult<Vec<Listed>> {
     if let Some(m) = method {
@@ -534,14 +538,7 @@ fn all_hits<'py>(
             )));
         }
     }
-    let opts = CastOptions {
-        threads,
-        max_steps,
-        ..Default::default()
-    };
-    query_rays(
-        py, scene, origins, directions, tmin, tmax, &opts, AllHitsJob,
-    )
+    query_rays(py, scene, origins, directions, tmin, tmax, opts, AllHitsJob)
 }
 
 /// Validates rays of either precision and runs `query` with the GIL released.

@@ -455,27 +455,23 @@ fn all_hits_counts_and_occlusion_agree_with_the_referee() {
     );
 }
 
-/// Closest hits of `rays` with lanes forced on and off: every field, bit for bit.
-fn same_closest_with_and_without_lanes<R: crate::geom::real::Real>(
+/// Closest hits of `rays` cast with options `a` and `b`: every field, bit for bit.
+fn same_closest<R: crate::geom::real::Real>(
     scene: &Scene,
     method: Method,
     rays: &Rays<R>,
-    window: bool,
+    what: &str,
+    [a, b]: [CastOptions; 2],
 ) {
-    use crate::scene::Lanes;
-    let closest = |lanes| {
+    let closest = |opts: CastOptions| {
         let mut b = HitBuffers::<R>::new(rays.len(), false);
-        let opts = CastOptions {
-            lanes,
-            ..Default::default()
-        };
         scene
             .cast_with(method, LayoutKind::DEFAULT, rays, b.out(), &opts)
             .unwrap();
         b
     };
-    let (on, off) = (closest(Lanes::On), closest(Lanes::Off));
-    let what = format!("{method:?} {} window {window}", R::NAME);
+    let (on, off) = (closest(a), closest(b));
+    let what = format!("{method:?} {} {what}", R::NAME);
     assert_eq!(on.status, off.status, "{what}");
     assert_eq!(on.triangle, off.triangle, "{what}");
     assert_eq!(on.tet, off.tet, "{what}");
@@ -488,6 +484,74 @@ fn same_closest_with_and_without_lanes<R: crate::geom::real::Real>(
     ] {
         let bits = |x: &R| x.to_f64().to_bits();
         assert!(a.iter().map(bits).eq(b.iter().map(bits)), "{what}");
+    }
+}
+
+/// Any hits and all hits of `rays` (float64) cast with options `a` and `b`, bit for bit.
+fn same_lists(
+    scene: &Scene,
+    method: Method,
+    rays: &Rays<f64>,
+    what: &str,
+    [a, b]: [CastOptions; 2],
+) {
+    let n = rays.len();
+    let occluded = |opts: CastOptions| {
+        let mut out = vec![0u8; n];
+        scene
+            .occluded(method, LayoutKind::DEFAULT, rays, &mut out, &opts)
+            .unwrap();
+        out
+    };
+    assert_eq!(occluded(a), occluded(b), "{method:?} any hit {what}");
+    if method != Method::Exact {
+        return;
+    }
+    let listed = |opts: CastOptions| {
+        let mut out = vec![crate::query::Listed::default(); n];
+        scene.intersections(rays, &mut out, &opts).unwrap();
+        out
+    };
+    let bits = |x: f64| x.to_bits();
+    for (i, (x, y)) in listed(a).iter().zip(&listed(b)).enumerate() {
+        assert_eq!(x.status, y.status, "ray {i}: {what}");
+        let key = |l: &crate::query::Listed| {
+            l.meets
+                .iter()
+                .map(|m| (bits(m.t), bits(m.u), bits(m.v), m.triangle, m.key))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(key(x), key(y), "ray {i}: all hits {what}");
+    }
+}
+
+/// Every method's closest hits (float64 rays and the same rays rounded to float32), any hits
+/// and all hits of the rays `o`, `d` cast with options `a` and `b`: bit for bit.
+fn same_answers(
+    scene: &Scene,
+    [o, d]: [&[f64]; 2],
+    [tmin, tmax]: [&[f64]; 2],
+    what: &str,
+    ab: [CastOptions; 2],
+) {
+    let o32: Vec<f32> = o.iter().map(|&x| x as f32).collect();
+    let d32: Vec<f32> = d.iter().map(|&x| x as f32).collect();
+    let r64 = Rays {
+        origins: o,
+        directions: d,
+        tmin,
+        tmax,
+    };
+    let r32 = Rays {
+        origins: &o32[..],
+        directions: &d32[..],
+        tmin,
+        tmax,
+    };
+    for &method in Method::ALL {
+        same_closest(scene, method, &r64, what, ab);
+        same_closest(scene, method, &r32, what, ab);
+        same_lists(scene, method, &r64, what, ab);
     }
 }
 
@@ -513,16 +577,13 @@ fn lanes_answer_as_the_one_ray_walk() {
         let (x, y) = ((k % 32) as f64 / 32.0, (k / 32) as f64 / 32.0);
         (eye, [1.0, x - 0.5, y - 0.5])
     }));
-    let n = rays.len();
     let o: Vec<f64> = rays.iter().flat_map(|r| r.0).collect();
     let d: Vec<f64> = rays.iter().flat_map(|r| r.1).collect();
-    let o32: Vec<f32> = o.iter().map(|&x| x as f32).collect();
-    let d32: Vec<f32> = d.iter().map(|&x| x as f32).collect();
-    let opts = |lanes| CastOptions {
+    let lanes = |lanes| CastOptions {
         lanes,
         ..Default::default()
     };
-    let bits = |x: f64| x.to_bits();
+    let (on, off) = (lanes(Lanes::On), lanes(Lanes::Off));
     for window in [false, true] {
         let (tmin, tmax): (Vec<f64>, Vec<f64>) = if window {
             rays.iter()
@@ -534,49 +595,69 @@ fn lanes_answer_as_the_one_ray_walk() {
         } else {
             (vec![0.0], vec![f64::INFINITY])
         };
-        let r64 = Rays {
-            origins: &o[..],
-            directions: &d[..],
-            tmin: &tmin,
-            tmax: &tmax,
-        };
-        let r32 = Rays {
-            origins: &o32[..],
-            directions: &d32[..],
-            tmin: &tmin,
-            tmax: &tmax,
-        };
-        for &method in Method::ALL {
-            same_closest_with_and_without_lanes(&g.scene, method, &r64, window);
-            same_closest_with_and_without_lanes(&g.scene, method, &r32, window);
-            let occluded = |lanes| {
-                let mut out = vec![0u8; n];
-                g.scene
-                    .occluded(method, LayoutKind::DEFAULT, &r64, &mut out, &opts(lanes))
-                    .unwrap();
-                out
-            };
-            assert_eq!(
-                occluded(Lanes::On),
-                occluded(Lanes::Off),
-                "{method:?} any hit"
-            );
+        let what = format!("lanes, window {window}");
+        same_answers(&g.scene, [&o, &d], [&tmin, &tmax], &what, [on, off]);
+    }
+}
+
+/// Rays that share an origin walked as packets (`traverse::packet`) get the one-ray walk's
+/// answers, bit for bit: every query, both precisions, every method, from eyes outside the
+/// box, inside a tet and on a scene vertex, aimed at every vertex, along edges and through
+/// faces' points (the lines meet vertices and edges exactly: grid coordinates) and over a
+/// pixel fan; and packets did take steps (but from the vertex), so the comparison is not
+/// vacuous.
+#[test]
+fn packets_answer_as_the_one_ray_walk() {
+    use crate::scene::{Lanes, Packets};
+    let mut rng = Rng(91);
+    let g = crate::testing::grid_scene_inside(&mut rng, 4, 0.0, 0.35);
+    let eyes = [
+        [-0.75, 0.3125, 0.4375],
+        [1.5, 1.25, -0.5],
+        [0.3125, 0.4375, 0.5625],
+        [0.5, 0.5, 0.5],
+    ];
+    let opts = |packets| CastOptions {
+        lanes: Lanes::Off,
+        packets,
+        threads: Some(1),
+        ..Default::default()
+    };
+    let both = [opts(Packets::Auto), opts(Packets::Off)];
+    for eye in eyes {
+        let mut targets: Vec<[f64; 3]> = g.pts.clone();
+        for f in &g.faces {
+            let p = f.map(|v| g.pts[v as usize]);
+            for k in 0..3 {
+                let (a, b) = (p[k], p[(k + 1) % 3]);
+                targets.push([0, 1, 2].map(|i| (a[i] + b[i]) * 0.5));
+            }
+            targets.push([0, 1, 2].map(|i| (p[0][i] + p[1][i] + 2.0 * p[2][i]) * 0.25));
         }
-        let listed = |lanes| {
-            let mut out = vec![crate::query::Listed::default(); n];
-            g.scene.intersections(&r64, &mut out, &opts(lanes)).unwrap();
-            out
-        };
-        let (on, off) = (listed(Lanes::On), listed(Lanes::Off));
-        for (i, (a, b)) in on.iter().zip(&off).enumerate() {
-            assert_eq!(a.status, b.status, "ray {i}");
-            let key = |l: &crate::query::Listed| {
-                l.meets
-                    .iter()
-                    .map(|m| (bits(m.t), bits(m.u), bits(m.v), m.triangle, m.key))
-                    .collect::<Vec<_>>()
-            };
-            assert_eq!(key(a), key(b), "ray {i}: all hits");
+        for k in 0..64 * 64 {
+            let (x, y) = ((k % 64) as f64 / 64.0, (k / 64) as f64 / 64.0);
+            targets.push([
+                0.5 + (x - 0.5) * 1.25,
+                0.5 + (y - 0.5) * 1.25,
+                0.5 + (x - y) * 0.5,
+            ]);
         }
+        targets.retain(|t| t != &eye);
+        let n = targets.len();
+        let o: Vec<f64> = (0..n).flat_map(|_| eye).collect();
+        let d: Vec<f64> = targets
+            .iter()
+            .flat_map(|t| [0, 1, 2].map(|k| t[k] - eye[k]))
+            .collect();
+        let (tmin, tmax) = (vec![0.0], vec![f64::INFINITY]);
+        let what = format!("packets from {eye:?}");
+        let before = crate::accel::tetwalk::packet_steps();
+        same_answers(&g.scene, [&o, &d], [&tmin, &tmax], &what, both);
+        // From a vertex every ray touches it at the start and walks alone.
+        let taken = crate::accel::tetwalk::packet_steps() - before;
+        assert!(
+            g.pts.contains(&eye) || taken > 100,
+            "{what}: only {taken} packet steps"
+        );
     }
 }

@@ -2,8 +2,8 @@
 //! monomorphized walk, run over 4096-ray chunks on the threads asked for.
 
 use super::{check_lengths, HitsOut, Rays, Scene};
-pub use crate::accel::Lanes;
 use crate::accel::{Accel, TetWalk};
+pub use crate::accel::{Lanes, Packets};
 use crate::error::{Error, Result};
 use crate::geom::real::Real;
 use crate::layout::{Layout, LayoutKind, LayoutVisitor};
@@ -24,6 +24,9 @@ pub struct CastOptions {
     /// Whether to walk rays in interleaved lanes (`accel::tetwalk`): answers are the same
     /// either way, bit for bit; only speed differs.
     pub lanes: Lanes,
+    /// Whether rays sharing an origin walk as packets (`accel::Packets`): the same answers,
+    /// bit for bit, either way.
+    pub packets: Packets,
 }
 
 impl CastOptions {
@@ -234,7 +237,8 @@ impl Scene {
             sides: &self.mesh.constrained,
             max_steps: opts.max_steps_for(self.mesh.len()),
         };
-        let walk = TetWalk::<W, L, M, O>::new(self.locators(), setup).with_lanes(opts.lanes);
+        let walk =
+            TetWalk::<W, L, M, O>::new(self.locators(), setup).with_lanes(opts.lanes, opts.packets);
         cast_accel(&walk, query, rays, out, opts.threads)
     }
 }

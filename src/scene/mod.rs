@@ -21,7 +21,7 @@ use crate::traverse::Walk;
 use std::sync::OnceLock;
 
 pub use buffers::{check_lengths, HitBuffers, HitsOut, Rays};
-pub use cast::{CastOptions, Lanes, CHUNK};
+pub use cast::{CastOptions, Lanes, Packets, CHUNK};
 
 pub struct Scene {
     pub mesh: TetMesh,

@@ -80,6 +80,7 @@ impl<R: Real> ExactRay<R> {
 impl<R: Real> ExitMethod<R> for Exact {
     const NAME: &'static str = "exact";
     const CONTACTS: bool = true;
+    const PACKETS: bool = true;
     type Ray = ExactRay<R>;
     type Vert = [R; 3];
 
@@ -109,6 +110,10 @@ impl<R: Real> ExitMethod<R> for Exact {
             w: w.map(R::from_f64),
             bound_scale: R::from_f64(scale) * R::from_f64(1.0 + 1e-6),
         }
+    }
+
+    fn line(ray: &ExactRay<R>) -> (V3<f64>, V3<f64>) {
+        (ray.o, ray.d)
     }
 
     #[inline(always)]

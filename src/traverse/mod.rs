@@ -12,6 +12,7 @@ pub mod lagae2008_plucker;
 pub mod lagae2008_stp;
 pub mod maria2017;
 pub mod ms06;
+pub mod packet;
 pub mod robust;
 pub mod walk;
 
@@ -76,6 +77,9 @@ pub trait ExitMethod<R: Real> {
     /// vertices and edges of exit faces ([`Contact`]); it starts at the origin itself or, from
     /// outside, at the exact entry face (`locate::Locators::locate_exact`).
     const CONTACTS: bool = false;
+    /// The exit is the one the exact sides of the ray's line name (`Exact`): rays sharing an
+    /// origin may walk as a packet (`packet`), with the line given by [`ExitMethod::line`].
+    const PACKETS: bool = false;
     /// Per-ray data computed once (e.g. a basis).
     type Ray: Copy;
     /// Per-vertex data computed once per fetched vertex (e.g. its 2D projection).
@@ -86,6 +90,10 @@ pub trait ExitMethod<R: Real> {
     /// which methods with error bounds (the robust walk) use to bound their rounding.
     fn prepare(origin: V3<f64>, dir: V3<f64>, domain: &[V3<f64>; 2]) -> Self::Ray;
     fn vertex(ray: &Self::Ray, p: V3<R>) -> Self::Vert;
+    /// The line the exact sides are taken on, (origin, direction), for methods with `PACKETS`.
+    fn line(_ray: &Self::Ray) -> (V3<f64>, V3<f64>) {
+        unreachable!("only methods with PACKETS walk packets")
+    }
     /// The face (index i of OUTWARD_FACES, opposite vertex i) by which the ray leaves the start
     /// tet, whose four vertices (data `v`, positions `p`) are given in positive orientation.
     fn start_exit(ray: &Self::Ray, v: &[Self::Vert; 4], p: &[V3<R>; 4]) -> usize;

@@ -148,6 +148,36 @@ pub struct WalkState<V> {
     contact: Contact,
 }
 
+impl<V> WalkState<V> {
+    /// A ray's walk standing in tet `t`, leaving by the face (a, b, c) (ids, counter-clockwise
+    /// around the ray, no touch there), `link` across it: where a packet of rays leaves the
+    /// ray (`traverse::packet`). Id layouts only.
+    pub fn plain<R: Real, L: Layout, M: ExitMethod<R, Vert = V>>(
+        setup: &WalkSetup<R, L>,
+        ray: &M::Ray,
+        [a, b, c]: [u32; 3],
+        link: u32,
+        t: u32,
+        steps: u32,
+    ) -> Self {
+        debug_assert!(!L::INLINE);
+        let vertex = |v: u32| M::vertex(ray, position(setup.layout, setup.points, t, v));
+        WalkState {
+            a,
+            b,
+            c,
+            pa: vertex(a),
+            pb: vertex(b),
+            pc: vertex(c),
+            link,
+            t,
+            steps,
+            entry_face: 0,
+            contact: Contact::Interior,
+        }
+    }
+}
+
 /// Walks from tet `start.0` (vertex ids `start.1`, positively oriented) until `query` stops at a
 /// constrained face, the walk leaves the domain, or `max_steps`; `observer` sees every exit
 /// face. With `entry = Some(i)` the ray comes from outside through the tet's face i (opposite
