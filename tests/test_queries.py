@@ -341,14 +341,14 @@ def test_occluded_matches_brute_force(case):
 
 
 def test_packets_change_no_answer(case):
-    """``packets=False`` (every ray walks alone) gives the same answers, bit for bit."""
+    """``packet=False`` (every ray walks alone) gives the same answers, bit for bit."""
     scene, _, _, o, d = case
-    with pytest.raises(TypeError, match="packets"):
-        scene.cast(o, d, packets="no")
-    pair = [scene.cast(o, d, packets=p) for p in (True, False)]
+    with pytest.raises(TypeError, match="packet"):
+        scene.cast(o, d, packet="no")
+    pair = [scene.cast(o, d, packet=p) for p in (True, False)]
     for field in ("t", "u", "v", "triangle", "status", "point", "steps"):
         np.testing.assert_array_equal(getattr(pair[0], field), getattr(pair[1], field))
-    pair = [scene.intersections(o, d, packets=p) for p in (True, False)]
+    pair = [scene.intersections(o, d, packet=p) for p in (True, False)]
     for field in ("offsets", "t", "u", "v", "triangle", "status"):
         np.testing.assert_array_equal(getattr(pair[0], field), getattr(pair[1], field))
     for query in (scene.occluded, scene.count_intersections):
@@ -485,22 +485,22 @@ class FakeNative:
         return bf, status
 
     def occluded(
-        self, o, d, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packets=True
+        self, o, d, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packet=True
     ):
-        assert isinstance(packets, bool)
+        assert isinstance(packet, bool)
         return self._check(o, d, tmin, tmax, method, layout)[1]
 
     def count_intersections(
-        self, o, d, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packets=True
+        self, o, d, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packet=True
     ):
-        assert isinstance(packets, bool)
+        assert isinstance(packet, bool)
         bf, status = self._check(o, d, tmin, tmax, method, layout)
         return {"count": np.array([len(h) for h in bf], np.int32), "status": status}
 
     def intersections(
-        self, o, d, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packets=True
+        self, o, d, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packet=True
     ):
-        assert isinstance(packets, bool)
+        assert isinstance(packet, bool)
         bf, status = self._check(o, d, tmin, tmax, method, layout)
         tri = self.v[self.f]
         t, ids, u, w = [], [], [], []

@@ -90,7 +90,7 @@ class NativeScene:
         layout: str | None = None,
         audit: bool = False,
         # False: no packets for rays sharing an origin (same answers, bit for bit).
-        packets: bool = True,
+        packet: bool = True,
     ) -> dict[str, np.ndarray]: ...
     def cast_gpu(
         self,
@@ -115,7 +115,7 @@ class NativeScene:
         max_steps: int | None = None,
         method: str | None = None,
         layout: str | None = None,
-        packets: bool = True,
+        packet: bool = True,
     ) -> npt.NDArray[np.uint8]: ...
     # "offsets" int64 (N+1,), "t" float64 (M,), "triangle" int32 (M,), "u", "v" float64 (M,),
     # "status" uint8 (N,): every point where a ray meets the surface once, sorted by t per ray.
@@ -129,7 +129,7 @@ class NativeScene:
         max_steps: int | None = None,
         method: str | None = None,
         layout: str | None = None,
-        packets: bool = True,
+        packet: bool = True,
     ) -> dict[str, np.ndarray]: ...
     # "count" int32 (N,), "status" uint8 (N,).
     def count_intersections(
@@ -142,7 +142,7 @@ class NativeScene:
         max_steps: int | None = None,
         method: str | None = None,
         layout: str | None = None,
-        packets: bool = True,
+        packet: bool = True,
     ) -> dict[str, np.ndarray]: ...
     # (N, 3) float64 points -> (N,) bool: inside (on the surface counts as inside).
     def contains(

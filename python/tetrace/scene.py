@@ -65,10 +65,10 @@ def _names(method, layout, *, defaults=True):
 
 class _Query:
     """The arguments every ray query shares, checked once: flat rays (``o``, ``d``) of
-    leading ``shape``, bounds ``lo``/``hi``, ``threads``, ``max_steps``, ``packets``."""
+    leading ``shape``, bounds ``lo``/``hi``, ``threads``, ``max_steps``, ``packet``."""
 
     def __init__(
-        self, origins, directions, tmin, tmax, threads, max_steps, invalid, precision, packets
+        self, origins, directions, tmin, tmax, threads, max_steps, invalid, precision, packet
     ):
         batch = prepare_ray_batch(origins, directions, invalid=invalid)
         o, d = batch.origins, batch.directions
@@ -86,9 +86,9 @@ class _Query:
         ):
             raise ValueError(f"max_steps must be a positive int below 2**32, got {max_steps!r}")
         self.threads, self.max_steps = threads, max_steps
-        if not isinstance(packets, (bool, np.bool_)):
-            raise TypeError(f"packets must be True or False, got {packets!r}")
-        self.packets = bool(packets)
+        if not isinstance(packet, (bool, np.bool_)):
+            raise TypeError(f"packet must be True or False, got {packet!r}")
+        self.packet = bool(packet)
 
     def check(self, status):
         """Raise for rays the core marked INVALID, unless ``invalid="mark"``."""
@@ -315,7 +315,7 @@ class Scene:
         layout=None,
         precision=None,
         device="cpu",
-        packets=True,
+        packet=True,
     ):
         """Cast rays and return their closest hits.
 
@@ -358,7 +358,7 @@ class Scene:
             the CPU. ``"auto"``: the GPU when a device opens, the walk is float32 and a kernel
             exists for the method (named explicitly: the default ``exact`` has none) and
             layout, else the CPU.
-        packets : bool
+        packet : bool
             Let rays that share an origin (a camera, rays from one point) walk as packets
             where the method allows (the ``exact`` default): a chunk of rays is taken as
             sharing one when its first two rays do, and a packet steps once for all its
@@ -386,7 +386,7 @@ class Scene:
                 'device="gpu" walks in float32 (WGSL has no float64); use '
                 'precision="f32" or device="cpu"'
             )
-        q = _Query(origins, directions, tmin, tmax, threads, max_steps, invalid, precision, packets)
+        q = _Query(origins, directions, tmin, tmax, threads, max_steps, invalid, precision, packet)
         _names(method, layout, defaults=False)
         use_gpu = False
         if device == "gpu":
@@ -409,7 +409,7 @@ class Scene:
             )
         else:
             r = self._native.cast(
-                q.o, q.d, q.lo, q.hi, q.threads, q.max_steps, method, layout, packets=q.packets
+                q.o, q.d, q.lo, q.hi, q.threads, q.max_steps, method, layout, packet=q.packet
             )
         q.check(r["status"])
         return self._hits(r).reshape(q.shape)
@@ -471,7 +471,7 @@ class Scene:
         layout=None,
         precision=None,
         return_status=False,
-        packets=True,
+        packet=True,
     ):
         """Return whether each ray hits any triangle (a shadow ray), without finding which.
 
@@ -484,7 +484,7 @@ class Scene:
         ----------
         origins, directions, tmin, tmax, threads, max_steps, invalid, method, layout
             As for :meth:`cast` (rays of any leading shape, CPU only).
-        precision, packets
+        precision, packet
             As for :meth:`cast`.
         return_status : bool
             Also return the status per ray.
@@ -499,11 +499,11 @@ class Scene:
             uint8, the same shape (``return_status=True`` only): ``HIT``, ``MISS``,
             ``FAILED`` or ``INVALID``.
         """
-        q = _Query(origins, directions, tmin, tmax, threads, max_steps, invalid, precision, packets)
+        q = _Query(origins, directions, tmin, tmax, threads, max_steps, invalid, precision, packet)
         method, layout = _names(method, layout)
         status = np.asarray(
             self._native.occluded(
-                q.o, q.d, q.lo, q.hi, q.threads, q.max_steps, method, layout, packets=q.packets
+                q.o, q.d, q.lo, q.hi, q.threads, q.max_steps, method, layout, packet=q.packet
             )
         )
         q.check(status)
@@ -524,7 +524,7 @@ class Scene:
         method=None,
         layout=None,
         precision=None,
-        packets=True,
+        packet=True,
     ):
         """Return every hit of every ray, sorted by ray, then by ``t``.
 
@@ -539,7 +539,7 @@ class Scene:
         ----------
         origins, directions, tmin, tmax, threads, max_steps, invalid, method, layout
             As for :meth:`cast` (rays of any leading shape, CPU only).
-        precision, packets
+        precision, packet
             As for :meth:`cast`.
 
         Returns
@@ -551,10 +551,10 @@ class Scene:
             no hit). ``t``, ``u``, ``v`` are float64, evaluated on the caller's triangle;
             ``point`` is ``origin + t * direction`` in float64.
         """
-        q = _Query(origins, directions, tmin, tmax, threads, max_steps, invalid, precision, packets)
+        q = _Query(origins, directions, tmin, tmax, threads, max_steps, invalid, precision, packet)
         method, layout = _names(method, layout)
         r = self._native.intersections(
-            q.o, q.d, q.lo, q.hi, q.threads, q.max_steps, method, layout, packets=q.packets
+            q.o, q.d, q.lo, q.hi, q.threads, q.max_steps, method, layout, packet=q.packet
         )
         status = np.asarray(r["status"])
         q.check(status)
@@ -591,7 +591,7 @@ class Scene:
         layout=None,
         precision=None,
         return_status=False,
-        packets=True,
+        packet=True,
     ):
         """Count the points where each ray meets the surface, in ``[tmin, tmax]``.
 
@@ -603,7 +603,7 @@ class Scene:
         ----------
         origins, directions, tmin, tmax, threads, max_steps, invalid, method, layout
             As for :meth:`cast` (rays of any leading shape, CPU only).
-        precision, packets
+        precision, packet
             As for :meth:`cast`.
         return_status : bool
             Also return the status per ray.
@@ -616,10 +616,10 @@ class Scene:
         status : numpy.ndarray
             uint8, the same shape (``return_status=True`` only).
         """
-        q = _Query(origins, directions, tmin, tmax, threads, max_steps, invalid, precision, packets)
+        q = _Query(origins, directions, tmin, tmax, threads, max_steps, invalid, precision, packet)
         method, layout = _names(method, layout)
         r = self._native.count_intersections(
-            q.o, q.d, q.lo, q.hi, q.threads, q.max_steps, method, layout, packets=q.packets
+            q.o, q.d, q.lo, q.hi, q.threads, q.max_steps, method, layout, packet=q.packet
         )
         status = np.asarray(r["status"])
         q.check(status)

@@ -208,12 +208,12 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
         let n = out.len();
         // Rays in order of origin, then of direction along a Morton curve: consecutive rays
         // then fill square-ish tiles of the image, whose rays part late.
-        let origin0 = ray_at(0).o;
+        let origin0 = ray_at(0).o.map(f64::to_bits);
         let mut one_origin = true;
         let mut by_direction: Vec<u64> = (0..n)
             .map(|j| {
                 let ray = ray_at(j);
-                one_origin &= ray.o == origin0;
+                one_origin &= ray.o.map(f64::to_bits) == origin0;
                 (direction_key(ray.d) as u64) << 32 | j as u64
             })
             .collect();
@@ -229,13 +229,14 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
         let mut group = PacketRays::default();
         let mut first = 0;
         while first < n {
-            let origin = ray_at(ray_of(first)).o;
+            // Origins compare by bits: a NaN origin (an invalid ray) is its own run too.
+            let origin = ray_at(ray_of(first)).o.map(f64::to_bits);
             walkers.clear();
             let mut k = first;
             while k < n && k - first < PACKET {
                 let j = ray_of(k);
                 let ray = ray_at(j);
-                if ray.o != origin {
+                if k > first && ray.o.map(f64::to_bits) != origin {
                     break;
                 }
                 match self.begin(query, &ray, st) {

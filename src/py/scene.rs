@@ -85,7 +85,7 @@ impl PyScene {
     /// "audit": (N, 2) uint32, per ray the exit faces taken that exact predicates reject and
     /// the steps where the method found no exit face. `method`, `layout`: None for the core's
     /// defaults.
-    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, audit=false, packets=true))]
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, audit=false, packet=true))]
     #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
     fn cast<'py>(
         &self,
@@ -99,10 +99,10 @@ impl PyScene {
         method: Option<MethodArg>,
         layout: Option<LayoutArg>,
         audit: bool,
-        packets: bool,
+        packet: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
         let scene = &self.inner;
-        let opts = cast_options(threads, max_steps, packets);
+        let opts = cast_options(threads, max_steps, packet);
         let method = method.map_or(Method::DEFAULT, |m| m.0);
         let layout = layout.map_or(LayoutKind::DEFAULT, |l| l.0);
         let f32s = (
@@ -133,7 +133,7 @@ impl PyScene {
 
     /// Any hit (occlusion) per ray: status HIT when a scene triangle lies on the ray within
     /// [tmin, tmax], else MISS (FAILED, INVALID as for casts). Arguments as for `cast`.
-    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packets=true))]
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packet=true))]
     #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
     fn occluded<'py>(
         &self,
@@ -146,13 +146,13 @@ impl PyScene {
         max_steps: Option<u32>,
         method: Option<MethodArg>,
         layout: Option<LayoutArg>,
-        packets: bool,
+        packet: bool,
     ) -> PyResult<Bound<'py, numpy::PyArray1<u8>>> {
         let job = Occluded {
             method: method.map_or(Method::DEFAULT, |m| m.0),
             layout: layout.map_or(LayoutKind::DEFAULT, |l| l.0),
         };
-        let opts = cast_options(threads, max_steps, packets);
+        let opts = cast_options(threads, max_steps, packet);
         let out = query_rays(py, &self.inner, origins, directions, tmin, tmax, &opts, job)?;
         Ok(out.into_pyarray(py))
     }
@@ -160,7 +160,7 @@ impl PyScene {
     /// Every point where each ray meets the surface in [tmin, tmax] (the exact walk): a dict
     /// of flat arrays "offsets" (N + 1), "t", "triangle", "u", "v" sorted by t within each
     /// ray, and "status" (N). `method` must be None or "exact"; `layout` is ignored.
-    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packets=true))]
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packet=true))]
     #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
     fn intersections<'py>(
         &self,
@@ -173,10 +173,10 @@ impl PyScene {
         max_steps: Option<u32>,
         method: Option<MethodArg>,
         layout: Option<LayoutArg>,
-        packets: bool,
+        packet: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
         let _ = layout;
-        let opts = cast_options(threads, max_steps, packets);
+        let opts = cast_options(threads, max_steps, packet);
         let listed = all_hits(
             py,
             &self.inner,
@@ -219,7 +219,7 @@ impl PyScene {
 
     /// The number of points where each ray meets the surface in [tmin, tmax] (as
     /// `intersections`): a dict of "count" (int32, N) and "status" (N).
-    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packets=true))]
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packet=true))]
     #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
     fn count_intersections<'py>(
         &self,
@@ -232,10 +232,10 @@ impl PyScene {
         max_steps: Option<u32>,
         method: Option<MethodArg>,
         layout: Option<LayoutArg>,
-        packets: bool,
+        packet: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
         let _ = layout;
-        let opts = cast_options(threads, max_steps, packets);
+        let opts = cast_options(threads, max_steps, packet);
         let listed = all_hits(
             py,
             &self.inner,
@@ -511,12 +511,12 @@ impl RayQuery for AllHitsJob {
     }
 }
 
-/// The options the bindings share (`packets=False`: never walk rays as packets).
-fn cast_options(threads: Option<usize>, max_steps: Option<u32>, packets: bool) -> CastOptions {
+/// The options the bindings share (`packet=False`: never walk rays as packets).
+fn cast_options(threads: Option<usize>, max_steps: Option<u32>, packet: bool) -> CastOptions {
     CastOptions {
         threads,
         max_steps,
-        packets: if packets { Packets::Auto } else { Packets::Off },
+        packets: if packet { Packets::Auto } else { Packets::Off },
         ..Default::default()
     }
 }

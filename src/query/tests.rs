@@ -661,3 +661,49 @@ fn packets_answer_as_the_one_ray_walk() {
         );
     }
 }
+
+/// A chunk taken for packets (its first two rays share an origin) that holds rays with NaN
+/// origins ends, and marks them INVALID; the valid rays get the one-ray walk's answers.
+#[test]
+fn packets_end_on_invalid_origins() {
+    use crate::scene::Packets;
+    use crate::status::INVALID;
+    let mut rng = Rng(5);
+    let g = crate::testing::grid_scene_inside(&mut rng, 3, 0.0, 0.5);
+    let eye = [-0.5, 0.3, 0.4];
+    let mut o: Vec<f64> = Vec::new();
+    let mut d: Vec<f64> = Vec::new();
+    for k in 0..200 {
+        let bad = k % 7 == 3;
+        o.extend(if bad { [f64::NAN, 0.0, 0.0] } else { eye });
+        d.extend([
+            1.0,
+            (k % 10) as f64 / 10.0 - 0.5,
+            (k / 10) as f64 / 20.0 - 0.5,
+        ]);
+    }
+    let (tmin, tmax) = (vec![0.0], vec![f64::INFINITY]);
+    let rays = Rays {
+        origins: &o[..],
+        directions: &d[..],
+        tmin: &tmin,
+        tmax: &tmax,
+    };
+    let cast = |packets| {
+        let mut b = HitBuffers::<f64>::new(200, false);
+        let opts = CastOptions {
+            packets,
+            ..Default::default()
+        };
+        g.scene
+            .cast_with(Method::Exact, LayoutKind::DEFAULT, &rays, b.out(), &opts)
+            .unwrap();
+        b
+    };
+    let (on, off) = (cast(Packets::Auto), cast(Packets::Off));
+    for k in 0..200 {
+        assert_eq!(on.status[k] == INVALID, k % 7 == 3, "ray {k}");
+    }
+    assert_eq!(on.status, off.status);
+    assert_eq!(on.triangle, off.triangle);
+}
