@@ -352,7 +352,7 @@ def test_packets_change_no_answer(case):
     for field in ("offsets", "t", "u", "v", "triangle", "status"):
         np.testing.assert_array_equal(getattr(pair[0], field), getattr(pair[1], field))
     for query in (scene.occluded, scene.count_intersections):
-        a, b = (query(o, d, packets=p, return_status=True) for p in (True, False))
+        a, b = (query(o, d, packet=p, return_status=True) for p in (True, False))
         np.testing.assert_array_equal(a[0], b[0])
         np.testing.assert_array_equal(a[1], b[1])
 
