@@ -156,25 +156,10 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> Accel<R>
                     let j = next;
                     next += 1;
                     let ray = ray_at(j);
-                    match self.begin(query, &ray, st) {
-                        Err(answer) => out.put(j, answer, &ray),
-                        // A lane's exit faces must have certain edges (`ExitMethod::step_plain`).
-                        Ok(w)
-                            if M::CONTACTS
-                                && M::may_touch(
-                                    &w.prepared,
-                                    &w.state.pa,
-                                    &w.state.pb,
-                                    &w.state.pc,
-                                ) =>
-                        {
-                            out.put(j, self.finish(query, w), &ray)
-                        }
-                        Ok(w) => {
-                            *slot = Some((j, ray, w));
-                            active += 1;
-                            break;
-                        }
+                    if let Some(w) = self.begin_plain(query, j, &ray, out, st) {
+                        *slot = Some((j, ray, w));
+                        active += 1;
+                        break;
                     }
                 }
             }
@@ -196,8 +181,8 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> Accel<R>
 impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L, M, O> {
     /// The chunk in packets: runs of rays sharing an origin (at most [`PACKET`]) are located
     /// and started one by one, grouped by the face their walks stand at, and each group walks
-    /// as one packet (`traverse::packet`), split in halves where its rays part; every ray
-    /// finishes with its own walk from where its packet left it.
+    /// as one packet ([`TetWalk::walk_packet`]); every ray finishes with its own walk from
+    /// where its packet left it.
     fn trace_packets<K: QueryKind, S: Sink<K::Answer>>(
         &self,
         query: &K,
@@ -239,13 +224,8 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
                 if k > first && ray.o.map(f64::to_bits) != origin {
                     break;
                 }
-                match self.begin(query, &ray, st) {
-                    Err(answer) => out.put(j, answer, &ray),
-                    // A packet's faces must have certain edges, as a lane's.
-                    Ok(w) if M::may_touch(&w.prepared, &w.state.pa, &w.state.pb, &w.state.pc) => {
-                        out.put(j, self.finish(query, w), &ray)
-                    }
-                    Ok(w) => walkers.push(Some((j, ray, w))),
+                if let Some(w) = self.begin_plain(query, j, &ray, out, st) {
+                    walkers.push(Some((j, ray, w)));
                 }
                 k += 1;
             }
@@ -382,6 +362,31 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
             );
             out.put(j, self.finish(query, w), &ray);
         }
+    }
+
+    /// [`TetWalk::begin`] for a lane or a packet, which take only plain steps: the ray's walk
+    /// when its exit face has certain edges (`ExitMethod::step_plain`), else None, with ray
+    /// j's answer put in `out` (it ended at the start, or finishes with the one-ray walk).
+    #[inline(always)]
+    fn begin_plain<K: QueryKind, S: Sink<K::Answer>>(
+        &self,
+        query: &K,
+        j: usize,
+        ray: &Ray,
+        out: &mut S,
+        st: &mut LocateState,
+    ) -> Option<Walking<R, M, K::Policy, O>> {
+        match self.begin(query, ray, st) {
+            Err(answer) => out.put(j, answer, ray),
+            Ok(w)
+                if M::CONTACTS
+                    && M::may_touch(&w.prepared, &w.state.pa, &w.state.pb, &w.state.pc) =>
+            {
+                out.put(j, self.finish(query, w), ray)
+            }
+            Ok(w) => return Some(w),
+        }
+        None
     }
 
     /// Locates the ray and takes its walk's first exit; Err: its answer already (it does not
