@@ -59,7 +59,12 @@ fn time_cast<R: Real>(
     for _ in 0..repeat {
         let mut buf = HitBuffers::<R>::new(rays.len(), false);
         let t = Instant::now();
-        scene.cast(&rays, buf.out(), opts).expect("cast");
+        // LAYOUT=name: the exact walk on that layout (default: the default layout).
+        match std::env::var("LAYOUT") {
+            Ok(layout) => scene.cast_named("exact", &layout, &rays, buf.out(), opts),
+            Err(_) => scene.cast(&rays, buf.out(), opts),
+        }
+        .expect("cast");
         best = best.min(t.elapsed().as_secs_f64());
         steps = buf.steps.iter().map(|&s| s as u64).sum();
         hits = buf.status.iter().filter(|&&s| s == tetrace::HIT).count();

@@ -203,7 +203,9 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
             })
             .collect();
         if one_origin {
-            by_direction.sort_unstable();
+            // Radix passes over the key's bytes (stable: ties keep ray order), a tenth of a
+            // comparison sort's work on a chunk.
+            radsort::sort_by_key(&mut by_direction, |k| (k >> 32) as u32);
         } else {
             let origin = |k: &u64| ray_at((*k & 0xffff_ffff) as usize).o.map(f64::to_bits);
             by_direction.sort_unstable_by_key(|k| (origin(k), *k));

@@ -7,6 +7,7 @@ use crate::geom::real::{unit_scale, Real};
 use crate::mesh::build::OUTWARD_FACES;
 use crate::mesh::TetMesh;
 use crate::status::{FAILED, INVALID, MISS};
+use crate::traverse::packet::Edge;
 use crate::traverse::robust::settle_start;
 use crate::traverse::ExitMethod;
 
@@ -57,7 +58,25 @@ pub struct LocateState {
     hint: Option<(usize, u32)>,
     camera: Option<([f64; 3], f64, u32)>,
     entry_hint: Option<(usize, usize)>,
+    entered: Option<EnteredFace>,
     rng: u32,
+    /// Rays whose entry face came from `entered` (tests check the shortcut ran).
+    #[cfg(test)]
+    reused: u32,
+}
+
+/// The boundary face the last ray from an origin outside the box entered by, seen from that
+/// origin: the sides of its three edges decide, for the next ray from the same origin, whether
+/// it enters by the same face ([`Locators::locate_exact`]).
+#[derive(Clone, Copy, Debug)]
+struct EnteredFace {
+    /// The origin's bits (a NaN origin never gets here).
+    origin: [u64; 3],
+    tet: u32,
+    face: usize,
+    edges: [Edge; 3],
+    /// The exact sides the ray had (all nonzero: its line crossed the face's interior).
+    sides: [i8; 3],
 }
 
 impl LocateState {
@@ -72,7 +91,10 @@ impl LocateState {
             hint: None,
             camera: None,
             entry_hint: None,
+            entered: None,
             rng,
+            #[cfg(test)]
+            reused: 0,
         }
     }
 }
@@ -244,17 +266,123 @@ impl Locators<'_> {
             M::enters(&prepared, &face)
         };
         let mut p = [0, 1, 2].map(|a| (o[a] + span.t0 * d[a]).clamp(lo[a], hi[a]));
-        let candidate = span.side.and_then(|(axis, high)| {
+        if let Some((axis, high)) = span.side {
             p[axis] = if high { hi[axis] } else { lo[axis] };
-            self.entry.locate(p, axis, high, &mut st.entry_hint)
+        }
+        // A ray from the last entering ray's origin whose exact sides on that face's edges are
+        // that ray's (all nonzero) crosses the same face's interior the same way: it enters
+        // there, and by no other face (the line meets the box's boundary once going in).
+        let origin = o.map(f64::to_bits);
+        let same_face = st
+            .entered
+            .filter(|e| M::PACKETS && e.origin == origin)
+            .filter(|e| e.edges.map(|x| x.side_of(&dir)) == e.sides)
+            .map(|e| (e.tet, e.face));
+        #[cfg(test)]
+        {
+            st.reused += same_face.is_some() as u32;
+        }
+        let found = same_face.or_else(|| {
+            let candidate = span
+                .side
+                .and_then(|(axis, high)| self.entry.locate(p, axis, high, &mut st.entry_hint));
+            let found = candidate
+                .filter(enters)
+                .or_else(|| self.entry.faces().find(enters))?;
+            if M::PACKETS {
+                st.entered = EnteredFace::seen(o, dir, found, mesh, points);
+            }
+            Some(found)
         });
-        let found = candidate
-            .filter(enters)
-            .or_else(|| self.entry.faces().find(enters));
         let Some((t, i)) = found else {
             return Err(MISS);
         };
         (start.tet, start.entry, start.point) = (t, Some(i), p);
         Ok((start, prepared))
+    }
+}
+
+impl EnteredFace {
+    /// Face i of tet t as the line (o, dir) that entered by it sees it; None when one of its
+    /// sides is not certain (the line passes near an edge: the next ray locates afresh).
+    fn seen<R: Real>(
+        o: [f64; 3],
+        dir: [f64; 3],
+        (tet, face): (u32, usize),
+        mesh: &TetMesh,
+        points: &[[R; 3]],
+    ) -> Option<EnteredFace> {
+        let corners = mesh.tets[tet as usize];
+        // As M::enters reads them, relative to o: P = fl(p − o) (Edge's bound covers it).
+        let [p, q, r] = OUTWARD_FACES[face]
+            .map(|k| [0, 1, 2].map(|a| points[corners[k] as usize][a].to_f64() - o[a]));
+        let edges = [Edge::new(p, q), Edge::new(q, r), Edge::new(r, p)];
+        let sides = edges.map(|e| e.side_of(&dir));
+        sides.iter().all(|&s| s != 0).then_some(EnteredFace {
+            origin: o.map(f64::to_bits),
+            tet,
+            face,
+            edges,
+            sides,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::real::Real;
+    use crate::testing::{grid_scene, Rng};
+    use crate::traverse::Exact;
+
+    /// From origins outside the box, rays aimed at every boundary face's corners, edge
+    /// midpoints and centroid (lines through the faces' edges and vertices, where the
+    /// entered-face shortcut must not decide) and at random points: `locate_exact` carrying
+    /// its state from ray to ray starts every ray where a fresh search does, and the shortcut
+    /// ran for some of them.
+    fn entries_match<R: Real>() {
+        let mut rng = Rng(11);
+        // No jitter: the box's sides hold whole faces of a regular grid, with collinear edges.
+        let g = grid_scene(&mut rng, 3, 0.0, 0.3);
+        let (scene, points) = (&g.scene, g.scene.points::<R>());
+        let locators = scene.locators();
+        let mut targets: Vec<[f64; 3]> = Vec::new();
+        for (t, i) in scene.entry.faces() {
+            let tet = scene.mesh.tets[t as usize];
+            let p = OUTWARD_FACES[i].map(|k| scene.mesh.points[tet[k] as usize]);
+            let mid = |a: [f64; 3], b: [f64; 3]| [0, 1, 2].map(|k| (a[k] + b[k]) / 2.0);
+            targets.extend(p);
+            targets.extend([mid(p[0], p[1]), mid(p[1], p[2]), mid(p[2], p[0])]);
+            targets.push([0, 1, 2].map(|k| (p[0][k] + p[1][k] + p[2][k]) / 3.0));
+        }
+        targets.extend((0..500).map(|_| [rng.f(), rng.f(), rng.f()]));
+        let mut reused = 0;
+        for eye in [[-0.7, 0.3, 0.45], [2.0, 1.5, -1.0], [0.5, 0.25, -3.0]] {
+            let mut carried = LocateState::seeded(1);
+            for (k, target) in targets.iter().enumerate() {
+                let d = [0, 1, 2].map(|a| target[a] - eye[a]);
+                let ray = Ray {
+                    o: eye,
+                    d,
+                    tmin: 0.0,
+                    tmax: f64::INFINITY,
+                };
+                let start = |st: &mut LocateState| {
+                    locators
+                        .locate_exact::<R, Exact>(&ray, points, st)
+                        .map(|(s, _)| (s.tet, s.entry, s.point.map(f64::to_bits)))
+                };
+                let fresh = start(&mut LocateState::seeded(1));
+                assert_eq!(start(&mut carried), fresh, "eye {eye:?}, target {k}");
+            }
+            reused += carried.reused;
+        }
+        assert!(reused > 0, "the entered-face shortcut never ran");
+    }
+
+    #[test]
+    fn shared_origin_entry_is_the_entry_a_fresh_search_finds() {
+        entries_match::<f64>();
+        entries_match::<f32>();
     }
 }
