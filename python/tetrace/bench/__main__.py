@@ -120,14 +120,14 @@ def stability_main(argv):
         "--layout",
         action="append",
         default=None,
-        help="tet layout (repeatable, or 'all'; default: tet32)",
+        help="tet layout (repeatable, or 'all'; default: the default layout)",
     )
     p.add_argument("--precision", choices=["f32", "f64", "both"], default="both")
     p.add_argument("--json", default=None, help="also write the rows as JSON here")
     args = p.parse_args(argv)
     from .. import _native
 
-    layouts = args.layout or ["tet32"]
+    layouts = args.layout or [_native.DEFAULT_LAYOUT]
     if layouts == ["all"]:
         layouts = [name for name, _ in _native.layouts()]
     precisions = ["f32", "f64"] if args.precision == "both" else [args.precision]
