@@ -130,10 +130,11 @@ pub fn cmp_t(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3], x: f64) -> Ordering {
     (num / den).cmp(&rat(x))
 }
 
-/// The ray's hit on one of the caller's triangles: t (as [`plane_t`]) and barycentrics (u, v)
-/// of b and c, from the Plücker side products (each a sum of the others' share of den).
-pub fn triangle_hit(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3]) -> (f64, f64, f64) {
-    let (t, _) = plane_t(o, d, tri);
+/// The ray's hit on one of the caller's triangles: t and its error bound (as [`plane_t`]), and
+/// barycentrics (u, v) of b and c, from the Plücker side products (each a sum of the others'
+/// share of den).
+pub fn triangle_hit(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3]) -> (f64, f64, f64, f64) {
+    let (t, err) = plane_t(o, d, tri);
     let [a, b, c] = *tri;
     let sub = |x: V3<f64>| [0, 1, 2].map(|k| x[k] - o[k]);
     let (av, bv, cv) = (sub(a), sub(b), sub(c));
@@ -142,7 +143,7 @@ pub fn triangle_hit(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3]) -> (f64, f64, f6
     let s_ca = det_perm(d, cv, av).0;
     let s_ab = det_perm(d, av, bv).0;
     let den = s_bc + s_ca + s_ab;
-    (t, s_ca / den, s_ab / den)
+    (t, err, s_ca / den, s_ab / den)
 }
 
 /// Where point x lies against the plane of (a, b, c): the exact sign of orient (tetrace's
@@ -214,7 +215,8 @@ mod tests {
         assert_eq!(cmp_t(o, d, &tri, third), expect);
         assert_eq!(cmp_t(o, d, &tri, 0.5), Ordering::Less);
         assert_eq!(cmp_t(o, d, &tri, 0.2), Ordering::Greater);
-        let (t, u, v) = triangle_hit(o, d, &tri);
+        let (t, err, u, v) = triangle_hit(o, d, &tri);
+        assert_eq!((t, err), plane_t(o, d, &tri));
         assert!((t - third).abs() <= 1e-16 && (u - 0.25).abs() < 1e-15 && (v - 0.25).abs() < 1e-15);
     }
 }

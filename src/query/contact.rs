@@ -95,10 +95,10 @@ impl<'a> ExactRay<'a> {
 
     fn meet_on(&self, triangle: u32, key: [u32; 3]) -> (Meet, Range) {
         let tri = &self.surface.triangles[triangle as usize];
-        let (mut t, u, v) = triangle_hit(self.o, self.d, tri);
+        let (mut t, t_err, u, v) = triangle_hit(self.o, self.d, tri);
         // A touch at the origin (a ray starting on the surface) is at t = 0 exactly, which
         // the quotient may miss by an ulp of nothing: decide it exactly when t is that close.
-        if t.abs() <= plane_t(self.o, self.d, tri).1 && cmp_t(self.o, self.d, tri, 0.0).is_eq() {
+        if t.abs() <= t_err && cmp_t(self.o, self.d, tri, 0.0).is_eq() {
             t = 0.0;
         }
         let t = t.max(self.tmin).min(self.tmax);
