@@ -77,8 +77,10 @@ pub trait ExitMethod<R: Real> {
     /// vertices and edges of exit faces ([`Contact`]); it starts at the origin itself or, from
     /// outside, at the exact entry face (`locate::Locators::locate_exact`).
     const CONTACTS: bool = false;
-    /// The exit is the one the exact sides of the ray's line name (`Exact`): rays sharing an
-    /// origin may walk as a packet (`packet`), with the line given by [`ExitMethod::line`].
+    /// The exit is the one the exact sides of the ray's line name (`Exact`), and `enters` is
+    /// the exact crossing of that line: rays sharing an origin may walk as a packet
+    /// (`packet`), with the line given by [`ExitMethod::line`], and may take the last ray's
+    /// entry face when their sides on its edges are the same (`locate::start::EnteredFace`).
     const PACKETS: bool = false;
     /// Per-ray data computed once (e.g. a basis).
     type Ray: Copy;
