@@ -20,12 +20,12 @@ use super::{trace_each, Lanes, Packets};
 use crate::geom::ray::Ray;
 use crate::geom::real::Real;
 use crate::layout::Layout;
-use crate::locate::{LocateState, Locators, Start, WalkStart};
+use crate::locate::{ExactOrigin, LocateState, Locators, Start, WalkStart};
 use crate::query::{Decision, Query, QueryKind, Sink};
 use crate::traverse::packet::{DirBox, Packet};
 use crate::traverse::{
-    plain_step, walk_begin, walk_resume, Contact, ExitMethod, Touch, Walk, WalkEnd, WalkObserver,
-    WalkSetup, WalkState,
+    entry_face, plain_step, walk_begin, walk_resume, Contact, ExitMethod, Touch, Walk, WalkEnd,
+    WalkObserver, WalkSetup, WalkState,
 };
 use std::marker::PhantomData;
 
@@ -41,6 +41,18 @@ const MIN_PACKET: usize = 3;
 thread_local! {
     /// Packet steps taken on this thread (tests check that packets walked at all).
     static PACKET_STEPS: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
+}
+
+#[cfg(test)]
+thread_local! {
+    /// Rays started together by their run's entry face on this thread (tests check it ran).
+    static ENTERED_TOGETHER: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
+}
+
+/// Rays started together by their run's entry face so far on this thread.
+#[cfg(test)]
+pub fn entered_together() -> u64 {
+    ENTERED_TOGETHER.with(|c| c.get())
 }
 
 /// Packet steps taken so far on this thread.
@@ -96,7 +108,7 @@ struct Walking<R: Real, M: ExitMethod<R>, P, O> {
 /// A packet's rays and the room to regroup them (kept from packet to packet).
 #[derive(Default)]
 struct PacketRays {
-    /// Index into the walkers, and the ray's direction (as its walk's line has it).
+    /// Index into the run, and the ray's direction (as its walk's line has it).
     rays: Vec<(u32, [f64; 3])>,
     spare: Vec<(u32, [f64; 3])>,
     exits: Vec<u8>,
@@ -105,6 +117,45 @@ struct PacketRays {
 
 /// A lane (or a packet's ray): empty, or the index in its chunk, the ray and its walk.
 type Lane<R, M, P, O> = Option<(usize, Ray, Walking<R, M, P, O>)>;
+
+/// A run's rays (one origin, at most [`PACKET`]): those started alone, and those entering the
+/// box together ([`TetWalk::enter_together`]: the index in the chunk, the ray and its line,
+/// not yet prepared for its walk). A packet names them by index, `ENTERING` marking the
+/// second kind (kept apart: a located ray is a sixth of a started one's size, which packets
+/// move).
+struct Run<R: Real, M: ExitMethod<R>, P, O> {
+    started: Vec<Lane<R, M, P, O>>,
+    entering: Vec<(usize, Ray, WalkStart)>,
+}
+
+const ENTERING: u32 = 1 << 31;
+
+impl<R: Real, M: ExitMethod<R>, P, O> Default for Run<R, M, P, O> {
+    fn default() -> Self {
+        Run {
+            started: Vec::with_capacity(PACKET),
+            entering: Vec::with_capacity(PACKET),
+        }
+    }
+}
+
+impl<R: Real, M: ExitMethod<R>, P, O> Run<R, M, P, O> {
+    /// Ray i's line (origin, direction as the walk has it).
+    fn line(&self, i: u32) -> ([f64; 3], [f64; 3]) {
+        if i & ENTERING != 0 {
+            let s = &self.entering[(i & !ENTERING) as usize].2;
+            (s.o, s.dir)
+        } else {
+            M::line(
+                &self.started[i as usize]
+                    .as_ref()
+                    .expect("a started ray")
+                    .2
+                    .prepared,
+            )
+        }
+    }
+}
 
 impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> Accel<R>
     for TetWalk<'_, R, L, M, O>
@@ -179,10 +230,11 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> Accel<R>
 }
 
 impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L, M, O> {
-    /// The chunk in packets: runs of rays sharing an origin (at most [`PACKET`]) are located
-    /// and started one by one, grouped by the face their walks stand at, and each group walks
-    /// as one packet ([`TetWalk::walk_packet`]); every ray finishes with its own walk from
-    /// where its packet left it.
+    /// The chunk in packets: runs of rays sharing an origin (at most [`PACKET`]) are started
+    /// (the first alone, the others together where they enter the box by its face, else one
+    /// by one), grouped by the face their walks stand at, and each group walks as one packet
+    /// ([`TetWalk::walk_packet`]); every ray finishes with its own walk from where its packet
+    /// left it.
     fn trace_packets<K: QueryKind, S: Sink<K::Answer>>(
         &self,
         query: &K,
@@ -211,33 +263,50 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
             by_direction.sort_unstable_by_key(|k| (origin(k), *k));
         }
         let ray_of = |k: usize| (by_direction[k] & 0xffff_ffff) as usize;
-        let mut walkers: Vec<Lane<R, M, K::Policy, O>> = Vec::with_capacity(PACKET);
+        let mut run = Run::default();
         let mut order: Vec<(u32, [u32; 3], u32, u32, u32)> = Vec::with_capacity(PACKET);
         let mut group = PacketRays::default();
         let mut first = 0;
         while first < n {
-            // Origins compare by bits: a NaN origin (an invalid ray) is its own run too.
+            // A run: up to PACKET rays from one origin (compared by bits: a NaN origin, an
+            // invalid ray, is its own run too).
             let origin = ray_at(ray_of(first)).o.map(f64::to_bits);
-            walkers.clear();
-            let mut k = first;
-            while k < n && k - first < PACKET {
-                let j = ray_of(k);
-                let ray = ray_at(j);
-                if k > first && ray.o.map(f64::to_bits) != origin {
-                    break;
-                }
-                if let Some(w) = self.begin_plain(query, j, &ray, out, st) {
-                    walkers.push(Some((j, ray, w)));
-                }
-                k += 1;
+            let mut end = first + 1;
+            while end < n
+                && end - first < PACKET
+                && ray_at(ray_of(end)).o.map(f64::to_bits) == origin
+            {
+                end += 1;
             }
-            first = k;
+            run.started.clear();
+            run.entering.clear();
+            // The run's first ray starts alone; from outside the box, its location remembers
+            // the face it entered by, which the others then often all enter by together.
+            self.start_alone(query, ray_of(first), &ray_at, out, st, &mut run);
+            let entered = self.enter_together(
+                query,
+                (first + 1..end).map(ray_of),
+                &ray_at,
+                out,
+                st,
+                &mut run,
+            );
+            first = end;
             // Groups: rays whose walks stand at the same face (stable: ray order within).
             order.clear();
-            order.extend(walkers.iter().enumerate().map(|(i, w)| {
+            order.extend(run.started.iter().enumerate().map(|(i, w)| {
                 let s = &w.as_ref().expect("a started ray").2.state;
                 (s.link, [s.a, s.b, s.c], s.t, s.steps, i as u32)
             }));
+            if let Some((tet, face)) = entered {
+                // As `walk_begin` stands a ray entering from outside: before the entry tet.
+                let names = self.locators.mesh.tets[tet as usize];
+                let key = (tet, entry_face(names, face), tet, 0);
+                order.extend(
+                    (0..run.entering.len())
+                        .map(|i| (key.0, key.1, key.2, key.3, ENTERING | i as u32)),
+                );
+            }
             order.sort_unstable();
             let mut g = 0;
             while g < order.len() {
@@ -248,23 +317,84 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
                     .count();
                 let (link, face, t, steps, _) = order[g];
                 group.rays.clear();
-                group.rays.extend(order[g..end].iter().map(|x| {
-                    let w = &walkers[x.4 as usize].as_ref().expect("a started ray").2;
-                    (x.4, M::line(&w.prepared).1)
-                }));
-                let origin = M::line(
-                    &walkers[order[g].4 as usize]
-                        .as_ref()
-                        .expect("a ray")
-                        .2
-                        .prepared,
-                )
-                .0;
+                group
+                    .rays
+                    .extend(order[g..end].iter().map(|x| (x.4, run.line(x.4).1)));
+                let origin = run.line(order[g].4).0;
                 let packet = Packet::new(&self.setup, origin, face, link, t, steps);
-                self.walk_packet(query, &mut walkers, &mut group, origin, packet, out);
+                self.walk_packet(query, &mut run, &mut group, origin, packet, out);
                 g = end;
             }
         }
+    }
+
+    /// Starts ray j alone (located, its walk's first exit taken) into `run.started`, or puts
+    /// its answer where it needs no packet.
+    #[inline(always)]
+    fn start_alone<K: QueryKind, S: Sink<K::Answer>>(
+        &self,
+        query: &K,
+        j: usize,
+        ray_at: &impl Fn(usize) -> Ray,
+        out: &mut S,
+        st: &mut LocateState,
+        run: &mut Run<R, M, K::Policy, O>,
+    ) {
+        let ray = ray_at(j);
+        if let Some(w) = self.begin_plain(query, j, &ray, out, st) {
+            run.started.push(Some((j, ray, w)));
+        }
+    }
+
+    /// Starts rays `rays` (one origin) into `run.entering` when, from outside the box, they
+    /// all enter it by the face the last located ray from there entered by
+    /// (`LocateState::entered_by_all`, over the box of their directions): each is checked and
+    /// its line made as location makes it (`Locators::exact_line`), and none searches for its
+    /// entry or takes a first exit alone, which leaves their walks where each one's own
+    /// `walk_begin` would (the face's sides are certain and nonzero: no touch there). That
+    /// face, (tet, face); else each ray starts alone and None.
+    fn enter_together<K: QueryKind, S: Sink<K::Answer>>(
+        &self,
+        query: &K,
+        rays: impl Iterator<Item = usize> + Clone,
+        ray_at: &impl Fn(usize) -> Ray,
+        out: &mut S,
+        st: &mut LocateState,
+        run: &mut Run<R, M, K::Policy, O>,
+    ) -> Option<(u32, usize)> {
+        if M::PACKETS {
+            for j in rays.clone() {
+                let ray = ray_at(j);
+                match self.locators.exact_line(&ray) {
+                    // Its answer whichever way it starts (location gives the same status).
+                    Err(status) => out.put(j, query.skipped(status), &ray),
+                    Ok((start, ExactOrigin::Outside { .. })) => run.entering.push((j, ray, start)),
+                    Ok((_, ExactOrigin::Inside)) => {
+                        run.entering.clear();
+                        break;
+                    }
+                }
+            }
+            if !run.entering.is_empty() {
+                let dirs = DirBox::of(run.entering.iter().map(|x| &x.2.dir));
+                if let Some(face) = st.entered_by_all(run.entering[0].2.o, &dirs) {
+                    #[cfg(test)]
+                    ENTERED_TOGETHER.with(|c| c.set(c.get() + run.entering.len() as u64));
+                    return Some(face);
+                }
+                let entering = std::mem::take(&mut run.entering);
+                for &(j, _, _) in &entering {
+                    self.start_alone(query, j, ray_at, out, st, run);
+                }
+                run.entering = entering;
+                run.entering.clear();
+                return None;
+            }
+        }
+        for j in rays {
+            self.start_alone(query, j, ray_at, out, st, run);
+        }
+        None
     }
 
     /// Walks the rays `group.rays` (one face, one origin) as a packet from `packet`, and
@@ -276,7 +406,7 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
     fn walk_packet<K: QueryKind, S: Sink<K::Answer>>(
         &self,
         query: &K,
-        walkers: &mut [Lane<R, M, K::Policy, O>],
+        run: &mut Run<R, M, K::Policy, O>,
         group: &mut PacketRays,
         origin: [f64; 3],
         packet: Packet,
@@ -298,7 +428,7 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
                     .then(|| packet.next(&self.setup, origin))
                     .flatten();
                 let Some((d, pd, edges)) = next else {
-                    self.finish_rays(query, walkers, &rays[lo..hi], &packet, out);
+                    self.finish_rays(query, run, &rays[lo..hi], &packet, out);
                     break;
                 };
                 if let Some(r) = Packet::exit_of_box(&edges, &dirs) {
@@ -330,7 +460,7 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
                     at[e] += 1;
                 }
                 // An uncertain exit: the ray takes this step alone.
-                self.finish_rays(query, walkers, &rays[starts[3]..hi], &packet, out);
+                self.finish_rays(query, run, &rays[starts[3]..hi], &packet, out);
                 for r in (0..3).filter(|&r| counts[r] > 0) {
                     let mut beyond = packet;
                     beyond.advance(&self.setup, (d, pd), r as u8);
@@ -342,27 +472,45 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
         }
     }
 
-    /// Finishes each of `rays` (indices into `walkers`) with its own walk from where `packet`
+    /// Finishes each of `rays` (indices into `run`) with its own walk from where `packet`
     /// stands.
     fn finish_rays<K: QueryKind, S: Sink<K::Answer>>(
         &self,
         query: &K,
-        walkers: &mut [Lane<R, M, K::Policy, O>],
+        run: &mut Run<R, M, K::Policy, O>,
         rays: &[(u32, [f64; 3])],
         packet: &Packet,
         out: &mut S,
     ) {
-        for &(i, _) in rays {
-            let (j, ray, mut w) = walkers[i as usize].take().expect("a walking ray");
-            w.state = WalkState::plain::<R, L, M>(
+        let face = [packet.a, packet.b, packet.c];
+        let state = |prepared: &M::Ray| {
+            WalkState::plain::<R, L, M>(
                 &self.setup,
-                &w.prepared,
-                [packet.a, packet.b, packet.c],
+                prepared,
+                face,
                 packet.link,
                 packet.t,
                 packet.steps,
-            );
-            out.put(j, self.finish(query, w), &ray);
+            )
+        };
+        for &(i, _) in rays {
+            if i & ENTERING != 0 {
+                let (j, ray, start) = run.entering[(i & !ENTERING) as usize];
+                let mesh = self.locators.mesh;
+                let prepared = M::prepare(start.o, start.dir, &mesh.bounds);
+                let w = Walking {
+                    state: state(&prepared),
+                    policy: query.policy(&start),
+                    observer: O::for_ray(start.point, start.dir, &mesh.bounds),
+                    start,
+                    prepared,
+                };
+                out.put(j, self.finish(query, w), &ray);
+            } else {
+                let (j, ray, mut w) = run.started[i as usize].take().expect("a walking ray");
+                w.state = state(&w.prepared);
+                out.put(j, self.finish(query, w), &ray);
+            }
         }
     }
 

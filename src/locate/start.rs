@@ -7,7 +7,7 @@ use crate::geom::real::{unit_scale, Real};
 use crate::mesh::build::OUTWARD_FACES;
 use crate::mesh::TetMesh;
 use crate::status::{FAILED, INVALID, MISS};
-use crate::traverse::packet::Edge;
+use crate::traverse::packet::{DirBox, Edge};
 use crate::traverse::robust::settle_start;
 use crate::traverse::ExitMethod;
 
@@ -218,31 +218,11 @@ impl Locators<'_> {
         points: &[[R; 3]],
         st: &mut LocateState,
     ) -> Result<(WalkStart, M::Ray), u8> {
-        let Ray { o, d, tmin, tmax } = *ray;
-        let finite = o.iter().chain(&d).all(|x| x.is_finite());
-        if !finite || d == [0.0; 3] || tmin.is_nan() || tmax.is_nan() {
-            return Err(INVALID);
-        }
-        let tmin = tmin.max(0.0);
-        if tmax < tmin {
-            return Err(MISS);
-        }
+        let (mut start, origin) = self.exact_line(ray)?;
+        let WalkStart { o, dir, .. } = start;
         let mesh = self.mesh;
-        let dir = unit_scale(d);
         let prepared = M::prepare(o, dir, &mesh.bounds);
-        let [lo, hi] = mesh.bounds;
-        let mut start = WalkStart {
-            o,
-            d,
-            dir,
-            tmin,
-            tmax,
-            point: o,
-            tet: 0,
-            entry: None,
-            exact: true,
-        };
-        if (0..3).all(|a| o[a] >= lo[a] && o[a] <= hi[a]) {
+        let ExactOrigin::Outside { side } = origin else {
             start.tet = match st.camera {
                 Some((co, _, t)) if co == o => t,
                 _ => {
@@ -256,19 +236,12 @@ impl Locators<'_> {
                 }
             };
             return Ok((start, prepared));
-        }
-        let Some(span) = clip_box(o, d, lo, hi, 0.0, tmax) else {
-            return Err(MISS);
         };
         let enters = |&(t, i): &(u32, usize)| {
             let tet = mesh.tets[t as usize];
             let face = OUTWARD_FACES[i].map(|k| points[tet[k] as usize]);
             M::enters(&prepared, &face)
         };
-        let mut p = [0, 1, 2].map(|a| (o[a] + span.t0 * d[a]).clamp(lo[a], hi[a]));
-        if let Some((axis, high)) = span.side {
-            p[axis] = if high { hi[axis] } else { lo[axis] };
-        }
         // A ray from the last entering ray's origin whose exact sides on that face's edges are
         // that ray's (all nonzero) crosses the same face's interior the same way: it enters
         // there, and by no other face (the line meets the box's boundary once going in).
@@ -283,9 +256,10 @@ impl Locators<'_> {
             st.reused += same_face.is_some() as u32;
         }
         let found = same_face.or_else(|| {
-            let candidate = span
-                .side
-                .and_then(|(axis, high)| self.entry.locate(p, axis, high, &mut st.entry_hint));
+            let candidate = side.and_then(|(axis, high)| {
+                self.entry
+                    .locate(start.point, axis, high, &mut st.entry_hint)
+            });
             let found = candidate
                 .filter(enters)
                 .or_else(|| self.entry.faces().find(enters))?;
@@ -297,8 +271,70 @@ impl Locators<'_> {
         let Some((t, i)) = found else {
             return Err(MISS);
         };
-        (start.tet, start.entry, start.point) = (t, Some(i), p);
+        (start.tet, start.entry) = (t, Some(i));
         Ok((start, prepared))
+    }
+
+    /// What [`Locators::locate_exact`] decides before it looks for a tet: the ray checked (Err:
+    /// the status of a ray that does not walk), its line, and whether its origin lies in the
+    /// box; from outside, `point` is where the ray enters the box (rounded, then clamped onto
+    /// it). `tet` and `entry` are left for the caller.
+    pub fn exact_line(&self, ray: &Ray) -> Result<(WalkStart, ExactOrigin), u8> {
+        let Ray { o, d, tmin, tmax } = *ray;
+        let finite = o.iter().chain(&d).all(|x| x.is_finite());
+        if !finite || d == [0.0; 3] || tmin.is_nan() || tmax.is_nan() {
+            return Err(INVALID);
+        }
+        let tmin = tmin.max(0.0);
+        if tmax < tmin {
+            return Err(MISS);
+        }
+        let mut start = WalkStart {
+            o,
+            d,
+            dir: unit_scale(d),
+            tmin,
+            tmax,
+            point: o,
+            tet: 0,
+            entry: None,
+            exact: true,
+        };
+        let [lo, hi] = self.mesh.bounds;
+        if (0..3).all(|a| o[a] >= lo[a] && o[a] <= hi[a]) {
+            return Ok((start, ExactOrigin::Inside));
+        }
+        let Some(span) = clip_box(o, d, lo, hi, 0.0, tmax) else {
+            return Err(MISS);
+        };
+        let mut p = [0, 1, 2].map(|a| (o[a] + span.t0 * d[a]).clamp(lo[a], hi[a]));
+        if let Some((axis, high)) = span.side {
+            p[axis] = if high { hi[axis] } else { lo[axis] };
+        }
+        start.point = p;
+        Ok((start, ExactOrigin::Outside { side: span.side }))
+    }
+}
+
+/// Where a ray's origin lies against the box ([`Locators::exact_line`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ExactOrigin {
+    Inside,
+    /// Outside; `side`: the box side (axis, high) the ray enters by, when a slab decided it.
+    Outside {
+        side: Option<(usize, bool)>,
+    },
+}
+
+impl LocateState {
+    /// The face the last ray from `origin` (outside the box) entered by, as (tet, face), when
+    /// every direction in `dirs` has that ray's certain sides on the face's edges: each such
+    /// ray crosses the face's interior the same way, so it enters there and by no other face
+    /// (as [`Locators::locate_exact`]'s shortcut, for a box of directions at once).
+    pub fn entered_by_all(&self, origin: [f64; 3], dirs: &DirBox) -> Option<(u32, usize)> {
+        let e = self.entered?;
+        (e.origin == origin.map(f64::to_bits) && e.edges.map(|x| x.side(dirs)) == e.sides)
+            .then_some((e.tet, e.face))
     }
 }
 

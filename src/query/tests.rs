@@ -642,22 +642,49 @@ fn packets_answer_as_the_one_ray_walk() {
                 0.5 + (x - y) * 0.5,
             ]);
         }
+        // A narrow fan, whose runs of rays fit within one boundary face.
+        for k in 0..32 * 32 {
+            let (x, y) = ((k % 32) as f64 / 32.0, (k / 32) as f64 / 32.0);
+            targets.push([0.5 + x * 0.0625, 0.4375 + y * 0.0625, 0.46875 + x * 0.03125]);
+        }
         targets.retain(|t| t != &eye);
         let n = targets.len();
         let o: Vec<f64> = (0..n).flat_map(|_| eye).collect();
+        // Every 101st direction zero: invalid rays inside runs that start together.
         let d: Vec<f64> = targets
             .iter()
-            .flat_map(|t| [0, 1, 2].map(|k| t[k] - eye[k]))
+            .enumerate()
+            .flat_map(|(i, t)| [0, 1, 2].map(|k| if i % 101 == 7 { 0.0 } else { t[k] - eye[k] }))
             .collect();
-        let (tmin, tmax) = (vec![0.0], vec![f64::INFINITY]);
-        let what = format!("packets from {eye:?}");
         let before = crate::accel::tetwalk::packet_steps();
-        same_answers(&g.scene, [&o, &d], [&tmin, &tmax], &what, both);
+        let together = crate::accel::tetwalk::entered_together();
+        let [lo, hi] = g.scene.mesh.bounds;
+        let outside = (0..3).any(|k| eye[k] < lo[k] || eye[k] > hi[k]);
+        // The window matters where rays enter the box (`Locators::exact_line` decides it).
+        for window in [false, true].into_iter().filter(|&w| outside || !w) {
+            // A window: some rays end before the box or before their first tets, others
+            // start past the surface.
+            let (tmin, tmax): (Vec<f64>, Vec<f64>) = if window {
+                (0..n)
+                    .map(|i| ((i % 3) as f64 * 0.25, 0.25 + (i % 5) as f64 * 0.25))
+                    .unzip()
+            } else {
+                (vec![0.0], vec![f64::INFINITY])
+            };
+            let what = format!("packets from {eye:?}, window {window}");
+            same_answers(&g.scene, [&o, &d], [&tmin, &tmax], &what, both);
+        }
         // From a vertex every ray touches it at the start and walks alone.
         let taken = crate::accel::tetwalk::packet_steps() - before;
         assert!(
             g.pts.contains(&eye) || taken > 100,
-            "{what}: only {taken} packet steps"
+            "from {eye:?}: only {taken} packet steps"
+        );
+        // From outside the box, runs of rays enter by one face together.
+        let together = crate::accel::tetwalk::entered_together() - together;
+        assert!(
+            !outside || together > 1000,
+            "from {eye:?}: only {together} rays entered together"
         );
     }
 }

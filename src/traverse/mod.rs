@@ -29,8 +29,8 @@ pub use maria2017::Maria2017;
 pub use ms06::Ms06;
 pub use robust::Robust;
 pub use walk::{
-    plain_step, walk, walk_begin, walk_resume, walk_with, Touch, Walk, WalkEnd, WalkSetup,
-    WalkState,
+    entry_face, plain_step, walk, walk_begin, walk_resume, walk_with, Touch, Walk, WalkEnd,
+    WalkSetup, WalkState,
 };
 
 /// Which of the three candidate faces a ray leaves by (see the module docs).

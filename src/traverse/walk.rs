@@ -242,6 +242,15 @@ fn touch<L: Layout, Q: Query>(
     })
 }
 
+/// Face i of a tet (vertex names `names`) as a ray entering through it sees it: reversed from
+/// its outward order it turns counter-clockwise around the ray, as the loop expects of the face
+/// a walk stands at ([`walk_begin`]'s state when the ray comes from outside).
+#[inline(always)]
+pub fn entry_face(names: [u32; 4], i: usize) -> [u32; 3] {
+    let f = OUTWARD_FACES[i];
+    [names[f[0]], names[f[2]], names[f[1]]]
+}
+
 /// The walk's first exit: the start tet's exit face (or, entering from outside, the entry
 /// face as the one to cross), with its touches told to the query. Err: the walk ended there.
 #[inline]
@@ -259,10 +268,7 @@ pub fn walk_begin<R: Real, L: Layout, M: ExitMethod<R>, Q: Query, O: WalkObserve
     let names = if L::INLINE { [0, 1, 2, 3] } else { start_tet };
     let mut contact = Contact::Interior;
     if let Some(i) = entry {
-        // Entering through face i: reversed from its outward order it turns counter-clockwise
-        // around the ray, as the loop expects of an entry face.
-        let f = OUTWARD_FACES[i];
-        let (a, b, c) = (names[f[0]], names[f[2]], names[f[1]]);
+        let [a, b, c] = entry_face(names, i);
         let (pa, pb, pc) = (
             M::vertex(ray, position(start, a)),
             M::vertex(ray, position(start, b)),
