@@ -436,9 +436,10 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
                     count_packet_step();
                     continue;
                 }
+                let bounds = edges.map(|e| e.bound(&dirs));
                 let mut counts = [0usize; 4];
                 for k in lo..hi {
-                    exits[k] = Packet::exit_of(&edges, &rays[k].1);
+                    exits[k] = Packet::exit_of(&edges, &bounds, &rays[k].1);
                     counts[exits[k] as usize] += 1;
                 }
                 if let Some(r) = (0..3).find(|&r| counts[r] == hi - lo) {
@@ -498,14 +499,10 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
                 let (j, ray, start) = run.entering[(i & !ENTERING) as usize];
                 let mesh = self.locators.mesh;
                 let prepared = M::prepare(start.o, start.dir, &mesh.bounds);
-                let w = Walking {
-                    state: state(&prepared),
-                    policy: query.policy(&start),
-                    observer: O::for_ray(start.point, start.dir, &mesh.bounds),
-                    start,
-                    prepared,
-                };
-                out.put(j, self.finish(query, w), &ray);
+                let observer = O::for_ray(start.point, start.dir, &mesh.bounds);
+                let (policy, state) = (query.policy(&start), state(&prepared));
+                let answer = self.walk_on(query, &start, &prepared, policy, observer, state);
+                out.put(j, answer, &ray);
             } else {
                 let (j, ray, mut w) = run.started[i as usize].take().expect("a walking ray");
                 w.state = state(&w.prepared);
@@ -637,13 +634,27 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
         let Walking {
             start,
             prepared,
-            mut policy,
-            mut observer,
+            policy,
+            observer,
             state,
         } = w;
+        self.walk_on(query, &start, &prepared, policy, observer, state)
+    }
+
+    /// [`TetWalk::finish`] from the parts of a walk (none moved into a `Walking`).
+    #[inline(always)]
+    fn walk_on<K: QueryKind>(
+        &self,
+        query: &K,
+        start: &WalkStart,
+        prepared: &M::Ray,
+        mut policy: K::Policy,
+        mut observer: O,
+        state: WalkState<M::Vert>,
+    ) -> K::Answer {
         let walk =
-            walk_resume::<R, L, M, _, O>(&self.setup, &prepared, state, &mut policy, &mut observer);
-        query.answer(&start, &walk, policy, observer.counts())
+            walk_resume::<R, L, M, _, O>(&self.setup, prepared, state, &mut policy, &mut observer);
+        query.answer(start, &walk, policy, observer.counts())
     }
 }
 

@@ -86,14 +86,37 @@ impl Edge {
     /// the absolute term covers them. NaN or infinity fails the comparisons: not certain.
     #[inline(always)]
     pub fn side(&self, b: &DirBox) -> i8 {
-        let (mut low, mut high, mut size) = (0.0, 0.0, 0.0);
+        let (mut low, mut high) = (0.0, 0.0);
         for k in 0..3 {
             let (x, y) = (b.lo[k] * self.n[k], b.hi[k] * self.n[k]);
             low += x.min(y);
             high += x.max(y);
-            size += b.reach[k] * self.m[k];
         }
-        certain_sign(low, high, size)
+        let bound = self.bound(b);
+        if low > bound {
+            1
+        } else if high < -bound {
+            -1
+        } else {
+            0
+        }
+    }
+
+    /// The bound [`Edge::side`] allows for rounding over the box `b`: since every direction
+    /// v in the box has |v_k| ≤ reach_k, it bounds the rounding of each one's v · n too
+    /// ([`Edge::side_within`]).
+    #[inline(always)]
+    pub fn bound(&self, b: &DirBox) -> f64 {
+        let size = (0..3).map(|k| b.reach[k] * self.m[k]).sum();
+        rounding_bound(size)
+    }
+
+    /// The exact side of a direction v of a box whose [`Edge::bound`] is `bound`, when
+    /// certain; 0 when not. Three products: the bound is the box's, not v's own.
+    #[inline(always)]
+    pub fn side_within(&self, v: &V3<f64>, bound: f64) -> i8 {
+        let dot = v[0] * self.n[0] + v[1] * self.n[1] + v[2] * self.n[2];
+        (dot > bound) as i8 - (dot < -bound) as i8
     }
 
     /// The exact side of the one direction v, when certain (the same bound as [`Edge::side`]
@@ -106,12 +129,18 @@ impl Edge {
     }
 }
 
+/// The error bound 8u·size (see [`Edge::side`]), rounded up.
+#[inline(always)]
+fn rounding_bound(size: f64) -> f64 {
+    const U: f64 = f64::EPSILON / 2.0;
+    8.0 * U * size * (1.0 + 1.0 / 1048576.0) + 16.0 * f64::MIN_POSITIVE
+}
+
 /// The sign of every value in [low, high] given an error bound of 8u·size on each end (see
 /// [`Edge::side`]); 0 when not certain.
 #[inline(always)]
 fn certain_sign(low: f64, high: f64, size: f64) -> i8 {
-    const U: f64 = f64::EPSILON / 2.0;
-    let bound = 8.0 * U * size * (1.0 + 1.0 / 1048576.0) + 16.0 * f64::MIN_POSITIVE;
+    let bound = rounding_bound(size);
     if low > bound {
         1
     } else if high < -bound {
@@ -200,11 +229,12 @@ impl Packet {
         (s[0] != 0 && s[1] != 0 && s[2] != 0).then(|| rotation(s))
     }
 
-    /// The exit the ray of direction v takes from the next tet, if certain: 0, 1, 2 (index
-    /// into `Exit::ROTATIONS`), or 3 when not.
+    /// The exit the ray of direction v (in a box whose [`Edge::bound`]s on `edges` are
+    /// `bounds`) takes from the next tet, if certain: 0, 1, 2 (index into `Exit::ROTATIONS`),
+    /// or 3 when not.
     #[inline(always)]
-    pub fn exit_of(edges: &[Edge; 3], v: &V3<f64>) -> u8 {
-        let s = edges.map(|e| e.side_of(v));
+    pub fn exit_of(edges: &[Edge; 3], bounds: &[f64; 3], v: &V3<f64>) -> u8 {
+        let s = [0, 1, 2].map(|i| edges[i].side_within(v, bounds[i]));
         if s[0] != 0 && s[1] != 0 && s[2] != 0 {
             rotation(s)
         } else {
@@ -301,10 +331,16 @@ mod tests {
             let rel = |x: [f64; 3]| [0, 1, 2].map(|k| x[k] - o[k]);
             let edge = Edge::new(rel(p), rel(q));
             let s = edge.side(&b);
-            // One direction alone: its own exact side, or uncertain.
+            // One direction alone, with its own bound or the box's: its exact side, or
+            // uncertain.
             for v in &dirs {
                 let one = edge.side_of(v);
                 assert!(one == 0 || one == side(*v, o, p, q), "case {case}: one ray");
+                let within = edge.side_within(v, edge.bound(&b));
+                assert!(
+                    within == 0 || within == side(*v, o, p, q),
+                    "case {case}: in the box"
+                );
             }
             let corners =
                 (0..8).map(|m| [0, 1, 2].map(|k| if m >> k & 1 == 0 { b.lo[k] } else { b.hi[k] }));
