@@ -126,6 +126,8 @@ type Lane<R, M, P, O> = Option<(usize, Ray, Walking<R, M, P, O>)>;
 struct Run<R: Real, M: ExitMethod<R>, P, O> {
     started: Vec<Lane<R, M, P, O>>,
     entering: Vec<(usize, Ray, WalkStart)>,
+    /// One entering ray prepared: the others are its redirections (`ExitMethod::redirect`).
+    prepared: Option<M::Ray>,
 }
 
 const ENTERING: u32 = 1 << 31;
@@ -135,6 +137,7 @@ impl<R: Real, M: ExitMethod<R>, P, O> Default for Run<R, M, P, O> {
         Run {
             started: Vec::with_capacity(PACKET),
             entering: Vec::with_capacity(PACKET),
+            prepared: None,
         }
     }
 }
@@ -280,6 +283,7 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
             }
             run.started.clear();
             run.entering.clear();
+            run.prepared = None;
             // The run's first ray starts alone; from outside the box, its location remembers
             // the face it entered by, which the others then often all enter by together.
             self.start_alone(query, ray_of(first), &ray_at, out, st, &mut run);
@@ -377,7 +381,9 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
             }
             if !run.entering.is_empty() {
                 let dirs = DirBox::of(run.entering.iter().map(|x| &x.2.dir));
-                if let Some(face) = st.entered_by_all(run.entering[0].2.o, &dirs) {
+                let first = &run.entering[0].2;
+                if let Some(face) = st.entered_by_all(first.o, &dirs) {
+                    run.prepared = Some(M::prepare(first.o, first.dir, &self.locators.mesh.bounds));
                     #[cfg(test)]
                     ENTERED_TOGETHER.with(|c| c.set(c.get() + run.entering.len() as u64));
                     return Some(face);
@@ -498,7 +504,10 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
             if i & ENTERING != 0 {
                 let (j, ray, start) = run.entering[(i & !ENTERING) as usize];
                 let mesh = self.locators.mesh;
-                let prepared = M::prepare(start.o, start.dir, &mesh.bounds);
+                let prepared = match &run.prepared {
+                    Some(like) => M::redirect(like, start.dir, &mesh.bounds),
+                    None => M::prepare(start.o, start.dir, &mesh.bounds),
+                };
                 let observer = O::for_ray(start.point, start.dir, &mesh.bounds);
                 let (policy, state) = (query.policy(&start), state(&prepared));
                 let answer = self.walk_on(query, &start, &prepared, policy, observer, state);

@@ -77,6 +77,14 @@ impl<R: Real> ExactRay<R> {
     }
 }
 
+/// The 2D basis perpendicular to `dir`, in the walk's precision.
+#[inline(always)]
+fn basis<R: Real>(dir: V3<f64>) -> (V3<R>, V3<R>) {
+    let inv = 1.0 / (dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]).sqrt();
+    let (u, w) = crate::geom::onb::onb(dir.map(|x| x * inv));
+    (u.map(R::from_f64), w.map(R::from_f64))
+}
+
 impl<R: Real> ExitMethod<R> for Exact {
     const NAME: &'static str = "exact";
     const CONTACTS: bool = true;
@@ -85,8 +93,7 @@ impl<R: Real> ExitMethod<R> for Exact {
     type Vert = [R; 3];
 
     fn prepare(origin: V3<f64>, dir: V3<f64>, domain: &[V3<f64>; 2]) -> ExactRay<R> {
-        let inv = 1.0 / (dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]).sqrt();
-        let (u, w) = crate::geom::onb::onb(dir.map(|x| x * inv));
+        let (u, w) = basis(dir);
         let or = origin.map(R::from_f64);
         // The robust walk's bound (see FILTER_ULPS) with the reach measured from o; and where
         // o is not a number of the walk's precision (float32 layouts), the projection's centre
@@ -106,14 +113,26 @@ impl<R: Real> ExitMethod<R> for Exact {
             d: dir,
             delta: start_delta::<R>(origin, domain),
             or,
-            u: u.map(R::from_f64),
-            w: w.map(R::from_f64),
+            u,
+            w,
             bound_scale: R::from_f64(scale) * R::from_f64(1.0 + 1e-6),
         }
     }
 
     fn line(ray: &ExactRay<R>) -> (V3<f64>, V3<f64>) {
         (ray.o, ray.d)
+    }
+
+    #[inline(always)]
+    fn redirect(ray: &ExactRay<R>, dir: V3<f64>, _: &[V3<f64>; 2]) -> ExactRay<R> {
+        // The origin's parts (delta, or, bound_scale) depend on the origin and domain only.
+        let (u, w) = basis(dir);
+        ExactRay {
+            d: dir,
+            u,
+            w,
+            ..*ray
+        }
     }
 
     #[inline(always)]

@@ -96,6 +96,12 @@ pub trait ExitMethod<R: Real> {
     fn line(_ray: &Self::Ray) -> (V3<f64>, V3<f64>) {
         unreachable!("only methods with PACKETS walk packets")
     }
+    /// `prepare(line(ray).0, dir, domain)` for a ray prepared from the same origin and
+    /// domain: what depends on the origin alone is copied (packets prepare many rays from one
+    /// origin). Methods with `PACKETS`.
+    fn redirect(ray: &Self::Ray, dir: V3<f64>, domain: &[V3<f64>; 2]) -> Self::Ray {
+        Self::prepare(Self::line(ray).0, dir, domain)
+    }
     /// The face (index i of OUTWARD_FACES, opposite vertex i) by which the ray leaves the start
     /// tet, whose four vertices (data `v`, positions `p`) are given in positive orientation.
     fn start_exit(ray: &Self::Ray, v: &[Self::Vert; 4], p: &[V3<R>; 4]) -> usize;

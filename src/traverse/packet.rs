@@ -115,8 +115,15 @@ impl Edge {
     /// certain; 0 when not. Three products: the bound is the box's, not v's own.
     #[inline(always)]
     pub fn side_within(&self, v: &V3<f64>, bound: f64) -> i8 {
+        let (positive, negative) = self.signs_within(v, bound);
+        positive as i8 - negative as i8
+    }
+
+    /// [`Edge::side_within`] as (certainly positive, certainly negative).
+    #[inline(always)]
+    fn signs_within(&self, v: &V3<f64>, bound: f64) -> (bool, bool) {
         let dot = v[0] * self.n[0] + v[1] * self.n[1] + v[2] * self.n[2];
-        (dot > bound) as i8 - (dot < -bound) as i8
+        (dot > bound, dot < -bound)
     }
 
     /// The exact side of the one direction v, when certain (the same bound as [`Edge::side`]
@@ -153,10 +160,34 @@ fn certain_sign(low: f64, high: f64, size: f64) -> i8 {
 /// `Exact::step_plain`'s choice from the exact sides of d→a, d→b, d→c (all nonzero): the
 /// index into `Exit::ROTATIONS`.
 #[inline(always)]
-fn rotation([sa, sb, sc]: [i8; 3]) -> u8 {
+const fn rotation([sa, sb, sc]: [i8; 3]) -> u8 {
     let (sa, sb, sc) = (sa > 0, sb < 0, sc > 0);
     (sa & !sb) as u8 + (!sa) as u8 * (1 + sc as u8)
 }
+
+/// [`Packet::exit_of`]'s answer for each code of the three sides (two bits per edge: 1 for
+/// positive, 2 for negative, 0 for uncertain): the rotation where all three are certain, else 3.
+const EXITS: [u8; 64] = {
+    let mut table = [3u8; 64];
+    let mut code = 0;
+    while code < 64 {
+        let mut sides = [0i8; 3];
+        let mut i = 0;
+        while i < 3 {
+            sides[i] = match (code >> (2 * i)) & 3 {
+                1 => 1,
+                2 => -1,
+                _ => 0,
+            };
+            i += 1;
+        }
+        if sides[0] != 0 && sides[1] != 0 && sides[2] != 0 {
+            table[code] = rotation(sides);
+        }
+        code += 1;
+    }
+    table
+};
 
 /// A packet between two steps, as `walk::WalkState` has a ray: in tet `t`, leaving by
 /// (a, b, c) (ids, counter-clockwise around every ray of the packet), `link` across it; the
@@ -234,12 +265,13 @@ impl Packet {
     /// or 3 when not.
     #[inline(always)]
     pub fn exit_of(edges: &[Edge; 3], bounds: &[f64; 3], v: &V3<f64>) -> u8 {
-        let s = [0, 1, 2].map(|i| edges[i].side_within(v, bounds[i]));
-        if s[0] != 0 && s[1] != 0 && s[2] != 0 {
-            rotation(s)
-        } else {
-            3
+        // Two bits per edge, (positive, negative) for certain sides; no branches.
+        let mut code = 0;
+        for i in 0..3 {
+            let (positive, negative) = edges[i].signs_within(v, bounds[i]);
+            code |= (positive as usize) << (2 * i) | (negative as usize) << (2 * i + 1);
         }
+        EXITS[code]
     }
 
     /// Takes the step [`Packet::next`] found, leaving by `Exit::ROTATIONS[rotation]`, as
