@@ -21,8 +21,9 @@ use crate::geom::ray::Ray;
 use crate::geom::real::Real;
 use crate::layout::Layout;
 use crate::locate::{ExactOrigin, LocateState, Locators, Start, WalkStart};
+use crate::mesh::build::OUTWARD_FACES;
 use crate::query::{Decision, Query, QueryKind, Sink};
-use crate::traverse::packet::{DirBox, Packet};
+use crate::traverse::packet::{DirBox, Edge, Packet};
 use crate::traverse::{
     entry_face, plain_step, walk_begin, walk_resume, Contact, ExitMethod, Touch, Walk, WalkEnd,
     WalkObserver, WalkSetup, WalkState,
@@ -302,10 +303,7 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
                 let s = &w.as_ref().expect("a started ray").2.state;
                 (s.link, [s.a, s.b, s.c], s.t, s.steps, i as u32)
             }));
-            if let Some((tet, face)) = entered {
-                // As `walk_begin` stands a ray entering from outside: before the entry tet.
-                let names = self.locators.mesh.tets[tet as usize];
-                let key = (tet, entry_face(names, face), tet, 0);
+            if let Some(key) = entered {
                 order.extend(
                     (0..run.entering.len())
                         .map(|i| (key.0, key.1, key.2, key.3, ENTERING | i as u32)),
@@ -350,57 +348,103 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
         }
     }
 
-    /// Starts rays `rays` (one origin) into `run.entering` when, from outside the box, they
-    /// all enter it by the face the last located ray from there entered by
-    /// (`LocateState::entered_by_all`, over the box of their directions): each is checked and
-    /// its line made as location makes it (`Locators::exact_line`), and none searches for its
-    /// entry or takes a first exit alone, which leaves their walks where each one's own
-    /// `walk_begin` would (the face's sides are certain and nonzero: no touch there). That
-    /// face, (tet, face); else each ray starts alone and None.
+    /// Starts rays `rays` (one origin) together into `run.entering` where the box of their
+    /// directions decides, for all at once, where each one's own start would leave them
+    /// (`walk_begin`'s state): from outside the box, entering by the face the last located
+    /// ray from there entered by (`LocateState::entered_by_all`); from inside, leaving the
+    /// origin's start tet by one face ([`TetWalk::start_exit_of_all`]). Each ray is checked
+    /// and its line made as location makes it (`Locators::exact_line`), but none searches for
+    /// its start or takes a first exit alone. Returns the walks' common state, as (link,
+    /// face, tet, steps); else each ray starts alone and None.
     fn enter_together<K: QueryKind, S: Sink<K::Answer>>(
         &self,
         query: &K,
-        rays: impl Iterator<Item = usize> + Clone,
+        rays: impl Iterator<Item = usize>,
         ray_at: &impl Fn(usize) -> Ray,
         out: &mut S,
         st: &mut LocateState,
         run: &mut Run<R, M, K::Policy, O>,
-    ) -> Option<(u32, usize)> {
-        if M::PACKETS {
-            for j in rays.clone() {
-                let ray = ray_at(j);
-                match self.locators.exact_line(&ray) {
-                    // Its answer whichever way it starts (location gives the same status).
-                    Err(status) => out.put(j, query.skipped(status), &ray),
-                    Ok((start, ExactOrigin::Outside { .. })) => run.entering.push((j, ray, start)),
-                    Ok((_, ExactOrigin::Inside)) => {
-                        run.entering.clear();
-                        break;
-                    }
-                }
+    ) -> Option<(u32, [u32; 3], u32, u32)> {
+        if !M::PACKETS {
+            for j in rays {
+                self.start_alone(query, j, ray_at, out, st, run);
             }
-            if !run.entering.is_empty() {
-                let dirs = DirBox::of(run.entering.iter().map(|x| &x.2.dir));
-                let first = &run.entering[0].2;
-                if let Some(face) = st.entered_by_all(first.o, &dirs) {
-                    run.prepared = Some(M::prepare(first.o, first.dir, &self.locators.mesh.bounds));
-                    #[cfg(test)]
-                    ENTERED_TOGETHER.with(|c| c.set(c.get() + run.entering.len() as u64));
-                    return Some(face);
+            return None;
+        }
+        let mut inside = false;
+        for j in rays {
+            let ray = ray_at(j);
+            match self.locators.exact_line(&ray) {
+                // Its answer whichever way it starts (location gives the same status).
+                Err(status) => out.put(j, query.skipped(status), &ray),
+                Ok((start, origin)) => {
+                    // One origin: every ray is inside, or every one outside.
+                    inside = origin == ExactOrigin::Inside;
+                    run.entering.push((j, ray, start));
                 }
-                let entering = std::mem::take(&mut run.entering);
-                for &(j, _, _) in &entering {
-                    self.start_alone(query, j, ray_at, out, st, run);
-                }
-                run.entering = entering;
-                run.entering.clear();
-                return None;
             }
         }
-        for j in rays {
+        let first = &run.entering.first()?.2;
+        let dirs = DirBox::of(run.entering.iter().map(|x| &x.2.dir));
+        let tets = &self.locators.mesh.tets;
+        let together = if inside {
+            self.start_exit_of_all(first.o, &dirs, st).map(|(t, i)| {
+                // As `walk_begin` leaves the start tet by face i.
+                let f = OUTWARD_FACES[i];
+                let names = tets[t as usize];
+                let face = [names[f[0]], names[f[1]], names[f[2]]];
+                let link = self.setup.layout.link_opposite(t, names[i], face);
+                (link, face, t, 1)
+            })
+        } else {
+            // As `walk_begin` stands a ray entering from outside: before the entry tet.
+            st.entered_by_all(first.o, &dirs)
+                .map(|(t, i)| (t, entry_face(tets[t as usize], i), t, 0))
+        };
+        if together.is_some() {
+            run.prepared = Some(M::prepare(first.o, first.dir, &self.locators.mesh.bounds));
+            #[cfg(test)]
+            ENTERED_TOGETHER.with(|c| c.set(c.get() + run.entering.len() as u64));
+            return together;
+        }
+        let entering = std::mem::take(&mut run.entering);
+        for &(j, _, _) in &entering {
             self.start_alone(query, j, ray_at, out, st, run);
         }
+        // Keep the room for the next run.
+        run.entering = entering;
+        run.entering.clear();
         None
+    }
+
+    /// For rays from origin `o` in the box, all with directions in `dirs`: their start tet
+    /// and the face each leaves it by, when it is one face for all. The start tet is the one
+    /// location found for `o` (`LocateState`'s camera), and only where no ray from `o` can
+    /// touch the surface at its origin (`LocateState::origin_may_touch` said so). Then the
+    /// exit is the face whose three edges, in outward order, every ray turns positively
+    /// around (`Exact::start_exit`'s choice: certain and nonzero, the perturbation never
+    /// decides, and no other face can have all three, since neighbouring faces see their
+    /// shared edge in opposite orders); with those sides certain no ray touches the face.
+    fn start_exit_of_all(
+        &self,
+        o: [f64; 3],
+        dirs: &DirBox,
+        st: &LocateState,
+    ) -> Option<(u32, usize)> {
+        let t = st.origin_cannot_touch(o)?;
+        let corners = self.locators.mesh.tets[t as usize];
+        let at = corners.map(|v| {
+            let p = self.setup.points[v as usize];
+            [0, 1, 2].map(|k| p[k].to_f64() - o[k])
+        });
+        (0..4)
+            .find(|&i| {
+                let [p, q, r] = OUTWARD_FACES[i].map(|k| at[k]);
+                [Edge::new(p, q), Edge::new(q, r), Edge::new(r, p)]
+                    .iter()
+                    .all(|e| e.side(dirs) > 0)
+            })
+            .map(|i| (t, i))
     }
 
     /// Walks the rays `group.rays` (one face, one origin) as a packet from `packet`, and
@@ -587,7 +631,11 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
         let tet = mesh.tets[s.tet as usize];
         let observer = O::for_ray(s.o, s.dir, &mesh.bounds);
         let mut policy = query.policy(&s);
-        if s.entry.is_none() && s.tmin == 0.0 {
+        // An origin in no caller's triangle's plane touches nothing (asked once per origin).
+        if s.entry.is_none()
+            && s.tmin == 0.0
+            && st.origin_may_touch(s.o, s.tet, || query.origin_may_touch(&s))
+        {
             let at = Touch {
                 tet: s.tet,
                 face: [tet[0], tet[1], tet[2]],

@@ -59,6 +59,9 @@ pub struct LocateState {
     camera: Option<([f64; 3], f64, u32)>,
     entry_hint: Option<(usize, usize)>,
     entered: Option<EnteredFace>,
+    /// The last origin in the box (bits), its start tet, and whether it may touch the surface
+    /// there ([`LocateState::origin_may_touch`]).
+    origin_touch: Option<([u64; 3], u32, bool)>,
     rng: u32,
     /// Rays whose entry face came from `entered` (tests check the shortcut ran).
     #[cfg(test)]
@@ -92,6 +95,7 @@ impl LocateState {
             camera: None,
             entry_hint: None,
             entered: None,
+            origin_touch: None,
             rng,
             #[cfg(test)]
             reused: 0,
@@ -327,6 +331,35 @@ pub enum ExactOrigin {
 }
 
 impl LocateState {
+    /// Whether a ray from origin `o` in start tet `tet` may touch the surface at its origin:
+    /// `decide` once per origin and tet (it depends on nothing else), remembered for the next
+    /// rays (a camera inside the box asks it of every ray).
+    pub fn origin_may_touch(
+        &mut self,
+        o: [f64; 3],
+        tet: u32,
+        decide: impl FnOnce() -> bool,
+    ) -> bool {
+        let bits = o.map(f64::to_bits);
+        match self.origin_touch {
+            Some((b, t, may)) if b == bits && t == tet => may,
+            _ => {
+                let may = decide();
+                self.origin_touch = Some((bits, tet, may));
+                may
+            }
+        }
+    }
+
+    /// The start tet of origin `o` (in the box), when location found it for the last ray
+    /// and no ray from `o` can touch the surface at its origin there
+    /// ([`LocateState::origin_may_touch`] said so).
+    pub fn origin_cannot_touch(&self, o: [f64; 3]) -> Option<u32> {
+        let (co, _, t) = self.camera?;
+        let bits = o.map(f64::to_bits);
+        (co.map(f64::to_bits) == bits && self.origin_touch == Some((bits, t, false))).then_some(t)
+    }
+
     /// The face the last ray from `origin` (outside the box) entered by, as (tet, face), when
     /// every direction in `dirs` has that ray's certain sides on the face's edges: each such
     /// ray crosses the face's interior the same way, so it enters there and by no other face

@@ -117,6 +117,11 @@ impl<'a> QueryKind for AllHits<'a> {
         }
     }
 
+    fn origin_may_touch(&self, s: &WalkStart) -> bool {
+        let c = &self.0;
+        ExactRay::new(c.mesh, c.incidence, c.surface, s).origin_on_a_plane(s.tet)
+    }
+
     fn skipped(&self, status: u8) -> Listed {
         Listed {
             status,

@@ -20,6 +20,10 @@ impl<'a> QueryKind for AnyHit<'a> {
         self.0.policy(s)
     }
 
+    fn origin_may_touch(&self, s: &WalkStart) -> bool {
+        self.0.origin_may_touch(s)
+    }
+
     #[inline]
     fn skipped(&self, status: u8) -> u8 {
         status

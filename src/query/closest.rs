@@ -130,6 +130,10 @@ impl<'a> QueryKind for ClosestHit<'a> {
         }
     }
 
+    fn origin_may_touch(&self, s: &WalkStart) -> bool {
+        ExactRay::new(self.mesh, self.incidence, self.surface, s).origin_on_a_plane(s.tet)
+    }
+
     #[inline]
     fn skipped(&self, status: u8) -> RayHit {
         RayHit::nothing(status)

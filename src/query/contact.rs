@@ -194,6 +194,31 @@ impl<'a> ExactRay<'a> {
     /// and whose plane does not hold the line. Decided on the caller's triangles, not on the
     /// faces: where a mesher split a triangle, its faces may be an ulp off it.
     fn at_origin(&self, tet: u32) -> Option<(Meet, Range)> {
+        let mut best: Option<u32> = None;
+        self.planes_at_origin(tet, |triangle, [a, b, c]| {
+            if best.is_some_and(|b| b <= triangle) || in_plane(self.dir, a, b, c) {
+                return;
+            }
+            // o in the triangle's plane: in the closed triangle when the line meets it.
+            if self.line_meets(&[a, b, c]) {
+                best = Some(triangle);
+            }
+        });
+        best.map(|triangle| self.meet_on(triangle, ORIGIN_KEY))
+    }
+
+    /// Whether the origin lies in the plane of a caller's triangle around start tet `tet`:
+    /// if not, the origin touches nothing, whatever the direction (`Contact::Origin` finds no
+    /// point). Depends on the origin and the tet only, so a cast asks it once per origin.
+    pub fn origin_on_a_plane(&self, tet: u32) -> bool {
+        let mut found = false;
+        self.planes_at_origin(tet, |_, _| found = true);
+        found
+    }
+
+    /// Calls `each` with the caller's triangles, around the start tet's vertices, whose plane
+    /// holds the origin (some twice).
+    fn planes_at_origin(&self, tet: u32, mut each: impl FnMut(u32, [[f64; 3]; 3])) {
         if !self.incidence.split {
             // Faces are whole caller's triangles: an origin strictly inside the tet lies on none
             // (four orientations instead of one per face around the tet's vertices).
@@ -202,28 +227,19 @@ impl<'a> ExactRay<'a> {
                 .iter()
                 .all(|f| orient_sign(v[f[0]], v[f[1]], v[f[2]], self.o) < 0);
             if strictly_inside {
-                return None;
+                return;
             }
         }
-        let mut best: Option<u32> = None;
         for v in self.mesh.tets[tet as usize] {
             for &f in self.incidence.at_vertex(v) {
                 let triangle =
                     self.mesh.constrained[self.incidence.faces[f as usize].side as usize].triangle;
-                if best.is_some_and(|b| b <= triangle) {
-                    continue;
-                }
                 let [a, b, c] = self.surface.triangles[triangle as usize];
-                if orient_sign(a, b, c, self.o) != 0 || in_plane(self.dir, a, b, c) {
-                    continue;
-                }
-                // o in the triangle's plane: in the closed triangle when the line meets it.
-                if self.line_meets(&[a, b, c]) {
-                    best = Some(triangle);
+                if orient_sign(a, b, c, self.o) == 0 {
+                    each(triangle, [a, b, c]);
                 }
             }
         }
-        best.map(|triangle| self.meet_on(triangle, ORIGIN_KEY))
     }
 
     /// The point where the line meets the surface at feature `points` (1, 2 or 3 ids, padded

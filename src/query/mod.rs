@@ -27,6 +27,12 @@ pub trait QueryKind: Sync {
     type Answer: Send;
     /// The policy for one ray's walk.
     fn policy(&self, start: &WalkStart) -> Self::Policy;
+    /// Whether a ray starting at `start`'s origin (in its start tet) may touch the surface
+    /// there (`Contact::Origin`), for some direction: false only when it cannot, which depends
+    /// on the origin and the start tet alone (the walk then skips asking, once per origin).
+    fn origin_may_touch(&self, _start: &WalkStart) -> bool {
+        true
+    }
     /// The answer for a ray that never walked (invalid, missing the domain, no start tet).
     fn skipped(&self, status: u8) -> Self::Answer;
     /// The answer once the walk ended; `audit`: exit faces the exact predicates reject and
