@@ -440,9 +440,7 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
         (0..4)
             .find(|&i| {
                 let [p, q, r] = OUTWARD_FACES[i].map(|k| at[k]);
-                [Edge::new(p, q), Edge::new(q, r), Edge::new(r, p)]
-                    .iter()
-                    .all(|e| e.side(dirs) > 0)
+                Edge::around(p, q, r).iter().all(|e| e.side(dirs) > 0)
             })
             .map(|i| (t, i))
     }

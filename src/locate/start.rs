@@ -385,7 +385,7 @@ impl EnteredFace {
         // As M::enters reads them, relative to o: P = fl(p − o) (Edge's bound covers it).
         let [p, q, r] = OUTWARD_FACES[face]
             .map(|k| [0, 1, 2].map(|a| points[corners[k] as usize][a].to_f64() - o[a]));
-        let edges = [Edge::new(p, q), Edge::new(q, r), Edge::new(r, p)];
+        let edges = Edge::around(p, q, r);
         let sides = edges.map(|e| e.side_of(&dir));
         sides.iter().all(|&s| s != 0).then_some(EnteredFace {
             origin: o.map(f64::to_bits),

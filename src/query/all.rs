@@ -118,8 +118,7 @@ impl<'a> QueryKind for AllHits<'a> {
     }
 
     fn origin_may_touch(&self, s: &WalkStart) -> bool {
-        let c = &self.0;
-        ExactRay::new(c.mesh, c.incidence, c.surface, s).origin_on_a_plane(s.tet)
+        self.0.origin_may_touch(s)
     }
 
     fn skipped(&self, status: u8) -> Listed {

@@ -670,8 +670,13 @@ fn packets_answer_as_the_one_ray_walk() {
         let together = crate::accel::tetwalk::entered_together();
         let [lo, hi] = g.scene.mesh.bounds;
         let outside = (0..3).any(|k| eye[k] < lo[k] || eye[k] > hi[k]);
-        // The window matters where rays enter the box (`Locators::exact_line` decides it).
-        for window in [false, true].into_iter().filter(|&w| outside || !w) {
+        let may_touch_at_origin = !outside && on_a_plane(eye);
+        // The window matters where runs start together (`Locators::exact_line` decides it
+        // for those rays).
+        for window in [false, true]
+            .into_iter()
+            .filter(|&w| !may_touch_at_origin || !w)
+        {
             // A window: some rays end before the box or before their first tets, others
             // start past the surface.
             let (tmin, tmax): (Vec<f64>, Vec<f64>) = if window {
@@ -693,7 +698,6 @@ fn packets_answer_as_the_one_ray_walk() {
         // Runs of rays start together: from outside the box by one entry face, from inside
         // by one exit face of the start tet (where no ray can touch the surface at its origin).
         let together = crate::accel::tetwalk::entered_together() - together;
-        let may_touch_at_origin = !outside && on_a_plane(eye);
         assert!(
             may_touch_at_origin || together > 1000,
             "from {eye:?}: only {together} rays started together"

@@ -74,6 +74,13 @@ impl Edge {
         }
     }
 
+    /// The edges p→q, q→r, r→p of a face (P = fl(p − o) and so on, as [`Edge::new`] takes
+    /// them): the sides that decide whether a line from o crosses its interior, and which way.
+    #[inline(always)]
+    pub fn around(p: V3<f64>, q: V3<f64>, r: V3<f64>) -> [Edge; 3] {
+        [Edge::new(p, q), Edge::new(q, r), Edge::new(r, p)]
+    }
+
     /// The exact side of every direction in the box, when it is one and certain; 0 when not
     /// (some directions may have another sign, or a zero, or the bound failed).
     ///
@@ -92,14 +99,7 @@ impl Edge {
             low += x.min(y);
             high += x.max(y);
         }
-        let bound = self.bound(b);
-        if low > bound {
-            1
-        } else if high < -bound {
-            -1
-        } else {
-            0
-        }
+        certain_sign(low, high, self.bound(b))
     }
 
     /// The bound [`Edge::side`] allows for rounding over the box `b`: since every direction
@@ -132,7 +132,7 @@ impl Edge {
     pub fn side_of(&self, v: &V3<f64>) -> i8 {
         let dot = v[0] * self.n[0] + v[1] * self.n[1] + v[2] * self.n[2];
         let size = v[0].abs() * self.m[0] + v[1].abs() * self.m[1] + v[2].abs() * self.m[2];
-        certain_sign(dot, dot, size)
+        certain_sign(dot, dot, rounding_bound(size))
     }
 }
 
@@ -143,11 +143,10 @@ fn rounding_bound(size: f64) -> f64 {
     8.0 * U * size * (1.0 + 1.0 / 1048576.0) + 16.0 * f64::MIN_POSITIVE
 }
 
-/// The sign of every value in [low, high] given an error bound of 8u·size on each end (see
+/// The sign of every value in [low, high] given an error bound `bound` on each end (see
 /// [`Edge::side`]); 0 when not certain.
 #[inline(always)]
-fn certain_sign(low: f64, high: f64, size: f64) -> i8 {
-    let bound = rounding_bound(size);
+fn certain_sign(low: f64, high: f64, bound: f64) -> i8 {
     if low > bound {
         1
     } else if high < -bound {
