@@ -9,7 +9,7 @@
 //! Arguments: the dump folder, the ray file (`camera` or `random`), repetitions (best is
 //! printed), and optionally `f64` to cast the rays as float64. Environment: `RAYS=k` casts the
 //! first k rays only, `LANES=on|off` forces the lanes' choice, `PACKETS=off` turns
-//! packets off.
+//! packets off, `TETRACE_SIMD=scalar` caps the SIMD level.
 
 use std::time::Instant;
 use tetrace::geom::real::Real;
@@ -118,6 +118,8 @@ fn main() {
             Ok("off") => Packets::Off,
             _ => Packets::Auto,
         },
+        // The best SIMD level, capped by TETRACE_SIMD (scalar / avx2).
+        simd: None,
     };
     let (best, steps, hits) = if args.get(4).map(|s| s.as_str()) == Some("f64") {
         let widen = |v: &[f32]| v.iter().map(|&x| x as f64).collect::<Vec<f64>>();

@@ -17,6 +17,7 @@ pub mod mesh;
 pub mod query;
 pub mod referee;
 pub mod scene;
+pub mod simd;
 pub mod status;
 pub mod traverse;
 

@@ -17,6 +17,8 @@ core built on the brute force (``FakeNative``), so it is checked without the nat
 
 from __future__ import annotations
 
+import os
+import platform
 import sys
 from fractions import Fraction
 
@@ -355,6 +357,38 @@ def test_packets_change_no_answer(case):
         a, b = (query(o, d, packet=p, return_status=True) for p in (True, False))
         np.testing.assert_array_equal(a[0], b[0])
         np.testing.assert_array_equal(a[1], b[1])
+
+
+def test_simd_levels_change_no_answer(monkeypatch):
+    """Every SIMD level this CPU runs gives the same answers, bit for bit, on a camera of the
+    bundled scene (rays share the eye: packets, whose per-ray exits have an AVX2 kernel);
+    ``TETRACE_SIMD`` caps the level, and a name that is no level is refused."""
+    from tetrace.dev.camera import orbit_views, pinhole
+
+    levels, current = tetrace.simd_levels()
+    assert levels[0] == "scalar" and current in levels
+    if platform.machine() in ("x86_64", "AMD64") and os.environ.get("CI") == "true":
+        assert "avx2" in levels, "CI's machine runs AVX2: both levels must be compared"
+    scene = tetrace.default_scene()
+    bounds = np.array([scene.vertices.min(0), scene.vertices.max(0)])
+    for view in orbit_views(bounds, n=2, distance=1.2):
+        o, d = pinhole(*view, width=96, height=96)
+        answers = []
+        for level in levels:
+            monkeypatch.setenv("TETRACE_SIMD", level)
+            assert tetrace.simd_levels()[1] == level
+            answers.append((scene.cast(o, d), scene.occluded(o, d, return_status=True)))
+        assert np.count_nonzero(answers[0][0].status == HIT) > 1000
+        for hits, occluded in answers[1:]:
+            for field in ("t", "u", "v", "triangle", "status", "point", "steps"):
+                np.testing.assert_array_equal(getattr(hits, field), getattr(answers[0][0], field))
+            np.testing.assert_array_equal(occluded[0], answers[0][1][0])
+            np.testing.assert_array_equal(occluded[1], answers[0][1][1])
+    monkeypatch.setenv("TETRACE_SIMD", "avx9")
+    with pytest.raises(ValueError, match="TETRACE_SIMD"):
+        scene.cast(o, d)
+    with pytest.raises(ValueError, match="TETRACE_SIMD"):
+        tetrace.simd_levels()
 
 
 def test_queries_keep_the_leading_shape(cube):

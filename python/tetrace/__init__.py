@@ -12,7 +12,16 @@ from . import (
 )
 from .errors import GpuError, MeshError, MeshFileNotFoundError, MeshingError, TooLargeError
 from .hits import FAILED, HIT, INVALID, MISS, STATUS_NAMES, Hits
-from .scene import LAYOUT_BYTES, Scene, cast, default_scene, default_scene_path, layouts, methods
+from .scene import (
+    LAYOUT_BYTES,
+    Scene,
+    cast,
+    default_scene,
+    default_scene_path,
+    layouts,
+    methods,
+    simd_levels,
+)
 
 __version__ = _native.__version__
 
@@ -24,6 +33,7 @@ __all__ = [
     "default_scene_path",
     "methods",
     "layouts",
+    "simd_levels",
     "LAYOUT_BYTES",
     "MISS",
     "HIT",

@@ -10,6 +10,7 @@ __all__ = [
     "NativeScene",
     "methods",
     "layouts",
+    "simd_levels",
     "exitface_bench",
     "referee_first_hit",
     "gpu_adapters",
@@ -39,6 +40,7 @@ DEFAULT_LAYOUT: str
 
 def methods() -> list[str]: ...
 def layouts() -> list[tuple[str, int]]: ...
+def simd_levels() -> tuple[list[str], str]: ...
 def exitface_bench(
     n_tets: int = 10_000, rays_per_tet: int = 16, seed: int = 1, repeat: int = 5
 ) -> list[tuple[str, str, float, int]]: ...

@@ -47,6 +47,29 @@ def layouts():
     return list(LAYOUT_BYTES)
 
 
+def simd_levels():
+    """Return the SIMD levels this CPU runs and the one casts use now.
+
+    Kernels with a vector version (the packets' per-ray exits) run at the highest level the
+    CPU has; the environment variable ``TETRACE_SIMD`` (``"scalar"`` or ``"avx2"``) caps it,
+    read at every cast. Answers are the same at every level, bit for bit.
+
+    Returns
+    -------
+    levels : list of str
+        Lowest first: ``"scalar"``, then ``"avx2"`` on x86-64 CPUs that have AVX2.
+    current : str
+        The level a cast runs at now.
+
+    Raises
+    ------
+    ValueError
+        If ``TETRACE_SIMD`` names no level.
+    """
+    levels, current = _native.simd_levels()
+    return list(levels), current
+
+
 def _check_threads(threads):
     if threads is not None and (not isinstance(threads, (int, np.integer)) or threads < 1):
         raise ValueError(f"threads must be a positive int or None, got {threads!r}")

@@ -23,7 +23,8 @@ use crate::layout::Layout;
 use crate::locate::{ExactOrigin, LocateState, Locators, Start, WalkStart};
 use crate::mesh::build::OUTWARD_FACES;
 use crate::query::{Decision, Query, QueryKind, Sink};
-use crate::traverse::packet::{DirBox, Edge, Packet};
+use crate::simd::Simd;
+use crate::traverse::packet::{DirBox, Edge, Packet, PacketRay};
 use crate::traverse::{
     entry_face, plain_step, walk_begin, walk_resume, Contact, ExitMethod, Touch, Walk, WalkEnd,
     WalkObserver, WalkSetup, WalkState,
@@ -73,6 +74,8 @@ pub struct TetWalk<'a, R, L, M, O> {
     pub setup: WalkSetup<'a, R, L>,
     pub lanes: Lanes,
     pub packets: Packets,
+    /// The level of the packets' per-ray exit kernel (`traverse::packet::exits_of`).
+    pub simd: Simd,
     // fn() -> _: the method and observer are types only, so the walk is Sync whatever they are.
     _types: PhantomData<fn() -> (M, O)>,
 }
@@ -84,6 +87,7 @@ impl<'a, R, L, M, O> TetWalk<'a, R, L, M, O> {
             setup,
             lanes: Lanes::Auto,
             packets: Packets::Auto,
+            simd: Simd::Scalar,
             _types: PhantomData,
         }
     }
@@ -94,6 +98,10 @@ impl<'a, R, L, M, O> TetWalk<'a, R, L, M, O> {
             packets,
             ..self
         }
+    }
+
+    pub fn with_simd(self, simd: Simd) -> Self {
+        TetWalk { simd, ..self }
     }
 }
 
@@ -110,8 +118,8 @@ struct Walking<R: Real, M: ExitMethod<R>, P, O> {
 #[derive(Default)]
 struct PacketRays {
     /// Index into the run, and the ray's direction (as its walk's line has it).
-    rays: Vec<(u32, [f64; 3])>,
-    spare: Vec<(u32, [f64; 3])>,
+    rays: Vec<PacketRay>,
+    spare: Vec<PacketRay>,
     exits: Vec<u8>,
     stack: Vec<(usize, usize, Packet)>,
 }
@@ -319,9 +327,11 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
                     .count();
                 let (link, face, t, steps, _) = order[g];
                 group.rays.clear();
-                group
-                    .rays
-                    .extend(order[g..end].iter().map(|x| (x.4, run.line(x.4).1)));
+                group.rays.extend(
+                    order[g..end]
+                        .iter()
+                        .map(|x| PacketRay::new(x.4, run.line(x.4).1)),
+                );
                 let origin = run.line(order[g].4).0;
                 let packet = Packet::new(&self.setup, origin, face, link, t, steps);
                 self.walk_packet(query, &mut run, &mut group, origin, packet, out);
@@ -470,7 +480,7 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
         stack.clear();
         stack.push((0, rays.len(), packet));
         while let Some((lo, hi, mut packet)) = stack.pop() {
-            let dirs = DirBox::of(rays[lo..hi].iter().map(|r| &r.1));
+            let dirs = DirBox::of(rays[lo..hi].iter().map(|r| &r.dir));
             loop {
                 let next = (hi - lo >= MIN_PACKET)
                     .then(|| packet.next(&self.setup, origin))
@@ -486,10 +496,15 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
                 }
                 let bounds = edges.map(|e| e.bound(&dirs));
                 let mut counts = [0usize; 4];
-                for k in lo..hi {
-                    exits[k] = Packet::exit_of(&edges, &bounds, &rays[k].1);
-                    counts[exits[k] as usize] += 1;
-                }
+                let (rays_here, exits_here) = (&rays[lo..hi], &mut exits[lo..hi]);
+                Packet::exits_of(
+                    &edges,
+                    &bounds,
+                    rays_here,
+                    exits_here,
+                    &mut counts,
+                    self.simd,
+                );
                 if let Some(r) = (0..3).find(|&r| counts[r] == hi - lo) {
                     packet.advance(&self.setup, (d, pd), r as u8);
                     count_packet_step();
@@ -527,7 +542,7 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
         &self,
         query: &K,
         run: &mut Run<R, M, K::Policy, O>,
-        rays: &[(u32, [f64; 3])],
+        rays: &[PacketRay],
         packet: &Packet,
         out: &mut S,
     ) {
@@ -542,7 +557,7 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
                 packet.steps,
             )
         };
-        for &(i, _) in rays {
+        for i in rays.iter().map(|r| r.index) {
             if i & ENTERING != 0 {
                 let (j, ray, start) = run.entering[(i & !ENTERING) as usize];
                 let mesh = self.locators.mesh;

@@ -15,6 +15,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<scene::PyScene>()?;
     m.add_function(wrap_pyfunction!(names::methods, m)?)?;
     m.add_function(wrap_pyfunction!(names::layouts, m)?)?;
+    m.add_function(wrap_pyfunction!(names::simd_levels, m)?)?;
     m.add_function(wrap_pyfunction!(bench::exitface_bench, m)?)?;
     m.add_function(wrap_pyfunction!(bench::referee_first_hit, m)?)?;
     m.add_function(wrap_pyfunction!(gpu::gpu_adapters, m)?)?;

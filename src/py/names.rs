@@ -42,3 +42,12 @@ pub(crate) fn layouts() -> Vec<(&'static str, usize)> {
         .map(|k| (k.name(), k.bytes_per_tet()))
         .collect()
 }
+
+/// The SIMD levels this CPU runs, lowest first, and the one a cast uses now (the highest,
+/// capped by `TETRACE_SIMD`; an unknown name there is a ValueError).
+#[pyfunction]
+pub(crate) fn simd_levels() -> PyResult<(Vec<&'static str>, &'static str)> {
+    let levels = crate::simd::Simd::supported_levels();
+    let now = crate::simd::Simd::from_env()?;
+    Ok((levels.into_iter().map(|s| s.name()).collect(), now.name()))
+}

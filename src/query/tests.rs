@@ -604,11 +604,13 @@ fn lanes_answer_as_the_one_ray_walk() {
 /// answers, bit for bit: every query, both precisions, every method, from eyes outside the
 /// box, inside a tet and on a scene vertex, aimed at every vertex, along edges and through
 /// faces' points (the lines meet vertices and edges exactly: grid coordinates) and over a
-/// pixel fan; and packets did take steps and runs did start together (but from the vertex),
-/// so the comparison is not vacuous.
+/// pixel fan; at every SIMD level this CPU runs (`simd`); and packets did take steps, runs
+/// did start together (but from the vertex) and the AVX2 kernel did decide exits, so the
+/// comparison is not vacuous.
 #[test]
 fn packets_answer_as_the_one_ray_walk() {
     use crate::scene::{Lanes, Packets};
+    use crate::simd::Simd;
     let mut rng = Rng(91);
     let g = crate::testing::grid_scene_inside(&mut rng, 4, 0.0, 0.35);
     let eyes = [
@@ -627,13 +629,15 @@ fn packets_answer_as_the_one_ray_walk() {
         })
     };
     assert!(!on_a_plane(eyes[4]), "the last eye is off every plane");
-    let opts = |packets| CastOptions {
+    let opts = |packets, simd| CastOptions {
         lanes: Lanes::Off,
         packets,
         threads: Some(1),
+        simd: Some(simd),
         ..Default::default()
     };
-    let both = [opts(Packets::Auto), opts(Packets::Off)];
+    let levels = Simd::supported_levels();
+    let avx2_before = crate::traverse::packet::avx2_rays();
     for eye in eyes {
         let mut targets: Vec<[f64; 3]> = g.pts.clone();
         for f in &g.faces {
@@ -686,8 +690,12 @@ fn packets_answer_as_the_one_ray_walk() {
             } else {
                 (vec![0.0], vec![f64::INFINITY])
             };
-            let what = format!("packets from {eye:?}, window {window}");
-            same_answers(&g.scene, [&o, &d], [&tmin, &tmax], &what, both);
+            // Packets at every SIMD level against the one-ray walk.
+            for &level in &levels {
+                let what = format!("packets from {eye:?}, window {window}, {level:?}");
+                let both = [opts(Packets::Auto, level), opts(Packets::Off, Simd::Scalar)];
+                same_answers(&g.scene, [&o, &d], [&tmin, &tmax], &what, both);
+            }
         }
         // From a vertex every ray touches it at the start and walks alone.
         let taken = crate::accel::tetwalk::packet_steps() - before;
@@ -701,6 +709,13 @@ fn packets_answer_as_the_one_ray_walk() {
         assert!(
             may_touch_at_origin || together > 1000,
             "from {eye:?}: only {together} rays started together"
+        );
+    }
+    if levels.contains(&Simd::Avx2) {
+        let avx2 = crate::traverse::packet::avx2_rays() - avx2_before;
+        assert!(
+            avx2 > 10_000,
+            "the AVX2 exit kernel decided only {avx2} rays' exits"
         );
     }
 }

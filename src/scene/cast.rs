@@ -8,6 +8,7 @@ use crate::error::{Error, Result};
 use crate::geom::real::Real;
 use crate::layout::{Layout, LayoutKind, LayoutVisitor};
 use crate::query::{chunks, AllHits, AnyHit, Listed, QueryKind, Sink};
+use crate::simd::Simd;
 use crate::traverse::robust::ExactAudit;
 use crate::traverse::{
     Exact, ExitMethod, Method, MethodVisitor, NoObserver, WalkObserver, WalkSetup,
@@ -27,6 +28,10 @@ pub struct CastOptions {
     /// Whether rays sharing an origin walk as packets (`accel::Packets`): the same answers,
     /// bit for bit, either way.
     pub packets: Packets,
+    /// The level of the kernels that have a vector version; None: the best the CPU runs,
+    /// capped by `TETRACE_SIMD` ([`Simd::from_env`]). The same answers, bit for bit, at
+    /// every level.
+    pub simd: Option<Simd>,
 }
 
 impl CastOptions {
@@ -38,6 +43,14 @@ impl CastOptions {
             ));
         }
         Ok(())
+    }
+
+    /// The SIMD level a cast runs at (see [`CastOptions::simd`]).
+    pub fn simd_level(&self) -> Result<Simd> {
+        match self.simd {
+            Some(level) => Simd::checked(level),
+            None => Simd::from_env(),
+        }
     }
 
     /// The step guard for a mesh of `n_tets` tets.
@@ -237,8 +250,9 @@ impl Scene {
             sides: &self.mesh.constrained,
             max_steps: opts.max_steps_for(self.mesh.len()),
         };
-        let walk =
-            TetWalk::<W, L, M, O>::new(self.locators(), setup).with_lanes(opts.lanes, opts.packets);
+        let walk = TetWalk::<W, L, M, O>::new(self.locators(), setup)
+            .with_lanes(opts.lanes, opts.packets)
+            .with_simd(opts.simd_level()?);
         cast_accel(&walk, query, rays, out, opts.threads)
     }
 }

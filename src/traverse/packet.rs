@@ -20,6 +20,7 @@ use super::Exit;
 use crate::geom::real::{Real, V3};
 use crate::layout::Layout;
 use crate::mesh::build::CONSTRAINED_BIT;
+use crate::simd::Simd;
 
 /// The box holding the directions of a packet's rays (each as the walk's line has it: the
 /// caller's direction times a power of two, which changes no side).
@@ -27,8 +28,8 @@ use crate::mesh::build::CONSTRAINED_BIT;
 pub struct DirBox {
     lo: V3<f64>,
     hi: V3<f64>,
-    /// max(|lo|, |hi|) per axis: the largest |v_k| in the box.
-    reach: V3<f64>,
+    /// Σ_k max(|lo_k|, |hi_k|): bounds |v_0| + |v_1| + |v_2| for every v in the box.
+    reach: f64,
 }
 
 impl DirBox {
@@ -42,8 +43,31 @@ impl DirBox {
                 hi[k] = hi[k].max(v[k]);
             }
         }
-        let reach = [0, 1, 2].map(|k| lo[k].abs().max(hi[k].abs()));
+        let reach = (0..3).map(|k| lo[k].abs().max(hi[k].abs())).sum();
         DirBox { lo, hi, reach }
+    }
+}
+
+/// A ray of a packet: its direction (as its walk's line has it) and its index in the run.
+/// `repr(C)`, 32 bytes, every byte a field: the AVX2 kernel loads `dir` as four lanes
+/// (`index` and `spare` fill the fourth, which it never uses).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PacketRay {
+    pub dir: V3<f64>,
+    pub index: u32,
+    spare: u32,
+}
+
+const _: () = assert!(std::mem::size_of::<PacketRay>() == 32);
+
+impl PacketRay {
+    pub fn new(index: u32, dir: V3<f64>) -> PacketRay {
+        PacketRay {
+            dir,
+            index,
+            spare: 0,
+        }
     }
 }
 
@@ -52,25 +76,36 @@ impl DirBox {
 #[derive(Clone, Copy, Debug)]
 pub struct Edge {
     n: V3<f64>,
-    /// |P_y Q_z| + |P_z Q_y| and its rotations: what bounds n's rounding.
-    m: V3<f64>,
+    /// 2‖P‖∞‖Q‖∞, at least every |P_y Q_z| + |P_z Q_y| (and rotations): what bounds n's
+    /// rounding. One product per edge where the vertices' norms are known
+    /// ([`Edge::with_norms`]); a looser bound than the per-axis sums only where it is ~1e-15
+    /// of the sides, so it rarely makes a side uncertain.
+    scale: f64,
+}
+
+/// ‖p‖∞, the norm [`Edge::with_norms`] takes.
+#[inline(always)]
+pub fn norm(p: &V3<f64>) -> f64 {
+    p[0].abs().max(p[1].abs()).max(p[2].abs())
 }
 
 impl Edge {
     /// From P = fl(p − o) and Q = fl(q − o) (float64 points and origin).
     #[inline(always)]
     pub fn new(p: V3<f64>, q: V3<f64>) -> Edge {
+        Edge::with_norms(p, norm(&p), q, norm(&q))
+    }
+
+    /// [`Edge::new`] with `np` = ‖P‖∞ and `nq` = ‖Q‖∞ already known ([`norm`]).
+    #[inline(always)]
+    pub fn with_norms(p: V3<f64>, np: f64, q: V3<f64>, nq: f64) -> Edge {
         Edge {
             n: [
                 p[1] * q[2] - p[2] * q[1],
                 p[2] * q[0] - p[0] * q[2],
                 p[0] * q[1] - p[1] * q[0],
             ],
-            m: [
-                (p[1] * q[2]).abs() + (p[2] * q[1]).abs(),
-                (p[2] * q[0]).abs() + (p[0] * q[2]).abs(),
-                (p[0] * q[1]).abs() + (p[1] * q[0]).abs(),
-            ],
+            scale: 2.0 * np * nq,
         }
     }
 
@@ -84,13 +119,16 @@ impl Edge {
     /// The exact side of every direction in the box, when it is one and certain; 0 when not
     /// (some directions may have another sign, or a zero, or the bound failed).
     ///
-    /// Bound (u = 2⁻⁵³): each component n_x = fl(fl(P_y Q_z) − fl(P_z Q_y)) differs from the
-    /// exact (p − o) × (q − o) by at most 4u·m_x + O(u²) (two inputs' subtraction errors, the
+    /// Bound (u = 2⁻⁵³; m_x = |P_y Q_z| + |P_z Q_y| and rotations; reach_k = max(|lo_k|,
+    /// |hi_k|)): each component n_x = fl(fl(P_y Q_z) − fl(P_z Q_y)) differs from the exact
+    /// (p − o) × (q − o) by at most 4u·m_x + O(u²) (two inputs' subtraction errors, the
     /// product's and the difference's roundings); the box's extremes Σ min/max(lo_k n_k,
     /// hi_k n_k) are computed with at most 3u·Σ reach_k |n_k|. Since |n_k| ≤ m_k (1 + u),
-    /// 8u·Σ reach_k m_k covers both with room for the O(u²) terms and the bound's own
-    /// rounding (scaled up by 1 + 2⁻²⁰). Products that underflow lose at most 2⁻¹⁰⁷⁴ each:
-    /// the absolute term covers them. NaN or infinity fails the comparisons: not certain.
+    /// 8u·Σ reach_k m_k covers both with room for the O(u²) terms; m_k ≤ 2‖P‖∞‖Q‖∞ = scale,
+    /// so 8u·scale·Σ reach_k does too, and the few roundings of scale and of the sum
+    /// (relative 5u) fit in the bound's own margin (scaled up by 1 + 2⁻²⁰). Products that
+    /// underflow lose at most 2⁻¹⁰⁷⁴ each: the absolute term covers them. NaN or infinity
+    /// fails the comparisons: not certain.
     #[inline(always)]
     pub fn side(&self, b: &DirBox) -> i8 {
         let (mut low, mut high) = (0.0, 0.0);
@@ -104,11 +142,10 @@ impl Edge {
 
     /// The bound [`Edge::side`] allows for rounding over the box `b`: since every direction
     /// v in the box has |v_k| ≤ reach_k, it bounds the rounding of each one's v · n too
-    /// ([`Edge::side_within`]).
+    /// ([`Edge::side_within`]): Σ_k |v_k| ≤ reach.
     #[inline(always)]
     pub fn bound(&self, b: &DirBox) -> f64 {
-        let size = (0..3).map(|k| b.reach[k] * self.m[k]).sum();
-        rounding_bound(size)
+        rounding_bound(self.scale * b.reach)
     }
 
     /// The exact side of a direction v of a box whose [`Edge::bound`] is `bound`, when
@@ -131,7 +168,7 @@ impl Edge {
     #[inline(always)]
     pub fn side_of(&self, v: &V3<f64>) -> i8 {
         let dot = v[0] * self.n[0] + v[1] * self.n[1] + v[2] * self.n[2];
-        let size = v[0].abs() * self.m[0] + v[1].abs() * self.m[1] + v[2].abs() * self.m[2];
+        let size = self.scale * (v[0].abs() + v[1].abs() + v[2].abs());
         certain_sign(dot, dot, rounding_bound(size))
     }
 }
@@ -196,9 +233,9 @@ pub struct Packet {
     pub a: u32,
     pub b: u32,
     pub c: u32,
-    pa: V3<f64>,
-    pb: V3<f64>,
-    pc: V3<f64>,
+    pa: Rel,
+    pb: Rel,
+    pc: Rel,
     pub link: u32,
     pub t: u32,
     pub steps: u32,
@@ -236,18 +273,14 @@ impl Packet {
         &self,
         setup: &WalkSetup<R, L>,
         origin: V3<f64>,
-    ) -> Option<(u32, V3<f64>, [Edge; 3])> {
+    ) -> Option<(u32, Rel, [Edge; 3])> {
         debug_assert!(!L::INLINE);
         if self.link & CONSTRAINED_BIT != 0 || self.steps >= setup.max_steps {
             return None;
         }
         let d = setup.layout.new_vertex(self.link, self.a, self.b, self.c);
         let pd = relative(setup, origin, d);
-        let edges = [
-            Edge::new(pd, self.pa),
-            Edge::new(pd, self.pb),
-            Edge::new(pd, self.pc),
-        ];
+        let edges = [self.pa, self.pb, self.pc].map(|q| pd.edge_to(&q));
         Some((d, pd, edges))
     }
 
@@ -273,13 +306,40 @@ impl Packet {
         EXITS[code]
     }
 
+    /// [`Packet::exit_of`] for every ray of `rays` (directions in a box whose bounds on
+    /// `edges` are `bounds`) into `exits`, counting each exit in `counts`; at level `simd`,
+    /// with the same answers at every level.
+    #[inline(always)]
+    pub fn exits_of(
+        edges: &[Edge; 3],
+        bounds: &[f64; 3],
+        rays: &[PacketRay],
+        exits: &mut [u8],
+        counts: &mut [usize; 4],
+        simd: Simd,
+    ) {
+        debug_assert_eq!(rays.len(), exits.len());
+        let mut done = 0;
+        #[cfg(target_arch = "x86_64")]
+        if simd == Simd::Avx2 {
+            // SAFETY: the level is only Avx2 where the CPU has AVX2 (`Simd::checked`,
+            // `Simd::from_env`).
+            done = unsafe { avx2::exits_of(edges, bounds, rays, exits, counts) };
+        }
+        let _ = simd;
+        for (ray, exit) in rays[done..].iter().zip(&mut exits[done..]) {
+            *exit = Packet::exit_of(edges, bounds, &ray.dir);
+            counts[*exit as usize] += 1;
+        }
+    }
+
     /// Takes the step [`Packet::next`] found, leaving by `Exit::ROTATIONS[rotation]`, as
     /// `walk::plain_step` takes it for one ray.
     #[inline(always)]
     pub fn advance<R: Real, L: Layout>(
         &mut self,
         setup: &WalkSetup<R, L>,
-        (d, pd): (u32, V3<f64>),
+        (d, pd): (u32, Rel),
         rotation: u8,
     ) {
         let t = self.link;
@@ -311,17 +371,104 @@ impl Packet {
     }
 }
 
-/// fl(p − o) for vertex v: what [`DirBox::side`] takes.
+/// A vertex seen from the packet's origin: P = fl(p − o) and ‖P‖∞ (what [`Edge`]s take).
+#[derive(Clone, Copy, Debug)]
+pub struct Rel {
+    p: V3<f64>,
+    norm: f64,
+}
+
+impl Rel {
+    /// The edge from this vertex to `q`.
+    #[inline(always)]
+    fn edge_to(&self, q: &Rel) -> Edge {
+        Edge::with_norms(self.p, self.norm, q.p, q.norm)
+    }
+}
+
+/// Vertex v seen from `origin`.
 #[inline(always)]
-fn relative<R: Real, L: Layout>(setup: &WalkSetup<R, L>, origin: V3<f64>, v: u32) -> V3<f64> {
+fn relative<R: Real, L: Layout>(setup: &WalkSetup<R, L>, origin: V3<f64>, v: u32) -> Rel {
     let p = setup.points[v as usize];
-    [0, 1, 2].map(|k| p[k].to_f64() - origin[k])
+    let p = [0, 1, 2].map(|k| p[k].to_f64() - origin[k]);
+    Rel { p, norm: norm(&p) }
+}
+
+/// The per-ray exits four rays at a time.
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use super::{Edge, PacketRay, EXITS};
+    use std::arch::x86_64::*;
+
+    /// Bit j of the 4-bit mask `m` moved to bit 8j: lane j's bit in byte j.
+    #[inline(always)]
+    fn spread(m: i32) -> u32 {
+        (m as u32).wrapping_mul(0x0020_4081) & 0x0101_0101
+    }
+
+    /// `Packet::exit_of` for the rays of `rays` in whole groups of four (the same products,
+    /// sums and comparisons, lane by lane); returns how many it did.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[target_feature(enable = "avx2")]
+    pub unsafe fn exits_of(
+        edges: &[Edge; 3],
+        bounds: &[f64; 3],
+        rays: &[PacketRay],
+        exits: &mut [u8],
+        counts: &mut [usize; 4],
+    ) -> usize {
+        let full = rays.len() / 4 * 4;
+        let n = edges.map(|e| e.n.map(|x| _mm256_set1_pd(x)));
+        let above = bounds.map(|b| _mm256_set1_pd(b));
+        let below = bounds.map(|b| _mm256_set1_pd(-b));
+        for k in (0..full).step_by(4) {
+            // Four rays' (x, y, z, -) rows, transposed into x, y and z columns.
+            let at = rays.as_ptr().add(k) as *const f64;
+            let [r0, r1, r2, r3] = [0, 4, 8, 12].map(|i| _mm256_loadu_pd(at.add(i)));
+            let (t0, t1) = (_mm256_unpacklo_pd(r0, r1), _mm256_unpackhi_pd(r0, r1));
+            let (t2, t3) = (_mm256_unpacklo_pd(r2, r3), _mm256_unpackhi_pd(r2, r3));
+            let x = _mm256_permute2f128_pd::<0x20>(t0, t2);
+            let y = _mm256_permute2f128_pd::<0x20>(t1, t3);
+            let z = _mm256_permute2f128_pd::<0x31>(t0, t2);
+            // Byte j: ray k + j's code, two bits per edge as `Packet::exit_of` makes it.
+            let mut codes = 0u32;
+            for i in 0..3 {
+                let xy = _mm256_add_pd(_mm256_mul_pd(x, n[i][0]), _mm256_mul_pd(y, n[i][1]));
+                let dot = _mm256_add_pd(xy, _mm256_mul_pd(z, n[i][2]));
+                let positive = _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_GT_OQ>(dot, above[i]));
+                let negative = _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_LT_OQ>(dot, below[i]));
+                codes |= spread(positive) << (2 * i) | spread(negative) << (2 * i + 1);
+            }
+            for j in 0..4 {
+                let exit = EXITS[(codes >> (8 * j) & 0x3f) as usize];
+                exits[k + j] = exit;
+                counts[exit as usize] += 1;
+            }
+        }
+        #[cfg(test)]
+        super::AVX2_RAYS.with(|c| c.set(c.get() + full as u64));
+        full
+    }
+}
+
+#[cfg(test)]
+thread_local! {
+    static AVX2_RAYS: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
+}
+
+/// Rays whose exits the AVX2 kernel decided on this thread (tests: that it ran).
+#[cfg(test)]
+pub fn avx2_rays() -> u64 {
+    AVX2_RAYS.with(|c| c.get())
 }
 
 #[cfg(test)]
 mod tests {
-    use super::{DirBox, Edge};
+    use super::{DirBox, Edge, Packet, PacketRay};
     use crate::geom::exact::side;
+    use crate::simd::Simd;
 
     /// A small deterministic generator (the tests need no statistics, only many cases).
     struct Lcg(u64);
@@ -399,5 +546,79 @@ mod tests {
             certain > 1000 && uncertain > 1000,
             "{certain} certain, {uncertain} uncertain"
         );
+    }
+
+    /// The per-ray exits are the same at every SIMD level, ray by ray, and each certain one
+    /// is the exit the exact sides name (`geom::exact::side`): on directions near the edges'
+    /// planes (uncertain exits) and far from them, in groups of every length (whole groups of
+    /// four and the rest).
+    #[test]
+    fn per_ray_exits_agree_at_every_simd_level_and_with_exact_sides() {
+        let levels = Simd::supported_levels();
+        if cfg!(target_arch = "x86_64") && std::env::var("CI").is_ok_and(|v| v == "true") {
+            assert!(
+                levels.len() > 1,
+                "CI's machine runs AVX2: both levels must be compared"
+            );
+        }
+        let mut rng = Lcg(11);
+        let before = super::avx2_rays();
+        let (mut certain, mut uncertain) = (0, 0);
+        for case in 0..3000 {
+            let o = [0, 1, 2].map(|_| rng.unit() * 4.0 - 2.0);
+            let d = [0, 1, 2].map(|_| rng.unit() * 4.0 - 2.0);
+            let [a, b, c] = [0, 1, 2].map(|_| [0, 1, 2].map(|_| rng.unit() * 4.0 - 2.0));
+            let rel = |x: [f64; 3]| [0, 1, 2].map(|k| x[k] - o[k]);
+            let edges = [a, b, c].map(|p| Edge::new(rel(d), rel(p)));
+            // Directions near the plane of (o, d, a), at the rounding's scale for some.
+            let width = [1e-1, 1e-9, 1e-15, 0.0][case % 4];
+            let s = rng.unit();
+            let base = [0, 1, 2].map(|k| (d[k] - o[k]) * s + (a[k] - o[k]));
+            let n = case % 11 + 1;
+            let rays: Vec<PacketRay> = (0..n)
+                .map(|i| {
+                    let v = [0, 1, 2].map(|k| base[k] + (rng.unit() - 0.5) * width);
+                    PacketRay::new(i as u32, v)
+                })
+                .collect();
+            let dirs = DirBox::of(rays.iter().map(|r| &r.dir));
+            let bounds = edges.map(|e| e.bound(&dirs));
+            let mut first: Option<(Vec<u8>, [usize; 4])> = None;
+            for &level in &levels {
+                let (mut exits, mut counts) = (vec![9u8; n], [0usize; 4]);
+                Packet::exits_of(&edges, &bounds, &rays, &mut exits, &mut counts, level);
+                for (r, &e) in rays.iter().zip(&exits) {
+                    assert_eq!(e, Packet::exit_of(&edges, &bounds, &r.dir), "case {case}");
+                    if e == 3 {
+                        uncertain += 1;
+                        continue;
+                    }
+                    certain += 1;
+                    let sides = [a, b, c].map(|p| side(r.dir, o, d, p));
+                    let code = |s: i8| if s > 0 { 1 } else { 2 };
+                    let exact = super::EXITS[sides
+                        .iter()
+                        .enumerate()
+                        .fold(0, |acc, (i, &s)| acc | code(s) << (2 * i))];
+                    assert!(
+                        sides.iter().all(|&s| s != 0),
+                        "case {case}: certain at a zero"
+                    );
+                    assert_eq!(e, exact, "case {case}: exit against the exact sides");
+                }
+                assert_eq!(counts.iter().sum::<usize>(), n);
+                match &first {
+                    None => first = Some((exits, counts)),
+                    Some(f) => assert_eq!(f, &(exits, counts), "case {case}: {level:?}"),
+                }
+            }
+        }
+        assert!(
+            certain > 1000 && uncertain > 1000,
+            "{certain} certain, {uncertain} uncertain"
+        );
+        if levels.contains(&Simd::Avx2) {
+            assert!(super::avx2_rays() - before > 5000, "the AVX2 kernel ran");
+        }
     }
 }

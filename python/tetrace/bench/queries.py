@@ -36,7 +36,7 @@ import numpy as np
 from ..baselines.embree import cpu_count, embree_scene
 from ..dev.camera import orbit_views, pinhole, random_rays
 from ..referee import Referee, judge, judge_lists
-from ..scene import Scene, default_scene_path
+from ..scene import Scene, default_scene_path, simd_levels
 from .casters import _peer_hits, open3d_module
 from .scene_bench import _table
 
@@ -291,7 +291,8 @@ def run_queries(path=None, *, res=256, n_random=20_000, repeat=3, stress=300, ou
     threads = sorted({1, cpu_count()})
     out(
         f"scene {path}: {len(f)} triangles, closed: {closed}; tetrace method "
-        f"{_native.DEFAULT_METHOD} (the default); threads {threads}"
+        f"{_native.DEFAULT_METHOD} (the default), SIMD level {simd_levels()[1]}; "
+        f"threads {threads}"
     )
     if peers.o3d is None:
         out(f"Open3D: {peers.o3d_reason}")

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..dev.camera import orbit_views, pinhole
 from ..dev.compare import agreement
-from ..scene import LAYOUT_BYTES, Scene, default_scene_path
+from ..scene import LAYOUT_BYTES, Scene, default_scene_path, simd_levels
 
 
 def configurations(methods, layouts, precisions, threads):
@@ -342,6 +342,9 @@ def run_scene_bench(
         + "".join(f"; skipped: {w}" for w in results["peers_skipped"])
     )
     ours = TetraceCaster(scene, methods[0], layouts[0])
+    levels, simd = simd_levels()
+    results["simd"] = simd
+    out(f"tetrace SIMD level: {simd} (this CPU runs {', '.join(levels)}; TETRACE_SIMD caps it)")
     out(
         "every caster: the same float32 rays, an untimed warm-up, the best of the timed casts; "
         "at 'all': " + "; ".join(f"{c.name} on {c.schedule(ncpu)}" for c in [ours] + peers)
