@@ -306,18 +306,24 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
             );
             first = end;
             // Groups: rays whose walks stand at the same face (stable: ray order within).
+            // Only the rays started alone (few, when the rest entered together) are sorted;
+            // the entering rays, one key in index order, go in as a block where the sort
+            // would have put them.
             order.clear();
             order.extend(run.started.iter().enumerate().map(|(i, w)| {
                 let s = &w.as_ref().expect("a started ray").2.state;
                 (s.link, [s.a, s.b, s.c], s.t, s.steps, i as u32)
             }));
+            order.sort_unstable();
             if let Some(key) = entered {
-                order.extend(
+                let first = (key.0, key.1, key.2, key.3, ENTERING);
+                let at = order.partition_point(|x| *x < first);
+                order.splice(
+                    at..at,
                     (0..run.entering.len())
                         .map(|i| (key.0, key.1, key.2, key.3, ENTERING | i as u32)),
                 );
             }
-            order.sort_unstable();
             let mut g = 0;
             while g < order.len() {
                 let key = |x: &(u32, [u32; 3], u32, u32, u32)| (x.0, x.1, x.2, x.3);
@@ -732,13 +738,19 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
 /// its sign) in the top bits, then the other two coordinates over the major one, 14 bits
 /// each, interleaved. Nearby directions get nearby keys (mostly).
 fn direction_key(d: [f64; 3]) -> u32 {
-    let major = (0..3)
-        .max_by(|&i, &j| d[i].abs().total_cmp(&d[j].abs()))
-        .expect("three axes");
+    // Plain comparisons (a key only orders rays: ties and NaN may go anywhere).
+    let a = d.map(f64::abs);
+    let major = if a[0] >= a[1] && a[0] >= a[2] {
+        0
+    } else if a[1] >= a[2] {
+        1
+    } else {
+        2
+    };
     let (u, v) = (d[(major + 1) % 3], d[(major + 2) % 3]);
-    let scale = 1.0 / d[major].abs();
+    let scale = 1.0 / a[major];
     // u/|d_major| and v/|d_major| lie in [-1, 1] (NaN and zero directions land anywhere).
-    let quantize = |x: f64| (((x * scale).clamp(-1.0, 1.0) + 1.0) * 8191.5) as u32;
+    let quantize = |x: f64| (((x * scale).max(-1.0).min(1.0) + 1.0) * 8191.5) as u32;
     let spread = |x: u32| {
         let mut x = x & 0x3fff;
         x = (x | x << 8) & 0x00ff_00ff;

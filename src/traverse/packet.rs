@@ -39,11 +39,11 @@ impl DirBox {
         let (mut lo, mut hi) = (first, first);
         for v in dirs {
             for k in 0..3 {
-                lo[k] = lo[k].min(v[k]);
-                hi[k] = hi[k].max(v[k]);
+                lo[k] = lesser(lo[k], v[k]);
+                hi[k] = greater(hi[k], v[k]);
             }
         }
-        let reach = (0..3).map(|k| lo[k].abs().max(hi[k].abs())).sum();
+        let reach = (0..3).map(|k| greater(lo[k].abs(), hi[k].abs())).sum();
         DirBox { lo, hi, reach }
     }
 }
@@ -83,10 +83,32 @@ pub struct Edge {
     scale: f64,
 }
 
-/// ‖p‖∞, the norm [`Edge::with_norms`] takes.
+/// ‖p‖∞, the norm [`Edge::with_norms`] takes. (A NaN in p need not show here: it makes the
+/// edge's n NaN, and every side that uses it uncertain.)
 #[inline(always)]
 pub fn norm(p: &V3<f64>) -> f64 {
-    p[0].abs().max(p[1].abs()).max(p[2].abs())
+    greater(greater(p[0].abs(), p[1].abs()), p[2].abs())
+}
+
+/// min(a, b) for numbers that are not NaN, in one instruction (`f64::min` also orders NaN,
+/// which packets never hold: their directions passed `Locators::exact_line`).
+#[inline(always)]
+fn lesser(a: f64, b: f64) -> f64 {
+    if b < a {
+        b
+    } else {
+        a
+    }
+}
+
+/// max(a, b) for numbers that are not NaN (see [`lesser`]).
+#[inline(always)]
+fn greater(a: f64, b: f64) -> f64 {
+    if b > a {
+        b
+    } else {
+        a
+    }
 }
 
 impl Edge {
@@ -131,11 +153,17 @@ impl Edge {
     /// fails the comparisons: not certain.
     #[inline(always)]
     pub fn side(&self, b: &DirBox) -> i8 {
+        // lo_k ≤ hi_k, so lo_k n_k ≤ hi_k n_k exactly when n_k ≥ 0 (rounding is monotone):
+        // the extremes without comparing the products (a NaN n_k fails the sign test below).
         let (mut low, mut high) = (0.0, 0.0);
         for k in 0..3 {
-            let (x, y) = (b.lo[k] * self.n[k], b.hi[k] * self.n[k]);
-            low += x.min(y);
-            high += x.max(y);
+            let (near, far) = if self.n[k] >= 0.0 {
+                (b.lo[k], b.hi[k])
+            } else {
+                (b.hi[k], b.lo[k])
+            };
+            low += near * self.n[k];
+            high += far * self.n[k];
         }
         certain_sign(low, high, self.bound(b))
     }
