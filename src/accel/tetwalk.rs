@@ -750,7 +750,7 @@ fn direction_key(d: [f64; 3]) -> u32 {
     let (u, v) = (d[(major + 1) % 3], d[(major + 2) % 3]);
     let scale = 1.0 / a[major];
     // u/|d_major| and v/|d_major| lie in [-1, 1] (NaN and zero directions land anywhere).
-    let quantize = |x: f64| (((x * scale).max(-1.0).min(1.0) + 1.0) * 8191.5) as u32;
+    let quantize = |x: f64| (((x * scale).clamp(-1.0, 1.0) + 1.0) * 8191.5) as u32;
     let spread = |x: u32| {
         let mut x = x & 0x3fff;
         x = (x | x << 8) & 0x00ff_00ff;
