@@ -24,7 +24,7 @@ use crate::locate::{ExactOrigin, LocateState, Locators, Start, WalkStart};
 use crate::mesh::build::OUTWARD_FACES;
 use crate::query::{Decision, Query, QueryKind, Sink};
 use crate::simd::Simd;
-use crate::traverse::packet::{DirBox, Edge, Packet, PacketRay};
+use crate::traverse::packet::{seen_from, DirBox, Edge, Packet, PacketRay};
 use crate::traverse::{
     entry_face, plain_step, walk_begin, walk_resume, Contact, ExitMethod, Touch, Walk, WalkEnd,
     WalkObserver, WalkSetup, WalkState,
@@ -449,10 +449,7 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
     ) -> Option<(u32, usize)> {
         let t = st.origin_cannot_touch(o)?;
         let corners = self.locators.mesh.tets[t as usize];
-        let at = corners.map(|v| {
-            let p = self.setup.points[v as usize];
-            [0, 1, 2].map(|k| p[k].to_f64() - o[k])
-        });
+        let at = corners.map(|v| seen_from(&self.setup, o, v));
         (0..4)
             .find(|&i| {
                 let [p, q, r] = OUTWARD_FACES[i].map(|k| at[k]);

@@ -414,12 +414,18 @@ impl Rel {
     }
 }
 
-/// Vertex v seen from `origin`.
+/// Vertex v seen from `origin`, with its norm.
 #[inline(always)]
 fn relative<R: Real, L: Layout>(setup: &WalkSetup<R, L>, origin: V3<f64>, v: u32) -> Rel {
-    let p = setup.points[v as usize];
-    let p = [0, 1, 2].map(|k| p[k].to_f64() - origin[k]);
+    let p = seen_from(setup, origin, v);
     Rel { p, norm: norm(&p) }
+}
+
+/// fl(p − o) for vertex v (in the walk's points) and origin o: what [`Edge`]s are made of.
+#[inline(always)]
+pub fn seen_from<R: Real, L: Layout>(setup: &WalkSetup<R, L>, origin: V3<f64>, v: u32) -> V3<f64> {
+    let p = setup.points[v as usize];
+    [0, 1, 2].map(|k| p[k].to_f64() - origin[k])
 }
 
 /// The per-ray exits four rays at a time.
