@@ -75,6 +75,31 @@ pub fn side(d: V3<f64>, s: V3<f64>, p: V3<f64>, q: V3<f64>) -> i8 {
     sign_of(&rdet(&d, &rsub(&p, &s), &rsub(&q, &s)))
 }
 
+/// The signs of the side products of the line (o, d) with the edges ab, bc, ca of `tri`:
+/// `side(d, o, a, b)`, `side(d, o, b, c)`, `side(d, o, c, a)`, each exact and evaluated as
+/// [`side`] does, with the differences formed once. Stops early (the third left 0) when the
+/// first two have opposite signs: the line then passes beside the triangle whatever the third.
+pub fn triangle_sides(d: V3<f64>, o: V3<f64>, tri: &[V3<f64>; 3]) -> [i8; 3] {
+    let sub = |p: V3<f64>| [p[0] - o[0], p[1] - o[1], p[2] - o[2]];
+    let v = [sub(tri[0]), sub(tri[1]), sub(tri[2])];
+    let mut out = [0i8; 3];
+    for k in 0..3 {
+        let (det, perm) = det_perm(d, v[k], v[(k + 1) % 3]);
+        let bound = DET_BOUND * perm;
+        out[k] = if perm.is_finite() && perm > TINY && det > bound {
+            1
+        } else if perm.is_finite() && perm > TINY && -det > bound {
+            -1
+        } else {
+            side(d, o, tri[k], tri[(k + 1) % 3])
+        };
+        if k == 1 && out[0] * out[1] < 0 {
+            break;
+        }
+    }
+    out
+}
+
 /// Whether the line (s, d) lies in the plane of triangle (a, b, c), for a line known to meet
 /// that plane at a point of the triangle: then it lies in the plane iff d is parallel to it.
 pub fn in_plane(d: V3<f64>, a: V3<f64>, b: V3<f64>, c: V3<f64>) -> bool {
@@ -128,6 +153,28 @@ pub fn cmp_t(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3], x: f64) -> Ordering {
         return Ordering::Greater;
     }
     (num / den).cmp(&rat(x))
+}
+
+/// Which of two triangles' planes the line o + t d crosses first: the sign of t1 − t2,
+/// exactly. Neither plane may be parallel to d (a triangle met at one point is not).
+pub fn cmp_plane_t(o: V3<f64>, d: V3<f64>, tri1: &[V3<f64>; 3], tri2: &[V3<f64>; 3]) -> Ordering {
+    let ((t1, e1), (t2, e2)) = (plane_t(o, d, tri1), plane_t(o, d, tri2));
+    if [t1, e1, t2, e2].iter().all(|x| x.is_finite()) {
+        if t1 + e1 < t2 - e2 {
+            return Ordering::Less;
+        }
+        if t1 - e1 > t2 + e2 {
+            return Ordering::Greater;
+        }
+    }
+    let exact_t = |tri: &[V3<f64>; 3]| {
+        let (o, d) = (rat3(o), rat3(d));
+        let [a, b, c] = tri.map(rat3);
+        let num = rdet(&rsub(&a, &o), &rsub(&b, &o), &rsub(&c, &o));
+        let den = rdet(&d, &rsub(&b, &a), &rsub(&c, &a));
+        num / den
+    };
+    exact_t(tri1).cmp(&exact_t(tri2))
 }
 
 /// The ray's hit on one of the caller's triangles: t and its error bound (as [`plane_t`]), and
@@ -201,6 +248,73 @@ mod tests {
             assert_eq!(side(d, s, q, p), -exact, "case {k}");
         }
         assert!(zeros > 100, "the cases include exact zeros ({zeros})");
+    }
+
+    /// `triangle_sides` is `side` on the three edges (up to its early stop), on triangles near
+    /// the line and on it, and `cmp_plane_t` orders two planes' crossings as rationals do.
+    #[test]
+    fn triangle_sides_and_plane_order_are_exact() {
+        let mut x = 0x2545_f491_4f6c_dd1du64;
+        let mut f = move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            ((x >> 11) as f64 / (1u64 << 53) as f64 * 16.0).round() / 16.0
+        };
+        let (mut zeros, mut ties) = (0, 0);
+        for k in 0..20_000 {
+            let scale = [1.0, 1e-200, 1e200][k % 3];
+            let o = [f(), f(), f()].map(|v| v * scale);
+            let d = [f() - 0.5, f() - 0.5, f() - 0.5];
+            if d == [0.0; 3] {
+                continue;
+            }
+            // Corners on the line, on lines through it, or anywhere: many exact zeros.
+            let on = |f: &mut dyn FnMut() -> f64| {
+                let t = f();
+                [0, 1, 2].map(|i| o[i] + t * d[i] * scale)
+            };
+            let any = |f: &mut dyn FnMut() -> f64| [f(), f(), f()].map(|v| v * scale);
+            let tri = [
+                if k % 4 == 0 { on(&mut f) } else { any(&mut f) },
+                any(&mut f),
+                if k % 5 == 0 { on(&mut f) } else { any(&mut f) },
+            ];
+            let want = [0, 1, 2].map(|e| side(d, o, tri[e], tri[(e + 1) % 3]));
+            let got = triangle_sides(d, o, &tri);
+            zeros += want.contains(&0) as usize;
+            if want[0] * want[1] < 0 {
+                assert_eq!(&got[..2], &want[..2], "case {k}");
+            } else {
+                assert_eq!(got, want, "case {k}");
+            }
+            // Two planes: the other one through the same crossing half the time.
+            let tri2 = [
+                tri[0],
+                any(&mut f),
+                if k % 2 == 0 { tri[2] } else { any(&mut f) },
+            ];
+            let parallel = |t: &[V3<f64>; 3]| {
+                let (r, e1, e2) = (rat3(d), rat3(t[0]), rat3(t[1]));
+                rdet(&r, &rsub(&e2, &e1), &rsub(&rat3(t[2]), &e1)).is_zero()
+            };
+            if parallel(&tri) || parallel(&tri2) {
+                continue;
+            }
+            let exact_t = |t: &[V3<f64>; 3]| {
+                let (ro, rd) = (rat3(o), rat3(d));
+                let [a, b, c] = t.map(rat3);
+                rdet(&rsub(&a, &ro), &rsub(&b, &ro), &rsub(&c, &ro))
+                    / rdet(&rd, &rsub(&b, &a), &rsub(&c, &a))
+            };
+            let order = exact_t(&tri).cmp(&exact_t(&tri2));
+            ties += order.is_eq() as usize;
+            assert_eq!(cmp_plane_t(o, d, &tri, &tri2), order, "case {k}");
+        }
+        assert!(
+            zeros > 1000 && ties > 100,
+            "{zeros} zero sides, {ties} equal crossings"
+        );
     }
 
     #[test]

@@ -10,6 +10,22 @@ pub struct Ray {
     pub tmax: f64,
 }
 
+/// The range [tmin, tmax] of a ray every exact query walks or tests: tmin raised to 0. Err:
+/// the status of a ray no query traces (INVALID: a non-finite number, a zero direction or a
+/// NaN bound; MISS: tmax below that range's start).
+pub fn checked_range(ray: &Ray) -> Result<(f64, f64), u8> {
+    let Ray { o, d, tmin, tmax } = *ray;
+    let finite = o.iter().chain(&d).all(|x| x.is_finite());
+    if !finite || d == [0.0; 3] || tmin.is_nan() || tmax.is_nan() {
+        return Err(crate::status::INVALID);
+    }
+    let tmin = tmin.max(0.0);
+    if tmax < tmin {
+        return Err(crate::status::MISS);
+    }
+    Ok((tmin, tmax))
+}
+
 /// Where a ray meets the domain box.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BoxSpan {

@@ -2,7 +2,7 @@
 //! the box; the tet holding that point, found with hints carried between neighbouring rays.
 
 use super::{BoundaryLocator, GridLocator, Located};
-use crate::geom::ray::{clip_box, Ray};
+use crate::geom::ray::{checked_range, clip_box, Ray};
 use crate::geom::real::{unit_scale, Real};
 use crate::mesh::build::OUTWARD_FACES;
 use crate::mesh::TetMesh;
@@ -284,15 +284,8 @@ impl Locators<'_> {
     /// box; from outside, `point` is where the ray enters the box (rounded, then clamped onto
     /// it). `tet` and `entry` are left for the caller.
     pub fn exact_line(&self, ray: &Ray) -> Result<(WalkStart, ExactOrigin), u8> {
-        let Ray { o, d, tmin, tmax } = *ray;
-        let finite = o.iter().chain(&d).all(|x| x.is_finite());
-        if !finite || d == [0.0; 3] || tmin.is_nan() || tmax.is_nan() {
-            return Err(INVALID);
-        }
-        let tmin = tmin.max(0.0);
-        if tmax < tmin {
-            return Err(MISS);
-        }
+        let (tmin, tmax) = checked_range(ray)?;
+        let Ray { o, d, .. } = *ray;
         let mut start = WalkStart {
             o,
             d,

@@ -4,6 +4,7 @@
 //! constrained faces and collects what `contact` reports, skipping points it already has.
 
 use super::contact::{ExactRay, Meet, Range};
+use super::gather::{Every, Line};
 use super::{ClosestHit, Crossing, Decision, Query, QueryKind, Sink};
 use crate::geom::ray::Ray;
 use crate::locate::WalkStart;
@@ -106,6 +107,17 @@ impl Query for AllPolicy<'_> {
 impl<'a> QueryKind for AllHits<'a> {
     type Policy = AllPolicy<'a>;
     type Answer = Listed;
+    type Gather = Every<'a>;
+
+    fn gather(&self, line: &Line) -> Every<'a> {
+        Every::new(line, &self.0.surface.triangles)
+    }
+
+    fn gathered(&self, g: Every<'a>, _: u32) -> Listed {
+        let meets = g.meets();
+        let status = if meets.is_empty() { MISS } else { HIT };
+        Listed { status, meets }
+    }
 
     fn policy(&self, s: &WalkStart) -> AllPolicy<'a> {
         let c = &self.0;

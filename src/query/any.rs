@@ -2,9 +2,10 @@
 //! at the first constrained face; the ray is occluded when that crossing lies within tmax.
 
 use super::closest::ClosestPolicy;
+use super::gather::{Found, Line};
 use super::{ClosestHit, QueryKind};
 use crate::locate::WalkStart;
-use crate::status::HIT;
+use crate::status::{HIT, MISS};
 use crate::traverse::Walk;
 
 /// The any-hit query; its answer is a status per ray (HIT: occluded, MISS, FAILED, INVALID).
@@ -14,6 +15,22 @@ pub struct AnyHit<'a>(pub ClosestHit<'a>);
 impl<'a> QueryKind for AnyHit<'a> {
     type Policy = ClosestPolicy<'a>;
     type Answer = u8;
+    type Gather = Found;
+
+    fn gather(&self, line: &Line) -> Found {
+        Found {
+            found: false,
+            tmax: line.tmax,
+        }
+    }
+
+    fn gathered(&self, g: Found, _: u32) -> u8 {
+        if g.found {
+            HIT
+        } else {
+            MISS
+        }
+    }
 
     #[inline(always)]
     fn policy(&self, s: &WalkStart) -> ClosestPolicy<'a> {

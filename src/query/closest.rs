@@ -2,6 +2,7 @@
 //! caller's triangle it lies on.
 
 use super::contact::{earlier, ExactRay, Meet, Range};
+use super::gather::{Line, Nearest};
 use super::{Crossing, Decision, Query, QueryKind};
 use crate::geom::triangle::{intersect_triangle, on_triangle};
 use crate::locate::WalkStart;
@@ -119,6 +120,23 @@ impl Query for ClosestPolicy<'_> {
 impl<'a> QueryKind for ClosestHit<'a> {
     type Policy = ClosestPolicy<'a>;
     type Answer = RayHit;
+    type Gather = Nearest<'a>;
+
+    fn gather(&self, line: &Line) -> Nearest<'a> {
+        Nearest::new(line, &self.surface.triangles)
+    }
+
+    fn gathered(&self, g: Nearest<'a>, visited: u32) -> RayHit {
+        let mut r = RayHit {
+            steps: visited,
+            ..RayHit::nothing(MISS)
+        };
+        if let Some(m) = g.meet() {
+            r.status = HIT;
+            (r.t, r.u, r.v, r.triangle) = (m.t, m.u, m.v, m.triangle as i32);
+        }
+        r
+    }
 
     #[inline(always)]
     fn policy(&self, s: &WalkStart) -> ClosestPolicy<'a> {

@@ -82,33 +82,12 @@ impl<'a> ExactRay<'a> {
 
     /// Where the crossing of triangle `tri`'s plane lies against [tmin, tmax], exactly.
     pub fn range(&self, tri: &[[f64; 3]; 3]) -> Range {
-        if self.tmin > 0.0 && cmp_t(self.o, self.d, tri, self.tmin) == Ordering::Less {
-            Range::Before
-        } else if self.tmax.is_finite()
-            && cmp_t(self.o, self.d, tri, self.tmax) == Ordering::Greater
-        {
-            Range::After
-        } else {
-            Range::In
-        }
+        range_of(self.o, self.d, self.tmin, self.tmax, tri)
     }
 
     fn meet_on(&self, triangle: u32, key: [u32; 3]) -> (Meet, Range) {
         let tri = &self.surface.triangles[triangle as usize];
-        let (mut t, t_err, u, v) = triangle_hit(self.o, self.d, tri);
-        // A touch at the origin (a ray starting on the surface) is at t = 0 exactly, which
-        // the quotient may miss by an ulp of nothing: decide it exactly when t is that close.
-        if t.abs() <= t_err && cmp_t(self.o, self.d, tri, 0.0).is_eq() {
-            t = 0.0;
-        }
-        let t = t.max(self.tmin).min(self.tmax);
-        let meet = Meet {
-            t: if t == 0.0 { 0.0 } else { t },
-            u,
-            v,
-            triangle,
-            key,
-        };
+        let meet = meet_at(self.o, self.d, self.tmin, self.tmax, tri, triangle, key);
         (meet, self.range(tri))
     }
 
@@ -312,6 +291,46 @@ impl<'a> ExactRay<'a> {
                 false
             }
         }
+    }
+}
+
+/// Where the line o + t d crosses the plane of `tri` against [tmin, tmax], exactly, for a
+/// crossing known not to lie behind the origin when tmin is 0 (the walk's; one tested
+/// anywhere on the line checks t ≥ 0 first).
+pub fn range_of(o: [f64; 3], d: [f64; 3], tmin: f64, tmax: f64, tri: &[[f64; 3]; 3]) -> Range {
+    if tmin > 0.0 && cmp_t(o, d, tri, tmin) == Ordering::Less {
+        Range::Before
+    } else if tmax.is_finite() && cmp_t(o, d, tri, tmax) == Ordering::Greater {
+        Range::After
+    } else {
+        Range::In
+    }
+}
+
+/// The point where the ray meets the caller's triangle `triangle` (corners `tri`), t clamped
+/// into [tmin, tmax] (the exact t is in it; the rounded one may be an ulp out).
+pub fn meet_at(
+    o: [f64; 3],
+    d: [f64; 3],
+    tmin: f64,
+    tmax: f64,
+    tri: &[[f64; 3]; 3],
+    triangle: u32,
+    key: [u32; 3],
+) -> Meet {
+    let (mut t, t_err, u, v) = triangle_hit(o, d, tri);
+    // A touch at the origin (a ray starting on the surface) is at t = 0 exactly, which the
+    // quotient may miss by an ulp of nothing: decide it exactly when t is that close.
+    if t.abs() <= t_err && cmp_t(o, d, tri, 0.0).is_eq() {
+        t = 0.0;
+    }
+    let t = t.max(tmin).min(tmax);
+    Meet {
+        t: if t == 0.0 { 0.0 } else { t },
+        u,
+        v,
+        triangle,
+        key,
     }
 }
 

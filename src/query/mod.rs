@@ -2,7 +2,9 @@
 //! constrained face it reaches, a [`Query`] policy (declared by the walk) decides whether it stops there or records the
 //! crossing and walks on through. A [`QueryKind`] turns a finished walk into one ray's answer,
 //! and a [`Sink`] stores answers. Closest hit, any hit, all hits and counts are policies of the
-//! same walk (the last two continue through faces; `contact` resolves the exact walk's touches). Containment (`contains`)
+//! same walk (the last two continue through faces; `contact` resolves the exact walk's touches).
+//! An accelerator that tests triangles instead of walking (a BVH) answers the same kinds
+//! through [`QueryKind::gather`] (`gather`). Containment (`contains`)
 //! needs no walk: it locates the point and reads a per-region parity.
 
 pub mod all;
@@ -10,10 +12,12 @@ pub mod any;
 pub mod closest;
 pub mod contact;
 pub mod contains;
+pub mod gather;
 
 use crate::geom::ray::Ray;
 use crate::locate::WalkStart;
 use crate::traverse::Walk;
+use gather::{Gather, Line};
 
 pub use all::{AllHits, Listed};
 pub use any::AnyHit;
@@ -44,6 +48,13 @@ pub trait QueryKind: Sync {
         policy: Self::Policy,
         audit: [u32; 2],
     ) -> Self::Answer;
+
+    /// What the query keeps of the triangles an accelerator that tests triangles offers
+    /// (`gather`), for the ray `line`.
+    type Gather: Gather;
+    fn gather(&self, line: &Line) -> Self::Gather;
+    /// The answer of what was gathered; `visited`: the nodes the accelerator visited.
+    fn gathered(&self, gathered: Self::Gather, visited: u32) -> Self::Answer;
 }
 
 /// Where a cast writes answers of type A: split into chunks that threads fill independently.

@@ -7,7 +7,7 @@ use crate::layout::{LayoutKind, Tet32};
 use crate::referee;
 use crate::scene::{CastOptions, HitBuffers, Rays, Scene};
 use crate::status::{HIT, MISS};
-use crate::testing::{random_scene, Rng};
+use crate::testing::{exact_case_rays, random_scene, Rng};
 use crate::traverse::{
     walk_with, Aman2022, ExitMethod, Method, NoObserver, Robust, WalkEnd, WalkSetup,
 };
@@ -181,77 +181,6 @@ fn continuing_policy_crosses_every_triangle_once() {
     }
     assert!(checked > 1000, "only {checked} rays checked");
 }
-
-/// Rays built to hit the cases a perturbed or float walk gets wrong, on an unjittered Kuhn grid
-/// (every face plane is an axis plane or a diagonal one, shared by many faces): aimed exactly
-/// at vertices, edge midpoints and face points, running along edges and in face planes,
-/// starting on vertices, edges and faces, from inside and outside the box, with directions
-/// scaled from 1e-30 to 1e30. Dyadic coordinates keep every claim exact.
-fn exact_case_rays(rng: &mut Rng, pts: &[[f64; 3]], faces: &[[u32; 3]], n: usize) -> Vec<Ray6> {
-    let mut rays = Vec::new();
-    let grid = |rng: &mut Rng, lo: f64, hi: f64| {
-        [0, 1, 2].map(|_| ((lo + rng.f() * (hi - lo)) * 16.0).round() / 16.0)
-    };
-    let feature = |rng: &mut Rng| -> [f64; 3] {
-        let f = faces[(rng.f() * faces.len() as f64) as usize].map(|v| pts[v as usize]);
-        match (rng.f() * 3.0) as usize {
-            0 => f[0],
-            1 => [0, 1, 2].map(|k| (f[0][k] + f[1][k]) * 0.5),
-            _ => [0, 1, 2].map(|k| (f[0][k] + f[1][k] + 2.0 * f[2][k]) * 0.25),
-        }
-    };
-    while rays.len() < n {
-        let kind = rays.len() % 5;
-        let (o, d) = match kind {
-            // Aimed at a feature from a grid point inside or outside the box.
-            0 | 1 => {
-                let o = if kind == 0 {
-                    grid(rng, 0.0, 1.0)
-                } else {
-                    grid(rng, -0.5, 1.5)
-                };
-                let t = feature(rng);
-                (o, [0, 1, 2].map(|k| t[k] - o[k]))
-            }
-            // From a feature (origin on the surface or a vertex) towards a grid point.
-            2 => {
-                let o = feature(rng);
-                let t = grid(rng, -0.25, 1.25);
-                (o, [0, 1, 2].map(|k| t[k] - o[k]))
-            }
-            // Along an axis or a face diagonal through a feature (along edges, in planes).
-            3 => {
-                let o = feature(rng);
-                let axes = [
-                    [1., 0., 0.],
-                    [0., 1., 0.],
-                    [0., 0., 1.],
-                    [1., 1., 0.],
-                    [0., 1., 1.],
-                    [1., 0., 1.],
-                    [1., 1., 1.],
-                ];
-                let a = axes[(rng.f() * 7.0) as usize];
-                let s = if rng.f() < 0.5 { -1.0 } else { 1.0 };
-                let back = (rng.f() * 4.0).floor() / 4.0;
-                ([0, 1, 2].map(|k| o[k] - back * s * a[k]), a.map(|x| s * x))
-            }
-            // Between two features.
-            _ => {
-                let (a, b) = (feature(rng), feature(rng));
-                (a, [0, 1, 2].map(|k| b[k] - a[k]))
-            }
-        };
-        if d == [0.0; 3] {
-            continue;
-        }
-        let scale = [1.0, 1e-30, 1e30, 3.0][rays.len() / 5 % 4];
-        rays.push((o, d.map(|x| x * scale)));
-    }
-    rays
-}
-
-type Ray6 = ([f64; 3], [f64; 3]);
 
 /// The exact default agrees with the exact referee on every ray of [`exact_case_rays`], in
 /// float64 and float32, with tmin 0 and a tmin/tmax window: hit or miss, a triangle of the tie

@@ -1,0 +1,216 @@
+//! The queries as an accelerator that tests the caller's triangles answers them (a BVH,
+//! `accel::reshetov_bvh`), rather than one that walks: it offers every triangle the ray meets
+//! at one point within [tmin, tmax], in no particular order, and the query keeps what it asks
+//! for ([`Gather`]). Every decision is exact (`geom::exact`): which triangles the ray meets,
+//! which of two crossings comes first, which are one point. So the answers are the ones the
+//! exact walk gives, whatever order the triangles come in.
+
+use super::contact::{meet_at, range_of, Meet, Range};
+use crate::geom::exact::{cmp_plane_t, cmp_t, plane_t, triangle_sides};
+use crate::geom::ray::{checked_range, Ray};
+use crate::geom::real::unit_scale;
+use std::cmp::Ordering;
+
+/// A triangle's three corners.
+pub type Tri = [[f64; 3]; 3];
+
+/// A ray checked for tracing ([`checked_range`]): its numbers and its range, tmin ≥ 0.
+#[derive(Clone, Copy, Debug)]
+pub struct Line {
+    pub o: [f64; 3],
+    pub d: [f64; 3],
+    /// d scaled by a power of two (for signs: the filters' operands stay in range).
+    pub dir: [f64; 3],
+    pub tmin: f64,
+    pub tmax: f64,
+}
+
+impl Line {
+    /// Err: the status of a ray no query traces.
+    pub fn new(ray: &Ray) -> Result<Line, u8> {
+        let (tmin, tmax) = checked_range(ray)?;
+        Ok(Line {
+            o: ray.o,
+            d: ray.d,
+            dir: unit_scale(ray.d),
+            tmin,
+            tmax,
+        })
+    }
+
+    /// Whether the ray meets the closed triangle `tri` at one point with t in [tmin, tmax]:
+    /// its three side products are all ≥ 0 or all ≤ 0 and not all zero (all zero: the line
+    /// lies in the triangle's plane, or the triangle has no area), each sign exact.
+    #[inline]
+    pub fn meets(&self, tri: &Tri) -> bool {
+        let o = self.o;
+        let s = triangle_sides(self.dir, o, tri);
+        let (pos, neg) = (s.iter().any(|&x| x > 0), s.iter().any(|&x| x < 0));
+        if pos == neg {
+            return false;
+        }
+        if self.tmin == 0.0 && cmp_t(o, self.d, tri, 0.0) == Ordering::Less {
+            return false;
+        }
+        range_of(o, self.d, self.tmin, self.tmax, tri) == Range::In
+    }
+
+    /// Which of two triangles the ray meets first: the sign of t1 − t2, exactly.
+    #[inline]
+    pub fn cmp(&self, tri1: &Tri, tri2: &Tri) -> Ordering {
+        cmp_plane_t(self.o, self.d, tri1, tri2)
+    }
+
+    /// The point where the ray meets triangle `id` (corners `tri`): t, (u, v), the triangle.
+    pub fn meet(&self, tri: &Tri, id: u32) -> Meet {
+        meet_at(
+            self.o,
+            self.d,
+            self.tmin,
+            self.tmax,
+            tri,
+            id,
+            [id, u32::MAX, u32::MAX],
+        )
+    }
+
+    /// An upper bound on the exact t where the ray crosses `tri`'s plane (tmax when the
+    /// float64 evaluation cannot bound it).
+    pub fn t_above(&self, tri: &Tri) -> f64 {
+        let (t, err) = plane_t(self.o, self.d, tri);
+        // Twice the certified error: the sum's own rounding is within the bound's slack.
+        let above = t + 2.0 * err;
+        if above.is_finite() {
+            above.min(self.tmax)
+        } else {
+            self.tmax
+        }
+    }
+}
+
+/// What a query keeps of the triangles an accelerator offers.
+pub trait Gather {
+    /// An upper bound on the t still wanted: the accelerator may skip whatever lies beyond.
+    fn reach(&self) -> f64;
+    /// Takes triangle `id` (the caller's numbering), which the ray meets at one point within
+    /// [tmin, tmax] ([`Line::meets`]); true: the answer is settled, offer no more.
+    fn offer(&mut self, id: u32) -> bool;
+}
+
+/// Closest hit: the triangle with the smallest exact t (ties: the smallest id, as the walk).
+pub struct Nearest<'a> {
+    pub line: Line,
+    pub triangles: &'a [Tri],
+    pub best: Option<u32>,
+    reach: f64,
+}
+
+impl<'a> Nearest<'a> {
+    pub fn new(line: &Line, triangles: &'a [Tri]) -> Self {
+        Nearest {
+            line: *line,
+            triangles,
+            best: None,
+            reach: line.tmax,
+        }
+    }
+
+    /// The point kept, if any.
+    pub fn meet(&self) -> Option<Meet> {
+        self.best
+            .map(|id| self.line.meet(&self.triangles[id as usize], id))
+    }
+}
+
+impl Gather for Nearest<'_> {
+    #[inline]
+    fn reach(&self) -> f64 {
+        self.reach
+    }
+
+    fn offer(&mut self, id: u32) -> bool {
+        let tri = &self.triangles[id as usize];
+        let better = match self.best {
+            None => true,
+            Some(b) => match self.line.cmp(tri, &self.triangles[b as usize]) {
+                Ordering::Less => true,
+                Ordering::Equal => id < b,
+                Ordering::Greater => false,
+            },
+        };
+        if better {
+            self.best = Some(id);
+            self.reach = self.line.t_above(tri);
+        }
+        false
+    }
+}
+
+/// Any hit: the first triangle offered settles it.
+#[derive(Default)]
+pub struct Found {
+    pub found: bool,
+    pub tmax: f64,
+}
+
+impl Gather for Found {
+    #[inline]
+    fn reach(&self) -> f64 {
+        self.tmax
+    }
+
+    fn offer(&mut self, _: u32) -> bool {
+        self.found = true;
+        true
+    }
+}
+
+/// All hits: each distinct point once (triangles met at the same exact t meet the ray at the
+/// same point), named by the smallest id met there.
+pub struct Every<'a> {
+    pub line: Line,
+    pub triangles: &'a [Tri],
+    pub ids: Vec<u32>,
+}
+
+impl<'a> Every<'a> {
+    pub fn new(line: &Line, triangles: &'a [Tri]) -> Self {
+        Every {
+            line: *line,
+            triangles,
+            ids: Vec::new(),
+        }
+    }
+
+    /// The points in order of t.
+    pub fn meets(mut self) -> Vec<Meet> {
+        let (line, tris) = (self.line, self.triangles);
+        self.ids
+            .sort_by(|&a, &b| line.cmp(&tris[a as usize], &tris[b as usize]));
+        self.ids
+            .iter()
+            .map(|&id| line.meet(&tris[id as usize], id))
+            .collect()
+    }
+}
+
+impl Gather for Every<'_> {
+    #[inline]
+    fn reach(&self) -> f64 {
+        self.line.tmax
+    }
+
+    fn offer(&mut self, id: u32) -> bool {
+        let (line, tris) = (self.line, self.triangles);
+        let tri = &tris[id as usize];
+        match self
+            .ids
+            .iter_mut()
+            .find(|k| line.cmp(tri, &tris[**k as usize]) == Ordering::Equal)
+        {
+            Some(k) => *k = (*k).min(id),
+            None => self.ids.push(id),
+        }
+        false
+    }
+}
