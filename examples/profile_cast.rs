@@ -13,7 +13,7 @@
 
 use std::time::Instant;
 use tetrace::geom::real::Real;
-use tetrace::scene::{CastOptions, HitBuffers, Lanes, Packets, Rays, Scene};
+use tetrace::scene::{AccelKind, CastOptions, HitBuffers, Lanes, Packets, Rays, Scene};
 
 /// A raw little-endian array of N-tuples of 4- or 8-byte numbers, as numpy's `tofile` writes.
 fn read<T: Copy + Default, const N: usize>(path: &str, parse: fn(&[u8]) -> T) -> Vec<[T; N]> {
@@ -120,6 +120,9 @@ fn main() {
         },
         // The best SIMD level, capped by TETRACE_SIMD (scalar / avx2).
         simd: None,
+        // ACCEL=reshetov_bvh casts on the BVH instead of the tet walk.
+        accel: AccelKind::from_name(&std::env::var("ACCEL").unwrap_or("tetwalk".into()))
+            .expect("ACCEL names an accelerator"),
     };
     let (best, steps, hits) = if args.get(4).map(|s| s.as_str()) == Some("f64") {
         let widen = |v: &[f32]| v.iter().map(|&x| x as f64).collect::<Vec<f64>>();

@@ -1,18 +1,44 @@
 //! Acceleration structures behind one interface: each answers a [`QueryKind`] for one ray at a
-//! time, with per-chunk state it may carry between neighbouring rays. The tet walk is the one
-//! there is; Portalez's octree and a BVH go beside it (one file each) and are listed in
-//! [`ACCELS`], so a cast and the benchmarks drive them all the same way.
+//! time, with per-chunk state it may carry between neighbouring rays. The tet walk answers
+//! through the query's walk policy; Reshetov's BVH tests triangles and answers through the
+//! query's gatherer (`query::gather`). Portalez's octree goes beside them (one file each);
+//! all are listed in [`ACCELS`], so a cast and the benchmarks drive them all the same way.
 
+pub mod reshetov_bvh;
 pub mod tetwalk;
 
 use crate::geom::ray::Ray;
 use crate::geom::real::Real;
 use crate::query::{QueryKind, Sink};
 
+pub use reshetov_bvh::{BvhParams, ReshetovBvh};
 pub use tetwalk::TetWalk;
 
 /// The acceleration structures there are, by name.
-pub const ACCELS: [&str; 1] = ["tetwalk"];
+pub const ACCELS: [&str; 2] = ["tetwalk", "reshetov_bvh"];
+
+/// Which acceleration structure a cast runs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum AccelKind {
+    /// The tet walk through the constrained tetrahedralization (with the exit method and
+    /// layout asked for).
+    #[default]
+    TetWalk,
+    /// Reshetov's BVH (`reshetov_bvh`), built on first use with [`BvhParams::default`].
+    ReshetovBvh,
+}
+
+impl AccelKind {
+    pub fn from_name(name: &str) -> crate::Result<AccelKind> {
+        match name {
+            "tetwalk" => Ok(AccelKind::TetWalk),
+            "reshetov_bvh" => Ok(AccelKind::ReshetovBvh),
+            _ => Err(crate::Error::InvalidOption(format!(
+                "unknown accel {name:?}; expected one of {ACCELS:?}"
+            ))),
+        }
+    }
+}
 
 /// When a chunk of rays is walked in interleaved lanes (`tetwalk`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

@@ -3,7 +3,7 @@
 
 use super::{check_lengths, HitsOut, Rays, Scene};
 use crate::accel::{Accel, TetWalk};
-pub use crate::accel::{Lanes, Packets};
+pub use crate::accel::{AccelKind, Lanes, Packets};
 use crate::error::{Error, Result};
 use crate::geom::real::Real;
 use crate::layout::{Layout, LayoutKind, LayoutVisitor};
@@ -32,6 +32,9 @@ pub struct CastOptions {
     /// capped by `TETRACE_SIMD` ([`Simd::from_env`]). The same answers, bit for bit, at
     /// every level.
     pub simd: Option<Simd>,
+    /// The acceleration structure: the tet walk, or a BVH over the caller's triangles
+    /// (exact too; it ignores the layout and takes the exact method only).
+    pub accel: AccelKind,
 }
 
 impl CastOptions {
@@ -196,6 +199,9 @@ impl Scene {
         opts: &CastOptions,
     ) -> Result<()> {
         opts.check()?;
+        if opts.accel == AccelKind::ReshetovBvh {
+            return self.dispatch_bvh(method, rays, job, opts);
+        }
         let step = LayoutStep {
             scene: self,
             method,
@@ -204,6 +210,42 @@ impl Scene {
             opts,
         };
         self.layouts.visit(layout, &self.mesh, step)?
+    }
+
+    /// A cast on Reshetov's BVH: exact, so only the exact method's name is taken.
+    fn dispatch_bvh<R: Real>(
+        &self,
+        method: Method,
+        rays: &Rays<R>,
+        job: Job<R>,
+        opts: &CastOptions,
+    ) -> Result<()> {
+        if method != Method::Exact {
+            return Err(Error::InvalidOption(format!(
+                "accel reshetov_bvh tests triangles exactly and has no exit method; method {} \
+                 is for the tet walk",
+                method.name()
+            )));
+        }
+        let bvh = &*self.bvh()?;
+        let closest = self.closest();
+        match job {
+            Job::Closest(out) => {
+                if !out.audit.is_empty() {
+                    return Err(Error::InvalidOption(
+                        "audit counts the tet walk's exit faces; accel reshetov_bvh has none"
+                            .into(),
+                    ));
+                }
+                cast_accel::<R, f64, _, _, _>(bvh, &closest, rays, out, opts.threads)
+            }
+            Job::Any(out) => {
+                cast_accel::<R, f64, _, _, _>(bvh, &AnyHit(closest), rays, out, opts.threads)
+            }
+            Job::All(out) => {
+                cast_accel::<R, f64, _, _, _>(bvh, &AllHits(closest), rays, out, opts.threads)
+            }
+        }
     }
 
     /// Closest hits with an explicit precision, layout and exit method (what the dispatch

@@ -5,6 +5,7 @@
 pub mod buffers;
 pub mod cast;
 
+use crate::accel::{BvhParams, ReshetovBvh};
 use crate::error::{Error, Result};
 use crate::geom::real::Real;
 use crate::layout::{LayoutKind, Layouts};
@@ -18,10 +19,10 @@ use crate::query::ClosestHit;
 use crate::query::RayHit;
 #[cfg(feature = "gpu")]
 use crate::traverse::Walk;
-use std::sync::OnceLock;
+use std::sync::{Arc, OnceLock, RwLock};
 
 pub use buffers::{check_lengths, HitBuffers, HitsOut, Rays};
-pub use cast::{CastOptions, Lanes, Packets, CHUNK};
+pub use cast::{AccelKind, CastOptions, Lanes, Packets, CHUNK};
 
 pub struct Scene {
     pub mesh: TetMesh,
@@ -36,6 +37,9 @@ pub struct Scene {
     pub incidence: Incidence,
     /// Containment's parity of each tet's region, built by the first `contains`.
     pub parity: OnceLock<Parity>,
+    /// Reshetov's BVH over the caller's triangles: built by the first cast that asks for it,
+    /// or again with other parameters by [`Scene::build_bvh`].
+    pub bvh: RwLock<Option<Arc<ReshetovBvh>>>,
 }
 
 impl Scene {
@@ -132,6 +136,7 @@ impl Scene {
             },
             incidence,
             parity: OnceLock::new(),
+            bvh: RwLock::new(None),
         };
         scene.layouts.prepare(LayoutKind::DEFAULT, &scene.mesh)?;
         Ok(scene)
@@ -162,6 +167,10 @@ impl Scene {
                 "parity".to_string(),
                 self.parity.get().map_or(0, |p| p.bytes()),
             ),
+            (
+                "bvh".to_string(),
+                self.built_bvh().map_or(0, |b| b.memory()),
+            ),
         ];
         m.extend(
             self.layouts
@@ -187,6 +196,32 @@ impl Scene {
     }
 
     /// The closest-hit query over this scene's triangles.
+    /// Reshetov's BVH: the one built last, else one with the default parameters (built now).
+    pub fn bvh(&self) -> Result<Arc<ReshetovBvh>> {
+        if let Some(b) = self.built_bvh() {
+            return Ok(b);
+        }
+        let built = Arc::new(ReshetovBvh::build(
+            &self.surface.triangles,
+            BvhParams::default(),
+        )?);
+        let mut slot = self.bvh.write().unwrap_or_else(|e| e.into_inner());
+        Ok(slot.get_or_insert(built).clone())
+    }
+
+    /// The BVH if one is built.
+    pub fn built_bvh(&self) -> Option<Arc<ReshetovBvh>> {
+        self.bvh.read().unwrap_or_else(|e| e.into_inner()).clone()
+    }
+
+    /// Builds Reshetov's BVH with `params`, for the casts that follow (casts running now keep
+    /// the tree they started with).
+    pub fn build_bvh(&self, params: BvhParams) -> Result<Arc<ReshetovBvh>> {
+        let built = Arc::new(ReshetovBvh::build(&self.surface.triangles, params)?);
+        *self.bvh.write().unwrap_or_else(|e| e.into_inner()) = Some(built.clone());
+        Ok(built)
+    }
+
     pub fn closest(&self) -> ClosestHit<'_> {
         ClosestHit {
             mesh: &self.mesh,

@@ -1,0 +1,369 @@
+//! The BVH against the exact referee and the exact walk: on the stress rays (through vertices,
+//! along edges, in planes, from the surface, tiny and huge directions), on triangles far
+//! outside float32's range, and the tree's own invariants.
+
+use super::*;
+use crate::layout::LayoutKind;
+use crate::query::gather::Nearest;
+use crate::query::Listed;
+use crate::referee;
+use crate::scene::{AccelKind, CastOptions, HitBuffers, Rays};
+use crate::status::{HIT, MISS};
+use crate::testing::{exact_case_rays, grid_scene_inside, Rng};
+use crate::traverse::Method;
+use std::cmp::Ordering;
+
+fn flat(rays: &[([f64; 3], [f64; 3])]) -> (Vec<f64>, Vec<f64>) {
+    (
+        rays.iter().flat_map(|r| r.0).collect(),
+        rays.iter().flat_map(|r| r.1).collect(),
+    )
+}
+
+/// Closest hits, any hits and all hits on the BVH: right by the referee for every ray, and
+/// the exact walk's answers ray for ray (the same status; the same triangle and t where no
+/// tie decides; the same points, matched by exact t), for float64 and float32 rays, with
+/// and without a [tmin, tmax] window.
+#[test]
+fn bvh_answers_are_the_referees_and_the_walks() {
+    let bvh_opts = CastOptions {
+        accel: AccelKind::ReshetovBvh,
+        ..Default::default()
+    };
+    let walk_opts = CastOptions::default();
+    let (mut ties, mut hits, mut points) = (0, 0, 0);
+    for seed in [81u64, 82] {
+        let mut rng = Rng(seed);
+        let g = grid_scene_inside(&mut rng, 4, 0.0, 0.35);
+        let mut rays = exact_case_rays(&mut rng, &g.pts, &g.faces, 2500);
+        let eye = [-0.75, 0.3125, 0.4375];
+        rays.extend((0..1024).map(|k| {
+            let (x, y) = ((k % 32) as f64 / 32.0, (k / 32) as f64 / 32.0);
+            (eye, [1.0, x - 0.5, y - 0.5])
+        }));
+        let n = rays.len();
+        let (o, d) = flat(&rays);
+        let o32: Vec<f32> = o.iter().map(|&x| x as f32).collect();
+        let d32: Vec<f32> = d.iter().map(|&x| x as f32).collect();
+        for window in [false, true] {
+            let (tmin, tmax): (Vec<f64>, Vec<f64>) = if window {
+                rays.iter()
+                    .map(|r| {
+                        let l = r.1.iter().fold(0f64, |m, x| m.max(x.abs()));
+                        (0.25 / l, 1.0 / l)
+                    })
+                    .unzip()
+            } else {
+                (vec![0.0; n], vec![f64::INFINITY; n])
+            };
+            let r64 = Rays {
+                origins: &o[..],
+                directions: &d[..],
+                tmin: &tmin,
+                tmax: &tmax,
+            };
+            let r32 = Rays {
+                origins: &o32[..],
+                directions: &d32[..],
+                tmin: &tmin,
+                tmax: &tmax,
+            };
+            // Closest hits, both precisions.
+            for f32_rays in [false, true] {
+                let cast = |opts: &CastOptions| {
+                    if f32_rays {
+                        let mut h = HitBuffers::<f32>::new(n, false);
+                        g.scene.cast(&r32, h.out(), opts).unwrap();
+                        let t = h.t.iter().map(|&t| t as f64).collect::<Vec<_>>();
+                        (h.status, t, h.triangle)
+                    } else {
+                        let mut h = HitBuffers::<f64>::new(n, false);
+                        g.scene.cast(&r64, h.out(), opts).unwrap();
+                        (h.status, h.t, h.triangle)
+                    }
+                };
+                let (bs, bt, btri) = cast(&bvh_opts);
+                let (ws, wt, wtri) = cast(&walk_opts);
+                for i in 0..n {
+                    let ray = if f32_rays { r32.ray(i) } else { r64.ray(i) };
+                    let v = referee::first_hit(ray.o, ray.d, ray.tmin.max(0.0), ray.tmax, &g.tris);
+                    let ulp = if f32_rays {
+                        referee::ulp_f32(bt[i])
+                    } else {
+                        referee::ulp_f64(bt[i])
+                    };
+                    let got = (bs[i] == HIT).then_some((btri[i] as usize, bt[i]));
+                    let outcome = referee::judge(v.as_ref(), false, got, ulp);
+                    assert_eq!(
+                        outcome,
+                        referee::Outcome::Right,
+                        "seed {seed} ray {i} (f32 {f32_rays}, window {window}): o {:?} d {:?} \
+                         bvh {} {} {}, referee {:?}",
+                        ray.o,
+                        ray.d,
+                        bs[i],
+                        bt[i],
+                        btri[i],
+                        v.map(|v| (v.t, v.ties))
+                    );
+                    assert_eq!(
+                        bs[i], ws[i],
+                        "seed {seed} ray {i}: status, bvh against walk"
+                    );
+                    hits += (bs[i] == HIT) as usize;
+                    if v.as_ref().is_some_and(|v| v.ties.len() > 1) {
+                        ties += 1;
+                    } else if bs[i] == HIT {
+                        assert_eq!(btri[i], wtri[i], "seed {seed} ray {i}: triangle");
+                        assert_eq!(bt[i].to_bits(), wt[i].to_bits(), "seed {seed} ray {i}: t");
+                    }
+                }
+            }
+            // Any hits and all hits (float64 rays).
+            let mut b_any = vec![0u8; n];
+            let mut w_any = vec![0u8; n];
+            let default = (Method::DEFAULT, LayoutKind::DEFAULT);
+            g.scene
+                .occluded(default.0, default.1, &r64, &mut b_any, &bvh_opts)
+                .unwrap();
+            g.scene
+                .occluded(default.0, default.1, &r64, &mut w_any, &walk_opts)
+                .unwrap();
+            assert_eq!(b_any, w_any, "seed {seed}: any hits, bvh against walk");
+            let mut b_all = vec![Listed::default(); n];
+            let mut w_all = vec![Listed::default(); n];
+            g.scene.intersections(&r64, &mut b_all, &bvh_opts).unwrap();
+            g.scene.intersections(&r64, &mut w_all, &walk_opts).unwrap();
+            for i in 0..n {
+                let ray = r64.ray(i);
+                let (b, w) = (&b_all[i], &w_all[i]);
+                assert_eq!(b.status, w.status, "seed {seed} ray {i}: all-hits status");
+                assert_eq!(b.status == HIT, b_any[i] == HIT, "ray {i}: all against any");
+                assert_eq!(
+                    b.meets.len(),
+                    w.meets.len(),
+                    "seed {seed} ray {i} (window {window}): o {:?} d {:?} points bvh {:?} walk {:?}",
+                    ray.o,
+                    ray.d,
+                    b.meets.iter().map(|m| (m.t, m.triangle)).collect::<Vec<_>>(),
+                    w.meets.iter().map(|m| (m.t, m.triangle)).collect::<Vec<_>>()
+                );
+                points += b.meets.len();
+                // Each BVH point is one of the walk's: the same exact t (the same point).
+                let crossing = |tri: u32| {
+                    referee::crossing(ray.o, ray.d, &g.tris[tri as usize]).expect("a met triangle")
+                };
+                let mut used = vec![false; w.meets.len()];
+                for m in &b.meets {
+                    let cm = crossing(m.triangle);
+                    let k = (0..w.meets.len()).find(|&k| {
+                        !used[k] && crossing(w.meets[k].triangle).cmp_t_of(&cm) == Ordering::Equal
+                    });
+                    let k = k.unwrap_or_else(|| {
+                        panic!("seed {seed} ray {i}: bvh point {m:?} not the walk's")
+                    });
+                    used[k] = true;
+                    if w.meets[k].triangle == m.triangle {
+                        assert_eq!(w.meets[k].t.to_bits(), m.t.to_bits());
+                    }
+                }
+                assert!(
+                    b.meets.windows(2).all(|p| crossing(p[0].triangle)
+                        .cmp_t_of(&crossing(p[1].triangle))
+                        == Ordering::Less),
+                    "ray {i}: the bvh's points in order of exact t"
+                );
+            }
+        }
+    }
+    eprintln!("bvh: {hits} closest hits, {ties} tied, {points} points listed");
+    assert!(
+        hits > 5000 && ties > 1000 && points > 5000,
+        "{hits} hits, {ties} ties, {points} points"
+    );
+}
+
+/// Triangles far outside float32's range and rays with tiny and huge directions: the float32
+/// boxes are rounded outward (to infinity past float32's range) and the slab test is padded,
+/// so no triangle the ray meets is skipped. Judged against the referee on every ray.
+#[test]
+fn bvh_is_exact_far_from_float32() {
+    let mut rng = Rng(7);
+    for scale in [1e-300, 1e-30, 1.0, 1e30, 1e300] {
+        let at = |rng: &mut Rng| [0, 1, 2].map(|_| (rng.f() * 64.0).round() / 64.0 * scale);
+        let tris: Vec<Tri> = (0..120)
+            .map(|_| [at(&mut rng), at(&mut rng), at(&mut rng)])
+            .collect();
+        let bvh = ReshetovBvh::build(&tris, BvhParams::default()).unwrap();
+        let mut stack = Vec::new();
+        let mut hits = 0;
+        for i in 0..600 {
+            let o = at(&mut rng);
+            // Aimed at a corner, an edge midpoint or a point inside a triangle.
+            let t = &tris[i % tris.len()];
+            let aim = match i % 3 {
+                0 => t[0],
+                1 => [0, 1, 2].map(|k| 0.5 * t[0][k] + 0.5 * t[1][k]),
+                _ => [0, 1, 2].map(|k| 0.25 * t[0][k] + 0.25 * t[1][k] + 0.5 * t[2][k]),
+            };
+            let dscale = [1.0, 1e-200, 1e200][i % 3] / scale;
+            let d = [0, 1, 2].map(|k| (aim[k] - o[k]) * dscale);
+            let ray = Ray {
+                o,
+                d,
+                tmin: 0.0,
+                tmax: f64::INFINITY,
+            };
+            let Ok(line) = Line::new(&ray) else { continue };
+            let mut near = Nearest::new(&line, &tris);
+            bvh.walk(&line, &mut near, &mut stack);
+            let want = referee::first_hit(o, d, 0.0, f64::INFINITY, &tris);
+            match (near.meet(), &want) {
+                (None, None) => {}
+                (Some(m), Some(v)) => {
+                    hits += 1;
+                    assert!(
+                        v.ties.contains(&(m.triangle as usize)),
+                        "scale {scale} ray {i}: triangle {} not tied {:?}",
+                        m.triangle,
+                        v.ties
+                    );
+                }
+                (got, want) => panic!(
+                    "scale {scale} ray {i}: bvh {:?} referee {:?}",
+                    got.map(|m| m.triangle),
+                    want.as_ref().map(|v| &v.ties)
+                ),
+            }
+        }
+        assert!(hits > 300, "scale {scale}: {hits} hits");
+    }
+}
+
+/// Every triangle sits in exactly one leaf, whose float32 box holds its corners; every inner
+/// node's box holds its children's; leaves are no larger than max_leaf; for several
+/// parameter sets, degenerate triangles included.
+#[test]
+fn bvh_tree_holds_every_triangle_once() {
+    let mut rng = Rng(5);
+    let mut tris: Vec<Tri> = (0..1500)
+        .map(|_| {
+            let c = [0, 1, 2].map(|_| rng.f() * 10.0);
+            [0, 1, 2].map(|_| [0, 1, 2].map(|k| c[k] + rng.f() * 0.3))
+        })
+        .collect();
+    // Zero-area triangles, a point, and many copies of one triangle (centres all equal).
+    tris.push([[1.0, 1.0, 1.0]; 3]);
+    tris.push([[0.0; 3], [1.0, 1.0, 1.0], [2.0, 2.0, 2.0]]);
+    tris.extend(std::iter::repeat_n(
+        [[5.0, 5.0, 5.0], [6.0, 5.0, 5.0], [5.0, 6.0, 5.0]],
+        40,
+    ));
+    for params in [
+        BvhParams::default(),
+        BvhParams {
+            cost_ratio: 0.0,
+            max_leaf: 1,
+            bins: 2,
+        },
+        BvhParams {
+            cost_ratio: 8.0,
+            max_leaf: 64,
+            bins: 32,
+        },
+    ] {
+        let bvh = ReshetovBvh::build(&tris, params).unwrap();
+        let mut seen = vec![0u32; tris.len()];
+        let inside = |p: [f64; 3], n: &BvhNode| {
+            (0..3).all(|k| n.lo[k] as f64 <= p[k] && p[k] <= n.hi[k] as f64)
+        };
+        let mut stack = vec![0usize];
+        while let Some(k) = stack.pop() {
+            let node = bvh.nodes[k];
+            if node.count > 0 {
+                // 40 copies of one triangle share a centre: a leaf may exceed max_leaf only there.
+                let range = node.first as usize..(node.first + node.count) as usize;
+                for j in range {
+                    let id = bvh.order[j] as usize;
+                    seen[id] += 1;
+                    assert_eq!(bvh.triangles[j], tris[id]);
+                    assert!(
+                        tris[id].iter().all(|&p| inside(p, &node)),
+                        "leaf {k} holds triangle {id}"
+                    );
+                }
+                assert!(
+                    node.count <= params.max_leaf,
+                    "{params:?}: leaf of {}",
+                    node.count
+                );
+            } else {
+                for c in [node.first as usize, node.first as usize + 1] {
+                    let child = bvh.nodes[c];
+                    assert!(
+                        inside(child.lo.map(|x| x as f64), &node)
+                            && inside(child.hi.map(|x| x as f64), &node)
+                    );
+                    stack.push(c);
+                }
+            }
+        }
+        assert!(
+            seen.iter().all(|&s| s == 1),
+            "{params:?}: every triangle once"
+        );
+        let (leaves, depth) = bvh.shape();
+        assert!(
+            leaves * params.max_leaf as usize >= tris.len() && depth < 64,
+            "{leaves} leaves, depth {depth}"
+        );
+    }
+    // The empty scene: a root that no ray enters.
+    let empty = ReshetovBvh::build(&[], BvhParams::default()).unwrap();
+    let line = Line::new(&Ray {
+        o: [0.0; 3],
+        d: [1.0, 0.0, 0.0],
+        tmin: 0.0,
+        tmax: 1.0,
+    })
+    .unwrap();
+    let mut near = Nearest::new(&line, &[]);
+    assert_eq!(empty.walk(&line, &mut near, &mut Vec::new()), 0);
+    assert!(near.meet().is_none());
+}
+
+#[test]
+fn bvh_refuses_bad_parameters_and_triangles() {
+    let tri = [[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+    for params in [
+        BvhParams {
+            cost_ratio: f64::NAN,
+            ..Default::default()
+        },
+        BvhParams {
+            cost_ratio: -1.0,
+            ..Default::default()
+        },
+        BvhParams {
+            max_leaf: 0,
+            ..Default::default()
+        },
+        BvhParams {
+            bins: 1,
+            ..Default::default()
+        },
+    ] {
+        assert!(
+            matches!(
+                ReshetovBvh::build(&[tri], params),
+                Err(Error::InvalidOption(_))
+            ),
+            "{params:?}"
+        );
+    }
+    let bad = [[0.0; 3], [f64::INFINITY, 0.0, 0.0], [0.0, 1.0, 0.0]];
+    assert!(
+        matches!(ReshetovBvh::build(&[tri, bad], BvhParams::default()), Err(Error::InvalidInput(m)) if m.contains("triangle 1"))
+    );
+    let _ = MISS;
+}
