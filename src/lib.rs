@@ -19,6 +19,7 @@ pub mod referee;
 pub mod scene;
 pub mod simd;
 pub mod status;
+pub mod threads;
 pub mod traverse;
 
 #[cfg(test)]

@@ -25,7 +25,7 @@ use crate::geom::real::Real;
 use crate::locate::{GridLocator, Located};
 use crate::mesh::build::{CONSTRAINED_BIT, OUTWARD_FACES};
 use crate::mesh::{Incidence, TetMesh, BOUNDARY};
-use rayon::prelude::*;
+use crate::threads::run_pieces;
 use std::collections::VecDeque;
 
 /// Points per parallel task; each task starts from fresh state, so answers do not depend on
@@ -186,16 +186,7 @@ impl Containment<'_> {
             .zip(out.chunks_mut(CHUNK))
             .enumerate()
             .collect();
-        match threads {
-            Some(1) => pieces.into_iter().for_each(run),
-            None => pieces.into_par_iter().for_each(run),
-            Some(k) => rayon::ThreadPoolBuilder::new()
-                .num_threads(k)
-                .build()
-                .map_err(|e| Error::InvalidOption(format!("cannot start {k} threads: {e}")))?
-                .install(|| pieces.into_par_iter().for_each(run)),
-        }
-        Ok(())
+        run_pieces(pieces, threads, run)
     }
 
     /// Whether the point p is inside; `rng`: the walks' xorshift state (nonzero).

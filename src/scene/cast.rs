@@ -9,11 +9,11 @@ use crate::geom::real::Real;
 use crate::layout::{Layout, LayoutKind, LayoutVisitor};
 use crate::query::{chunks, AllHits, AnyHit, Listed, QueryKind, Sink};
 use crate::simd::Simd;
+use crate::threads::run_pieces;
 use crate::traverse::robust::ExactAudit;
 use crate::traverse::{
     Exact, ExitMethod, Method, MethodVisitor, NoObserver, WalkObserver, WalkSetup,
 };
-use rayon::prelude::*;
 
 /// How a cast runs; `CastOptions::default()` is what Python's defaults mean.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -88,16 +88,7 @@ pub fn cast_accel<R: Real, W: Real, A: Accel<W>, K: QueryKind, S: Sink<K::Answer
         accel.trace_chunk(query, |j| rays.ray(base + j), &mut chunk, &mut state);
     };
     let pieces: Vec<_> = chunks(out, CHUNK).into_iter().enumerate().collect();
-    match threads {
-        Some(1) => pieces.into_iter().for_each(run_chunk),
-        None => pieces.into_par_iter().for_each(run_chunk),
-        Some(k) => rayon::ThreadPoolBuilder::new()
-            .num_threads(k)
-            .build()
-            .map_err(|e| Error::InvalidOption(format!("cannot start {k} threads: {e}")))?
-            .install(|| pieces.into_par_iter().for_each(run_chunk)),
-    }
-    Ok(())
+    run_pieces(pieces, threads, run_chunk)
 }
 
 /// What a cast writes: closest hits, any-hit statuses, or every hit.
