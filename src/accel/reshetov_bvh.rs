@@ -433,7 +433,7 @@ impl Slab {
         let far = far + PAD * far.abs() + TINY;
         // NaN (an entry at +inf: a box past float64's range, as t = |b − o| / |d| may be
         // when d is tiny) skips nothing.
-        (!(near > far)).then_some(near)
+        (near.partial_cmp(&far) != Some(std::cmp::Ordering::Greater)).then_some(near)
     }
 }
 
@@ -457,5 +457,6 @@ impl Accel<f64> for ReshetovBvh {
     }
 }
 
+pub mod nearest;
 #[cfg(test)]
 mod tests;

@@ -5,6 +5,7 @@
 pub mod buffers;
 pub mod cast;
 
+use crate::accel::reshetov_bvh::nearest::NearestPoint;
 use crate::accel::{BvhParams, ReshetovBvh};
 use crate::error::{Error, Result};
 use crate::geom::real::Real;
@@ -17,6 +18,7 @@ use crate::query::contains::{self, Containment, Parity};
 use crate::query::ClosestHit;
 #[cfg(feature = "gpu")]
 use crate::query::RayHit;
+use crate::threads::run_pieces;
 #[cfg(feature = "gpu")]
 use crate::traverse::Walk;
 use std::sync::{Arc, OnceLock, RwLock};
@@ -248,6 +250,36 @@ impl Scene {
             parity,
         }
         .points(points, out, threads)
+    }
+
+    /// The scene's point nearest each point (`points`: x y z of each, 3N values, finite), on
+    /// the BVH ([`Scene::bvh`]): `out[i]` for point i.
+    pub fn nearest_points<R: Real>(
+        &self,
+        points: &[R],
+        out: &mut [NearestPoint],
+        threads: Option<usize>,
+    ) -> Result<()> {
+        contains::check(points.len(), out.len(), threads)?;
+        if let Some(i) =
+            (0..out.len()).find(|&i| !(0..3).all(|a| points[3 * i + a].to_f64().is_finite()))
+        {
+            return Err(Error::InvalidInput(format!(
+                "point {i} has a NaN or infinite coordinate"
+            )));
+        }
+        let bvh = self.bvh()?;
+        let pieces: Vec<_> = points
+            .chunks(3 * CHUNK)
+            .zip(out.chunks_mut(CHUNK))
+            .collect();
+        run_pieces(pieces, threads, |(pts, o): (&[R], &mut [NearestPoint])| {
+            let mut stack = Vec::with_capacity(64);
+            for (j, slot) in o.iter_mut().enumerate() {
+                let p = [0, 1, 2].map(|a| pts[3 * j + a].to_f64());
+                *slot = bvh.nearest(p, &mut stack);
+            }
+        })
     }
 
     /// Where ray i of `rays` starts (the GPU cast's first half, as the CPU cast locates).
