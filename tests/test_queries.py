@@ -519,22 +519,52 @@ class FakeNative:
         return bf, status
 
     def occluded(
-        self, o, d, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packet=True
+        self,
+        o,
+        d,
+        tmin,
+        tmax,
+        threads=None,
+        max_steps=None,
+        method=None,
+        layout=None,
+        packet=True,
+        accel=None,
     ):
-        assert isinstance(packet, bool)
+        assert isinstance(packet, bool) and accel is None
         return self._check(o, d, tmin, tmax, method, layout)[1]
 
     def count_intersections(
-        self, o, d, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packet=True
+        self,
+        o,
+        d,
+        tmin,
+        tmax,
+        threads=None,
+        max_steps=None,
+        method=None,
+        layout=None,
+        packet=True,
+        accel=None,
     ):
-        assert isinstance(packet, bool)
+        assert isinstance(packet, bool) and accel is None
         bf, status = self._check(o, d, tmin, tmax, method, layout)
         return {"count": np.array([len(h) for h in bf], np.int32), "status": status}
 
     def intersections(
-        self, o, d, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packet=True
+        self,
+        o,
+        d,
+        tmin,
+        tmax,
+        threads=None,
+        max_steps=None,
+        method=None,
+        layout=None,
+        packet=True,
+        accel=None,
     ):
-        assert isinstance(packet, bool)
+        assert isinstance(packet, bool) and accel is None
         bf, status = self._check(o, d, tmin, tmax, method, layout)
         tri = self.v[self.f]
         t, ids, u, w = [], [], [], []

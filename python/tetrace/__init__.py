@@ -15,6 +15,7 @@ from .hits import FAILED, HIT, INVALID, MISS, STATUS_NAMES, Hits
 from .scene import (
     LAYOUT_BYTES,
     Scene,
+    accels,
     cast,
     default_scene,
     default_scene_path,
@@ -32,6 +33,7 @@ __all__ = [
     "default_scene",
     "default_scene_path",
     "methods",
+    "accels",
     "layouts",
     "simd_levels",
     "LAYOUT_BYTES",

@@ -9,6 +9,7 @@ import numpy.typing as npt
 __all__ = [
     "NativeScene",
     "methods",
+    "accels",
     "layouts",
     "simd_levels",
     "exitface_bench",
@@ -39,6 +40,7 @@ DEFAULT_METHOD: str
 DEFAULT_LAYOUT: str
 
 def methods() -> list[str]: ...
+def accels() -> list[str]: ...
 def layouts() -> list[tuple[str, int]]: ...
 def simd_levels() -> tuple[list[str], str]: ...
 def exitface_bench(
@@ -93,6 +95,8 @@ class NativeScene:
         audit: bool = False,
         # False: no packets for rays sharing an origin (same answers, bit for bit).
         packet: bool = True,
+        # None: the tet walk; "reshetov_bvh": the BVH (same answers).
+        accel: str | None = None,
     ) -> dict[str, np.ndarray]: ...
     def cast_gpu(
         self,
@@ -118,6 +122,7 @@ class NativeScene:
         method: str | None = None,
         layout: str | None = None,
         packet: bool = True,
+        accel: str | None = None,
     ) -> npt.NDArray[np.uint8]: ...
     # "offsets" int64 (N+1,), "t" float64 (M,), "triangle" int32 (M,), "u", "v" float64 (M,),
     # "status" uint8 (N,): every point where a ray meets the surface once, sorted by t per ray.
@@ -132,6 +137,7 @@ class NativeScene:
         method: str | None = None,
         layout: str | None = None,
         packet: bool = True,
+        accel: str | None = None,
     ) -> dict[str, np.ndarray]: ...
     # "count" int32 (N,), "status" uint8 (N,).
     def count_intersections(
@@ -145,11 +151,20 @@ class NativeScene:
         method: str | None = None,
         layout: str | None = None,
         packet: bool = True,
+        accel: str | None = None,
     ) -> dict[str, np.ndarray]: ...
     # (N, 3) float64 points -> (N,) bool: inside (on the surface counts as inside).
     def contains(
         self, points: npt.NDArray[np.float64], threads: int | None = None
     ) -> npt.NDArray[np.bool_]: ...
+    # (N, 3) float64 points -> "point" (N, 3), "triangle" int32, "u", "v", "distance".
+    def closest_points(
+        self, points: npt.NDArray[np.float64], threads: int | None = None
+    ) -> dict[str, np.ndarray]: ...
+    def build_bvh(
+        self, cost_ratio: float = 1.0, max_leaf: int = 8, bins: int = 16
+    ) -> dict[str, Any]: ...
+    def bvh_info(self) -> dict[str, Any] | None: ...
     def memory(self) -> dict[str, int]: ...
     def points(self) -> npt.NDArray[np.float64]: ...
     def tets(self) -> npt.NDArray[np.uint32]: ...

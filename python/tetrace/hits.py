@@ -364,3 +364,36 @@ class Intersections:
             f"Intersections(rays={self.status.size}, hits={len(self)}, "
             f"rays_hit={int(counts[HIT])}, failed={int(counts[FAILED])})"
         )
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class ClosestPoints:
+    """The scene's point nearest each query point (:meth:`tetrace.Scene.closest_points`).
+
+    Every field has the query points' leading shape (``point``: plus a last axis of 3).
+
+    Parameters
+    ----------
+    point : numpy.ndarray
+        float64. The nearest point of the scene's surface (``nan`` for a scene without
+        triangles).
+    triangle : numpy.ndarray
+        int32. The triangle it lies on, within its mesh (``-1``: none).
+    u, v : numpy.ndarray
+        float64. Its barycentric coordinates on that triangle, in the caller's vertex order:
+        ``point = (1 - u - v) p0 + u p1 + v p2``.
+    distance : numpy.ndarray
+        float64. Euclidean distance from the query point to ``point``.
+    geometry : numpy.ndarray
+        int32. Which mesh of the scene the triangle belongs to (``-1``: none).
+    scene_triangle : numpy.ndarray
+        int32. The triangle's index among all the scene's triangles.
+    """
+
+    point: np.ndarray
+    triangle: np.ndarray
+    u: np.ndarray
+    v: np.ndarray
+    distance: np.ndarray
+    geometry: np.ndarray
+    scene_triangle: np.ndarray

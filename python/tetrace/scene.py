@@ -9,7 +9,7 @@ from importlib import resources
 import numpy as np
 
 from . import _native
-from .hits import FAILED, HIT, INVALID, Hits, Intersections
+from .hits import FAILED, HIT, INVALID, ClosestPoints, Hits, Intersections
 from .rays import prepare_bounds, prepare_ray_batch, raise_invalid
 
 __all__ = [
@@ -19,6 +19,7 @@ __all__ = [
     "default_scene",
     "default_scene_path",
     "methods",
+    "accels",
     "layouts",
     "LAYOUT_BYTES",
 ]
@@ -35,6 +36,16 @@ def methods():
     list of str
     """
     return list(_native.methods())
+
+
+def accels():
+    """Return the names of the acceleration structures, the default (``tetwalk``) first.
+
+    Returns
+    -------
+    list of str
+    """
+    return list(_native.accels())
 
 
 def layouts():
@@ -86,12 +97,42 @@ def _names(method, layout, *, defaults=True):
     return method, layout
 
 
+def _query_points(points):
+    """Query points as a flat ``(N, 3)`` float64 array and their leading shape; a clear
+    error for anything else or for a NaN/inf coordinate."""
+    p = np.asarray(points)
+    if p.dtype.kind not in "biuf":
+        raise TypeError(f"points must be real numbers, got dtype {p.dtype}")
+    if p.ndim == 0 or p.shape[-1] != 3:
+        raise ValueError(f"points must have shape (..., 3), got {p.shape}")
+    flat = np.ascontiguousarray(p.reshape(-1, 3), dtype=np.float64)
+    bad = ~np.isfinite(flat).all(axis=1)
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise ValueError(
+            f"{int(bad.sum())} of {len(flat)} points have a NaN/inf coordinate "
+            f"(first: point {k}, {flat[k].tolist()})"
+        )
+    return flat, p.shape[:-1]
+
+
 class _Query:
     """The arguments every ray query shares, checked once: flat rays (``o``, ``d``) of
-    leading ``shape``, bounds ``lo``/``hi``, ``threads``, ``max_steps``, ``packet``."""
+    leading ``shape``, bounds ``lo``/``hi``, ``threads``, ``max_steps``, ``packet``,
+    ``accel``."""
 
     def __init__(
-        self, origins, directions, tmin, tmax, threads, max_steps, invalid, precision, packet
+        self,
+        origins,
+        directions,
+        tmin,
+        tmax,
+        threads,
+        max_steps,
+        invalid,
+        precision,
+        packet,
+        accel=None,
     ):
         batch = prepare_ray_batch(origins, directions, invalid=invalid)
         o, d = batch.origins, batch.directions
@@ -112,6 +153,9 @@ class _Query:
         if not isinstance(packet, (bool, np.bool_)):
             raise TypeError(f"packet must be True or False, got {packet!r}")
         self.packet = bool(packet)
+        if accel is not None and accel not in _native.accels():
+            raise ValueError(f"unknown accel {accel!r}; expected one of {_native.accels()}")
+        self.accel = accel
 
     def check(self, status):
         """Raise for rays the core marked INVALID, unless ``invalid="mark"``."""
@@ -339,6 +383,7 @@ class Scene:
         precision=None,
         device="cpu",
         packet=True,
+        accel=None,
     ):
         """Cast rays and return their closest hits.
 
@@ -387,6 +432,12 @@ class Scene:
             sharing one when its first two rays do, and a packet steps once for all its
             rays while every ray leaves a tet by the same face, exactly. Answers are the
             same, bit for bit, either way; ``False`` walks every ray on its own.
+        accel : str, optional
+            Acceleration structure, one of :func:`tetrace.accels`: ``"tetwalk"`` (the
+            default, the walk through the tetrahedralization) or ``"reshetov_bvh"``
+            (Reshetov 2007's BVH over the same triangles, built on first use or by
+            :meth:`build_bvh`). Both keep the contract exactly and give the same answers;
+            the BVH takes only the ``exact`` method, any layout, and the CPU.
 
         Returns
         -------
@@ -404,12 +455,18 @@ class Scene:
         """
         if device not in ("cpu", "gpu", "auto"):
             raise ValueError(f'device must be "cpu", "gpu" or "auto", got {device!r}')
+        if device == "gpu" and accel not in (None, "tetwalk"):
+            raise ValueError(
+                f'device="gpu" walks the tetrahedralization; accel {accel!r} is CPU only'
+            )
         if device == "gpu" and precision == "f64":
             raise ValueError(
                 'device="gpu" walks in float32 (WGSL has no float64); use '
                 'precision="f32" or device="cpu"'
             )
-        q = _Query(origins, directions, tmin, tmax, threads, max_steps, invalid, precision, packet)
+        q = _Query(
+            origins, directions, tmin, tmax, threads, max_steps, invalid, precision, packet, accel
+        )
         _names(method, layout, defaults=False)
         use_gpu = False
         if device == "gpu":
@@ -432,7 +489,16 @@ class Scene:
             )
         else:
             r = self._native.cast(
-                q.o, q.d, q.lo, q.hi, q.threads, q.max_steps, method, layout, packet=q.packet
+                q.o,
+                q.d,
+                q.lo,
+                q.hi,
+                q.threads,
+                q.max_steps,
+                method,
+                layout,
+                packet=q.packet,
+                accel=q.accel,
             )
         q.check(r["status"])
         return self._hits(r).reshape(q.shape)
@@ -495,6 +561,7 @@ class Scene:
         precision=None,
         return_status=False,
         packet=True,
+        accel=None,
     ):
         """Return whether each ray hits any triangle (a shadow ray), without finding which.
 
@@ -507,7 +574,7 @@ class Scene:
         ----------
         origins, directions, tmin, tmax, threads, max_steps, invalid, method, layout
             As for :meth:`cast` (rays of any leading shape, CPU only).
-        precision, packet
+        precision, packet, accel
             As for :meth:`cast`.
         return_status : bool
             Also return the status per ray.
@@ -522,11 +589,22 @@ class Scene:
             uint8, the same shape (``return_status=True`` only): ``HIT``, ``MISS``,
             ``FAILED`` or ``INVALID``.
         """
-        q = _Query(origins, directions, tmin, tmax, threads, max_steps, invalid, precision, packet)
+        q = _Query(
+            origins, directions, tmin, tmax, threads, max_steps, invalid, precision, packet, accel
+        )
         method, layout = _names(method, layout)
         status = np.asarray(
             self._native.occluded(
-                q.o, q.d, q.lo, q.hi, q.threads, q.max_steps, method, layout, packet=q.packet
+                q.o,
+                q.d,
+                q.lo,
+                q.hi,
+                q.threads,
+                q.max_steps,
+                method,
+                layout,
+                packet=q.packet,
+                accel=q.accel,
             )
         )
         q.check(status)
@@ -548,6 +626,7 @@ class Scene:
         layout=None,
         precision=None,
         packet=True,
+        accel=None,
     ):
         """Return every hit of every ray, sorted by ray, then by ``t``.
 
@@ -562,7 +641,7 @@ class Scene:
         ----------
         origins, directions, tmin, tmax, threads, max_steps, invalid, method, layout
             As for :meth:`cast` (rays of any leading shape, CPU only).
-        precision, packet
+        precision, packet, accel
             As for :meth:`cast`.
 
         Returns
@@ -574,10 +653,21 @@ class Scene:
             no hit). ``t``, ``u``, ``v`` are float64, evaluated on the caller's triangle;
             ``point`` is ``origin + t * direction`` in float64.
         """
-        q = _Query(origins, directions, tmin, tmax, threads, max_steps, invalid, precision, packet)
+        q = _Query(
+            origins, directions, tmin, tmax, threads, max_steps, invalid, precision, packet, accel
+        )
         method, layout = _names(method, layout)
         r = self._native.intersections(
-            q.o, q.d, q.lo, q.hi, q.threads, q.max_steps, method, layout, packet=q.packet
+            q.o,
+            q.d,
+            q.lo,
+            q.hi,
+            q.threads,
+            q.max_steps,
+            method,
+            layout,
+            packet=q.packet,
+            accel=q.accel,
         )
         status = np.asarray(r["status"])
         q.check(status)
@@ -615,6 +705,7 @@ class Scene:
         precision=None,
         return_status=False,
         packet=True,
+        accel=None,
     ):
         """Count the points where each ray meets the surface, in ``[tmin, tmax]``.
 
@@ -626,7 +717,7 @@ class Scene:
         ----------
         origins, directions, tmin, tmax, threads, max_steps, invalid, method, layout
             As for :meth:`cast` (rays of any leading shape, CPU only).
-        precision, packet
+        precision, packet, accel
             As for :meth:`cast`.
         return_status : bool
             Also return the status per ray.
@@ -639,10 +730,21 @@ class Scene:
         status : numpy.ndarray
             uint8, the same shape (``return_status=True`` only).
         """
-        q = _Query(origins, directions, tmin, tmax, threads, max_steps, invalid, precision, packet)
+        q = _Query(
+            origins, directions, tmin, tmax, threads, max_steps, invalid, precision, packet, accel
+        )
         method, layout = _names(method, layout)
         r = self._native.count_intersections(
-            q.o, q.d, q.lo, q.hi, q.threads, q.max_steps, method, layout, packet=q.packet
+            q.o,
+            q.d,
+            q.lo,
+            q.hi,
+            q.threads,
+            q.max_steps,
+            method,
+            layout,
+            packet=q.packet,
+            accel=q.accel,
         )
         status = np.asarray(r["status"])
         q.check(status)
@@ -650,6 +752,120 @@ class Scene:
         count[(status == FAILED) | (status == INVALID)] = -1
         count, status = count.reshape(q.shape), status.reshape(q.shape)
         return (count, status) if return_status else count
+
+    def closest_points(self, points, *, threads=None):
+        """Return the point of the scene's surface nearest each query point.
+
+        Found on Reshetov's BVH (built on first use, see :meth:`build_bvh`), after Open3D's
+        ``RaycastingScene.compute_closest_points``. Distances are float64 evaluations;
+        of triangles equally near as float64 tells, the one with the smallest scene index.
+
+        Parameters
+        ----------
+        points : array_like
+            ``(..., 3)`` query points, finite.
+        threads : int, optional
+            Worker threads; None uses all cores. The GIL is released meanwhile.
+
+        Returns
+        -------
+        ClosestPoints
+            ``point``, ``triangle``, ``u``, ``v``, ``distance``, ``geometry``,
+            ``scene_triangle`` of the points' leading shape.
+
+        Raises
+        ------
+        ValueError
+            A point has a NaN or infinite coordinate, or ``points`` is not ``(..., 3)``.
+        """
+        flat, shape = _query_points(points)
+        _check_threads(threads)
+        r = self._native.closest_points(flat, threads)
+        scene_triangle = np.asarray(r["triangle"])
+        geometry, triangle = self._locate(scene_triangle)
+        return ClosestPoints(
+            point=np.asarray(r["point"]).reshape(shape + (3,)),
+            triangle=triangle.reshape(shape),
+            u=np.asarray(r["u"]).reshape(shape),
+            v=np.asarray(r["v"]).reshape(shape),
+            distance=np.asarray(r["distance"]).reshape(shape),
+            geometry=geometry.reshape(shape),
+            scene_triangle=scene_triangle.reshape(shape),
+        )
+
+    def distance(self, points, *, threads=None):
+        """Return the distance from each point to the scene's surface (unsigned).
+
+        Parameters
+        ----------
+        points : array_like
+            ``(..., 3)`` query points, finite.
+        threads : int, optional
+            Worker threads; None uses all cores.
+
+        Returns
+        -------
+        numpy.ndarray
+            float64, the points' leading shape (``inf`` for a scene without triangles).
+        """
+        return self.closest_points(points, threads=threads).distance
+
+    def signed_distance(self, points, *, threads=None):
+        """Return the distance to the surface, negative inside it.
+
+        The magnitude is :meth:`distance`; the sign is :meth:`contains`, decided exactly
+        (a point on the surface counts as inside: ``-0.0`` or the small negative distance
+        float64 gives it).
+
+        Parameters
+        ----------
+        points : array_like
+            ``(..., 3)`` query points, finite.
+        threads : int, optional
+            Worker threads; None uses all cores.
+
+        Returns
+        -------
+        numpy.ndarray
+            float64, the points' leading shape.
+        """
+        d = self.distance(points, threads=threads)
+        inside = self.contains(points, threads=threads)
+        return np.where(inside, -d, d)
+
+    def build_bvh(self, *, cost_ratio=1.0, max_leaf=8, bins=16):
+        """Build Reshetov's BVH over the scene's triangles for ``accel="reshetov_bvh"``.
+
+        A query with that accel builds one with the defaults when none is built; this
+        builds (again) with other parameters, e.g. for the paper's SAH-ratio sweep.
+
+        Parameters
+        ----------
+        cost_ratio : float
+            The SAH's cost of visiting a node over the cost of testing a triangle (>= 0):
+            larger makes larger leaves and smaller trees.
+        max_leaf : int
+            Most triangles per leaf (1 to 65536); more are split even where SAH would not.
+        bins : int
+            Bins per axis of the binned SAH (2 to 256).
+
+        Returns
+        -------
+        dict
+            As :meth:`bvh_info`.
+        """
+        return self._native.build_bvh(cost_ratio, max_leaf, bins)
+
+    def bvh_info(self):
+        """Return the BVH's shape, or None when none is built.
+
+        Returns
+        -------
+        dict or None
+            ``nodes``, ``leaves``, ``depth``, ``bytes`` and the parameters it was built
+            with (``cost_ratio``, ``max_leaf``, ``bins``).
+        """
+        return self._native.bvh_info()
 
     def contains(self, points, *, threads=None):
         """Return whether each point lies inside the surface.
@@ -677,20 +893,7 @@ class Scene:
         ValueError
             A point has a NaN or infinite coordinate, or ``points`` is not ``(..., 3)``.
         """
-        p = np.asarray(points)
-        if p.dtype.kind not in "biuf":
-            raise TypeError(f"points must be real numbers, got dtype {p.dtype}")
-        if p.ndim == 0 or p.shape[-1] != 3:
-            raise ValueError(f"points must have shape (..., 3), got {p.shape}")
-        shape = p.shape[:-1]
-        flat = np.ascontiguousarray(p.reshape(-1, 3), dtype=np.float64)
-        bad = ~np.isfinite(flat).all(axis=1)
-        if bad.any():
-            k = int(np.argmax(bad))
-            raise ValueError(
-                f"{int(bad.sum())} of {len(flat)} points have a NaN/inf coordinate "
-                f"(first: point {k}, {flat[k].tolist()})"
-            )
+        flat, shape = _query_points(points)
         _check_threads(threads)
         return np.asarray(self._native.contains(flat, threads), dtype=bool).reshape(shape)
 

@@ -14,6 +14,7 @@ use pyo3::prelude::*;
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<scene::PyScene>()?;
     m.add_function(wrap_pyfunction!(names::methods, m)?)?;
+    m.add_function(wrap_pyfunction!(names::accels, m)?)?;
     m.add_function(wrap_pyfunction!(names::layouts, m)?)?;
     m.add_function(wrap_pyfunction!(names::simd_levels, m)?)?;
     m.add_function(wrap_pyfunction!(bench::exitface_bench, m)?)?;

@@ -2,6 +2,7 @@
 //! checked against the table as it is extracted, and the lists Python shows come from the same
 //! tables.
 
+use crate::accel::{AccelKind, ACCELS};
 use crate::layout::LayoutKind;
 use crate::traverse::{Method, METHODS};
 use pyo3::prelude::*;
@@ -26,6 +27,23 @@ impl<'a, 'py> FromPyObject<'a, 'py> for LayoutArg {
         let name: String = obj.extract()?;
         Ok(LayoutArg(LayoutKind::from_name(&name)?))
     }
+}
+
+/// An acceleration-structure argument (`accel="reshetov_bvh"`), checked against the table.
+pub(crate) struct AccelArg(pub AccelKind);
+
+impl<'a, 'py> FromPyObject<'a, 'py> for AccelArg {
+    type Error = PyErr;
+    fn extract(obj: pyo3::Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
+        let name: String = obj.extract()?;
+        Ok(AccelArg(AccelKind::from_name(&name)?))
+    }
+}
+
+/// Acceleration structures: the tet walk first (the default).
+#[pyfunction]
+pub(crate) fn accels() -> Vec<&'static str> {
+    ACCELS.to_vec()
 }
 
 /// Exit methods, in the order of the papers.

@@ -2,11 +2,13 @@
 
 use super::arrays::{check_cols, rows, slice};
 use super::errors::guarded;
-use super::names::{LayoutArg, MethodArg};
+use super::names::{AccelArg, LayoutArg, MethodArg};
+use crate::accel::reshetov_bvh::nearest::NearestPoint;
+use crate::accel::{BvhParams, ReshetovBvh};
 use crate::geom::real::Real;
 use crate::layout::LayoutKind;
 use crate::query::Listed;
-use crate::scene::{CastOptions, HitBuffers, HitsOut, Packets, Rays, Scene};
+use crate::scene::{AccelKind, CastOptions, HitBuffers, HitsOut, Packets, Rays, Scene};
 use crate::traverse::Method;
 use numpy::{
     Element, IntoPyArray, PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
@@ -85,7 +87,7 @@ impl PyScene {
     /// "audit": (N, 2) uint32, per ray the exit faces taken that exact predicates reject and
     /// the steps where the method found no exit face. `method`, `layout`: None for the core's
     /// defaults.
-    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, audit=false, packet=true))]
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, audit=false, packet=true, accel=None))]
     #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
     fn cast<'py>(
         &self,
@@ -100,9 +102,10 @@ impl PyScene {
         layout: Option<LayoutArg>,
         audit: bool,
         packet: bool,
+        accel: Option<AccelArg>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let scene = &self.inner;
-        let opts = cast_options(threads, max_steps, packet);
+        let opts = cast_options(threads, max_steps, packet, accel);
         let method = method.map_or(Method::DEFAULT, |m| m.0);
         let layout = layout.map_or(LayoutKind::DEFAULT, |l| l.0);
         let f32s = (
@@ -133,7 +136,7 @@ impl PyScene {
 
     /// Any hit (occlusion) per ray: status HIT when a scene triangle lies on the ray within
     /// [tmin, tmax], else MISS (FAILED, INVALID as for casts). Arguments as for `cast`.
-    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packet=true))]
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packet=true, accel=None))]
     #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
     fn occluded<'py>(
         &self,
@@ -147,12 +150,13 @@ impl PyScene {
         method: Option<MethodArg>,
         layout: Option<LayoutArg>,
         packet: bool,
+        accel: Option<AccelArg>,
     ) -> PyResult<Bound<'py, numpy::PyArray1<u8>>> {
         let job = Occluded {
             method: method.map_or(Method::DEFAULT, |m| m.0),
             layout: layout.map_or(LayoutKind::DEFAULT, |l| l.0),
         };
-        let opts = cast_options(threads, max_steps, packet);
+        let opts = cast_options(threads, max_steps, packet, accel);
         let out = query_rays(py, &self.inner, origins, directions, tmin, tmax, &opts, job)?;
         Ok(out.into_pyarray(py))
     }
@@ -160,7 +164,7 @@ impl PyScene {
     /// Every point where each ray meets the surface in [tmin, tmax] (the exact walk): a dict
     /// of flat arrays "offsets" (N + 1), "t", "triangle", "u", "v" sorted by t within each
     /// ray, and "status" (N). `method` must be None or "exact"; `layout` is ignored.
-    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packet=true))]
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packet=true, accel=None))]
     #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
     fn intersections<'py>(
         &self,
@@ -174,9 +178,10 @@ impl PyScene {
         method: Option<MethodArg>,
         layout: Option<LayoutArg>,
         packet: bool,
+        accel: Option<AccelArg>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let _ = layout;
-        let opts = cast_options(threads, max_steps, packet);
+        let opts = cast_options(threads, max_steps, packet, accel);
         let listed = all_hits(
             py,
             &self.inner,
@@ -219,7 +224,7 @@ impl PyScene {
 
     /// The number of points where each ray meets the surface in [tmin, tmax] (as
     /// `intersections`): a dict of "count" (int32, N) and "status" (N).
-    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packet=true))]
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packet=true, accel=None))]
     #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
     fn count_intersections<'py>(
         &self,
@@ -233,9 +238,10 @@ impl PyScene {
         method: Option<MethodArg>,
         layout: Option<LayoutArg>,
         packet: bool,
+        accel: Option<AccelArg>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let _ = layout;
-        let opts = cast_options(threads, max_steps, packet);
+        let opts = cast_options(threads, max_steps, packet, accel);
         let listed = all_hits(
             py,
             &self.inner,
@@ -323,6 +329,63 @@ impl PyScene {
                 "points must be a numpy array of shape (N, 3), float32 or float64",
             )),
         }
+    }
+
+    /// The scene's point nearest each row of `points` ((N, 3) float64, finite), found on the
+    /// BVH: a dict of "point" (N, 3), "triangle" (N,) int32 (-1: the scene has none), "u",
+    /// "v" (barycentrics of the triangle's second and third corners) and "distance".
+    #[pyo3(signature = (points, threads=None))]
+    fn closest_points<'py>(
+        &self,
+        py: Python<'py>,
+        points: PyReadonlyArray2<'py, f64>,
+        threads: Option<usize>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let n = check_cols(&points, 3, "points")?;
+        let p = slice(&points, "points")?;
+        let mut out = vec![NearestPoint::NONE; n];
+        py.detach(|| guarded(|| self.inner.nearest_points(p, &mut out, threads)))?;
+        let point: Vec<f64> = out.iter().flat_map(|r| r.point).collect();
+        let d = PyDict::new(py);
+        d.set_item("point", point.into_pyarray(py).reshape([n, 3])?)?;
+        let column = |f: fn(&NearestPoint) -> f64| out.iter().map(f).collect::<Vec<f64>>();
+        d.set_item(
+            "triangle",
+            out.iter()
+                .map(|r| r.triangle)
+                .collect::<Vec<i32>>()
+                .into_pyarray(py),
+        )?;
+        d.set_item("u", column(|r| r.u).into_pyarray(py))?;
+        d.set_item("v", column(|r| r.v).into_pyarray(py))?;
+        d.set_item("distance", column(|r| r.distance).into_pyarray(py))?;
+        Ok(d)
+    }
+
+    /// Builds Reshetov's BVH with these parameters for the casts that follow (a cast with
+    /// `accel="reshetov_bvh"` builds one with the defaults when none is built); returns what
+    /// `bvh_info` returns.
+    #[pyo3(signature = (cost_ratio=1.0, max_leaf=8, bins=16))]
+    fn build_bvh<'py>(
+        &self,
+        py: Python<'py>,
+        cost_ratio: f64,
+        max_leaf: u32,
+        bins: u32,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let params = BvhParams {
+            cost_ratio,
+            max_leaf,
+            bins,
+        };
+        let bvh = py.detach(|| guarded(|| self.inner.build_bvh(params)))?;
+        bvh_info(py, &bvh)
+    }
+
+    /// The BVH's shape (nodes, leaves, depth, bytes, its parameters), or None when none is
+    /// built.
+    fn bvh_info<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        self.inner.built_bvh().map(|b| bvh_info(py, &b)).transpose()
     }
 
     /// Bytes used by each part of the structure (`gpu_<layout>`: on the device).
@@ -511,14 +574,34 @@ impl RayQuery for AllHitsJob {
     }
 }
 
-/// The options the bindings share (`packet=False`: never walk rays as packets).
-fn cast_options(threads: Option<usize>, max_steps: Option<u32>, packet: bool) -> CastOptions {
+/// The options the bindings share (`packet=False`: never walk rays as packets; `accel`: None
+/// for the tet walk).
+fn cast_options(
+    threads: Option<usize>,
+    max_steps: Option<u32>,
+    packet: bool,
+    accel: Option<AccelArg>,
+) -> CastOptions {
     CastOptions {
         threads,
         max_steps,
         packets: if packet { Packets::Auto } else { Packets::Off },
+        accel: accel.map_or(AccelKind::TetWalk, |a| a.0),
         ..Default::default()
     }
+}
+
+fn bvh_info<'py>(py: Python<'py>, bvh: &ReshetovBvh) -> PyResult<Bound<'py, PyDict>> {
+    let (leaves, depth) = bvh.shape();
+    let d = PyDict::new(py);
+    d.set_item("nodes", bvh.nodes.len())?;
+    d.set_item("leaves", leaves)?;
+    d.set_item("depth", depth)?;
+    d.set_item("bytes", bvh.memory())?;
+    d.set_item("cost_ratio", bvh.params.cost_ratio)?;
+    d.set_item("max_leaf", bvh.params.max_leaf)?;
+    d.set_item("bins", bvh.params.bins)?;
+    Ok(d)
 }
 
 fn all_hits<'py>(

@@ -1,0 +1,115 @@
+"""Reshetov's BVH (``accel="reshetov_bvh"``, issue 16) keeps tetrace's contract.
+
+Its answers are judged by the exact referee on every local stress family (rays through
+vertices, along edges, in face planes, from the surface, at tmin, with directions from
+1e-30 to 1e30, far from the origin in float32 ...) and on one shared scene, in both
+precisions, and compared ray for ray with the tet walk's (the exact default): closest hits,
+any hits, all hits and counts. The Rust tests (``src/accel/reshetov_bvh/tests.rs``) add
+triangles outside float32's range and the tree's invariants.
+"""
+
+import numpy as np
+import pytest
+
+import tetrace
+from tetrace.dev.stress import FAMILIES, SHARED_SCENES, build_scene, cases, make_case, subset
+from tetrace.hits import HIT
+from tetrace.referee import Referee, judge, judge_lists
+
+#: Rays per family (the certified candidates of each family).
+N = 600
+PRECISIONS = ("f32", "f64")
+LOCAL = [f for f in FAMILIES if f not in SHARED_SCENES]
+BVH = "reshetov_bvh"
+
+
+@pytest.fixture(scope="module")
+def local():
+    return {c.family: (c, build_scene(c)) for c in cases(N, seed=4, families=LOCAL)}
+
+
+def _check_case(case, scene):
+    """Closest hits right by the referee and equal to the walk's; any hits equal to the
+    closest hits' status; all hits right by the referee's crossings, counts the walk's."""
+    tie_decided = 0
+    for p in PRECISIONS:
+        o, d = case.rays(p)
+        kw = dict(tmin=case.tmin, tmax=case.tmax, precision=p, invalid="mark")
+        bvh = scene.cast(o, d, accel=BVH, **kw)
+        walk = scene.cast(o, d, **kw)
+        verdict = case.verdicts[p]
+        masks = judge(bvh, verdict)
+        bad = {k: int(m.sum()) for k, m in masks.items() if k not in ("right", "invalid")}
+        assert masks["right"].sum() == (~masks["invalid"]).sum(), (case.family, p, bad)
+        np.testing.assert_array_equal(bvh.status, walk.status)
+        same = bvh.triangle == walk.triangle
+        # Another triangle than the walk's only where several tie at the first hit.
+        assert (verdict.ties[~same] > 1).all(), (case.family, p)
+        tie_decided += int((~same).sum())
+        hit = same & (bvh.status == HIT)
+        np.testing.assert_array_equal(bvh.t[hit], walk.t[hit])
+        occluded, status = scene.occluded(o, d, accel=BVH, return_status=True, **kw)
+        np.testing.assert_array_equal(status, bvh.status)
+        if p == "f64":
+            lists = scene.intersections(o, d, accel=BVH, **kw)
+            crossings = Referee(case.vertices, case.faces).crossings(o, d, case.tmin, case.tmax)
+            j = judge_lists(lists.offsets, lists.t, lists.triangle, crossings, status=lists.status)
+            valid = ~j["invalid"]
+            assert j["right"][valid].all(), (
+                case.family,
+                {k: int(m.sum()) for k, m in j.items() if k != "right"},
+            )
+            counts = scene.count_intersections(o, d, accel=BVH, **kw)
+            np.testing.assert_array_equal(counts, scene.count_intersections(o, d, **kw))
+            np.testing.assert_array_equal(counts, lists.counts.reshape(counts.shape))
+    return tie_decided
+
+
+@pytest.mark.parametrize("family", LOCAL)
+def test_bvh_is_right_and_answers_as_the_walk(local, family):
+    case, scene = local[family]
+    assert len(case) > 0
+    _check_case(case, scene)
+
+
+def test_bvh_is_right_on_a_shared_scene(scene_path):
+    case = make_case("fandisk", N, seed=4, path=scene_path(SHARED_SCENES["fandisk"]))
+    case = subset(case, N)
+    _check_case(case, build_scene(case))
+
+
+def test_bvh_options_and_shape():
+    """The accel names, the BVH's parameters (checked), its shape and memory, and the
+    refusals: an unknown accel, a float method, the GPU."""
+    assert tetrace.accels() == ["tetwalk", BVH]
+    scene = tetrace.default_scene()
+    n_triangles = len(scene.faces)
+    built = scene.build_bvh(cost_ratio=4.0, max_leaf=32, bins=8)
+    assert built["leaves"] * 32 >= n_triangles and built["nodes"] == 2 * built["leaves"] - 1
+    assert (built["cost_ratio"], built["max_leaf"], built["bins"]) == (4.0, 32, 8)
+    assert scene.bvh_info() == built
+    assert scene.memory()["bvh"] == built["bytes"] > 72 * n_triangles
+    fine = scene.build_bvh(cost_ratio=0.0, max_leaf=1)
+    assert fine["leaves"] >= built["leaves"]
+    for bad in (
+        dict(cost_ratio=-1.0),
+        dict(cost_ratio=float("nan")),
+        dict(max_leaf=0),
+        dict(bins=1),
+    ):
+        with pytest.raises(ValueError, match=next(iter(bad))):
+            scene.build_bvh(**bad)
+    o = np.zeros((4, 3))
+    d = np.array([[1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0], [1.0, 1.0, 1.0]])
+    with pytest.raises(ValueError, match="unknown accel"):
+        scene.cast(o, d, accel="kdtree")
+    with pytest.raises(ValueError, match="exit method"):
+        scene.cast(o, d, accel=BVH, method="aman2022")
+    with pytest.raises(ValueError, match="CPU only"):
+        scene.cast(o, d, accel=BVH, device="gpu")
+    # Parameters change the tree, never an answer.
+    a = scene.cast(o, d, accel=BVH)
+    scene.build_bvh()
+    b = scene.cast(o, d, accel=BVH)
+    for field in ("status", "t", "triangle"):
+        np.testing.assert_array_equal(getattr(a, field), getattr(b, field))
