@@ -103,9 +103,10 @@ impl Aabb {
         self.hi = [0, 1, 2].map(|k| self.hi[k].max(p[k]));
     }
 
+    /// The union (an empty box, whose lo is +inf and hi −inf, adds nothing).
     fn join(&mut self, b: &Aabb) {
-        self.add(b.lo);
-        self.add(b.hi);
+        self.lo = [0, 1, 2].map(|k| self.lo[k].min(b.lo[k]));
+        self.hi = [0, 1, 2].map(|k| self.hi[k].max(b.hi[k]));
     }
 
     fn of(tri: &Tri) -> Aabb {

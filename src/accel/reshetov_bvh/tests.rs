@@ -367,3 +367,38 @@ fn bvh_refuses_bad_parameters_and_triangles() {
     );
     let _ = MISS;
 }
+
+/// The cost ratio decides where the tree stops, not where it splits (it adds the same cost
+/// to every cut): a larger ratio prunes the smaller ratio's tree, so it has no more leaves;
+/// ratio 0 splits wherever a cut makes smaller boxes (here, down to single triangles), and a
+/// ratio above max_leaf stops at every node that fits in a leaf.
+#[test]
+fn bvh_cost_ratio_prunes_the_tree() {
+    let mut rng = Rng(5);
+    let tris: Vec<Tri> = (0..5000)
+        .map(|_| {
+            let c = [0, 1, 2].map(|_| rng.f() * 10.0);
+            [0, 1, 2].map(|_| [0, 1, 2].map(|k| c[k] + rng.f() * 0.3))
+        })
+        .collect();
+    let leaves: Vec<usize> = [0.0, 0.5, 1.0, 2.0, 8.0, 100.0]
+        .iter()
+        .map(|&cost_ratio| {
+            let params = BvhParams {
+                cost_ratio,
+                ..Default::default()
+            };
+            ReshetovBvh::build(&tris, params).unwrap().shape().0
+        })
+        .collect();
+    assert!(leaves.windows(2).all(|w| w[0] >= w[1]), "{leaves:?}");
+    assert_eq!(leaves[0], tris.len(), "{leaves:?}");
+    assert!(
+        leaves[5] < tris.len() / 4 && leaves[5] * 8 >= tris.len(),
+        "{leaves:?}"
+    );
+    assert_eq!(
+        leaves[4], leaves[5],
+        "ratio 8 already stops at every fitting node"
+    );
+}
