@@ -1,6 +1,7 @@
 """``python -m tetrace.bench queries`` judges every query kind with the exact referee: on the
 bundled scene and the stress families, tetrace's answers are all right; the peers' rows are
-there (judged, not asserted: they are the peers, not the code under test)."""
+there (judged, not asserted: they are the peers, not the code under test). The same holds for
+tetrace's BVH (``accel="reshetov_bvh"``) on every ray query."""
 
 from __future__ import annotations
 
@@ -18,9 +19,16 @@ def test_queries_bench_judges_every_kind(embree, open3d):
         assert r["judged"] > 0 and r["right"] == r["judged"], r
     # the bundled scene is closed (welded), so containment was judged on and off the surface
     assert {r["rays"] for r in mine if r["query"] == "contains"} == {"points", "vertices"}
-    peers = {(r["caster"], r["query"]) for r in judged if r["caster"] != "tetrace"}
+    # Reshetov's BVH answers every ray query, all right too (containment is the walk's).
+    bvh = [r for r in judged if r["caster"] == "tetrace_bvh"]
+    assert {r["query"] for r in bvh} == set(QUERIES) - {"contains"}
+    assert {r["rays"] for r in bvh} >= {"camera", "random", "shadow", "stress"}
+    for r in bvh:
+        assert r["judged"] > 0 and r["right"] == r["judged"], r
+    peers = {(r["caster"], r["query"]) for r in judged if not r["caster"].startswith("tetrace")}
     assert {("embreex", "closest"), ("embreex", "any")} <= peers
     assert {("open3d", q) for q in QUERIES} <= peers
     timed = {(r["caster"], r["query"]) for r in rows["timing"]}
     assert {("tetrace", q) for q in QUERIES} <= timed
+    assert {("tetrace_bvh", q) for q in QUERIES if q != "contains"} <= timed
     assert any("Throughput" in line for line in lines)

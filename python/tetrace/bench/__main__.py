@@ -186,6 +186,10 @@ def main(argv=None):
         return scenes_main(argv[1:])
     if argv[:1] == ["queries"]:
         return queries_main(argv[1:])
+    if argv[:1] == ["bvh"]:
+        from .bvh import bvh_main
+
+        return bvh_main(argv[1:])
     p = argparse.ArgumentParser(
         prog="python -m tetrace.bench",
         description="Full-scene benchmark: a pinhole camera cast by tetrace and by embreex on "
@@ -213,7 +217,8 @@ def main(argv=None):
         "--method",
         action="append",
         default=None,
-        help="exit method (repeatable, or 'all'; default: the default method)",
+        help="exit method, or an accelerator ('reshetov_bvh': the exact answers from a BVH) "
+        "(repeatable, or 'all'; default: the default method)",
     )
     p.add_argument(
         "--layout",

@@ -33,6 +33,20 @@ from ..hits import HIT, MISS, Hits
 OPEN3D_CHUNK = 1024
 
 
+def is_accel(method):
+    """Whether a bench "method" names an acceleration structure other than the tet walk
+    (``reshetov_bvh``): its rows have no layout."""
+    from .. import _native
+
+    return method in _native.accels() and method != "tetwalk"
+
+
+def structure_bytes(memory, method, layout):
+    """Bytes of what a cast with ``method`` on ``layout`` walks or tests: the layout's
+    records, or the accelerator's structure."""
+    return memory["bvh"] if is_accel(method) else memory[f"tets_{layout}"]
+
+
 def _threads(k):
     return f"{k} thread" + ("" if k == 1 else "s")
 
@@ -110,11 +124,18 @@ class TetraceCaster:
     def __init__(self, scene, method, layout, precision="f32", device="cpu"):
         self.scene, self.method, self.layout = scene, method, layout
         self.precision, self.device = precision, device
+        # A "method" that names an accelerator (the bench's method column): the exact
+        # default's answers from another structure, with no exit method or layout.
+        self.accel = method if is_accel(method) else None
 
     @property
     def label(self):
         from .. import __version__
 
+        if self.accel:
+            return (
+                f"tetrace {__version__}: Scene.cast(accel={self.accel}, precision={self.precision})"
+            )
         return (
             f"tetrace {__version__}: Scene.cast(method={self.method}, layout={self.layout}, "
             f"precision={self.precision}, device={self.device})"
@@ -127,6 +148,8 @@ class TetraceCaster:
 
     def cast(self, origins, directions, threads):
         kw = dict(method=self.method, layout=self.layout, device=self.device)
+        if self.accel:
+            kw = dict(accel=self.accel)
         if self.device == "cpu":
             kw.update(threads=threads, precision=self.precision)
         return self.scene.cast(origins, directions, **kw)

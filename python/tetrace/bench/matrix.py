@@ -44,7 +44,16 @@ import numpy as np
 from ..dev.camera import orbit_views, pinhole
 from ..dev.compare import compare, same_plane
 from ..hits import FAILED, HIT
-from .casters import EmbreexCaster, Open3DCaster, TetraceCaster, open3d_module, rays_for, timed
+from .casters import (
+    EmbreexCaster,
+    Open3DCaster,
+    TetraceCaster,
+    is_accel,
+    open3d_module,
+    rays_for,
+    structure_bytes,
+    timed,
+)
 from .scene_bench import _table, configurations
 
 #: Mesher settings by name: keyword arguments of :meth:`tetrace.Scene.from_mesh`.
@@ -63,7 +72,7 @@ SETTINGS = {
 FULL_SCENES = ("cornell_box.obj", "teapot.obj", "bunny.obj", "armadillo.obj", "torus_knots_27.obj")
 FULL = dict(
     settings=list(SETTINGS),
-    methods=["lagae2008_plane", "maria2017", "aman2022", "robust"],
+    methods=["lagae2008_plane", "maria2017", "aman2022", "robust", "reshetov_bvh"],
     layouts=["tet32", "tet20"],
     precisions=["f32", "f64"],
     threads=["1", "all"],
@@ -265,14 +274,16 @@ def run_scene_settings(
                     device="cpu",
                     tets_per_ray=float(hits.steps.mean()),
                     mem_mb=(
-                        mem["points_f64"]
+                        structure_bytes(mem, method, layout)
+                        if is_accel(method)
+                        else mem["points_f64"]
                         + mem["points_f32"]
                         + mem["constrained"]
                         + mem["locator"]
                         + mem[f"tets_{layout}"]
                     )
                     / 1e6,
-                    mem_layout_mb=mem[f"tets_{layout}"] / 1e6,
+                    mem_layout_mb=structure_bytes(mem, method, layout) / 1e6,
                 )
             )
         if gpu:

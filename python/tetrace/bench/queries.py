@@ -148,15 +148,22 @@ class _Peers:
         }[query]
 
 
-def _tetrace(scene, query, o, d, tmax, k):
+#: tetrace's casters: the tet walk (the default) and Reshetov's BVH (``accel=``).
+TETRACE_CASTERS = {"tetrace": None, "tetrace_bvh": "reshetov_bvh"}
+
+
+def _tetrace(scene, query, o, d, tmax, k, accel=None):
+    kw = dict(tmax=tmax, threads=k, accel=accel)
     if query == "closest":
-        return lambda: scene.cast(o, d, tmax=tmax, threads=k)
+        return lambda: scene.cast(o, d, **kw)
     if query == "any":
-        return lambda: scene.occluded(o, d, tmax=tmax, threads=k)
+        return lambda: scene.occluded(o, d, **kw)
     if query == "all":
-        return lambda: scene.intersections(o, d, tmax=tmax, threads=k)
+        return lambda: scene.intersections(o, d, **kw)
     if query == "count":
-        return lambda: scene.count_intersections(o, d, tmax=tmax, threads=k)
+        return lambda: scene.count_intersections(o, d, **kw)
+    if accel is not None:
+        return None  # containment is the tet walk's (exact location and parity)
     return lambda: scene.contains(o, threads=k)
 
 
@@ -165,7 +172,7 @@ def _tetrace(scene, query, o, d, tmax, k):
 
 def _lists_of(caster, out, n):
     """``(offsets, t, triangle, arithmetic)`` of an all-hits answer."""
-    if caster == "tetrace":
+    if caster in TETRACE_CASTERS:
         return out.offsets, out.t, out.triangle, "f64"
     # Open3D does not promise its lists sorted by t: judged as sets, sorted here.
     splits = out["ray_splits"].numpy().astype(np.int64)
@@ -316,11 +323,11 @@ def run_queries(path=None, *, res=256, n_random=20_000, repeat=3, stress=300, ou
             ref = reference_contains(referee, o)
         else:
             ref = None
-        for caster in ("tetrace", "embreex", "open3d"):
+        for caster in (*TETRACE_CASTERS, "embreex", "open3d"):
             calls = {
                 k: (
-                    _tetrace(scene, query, o, d, tmax, k)
-                    if caster == "tetrace"
+                    _tetrace(scene, query, o, d, tmax, k, TETRACE_CASTERS[caster])
+                    if caster in TETRACE_CASTERS
                     else getattr(peers, caster)(query, o, d, tmax, k)
                 )
                 for k in threads
@@ -374,15 +381,17 @@ def judge_stress(n, *, peers_too=True, out=print):
         plain = (case.tmin == 0) & np.isinf(case.tmax)
         verdict = referee.first_hits(o64, d64, case.tmin, case.tmax)
         cross = referee.crossings(o64, d64, case.tmin, case.tmax)
-        answers = {
-            "any": scene.occluded(o, d, tmin=case.tmin, tmax=case.tmax),
-            "all": scene.intersections(o, d, tmin=case.tmin, tmax=case.tmax),
-            "count": scene.count_intersections(o, d, tmin=case.tmin, tmax=case.tmax),
-        }
-        for query, ans in answers.items():
-            ref = verdict if query == "any" else cross
-            right, k = judge_answer(query, "tetrace", ans, ref)
-            rows.append(dict(query=query, rays="stress", caster="tetrace", right=right, judged=k))
+        for caster, accel in TETRACE_CASTERS.items():
+            kw = dict(tmin=case.tmin, tmax=case.tmax, accel=accel)
+            answers = {
+                "any": scene.occluded(o, d, **kw),
+                "all": scene.intersections(o, d, **kw),
+                "count": scene.count_intersections(o, d, **kw),
+            }
+            for query, ans in answers.items():
+                ref = verdict if query == "any" else cross
+                right, k = judge_answer(query, caster, ans, ref)
+                rows.append(dict(query=query, rays="stress", caster=caster, right=right, judged=k))
         if o3d is None or not plain.any():
             continue
         s = _open3d_scene(o3d, case.vertices, case.faces)
@@ -408,10 +417,13 @@ def _print_timing(rows, out):
         for k in sorted({r["threads"] for r in sel}):
             cell = {r["caster"]: r["mqs"] for r in sel if r["threads"] == k}
             t = cell.get("tetrace")
-            row = [q, rs, sel[0]["n"], k, f"{t:.2f}"]
+            b = cell.get("tetrace_bvh")
+            row = [q, rs, sel[0]["n"], k, f"{t:.2f}", "--" if not b else f"{b:.2f}"]
             for peer in ("embreex", "open3d"):
                 p = cell.get(peer)
-                row.append("--" if not p else f"{p:.2f} ({t / p:.2f}x)")
+                row.append(
+                    "--" if not p else f"{p:.2f} ({t / p:.2f}x" + (f", {b / p:.2f}x)" if b else ")")
+                )
             table.append(row)
     out(
         _table(
@@ -422,8 +434,9 @@ def _print_timing(rows, out):
                 "n",
                 "threads",
                 "tetrace",
-                "embreex (tetrace/it)",
-                "open3d (tetrace/it)",
+                "tetrace bvh",
+                "embreex (tetrace/it, bvh/it)",
+                "open3d (tetrace/it, bvh/it)",
             ],
         )
     )
@@ -448,8 +461,8 @@ def _print_judged(rows, out):
     pairs = list(dict.fromkeys((k[0], k[1]) for k in agg))
     for q, rs in sorted(pairs, key=lambda x: QUERIES.index(x[0])):  # stable: as run within
         row = [q, rs]
-        for c in ("tetrace", "embreex", "open3d"):
+        for c in (*TETRACE_CASTERS, "embreex", "open3d"):
             a = agg.get((q, rs, c))
             row.append("--" if a is None else f"{a[0]:,}/{a[1]:,} ({a[1] - a[0]:,})")
         table.append(row)
-    out(_table(table, ["query", "rays", "tetrace", "embreex", "open3d"]))
+    out(_table(table, ["query", "rays", "tetrace", "tetrace bvh", "embreex", "open3d"]))

@@ -15,9 +15,12 @@ from ..scene import LAYOUT_BYTES, Scene, default_scene_path, simd_levels
 
 def configurations(methods, layouts, precisions, threads):
     """Every (method, layout, precision, threads) of a bench run, but tet80 in float64
-    (its records hold float32 coordinates: there is no such walk)."""
+    (its records hold float32 coordinates: there is no such walk); a method that names an
+    accelerator (``reshetov_bvh``) runs once, with layout ``"-"``."""
+    from .casters import is_accel
+
     for method in methods:
-        for layout in layouts:
+        for layout in ["-"] if is_accel(method) else layouts:
             for prec in precisions:
                 if layout == "tet80" and prec == "f64":
                     continue
@@ -179,7 +182,9 @@ def run_scene_bench(
 
     methods_arg, layouts_arg = methods, layouts
     methods = (
-        all_methods() if methods in (["all"], "all") else (methods or [_native.DEFAULT_METHOD])
+        all_methods() + [a for a in _native.accels() if a != "tetwalk"]
+        if methods in (["all"], "all")
+        else (methods or [_native.DEFAULT_METHOD])
     )
     layouts = (
         all_layouts() if layouts in (["all"], "all") else (layouts or [_native.DEFAULT_LAYOUT])
@@ -284,7 +289,7 @@ def run_scene_bench(
                     f"{rate:.2f}",
                     f"{rate / embree_rate[label]:.2f}",
                     f"{hits.steps.mean():.1f}",
-                    LAYOUT_BYTES[layout],
+                    LAYOUT_BYTES.get(layout, "-"),
                     f"{a.fraction * 100:.3f}%",
                 ]
             )
@@ -301,7 +306,7 @@ def run_scene_bench(
                     "mrays_per_s": rate,
                     "ratio_to_embree": rate / embree_rate[label],
                     "tets_per_ray": float(hits.steps.mean()),
-                    "bytes_per_tet": LAYOUT_BYTES[layout],
+                    "bytes_per_tet": LAYOUT_BYTES.get(layout),
                     "right": a.fraction,
                     "failed": a.failed,
                     "leaked": a.leaked,

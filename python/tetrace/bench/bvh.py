@@ -1,0 +1,147 @@
+"""Reshetov's BVH (``accel="reshetov_bvh"``): the SAH-ratio sweep of Reshetov 2007, tree size
+against speed, on one scene, beside the tet walk and embreex on the same camera rays.
+
+``python -m tetrace.bench bvh [mesh] [--res 512] [--ratios 0.25,0.5,1,2,4,8]
+[--leaves 4,8,16]`` builds the tree once per (cost ratio, max leaf size) and casts a pinhole
+camera of ``res``² float32 rays on one thread; every tetrace row is judged by the exact
+referee. Columns: build seconds, nodes, leaves, depth, MB, Mrays/s, × embreex, nodes visited
+per ray, right (referee).
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from ..dev.camera import orbit_views, pinhole
+from ..scene import Scene, default_scene_path
+
+RATIOS = (0.25, 0.5, 1.0, 2.0, 4.0, 8.0)
+LEAVES = (4, 8, 16)
+
+
+def run_bvh_sweep(
+    path=None, *, res=512, ratios=RATIOS, leaves=LEAVES, repeat=3, distance=1.6, out=print
+):
+    """Sweep the BVH's SAH cost ratio and leaf size on one scene; print and return the rows.
+
+    Parameters
+    ----------
+    path : str, optional
+        Mesh file; None uses the bundled scene.
+    res : int
+        Camera resolution (``res`` × ``res`` float32 rays, one thread).
+    ratios : sequence of float
+        SAH cost of visiting a node over testing a triangle.
+    leaves : sequence of int
+        Most triangles per leaf.
+    repeat : int
+        Timed casts per row; the best is kept.
+    distance : float
+        Camera distance from the scene centre, in bounding radii.
+    out : callable
+
+    Returns
+    -------
+    list of dict
+        One per tree (and one for the tet walk, ``accel`` ``"tetwalk"``): its shape, memory,
+        ``mrays_per_s``, ``ratio_to_embree``, ``nodes_per_ray`` and ``right`` (the share of
+        rays the referee finds right).
+    """
+    from ..dev.compare import agreement
+    from ..referee import Referee
+    from .casters import EmbreexCaster, TetraceCaster, timed
+    from .scene_bench import _table
+
+    path = str(path) if path is not None else str(default_scene_path())
+    scene = Scene.from_mesh(path)
+    v, f = scene.vertices, scene.faces
+    eye, target, up = orbit_views(np.array([v.min(0), v.max(0)]), n=1, distance=distance)[0]
+    o, d = pinhole(eye, target, up, fov_deg=40.0, width=res, height=res, dtype=np.float32)
+    n = len(o)
+    embreex = EmbreexCaster(v, f)
+    te, _ = timed(embreex, o, d, 1, repeat)
+    embree_rate = n / te / 1e6
+    verdict = None
+
+    def measure(method):
+        nonlocal verdict
+        seconds, hits = timed(TetraceCaster(scene, method, None, "f32"), o, d, 1, repeat)
+        if verdict is None:
+            verdict = Referee(v, f).first_hits(o, d, hint=hits.triangle)
+        rate = n / seconds / 1e6
+        return dict(
+            mrays_per_s=rate,
+            ratio_to_embree=rate / embree_rate,
+            nodes_per_ray=float(hits.steps.mean()),
+            right=agreement(hits, verdict, "f64").fraction,
+        )
+
+    rows = [dict(accel="tetwalk", **measure("exact"))]
+    for ratio in ratios:
+        for leaf in leaves:
+            t0 = time.perf_counter()
+            shape = scene.build_bvh(cost_ratio=ratio, max_leaf=leaf)
+            built = time.perf_counter() - t0
+            rows.append(
+                dict(accel="reshetov_bvh", build_s=built, **shape, **measure("reshetov_bvh"))
+            )
+    out(
+        f"BVH sweep: {path.split('/')[-1]} ({len(f):,} triangles, {scene.n_tets:,} tets), "
+        f"{res}x{res} float32 camera, one thread, best of {repeat}; embreex {embree_rate:.2f} "
+        "Mrays/s; 'nodes/ray': BVH nodes visited (tet walk: tets)"
+    )
+    table = [
+        [
+            r["accel"],
+            r.get("cost_ratio", "-"),
+            r.get("max_leaf", "-"),
+            f"{r['build_s']:.2f}" if "build_s" in r else "-",
+            r.get("nodes", "-"),
+            r.get("leaves", "-"),
+            r.get("depth", "-"),
+            f"{r['bytes'] / 1e6:.1f}" if "bytes" in r else "-",
+            f"{r['mrays_per_s']:.2f}",
+            f"{r['ratio_to_embree']:.2f}",
+            f"{r['nodes_per_ray']:.1f}",
+            f"{r['right'] * 100:.3f}%",
+        ]
+        for r in rows
+    ]
+    header = [
+        "accel",
+        "cost ratio",
+        "max leaf",
+        "build s",
+        "nodes",
+        "leaves",
+        "depth",
+        "MB",
+        "Mrays/s",
+        "x embreex",
+        "nodes/ray",
+        "right (referee)",
+    ]
+    out(_table(table, header))
+    return rows
+
+
+def bvh_main(argv):
+    """Command line of ``python -m tetrace.bench bvh``."""
+    p = argparse.ArgumentParser(prog="python -m tetrace.bench bvh", description=__doc__)
+    p.add_argument("scene", nargs="?", default=None, help="mesh file (default: the bundled scene)")
+    p.add_argument("--res", type=int, default=512)
+    p.add_argument("--repeat", type=int, default=3)
+    p.add_argument("--ratios", default=",".join(map(str, RATIOS)))
+    p.add_argument("--leaves", default=",".join(map(str, LEAVES)))
+    args = p.parse_args(argv)
+    run_bvh_sweep(
+        args.scene,
+        res=args.res,
+        repeat=args.repeat,
+        ratios=[float(x) for x in args.ratios.split(",")],
+        leaves=[int(x) for x in args.leaves.split(",")],
+    )
+    return 0
