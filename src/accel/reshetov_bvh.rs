@@ -11,6 +11,8 @@
 use super::Accel;
 use crate::error::{Error, Result};
 use crate::geom::ray::Ray;
+use crate::geom::real::{greater, lesser};
+use crate::mesh::surface::check_finite;
 use crate::query::gather::{Gather, Line, Tri};
 use crate::query::QueryKind;
 
@@ -162,14 +164,7 @@ impl ReshetovBvh {
                 triangles.len()
             )));
         }
-        if let Some(k) = triangles
-            .iter()
-            .position(|t| !t.iter().flatten().all(|x| x.is_finite()))
-        {
-            return Err(Error::InvalidInput(format!(
-                "triangle {k} has a non-finite corner"
-            )));
-        }
+        check_finite(triangles)?;
         let boxes: Vec<Aabb> = triangles.iter().map(Aabb::of).collect();
         let centre = |k: u32| {
             let b = &boxes[k as usize];
@@ -369,24 +364,6 @@ struct Slab {
 const PAD: f64 = 4.0 * f64::EPSILON;
 /// Absolute slack for results that underflow (below the smallest normal, rounding is absolute).
 const TINY: f64 = 4.0 * f64::MIN_POSITIVE;
-
-#[inline(always)]
-fn lesser(a: f64, b: f64) -> f64 {
-    if a < b {
-        a
-    } else {
-        b
-    }
-}
-
-#[inline(always)]
-fn greater(a: f64, b: f64) -> f64 {
-    if a > b {
-        a
-    } else {
-        b
-    }
-}
 
 impl Slab {
     fn new(line: &Line) -> Slab {

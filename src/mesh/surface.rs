@@ -3,6 +3,19 @@
 
 use crate::error::{Error, Result};
 
+/// Refuses triangles with a NaN or infinite corner, naming the first.
+pub fn check_finite(triangles: &[[[f64; 3]; 3]]) -> Result<()> {
+    match triangles
+        .iter()
+        .position(|t| !t.iter().flatten().all(|x| x.is_finite()))
+    {
+        Some(k) => Err(Error::InvalidInput(format!(
+            "triangle {k} has a non-finite corner"
+        ))),
+        None => Ok(()),
+    }
+}
+
 /// The caller's triangles (three corners each), indexed by the ids constrained faces carry.
 #[derive(Clone, Debug, Default)]
 pub struct Surface {

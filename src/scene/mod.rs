@@ -77,14 +77,7 @@ impl Scene {
                 triangles.len()
             )));
         }
-        if let Some(k) = triangles
-            .iter()
-            .position(|t| !t.iter().flatten().all(|x| x.is_finite()))
-        {
-            return Err(Error::InvalidInput(format!(
-                "triangle {k} has a non-finite corner"
-            )));
-        }
+        crate::mesh::surface::check_finite(&triangles)?;
         let np = points.len() as u64;
         let in_range = tets
             .iter()

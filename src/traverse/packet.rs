@@ -17,7 +17,7 @@
 
 use super::walk::WalkSetup;
 use super::Exit;
-use crate::geom::real::{Real, V3};
+use crate::geom::real::{greater, lesser, Real, V3};
 use crate::layout::Layout;
 use crate::mesh::build::CONSTRAINED_BIT;
 use crate::simd::Simd;
@@ -88,27 +88,6 @@ pub struct Edge {
 #[inline(always)]
 pub fn norm(p: &V3<f64>) -> f64 {
     greater(greater(p[0].abs(), p[1].abs()), p[2].abs())
-}
-
-/// min(a, b) for numbers that are not NaN, in one instruction (`f64::min` also orders NaN,
-/// which packets never hold: their directions passed `Locators::exact_line`).
-#[inline(always)]
-fn lesser(a: f64, b: f64) -> f64 {
-    if b < a {
-        b
-    } else {
-        a
-    }
-}
-
-/// max(a, b) for numbers that are not NaN (see [`lesser`]).
-#[inline(always)]
-fn greater(a: f64, b: f64) -> f64 {
-    if b > a {
-        b
-    } else {
-        a
-    }
 }
 
 impl Edge {
