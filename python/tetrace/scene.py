@@ -477,7 +477,8 @@ class Scene:
             # Only a float method named explicitly: the exact default has no GPU kernel, and
             # "auto" must not trade the contract for speed behind the caller's back.
             use_gpu = (
-                method is not None
+                accel in (None, "tetwalk")
+                and method is not None
                 and gpu.kernel_for(method, layout) is not None
                 and gpu.available()
             )
