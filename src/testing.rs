@@ -204,3 +204,14 @@ pub(crate) fn exact_case_rays(
 }
 
 pub(crate) type Ray6 = ([f64; 3], [f64; 3]);
+
+/// Per ray, the window [lo, 1] / ‖d‖∞ (a tmin/tmax pair that cuts the stress rays' crossings
+/// on both sides, whatever their direction's scale).
+pub(crate) fn windows(rays: &[Ray6], lo: f64) -> (Vec<f64>, Vec<f64>) {
+    rays.iter()
+        .map(|r| {
+            let l = r.1.iter().fold(0f64, |m, x| m.max(x.abs()));
+            (lo / l, 1.0 / l)
+        })
+        .unzip()
+}

@@ -295,8 +295,7 @@ impl<'a> ExactRay<'a> {
 }
 
 /// Where the line o + t d crosses the plane of `tri` against [tmin, tmax], exactly, for a
-/// crossing known not to lie behind the origin when tmin is 0 (the walk's; one tested
-/// anywhere on the line checks t ≥ 0 first).
+/// crossing the walk reached (so not behind the origin when tmin is 0).
 pub fn range_of(o: [f64; 3], d: [f64; 3], tmin: f64, tmax: f64, tri: &[[f64; 3]; 3]) -> Range {
     if tmin > 0.0 && cmp_t(o, d, tri, tmin) == Ordering::Less {
         Range::Before

@@ -5,7 +5,7 @@
 //! which of two crossings comes first, which are one point. So the answers are the ones the
 //! exact walk gives, whatever order the triangles come in.
 
-use super::contact::{meet_at, range_of, Meet, Range};
+use super::contact::{meet_at, Meet};
 use crate::geom::exact::{cmp_plane_t, cmp_t, plane_t, triangle_sides};
 use crate::geom::ray::{checked_range, Ray};
 use crate::geom::real::unit_scale;
@@ -49,10 +49,9 @@ impl Line {
         if pos == neg {
             return false;
         }
-        if self.tmin == 0.0 && cmp_t(o, self.d, tri, 0.0) == Ordering::Less {
-            return false;
-        }
-        range_of(o, self.d, self.tmin, self.tmax, tri) == Range::In
+        // Exact t against [tmin, tmax] (tmin ≥ 0 also rules out crossings behind the origin).
+        cmp_t(o, self.d, tri, self.tmin) != Ordering::Less
+            && !(self.tmax.is_finite() && cmp_t(o, self.d, tri, self.tmax) == Ordering::Greater)
     }
 
     /// Which of two triangles the ray meets first: the sign of t1 − t2, exactly.

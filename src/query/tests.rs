@@ -198,12 +198,7 @@ fn exact_walk_is_right_where_float_walks_fail() {
             let o: Vec<f64> = rays.iter().flat_map(|r| r.0).collect();
             let d: Vec<f64> = rays.iter().flat_map(|r| r.1).collect();
             let (tmin, tmax): (Vec<f64>, Vec<f64>) = if window {
-                rays.iter()
-                    .map(|r| {
-                        let l = r.1.iter().fold(0f64, |m, x| m.max(x.abs()));
-                        (0.25 / l, 1.0 / l)
-                    })
-                    .unzip()
+                crate::testing::windows(&rays, 0.25)
             } else {
                 (vec![0.0], vec![f64::INFINITY])
             };
@@ -281,12 +276,7 @@ fn all_hits_counts_and_occlusion_agree_with_the_referee() {
     let (mut shared, mut points) = (0, 0);
     for window in [false, true] {
         let (tmin, tmax): (Vec<f64>, Vec<f64>) = if window {
-            rays.iter()
-                .map(|r| {
-                    let l = r.1.iter().fold(0f64, |m, x| m.max(x.abs()));
-                    (0.25 / l, 1.0 / l)
-                })
-                .unzip()
+            crate::testing::windows(&rays, 0.25)
         } else {
             (vec![0.0; n], vec![f64::INFINITY; n])
         };
@@ -515,12 +505,7 @@ fn lanes_answer_as_the_one_ray_walk() {
     let (on, off) = (lanes(Lanes::On), lanes(Lanes::Off));
     for window in [false, true] {
         let (tmin, tmax): (Vec<f64>, Vec<f64>) = if window {
-            rays.iter()
-                .map(|r| {
-                    let l = r.1.iter().fold(0f64, |m, x| m.max(x.abs()));
-                    (0.125 / l, 1.0 / l)
-                })
-                .unzip()
+            crate::testing::windows(&rays, 0.125)
         } else {
             (vec![0.0], vec![f64::INFINITY])
         };

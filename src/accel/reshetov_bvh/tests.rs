@@ -47,12 +47,7 @@ fn bvh_answers_are_the_referees_and_the_walks() {
         let d32: Vec<f32> = d.iter().map(|&x| x as f32).collect();
         for window in [false, true] {
             let (tmin, tmax): (Vec<f64>, Vec<f64>) = if window {
-                rays.iter()
-                    .map(|r| {
-                        let l = r.1.iter().fold(0f64, |m, x| m.max(x.abs()));
-                        (0.25 / l, 1.0 / l)
-                    })
-                    .unzip()
+                crate::testing::windows(&rays, 0.25)
             } else {
                 (vec![0.0; n], vec![f64::INFINITY; n])
             };
