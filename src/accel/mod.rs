@@ -5,6 +5,7 @@
 //! all are listed in [`ACCELS`], so a cast and the benchmarks drive them all the same way.
 
 pub mod reshetov_bvh;
+pub mod reshetov_bvh_packets;
 pub mod tetwalk;
 
 use crate::geom::ray::Ray;
@@ -12,10 +13,16 @@ use crate::geom::real::Real;
 use crate::query::{QueryKind, Sink};
 
 pub use reshetov_bvh::{BvhParams, ReshetovBvh};
+pub use reshetov_bvh_packets::{BvhPackets, CullCounters};
 pub use tetwalk::TetWalk;
 
 /// The acceleration structures there are, by name.
-pub const ACCELS: [&str; 2] = ["tetwalk", "reshetov_bvh"];
+pub const ACCELS: [&str; 4] = [
+    "tetwalk",
+    "reshetov_bvh",
+    "reshetov_bvh_packets",
+    "reshetov_bvh_packets8",
+];
 
 /// Which acceleration structure a cast runs.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -26,13 +33,26 @@ pub enum AccelKind {
     TetWalk,
     /// Reshetov's BVH (`reshetov_bvh`), built on first use with [`BvhParams::default`].
     ReshetovBvh,
+    /// The same BVH walked by packets of this many rays with Reshetov's frustum vertex
+    /// culling (`reshetov_bvh_packets`: 16, a 4×4 tile; `reshetov_bvh_packets8`: 64, 8×8).
+    ReshetovBvhPackets(u8),
 }
 
 impl AccelKind {
+    /// Whether it tests triangles with a BVH (rather than walking tets).
+    pub fn is_bvh(self) -> bool {
+        matches!(
+            self,
+            AccelKind::ReshetovBvh | AccelKind::ReshetovBvhPackets(_)
+        )
+    }
+
     pub fn from_name(name: &str) -> crate::Result<AccelKind> {
         match name {
             "tetwalk" => Ok(AccelKind::TetWalk),
             "reshetov_bvh" => Ok(AccelKind::ReshetovBvh),
+            "reshetov_bvh_packets" => Ok(AccelKind::ReshetovBvhPackets(16)),
+            "reshetov_bvh_packets8" => Ok(AccelKind::ReshetovBvhPackets(64)),
             _ => Err(crate::Error::InvalidOption(format!(
                 "unknown accel {name:?}; expected one of {ACCELS:?}"
             ))),

@@ -8,6 +8,7 @@
 //! exactly (`query::gather::Line::meets`), and the query keeps the exact nearest, any, or all.
 //! So a BVH answer is what exact arithmetic gives, as the exact walk's is.
 
+use super::reshetov_bvh_packets::CullCounters;
 use super::Accel;
 use crate::error::{Error, Result};
 use crate::geom::ray::Ray;
@@ -85,6 +86,8 @@ pub struct ReshetovBvh {
     /// The triangles in leaf order (a leaf's are contiguous).
     pub triangles: Vec<Tri>,
     pub params: BvhParams,
+    /// What packets' frustum culling did on this tree (`reshetov_bvh_packets`).
+    pub culling: CullCounters,
 }
 
 /// A float64 box.
@@ -268,6 +271,7 @@ impl ReshetovBvh {
             order,
             triangles: tris,
             params,
+            culling: CullCounters::default(),
         })
     }
 
@@ -351,7 +355,7 @@ impl ReshetovBvh {
 /// normal, finite reciprocal (nearly every ray) the test is branch-free; otherwise an axis
 /// where d is zero bounds nothing but the origin's slab, and one whose reciprocal is not
 /// normal bounds nothing (slabs are conservative, not tight).
-struct Slab {
+pub(crate) struct Slab {
     o: [f64; 3],
     inv: [f64; 3],
     /// Per axis: 0: the slab; 1: d is zero (inside the slab or never); 2: no bound.
@@ -366,7 +370,7 @@ const PAD: f64 = 4.0 * f64::EPSILON;
 const TINY: f64 = 4.0 * f64::MIN_POSITIVE;
 
 impl Slab {
-    fn new(line: &Line) -> Slab {
+    pub(crate) fn new(line: &Line) -> Slab {
         let mut kind = [0u8; 3];
         let mut inv = [0.0; 3];
         for k in 0..3 {
@@ -393,7 +397,7 @@ impl Slab {
     /// max and min over the axes: x − PAD |x| − TINY rises with x, so padding the max is
     /// the max of the padded (and the same for the min).
     #[inline(always)]
-    fn enter(&self, node: &BvhNode, tmin: f64, reach: f64) -> Option<f64> {
+    pub(crate) fn enter(&self, node: &BvhNode, tmin: f64, reach: f64) -> Option<f64> {
         let (mut near, mut far) = (tmin, reach);
         for k in 0..3 {
             let (lo, hi) = (node.lo[k] as f64, node.hi[k] as f64);

@@ -734,7 +734,7 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
 /// Where a direction lies on a Morton curve over the cube's faces: the face (major axis and
 /// its sign) in the top bits, then the other two coordinates over the major one, 14 bits
 /// each, interleaved. Nearby directions get nearby keys (mostly).
-fn direction_key(d: [f64; 3]) -> u32 {
+pub(crate) fn direction_key(d: [f64; 3]) -> u32 {
     // Plain comparisons (a key only orders rays: ties and NaN may go anywhere).
     let a = d.map(f64::abs);
     let major = if a[0] >= a[1] && a[0] >= a[2] {

@@ -601,6 +601,13 @@ fn bvh_info<'py>(py: Python<'py>, bvh: &ReshetovBvh) -> PyResult<Bound<'py, PyDi
     d.set_item("cost_ratio", bvh.params.cost_ratio)?;
     d.set_item("max_leaf", bvh.params.max_leaf)?;
     d.set_item("bins", bvh.params.bins)?;
+    // What packets' frustum culling did on this tree since it was built (cumulative).
+    let [tests, culled, no_axis, lone, frusta] = bvh.culling.read();
+    d.set_item("packet_tests", tests)?;
+    d.set_item("packet_culled", culled)?;
+    d.set_item("packet_leaves_no_axis", no_axis)?;
+    d.set_item("packet_leaves_lone", lone)?;
+    d.set_item("packet_leaves_frustum", frusta)?;
     Ok(d)
 }
 

@@ -2,7 +2,7 @@
 //! monomorphized walk, run over 4096-ray chunks on the threads asked for.
 
 use super::{check_lengths, HitsOut, Rays, Scene};
-use crate::accel::{Accel, TetWalk};
+use crate::accel::{Accel, BvhPackets, TetWalk};
 pub use crate::accel::{AccelKind, Lanes, Packets};
 use crate::error::{Error, Result};
 use crate::geom::real::Real;
@@ -190,7 +190,7 @@ impl Scene {
         opts: &CastOptions,
     ) -> Result<()> {
         opts.check()?;
-        if opts.accel == AccelKind::ReshetovBvh {
+        if opts.accel.is_bvh() {
             return self.dispatch_bvh(method, rays, job, opts);
         }
         let step = LayoutStep {
@@ -203,7 +203,8 @@ impl Scene {
         self.layouts.visit(layout, &self.mesh, step)?
     }
 
-    /// A cast on Reshetov's BVH: exact, so only the exact method's name is taken.
+    /// A cast on Reshetov's BVH, one ray at a time or in packets: exact, so only the exact
+    /// method's name is taken.
     fn dispatch_bvh<R: Real>(
         &self,
         method: Method,
@@ -219,22 +220,42 @@ impl Scene {
             )));
         }
         let bvh = &*self.bvh()?;
+        match opts.accel {
+            AccelKind::ReshetovBvhPackets(size) => {
+                let packets = BvhPackets {
+                    bvh,
+                    size: size as usize,
+                };
+                self.cast_job(&packets, rays, job, opts)
+            }
+            _ => self.cast_job(bvh, rays, job, opts),
+        }
+    }
+
+    /// Every query kind on an accelerator that answers in float64 (the BVH's ways).
+    fn cast_job<R: Real, A: Accel<f64>>(
+        &self,
+        accel: &A,
+        rays: &Rays<R>,
+        job: Job<R>,
+        opts: &CastOptions,
+    ) -> Result<()> {
         let closest = self.closest();
         match job {
             Job::Closest(out) => {
                 if !out.audit.is_empty() {
-                    return Err(Error::InvalidOption(
-                        "audit counts the tet walk's exit faces; accel reshetov_bvh has none"
-                            .into(),
-                    ));
+                    return Err(Error::InvalidOption(format!(
+                        "audit counts the tet walk's exit faces; accel {} has none",
+                        A::NAME
+                    )));
                 }
-                cast_accel::<R, f64, _, _, _>(bvh, &closest, rays, out, opts.threads)
+                cast_accel::<R, f64, _, _, _>(accel, &closest, rays, out, opts.threads)
             }
             Job::Any(out) => {
-                cast_accel::<R, f64, _, _, _>(bvh, &AnyHit(closest), rays, out, opts.threads)
+                cast_accel::<R, f64, _, _, _>(accel, &AnyHit(closest), rays, out, opts.threads)
             }
             Job::All(out) => {
-                cast_accel::<R, f64, _, _, _>(bvh, &AllHits(closest), rays, out, opts.threads)
+                cast_accel::<R, f64, _, _, _>(accel, &AllHits(closest), rays, out, opts.threads)
             }
         }
     }

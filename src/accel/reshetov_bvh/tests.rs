@@ -26,8 +26,20 @@ fn flat(rays: &[([f64; 3], [f64; 3])]) -> (Vec<f64>, Vec<f64>) {
 /// and without a [tmin, tmax] window.
 #[test]
 fn bvh_answers_are_the_referees_and_the_walks() {
+    for accel in [
+        AccelKind::ReshetovBvh,
+        AccelKind::ReshetovBvhPackets(16),
+        AccelKind::ReshetovBvhPackets(64),
+    ] {
+        bvh_agrees(accel);
+    }
+}
+
+/// [`bvh_answers_are_the_referees_and_the_walks`] for one way of walking the tree; with
+/// packets, also that the frustum culled tests (and not all of them: rays hit).
+fn bvh_agrees(accel: AccelKind) {
     let bvh_opts = CastOptions {
-        accel: AccelKind::ReshetovBvh,
+        accel,
         ..Default::default()
     };
     let walk_opts = CastOptions::default();
@@ -170,8 +182,18 @@ fn bvh_answers_are_the_referees_and_the_walks() {
                 );
             }
         }
+        if let AccelKind::ReshetovBvhPackets(_) = accel {
+            let [tests, culled, _, lone, frusta] = g.scene.built_bvh().unwrap().culling.read();
+            eprintln!(
+                "seed {seed}: {culled} of {tests} tests culled, {frusta} frusta, {lone} lone"
+            );
+            assert!(
+                frusta > 0 && culled > 0 && culled < tests,
+                "{culled} of {tests} culled, {frusta} frusta"
+            );
+        }
     }
-    eprintln!("bvh: {hits} closest hits, {ties} tied, {points} points listed");
+    eprintln!("bvh {accel:?}: {hits} closest hits, {ties} tied, {points} points listed");
     assert!(
         hits > 5000 && ties > 1000 && points > 5000,
         "{hits} hits, {ties} ties, {points} points"
