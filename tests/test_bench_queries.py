@@ -19,16 +19,19 @@ def test_queries_bench_judges_every_kind(embree, open3d):
         assert r["judged"] > 0 and r["right"] == r["judged"], r
     # the bundled scene is closed (welded), so containment was judged on and off the surface
     assert {r["rays"] for r in mine if r["query"] == "contains"} == {"points", "vertices"}
-    # Reshetov's BVH answers every ray query, all right too (containment is the walk's).
-    bvh = [r for r in judged if r["caster"] == "tetrace_bvh"]
-    assert {r["query"] for r in bvh} == set(QUERIES) - {"contains"}
-    assert {r["rays"] for r in bvh} >= {"camera", "random", "shadow", "stress"}
-    for r in bvh:
-        assert r["judged"] > 0 and r["right"] == r["judged"], r
+    # Reshetov's BVH, one ray at a time and in packets, answers every ray query, all right
+    # too (containment is the walk's).
+    for caster in ("tetrace_bvh", "tetrace_bvh_packets"):
+        bvh = [r for r in judged if r["caster"] == caster]
+        assert {r["query"] for r in bvh} == set(QUERIES) - {"contains"}, caster
+        assert {r["rays"] for r in bvh} >= {"camera", "random", "shadow", "stress"}, caster
+        for r in bvh:
+            assert r["judged"] > 0 and r["right"] == r["judged"], r
     peers = {(r["caster"], r["query"]) for r in judged if not r["caster"].startswith("tetrace")}
     assert {("embreex", "closest"), ("embreex", "any")} <= peers
     assert {("open3d", q) for q in QUERIES} <= peers
     timed = {(r["caster"], r["query"]) for r in rows["timing"]}
     assert {("tetrace", q) for q in QUERIES} <= timed
-    assert {("tetrace_bvh", q) for q in QUERIES if q != "contains"} <= timed
+    for caster in ("tetrace_bvh", "tetrace_bvh_packets"):
+        assert {(caster, q) for q in QUERIES if q != "contains"} <= timed
     assert any("Throughput" in line for line in lines)

@@ -1,4 +1,6 @@
-"""Reshetov's BVH (``accel="reshetov_bvh"``, issue 16) keeps tetrace's contract.
+"""Reshetov's BVH (``accel="reshetov_bvh"``, issue 16), one ray at a time and in packets with
+frustum vertex culling (``"reshetov_bvh_packets"``, ``"reshetov_bvh_packets8"``), keeps
+tetrace's contract.
 
 Its answers are judged by the exact referee on every local stress family (rays through
 vertices, along edges, in face planes, from the surface, at tmin, with directions from
@@ -21,6 +23,8 @@ N = 600
 PRECISIONS = ("f32", "f64")
 LOCAL = [f for f in FAMILIES if f not in SHARED_SCENES]
 BVH = "reshetov_bvh"
+PACKETS = ("reshetov_bvh_packets", "reshetov_bvh_packets8")
+ACCELS = (BVH, *PACKETS)
 
 
 @pytest.fixture(scope="module")
@@ -28,14 +32,14 @@ def local():
     return {c.family: (c, build_scene(c)) for c in cases(N, seed=4, families=LOCAL)}
 
 
-def _check_case(case, scene):
+def _check_case(case, scene, accel=BVH):
     """Closest hits right by the referee and equal to the walk's; any hits equal to the
     closest hits' status; all hits right by the referee's crossings, counts the walk's."""
     tie_decided = 0
     for p in PRECISIONS:
         o, d = case.rays(p)
         kw = dict(tmin=case.tmin, tmax=case.tmax, precision=p, invalid="mark")
-        bvh = scene.cast(o, d, accel=BVH, **kw)
+        bvh = scene.cast(o, d, accel=accel, **kw)
         walk = scene.cast(o, d, **kw)
         verdict = case.verdicts[p]
         masks = judge(bvh, verdict)
@@ -48,10 +52,10 @@ def _check_case(case, scene):
         tie_decided += int((~same).sum())
         hit = same & (bvh.status == HIT)
         np.testing.assert_array_equal(bvh.t[hit], walk.t[hit])
-        occluded, status = scene.occluded(o, d, accel=BVH, return_status=True, **kw)
+        occluded, status = scene.occluded(o, d, accel=accel, return_status=True, **kw)
         np.testing.assert_array_equal(status, bvh.status)
         if p == "f64":
-            lists = scene.intersections(o, d, accel=BVH, **kw)
+            lists = scene.intersections(o, d, accel=accel, **kw)
             crossings = Referee(case.vertices, case.faces).crossings(o, d, case.tmin, case.tmax)
             j = judge_lists(lists.offsets, lists.t, lists.triangle, crossings, status=lists.status)
             valid = ~j["invalid"]
@@ -59,29 +63,58 @@ def _check_case(case, scene):
                 case.family,
                 {k: int(m.sum()) for k, m in j.items() if k != "right"},
             )
-            counts = scene.count_intersections(o, d, accel=BVH, **kw)
+            counts = scene.count_intersections(o, d, accel=accel, **kw)
             np.testing.assert_array_equal(counts, scene.count_intersections(o, d, **kw))
             np.testing.assert_array_equal(counts, lists.counts.reshape(counts.shape))
     return tie_decided
 
 
+@pytest.mark.parametrize("accel", ACCELS)
 @pytest.mark.parametrize("family", LOCAL)
-def test_bvh_is_right_and_answers_as_the_walk(local, family):
+def test_bvh_is_right_and_answers_as_the_walk(local, family, accel):
     case, scene = local[family]
     assert len(case) > 0
-    _check_case(case, scene)
+    _check_case(case, scene, accel)
 
 
 def test_bvh_is_right_on_a_shared_scene(scene_path):
     case = make_case("fandisk", N, seed=4, path=scene_path(SHARED_SCENES["fandisk"]))
     case = subset(case, N)
-    _check_case(case, build_scene(case))
+    scene = build_scene(case)
+    for accel in ACCELS:
+        _check_case(case, scene, accel)
+
+
+@pytest.mark.parametrize("accel", PACKETS)
+def test_packets_cull_and_answer_as_one_ray(accel):
+    """Packets on a camera's rays: the frustum culls (the share of ray-triangle tests culled
+    is computed: above 0, below 1, as rays hit) and every answer is the one-ray tree's."""
+    from tetrace.dev.camera import orbit_views, pinhole
+
+    scene = tetrace.default_scene()
+    v = scene.vertices
+    eye, target, up = orbit_views(np.array([v.min(0), v.max(0)]), n=1, distance=1.6)[0]
+    o, d = pinhole(eye, target, up, fov_deg=40.0, width=64, height=64)
+    scene.build_bvh()
+    before = scene.bvh_info()
+    assert before["packet_tests"] == before["packet_culled"] == 0
+    packets = scene.cast(o, d, accel=accel)
+    info = scene.bvh_info()
+    tests, culled = info["packet_tests"], info["packet_culled"]
+    assert 0 < culled < tests, info
+    assert info["packet_leaves_frustum"] > 0, info
+    one = scene.cast(o, d, accel=BVH)
+    assert (one.status == HIT).sum() > 1000
+    for field in ("status", "t", "triangle", "u", "v"):
+        np.testing.assert_array_equal(getattr(packets, field), getattr(one, field))
+    # One ray at a time adds nothing to the packets' counts.
+    assert scene.bvh_info()["packet_tests"] == tests
 
 
 def test_bvh_options_and_shape():
     """The accel names, the BVH's parameters (checked), its shape and memory, and the
     refusals: an unknown accel, a float method, the GPU."""
-    assert tetrace.accels() == ["tetwalk", BVH]
+    assert tetrace.accels() == ["tetwalk", BVH, *PACKETS]
     scene = tetrace.default_scene()
     n_triangles = len(scene.faces)
     built = scene.build_bvh(cost_ratio=4.0, max_leaf=32, bins=8)
@@ -123,9 +156,12 @@ def test_bvh_sweep_measures_every_tree(embree):
 
     lines = []
     rows = run_bvh_sweep(None, res=24, ratios=(0.0, 100.0), leaves=(8,), repeat=1, out=lines.append)
-    assert [r["accel"] for r in rows] == ["tetwalk", BVH, BVH]
+    assert [r["accel"] for r in rows] == ["tetwalk", *ACCELS, *ACCELS]
     for r in rows:
         assert r["right"] == 1.0 and r["nodes_per_ray"] > 0 and r["mrays_per_s"] > 0, r
-    fine, coarse = rows[1], rows[2]
+        # Packets report the share culled (computed: rays hit, so not every test is culled).
+        assert ("culled" in r) == (r["accel"] in PACKETS), r
+        assert 0 <= r.get("culled", 0) < 1, r
+    fine, coarse = rows[1], rows[1 + len(ACCELS)]
     assert coarse["leaves"] < fine["leaves"] and coarse["bytes"] < fine["bytes"]
     assert any("BVH sweep" in line for line in lines)

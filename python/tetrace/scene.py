@@ -434,10 +434,13 @@ class Scene:
             same, bit for bit, either way; ``False`` walks every ray on its own.
         accel : str, optional
             Acceleration structure, one of :func:`tetrace.accels`: ``"tetwalk"`` (the
-            default, the walk through the tetrahedralization) or ``"reshetov_bvh"``
+            default, the walk through the tetrahedralization), ``"reshetov_bvh"``
             (Reshetov 2007's BVH over the same triangles, built on first use or by
-            :meth:`build_bvh`). Both keep the contract exactly and give the same answers;
-            the BVH takes only the ``exact`` method, any layout, and the CPU.
+            :meth:`build_bvh`, one ray at a time) or ``"reshetov_bvh_packets"`` /
+            ``"reshetov_bvh_packets8"`` (that BVH walked by packets of 16 / 64 rays with
+            the paper's frustum vertex culling; :meth:`bvh_info` counts what was culled).
+            All keep the contract exactly and give the same answers; the BVH takes only
+            the ``exact`` method, any layout, and the CPU.
 
         Returns
         -------
@@ -864,7 +867,12 @@ class Scene:
         -------
         dict or None
             ``nodes``, ``leaves``, ``depth``, ``bytes`` and the parameters it was built
-            with (``cost_ratio``, ``max_leaf``, ``bins``).
+            with (``cost_ratio``, ``max_leaf``, ``bins``); and what packets
+            (``accel="reshetov_bvh_packets"``) did on this tree since it was built:
+            ``packet_tests`` (ray-triangle pairs reached at leaves), ``packet_culled``
+            (those the frustum culled), and the leaves reached with a frustum
+            (``packet_leaves_frustum``), with one active ray (``packet_leaves_lone``) or
+            with no prevalent axis (``packet_leaves_no_axis``).
         """
         return self._native.bvh_info()
 

@@ -41,6 +41,10 @@ pub struct BvhParams {
     pub max_leaf: u32,
     /// Bins per axis of the binned SAH.
     pub bins: u32,
+    /// Whether packets (`reshetov_bvh_packets`) whose rays share an origin also run the
+    /// paper's optional aperture test on what the frustum leaves (a walk setting, not the
+    /// tree's: kept here so that a sweep sets it with the tree).
+    pub aperture: bool,
 }
 
 impl Default for BvhParams {
@@ -49,6 +53,7 @@ impl Default for BvhParams {
             cost_ratio: 1.0,
             max_leaf: 8,
             bins: 16,
+            aperture: true,
         }
     }
 }

@@ -17,6 +17,7 @@ use super::{trace_each, Accel};
 use crate::geom::ray::Ray;
 use crate::query::gather::{Gather, Line, Tri};
 use crate::query::{QueryKind, Sink};
+use crate::traverse::packet::{DirBox, Edge};
 use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
 
 /// How many ray–triangle tests packets reached at leaves, and how many of them the frustum
@@ -24,7 +25,10 @@ use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
 #[derive(Debug, Default)]
 pub struct CullCounters {
     pub tests: AtomicU64,
+    /// Culled by the frustum or the aperture test.
     pub culled: AtomicU64,
+    /// Of those, culled by the aperture test (what the frustum left).
+    pub aperture: AtomicU64,
     /// Leaves where the packet had no prevalent axis (some active ray's direction is zero
     /// or not finite on every axis's reciprocal): tested ray by ray, uncut.
     pub no_axis: AtomicU64,
@@ -40,6 +44,7 @@ impl Clone for CullCounters {
         CullCounters {
             tests: c(&self.tests),
             culled: c(&self.culled),
+            aperture: c(&self.aperture),
             no_axis: c(&self.no_axis),
             lone: c(&self.lone),
             frusta: c(&self.frusta),
@@ -48,11 +53,12 @@ impl Clone for CullCounters {
 }
 
 impl CullCounters {
-    /// (tests, culled, no_axis, lone, frusta) so far.
-    pub fn read(&self) -> [u64; 5] {
+    /// (tests, culled, aperture, no_axis, lone, frusta) so far.
+    pub fn read(&self) -> [u64; 6] {
         [
             &self.tests,
             &self.culled,
+            &self.aperture,
             &self.no_axis,
             &self.lone,
             &self.frusta,
@@ -206,6 +212,7 @@ fn each(mut bits: u64, f: impl Fn(usize) -> bool) -> bool {
 struct Counts {
     tests: u64,
     culled: u64,
+    aperture: u64,
     no_axis: u64,
     lone: u64,
     frusta: u64,
@@ -215,9 +222,18 @@ impl BvhPackets<'_> {
     /// Walks the packet `rays` (at most [`MAX_PACKET`]) down the tree: a node is visited by
     /// the rays whose padded slab interval meets its box within [tmin, their reach]; leaves
     /// are culled against the frustum of those rays, and what survives is tested ray by ray.
+    ///
+    /// `shared`: every ray has the same origin; then what the frustum leaves goes through the
+    /// aperture test too (when the tree's parameters ask for it): over the box of the active
+    /// rays' directions, a triangle two of whose edges have certain, opposite sides for every
+    /// direction (`traverse::packet::Edge::side`, the tet-walk packets' exact bound) is met
+    /// by none of them. This is the paper's corner-ray test with the direction box's corners
+    /// for the corner rays: the side of a line from a shared origin is linear in its
+    /// direction, so the box's corners bound every ray's.
     fn walk_packet<G: Gather>(
         &self,
         rays: &mut [PacketRay<G>],
+        shared: bool,
         stack: &mut Vec<(u32, u64)>,
         visited: &mut [u32],
         counts: &mut Counts,
@@ -285,11 +301,33 @@ impl BvhPackets<'_> {
                 }
                 f
             };
+            let aperture = shared && m > 1 && bvh.params.aperture;
+            let mut dirs: Option<DirBox> = None;
             for j in range {
                 let tri = &bvh.triangles[j];
                 if frustum.as_ref().is_some_and(|f| f.culls(tri)) {
                     counts.culled += m;
                     continue;
+                }
+                if aperture {
+                    let b = dirs.get_or_insert_with(|| {
+                        let mut bits = active;
+                        DirBox::of(std::iter::from_fn(|| {
+                            (bits != 0).then(|| {
+                                let i = bits.trailing_zeros() as usize;
+                                bits &= bits - 1;
+                                &rays[i].line.dir
+                            })
+                        }))
+                    });
+                    let o = rays[active.trailing_zeros() as usize].line.o;
+                    let seen = tri.map(|c| [c[0] - o[0], c[1] - o[1], c[2] - o[2]]);
+                    let sides = Edge::around(seen[0], seen[1], seen[2]).map(|e| e.side(b));
+                    if sides.contains(&1) && sides.contains(&-1) {
+                        counts.culled += m;
+                        counts.aperture += m;
+                        continue;
+                    }
                 }
                 let mut bits = active;
                 while bits != 0 {
@@ -372,7 +410,9 @@ impl Accel<f64> for BvhPackets<'_> {
                 continue;
             }
             visited[..rays.len()].fill(0);
-            self.walk_packet(&mut rays, &mut state.1, &mut visited, &mut counts);
+            let o = rays[0].line.o.map(f64::to_bits);
+            let shared = rays.iter().all(|r| r.line.o.map(f64::to_bits) == o);
+            self.walk_packet(&mut rays, shared, &mut state.1, &mut visited, &mut counts);
             for (r, &v) in rays.drain(..).zip(visited.iter()) {
                 out.put(r.index, query.gathered(r.gather, v), &r.ray);
             }
@@ -380,6 +420,7 @@ impl Accel<f64> for BvhPackets<'_> {
         let c = &self.bvh.culling;
         c.tests.fetch_add(counts.tests, Relaxed);
         c.culled.fetch_add(counts.culled, Relaxed);
+        c.aperture.fetch_add(counts.aperture, Relaxed);
         c.no_axis.fetch_add(counts.no_axis, Relaxed);
         c.lone.fetch_add(counts.lone, Relaxed);
         c.frusta.fetch_add(counts.frusta, Relaxed);
@@ -428,11 +469,13 @@ mod tests {
     /// exact `Line::meets`), on packets that hug a corner of the triangle (one ray through
     /// the corner, the others fanning out beyond it: the corner sits on the frustum's side,
     /// where a bound without its rounding error culls a triangle a ray meets), and on narrow
-    /// packets aimed anywhere near the triangle; and it does cull (most of those miss).
+    /// packets aimed anywhere near the triangle; and it does cull (most of those miss). The
+    /// same for the aperture test. Removing the frustum's error bounds (the rectangles' pad
+    /// and the corners' err) fails this test at trial 2.
     #[test]
     fn frustum_culls_only_what_no_ray_meets() {
         let mut rng = Rng(7);
-        let (mut culled, mut met) = (0, 0);
+        let (mut culled, mut met, mut by_aperture) = (0, 0, 0);
         for trial in 0..20_000 {
             let tri: Tri = [rng.p3(), rng.p3(), rng.p3()];
             let o = [-2.0 - rng.f(), rng.f(), rng.f()];
@@ -464,7 +507,21 @@ mod tests {
                     "trial {trial}: culled a triangle a ray meets: {tri:?} from {o:?}"
                 );
             }
+            // The aperture test (the rays share their origin).
+            let b = DirBox::of(rays.iter().map(|r| &r.line.dir));
+            let seen = tri.map(|c| [0, 1, 2].map(|k| c[k] - o[k]));
+            let sides = Edge::around(seen[0], seen[1], seen[2]).map(|e| e.side(&b));
+            if sides.contains(&1) && sides.contains(&-1) {
+                by_aperture += 1;
+                assert!(
+                    !meets,
+                    "trial {trial}: aperture culled a met triangle: {tri:?} from {o:?}"
+                );
+            }
         }
-        assert!(culled > 2000 && met > 2000, "{culled} culled, {met} met");
+        assert!(
+            culled > 2000 && met > 2000 && by_aperture > 2000,
+            "{culled} culled, {by_aperture} by the aperture test, {met} met"
+        );
     }
 }

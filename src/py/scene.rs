@@ -365,18 +365,20 @@ impl PyScene {
     /// Builds Reshetov's BVH with these parameters for the casts that follow (a cast with
     /// `accel="reshetov_bvh"` builds one with the defaults when none is built); returns what
     /// `bvh_info` returns.
-    #[pyo3(signature = (cost_ratio=1.0, max_leaf=8, bins=16))]
+    #[pyo3(signature = (cost_ratio=1.0, max_leaf=8, bins=16, aperture=true))]
     fn build_bvh<'py>(
         &self,
         py: Python<'py>,
         cost_ratio: f64,
         max_leaf: u32,
         bins: u32,
+        aperture: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
         let params = BvhParams {
             cost_ratio,
             max_leaf,
             bins,
+            aperture,
         };
         let bvh = py.detach(|| guarded(|| self.inner.build_bvh(params)))?;
         bvh_info(py, &bvh)
@@ -601,10 +603,12 @@ fn bvh_info<'py>(py: Python<'py>, bvh: &ReshetovBvh) -> PyResult<Bound<'py, PyDi
     d.set_item("cost_ratio", bvh.params.cost_ratio)?;
     d.set_item("max_leaf", bvh.params.max_leaf)?;
     d.set_item("bins", bvh.params.bins)?;
+    d.set_item("aperture", bvh.params.aperture)?;
     // What packets' frustum culling did on this tree since it was built (cumulative).
-    let [tests, culled, no_axis, lone, frusta] = bvh.culling.read();
+    let [tests, culled, aperture, no_axis, lone, frusta] = bvh.culling.read();
     d.set_item("packet_tests", tests)?;
     d.set_item("packet_culled", culled)?;
+    d.set_item("packet_culled_aperture", aperture)?;
     d.set_item("packet_leaves_no_axis", no_axis)?;
     d.set_item("packet_leaves_lone", lone)?;
     d.set_item("packet_leaves_frustum", frusta)?;

@@ -72,7 +72,14 @@ SETTINGS = {
 FULL_SCENES = ("cornell_box.obj", "teapot.obj", "bunny.obj", "armadillo.obj", "torus_knots_27.obj")
 FULL = dict(
     settings=list(SETTINGS),
-    methods=["lagae2008_plane", "maria2017", "aman2022", "robust", "reshetov_bvh"],
+    methods=[
+        "lagae2008_plane",
+        "maria2017",
+        "aman2022",
+        "robust",
+        "reshetov_bvh",
+        "reshetov_bvh_packets",
+    ],
     layouts=["tet32", "tet20"],
     precisions=["f32", "f64"],
     threads=["1", "all"],

@@ -148,8 +148,13 @@ class _Peers:
         }[query]
 
 
-#: tetrace's casters: the tet walk (the default) and Reshetov's BVH (``accel=``).
-TETRACE_CASTERS = {"tetrace": None, "tetrace_bvh": "reshetov_bvh"}
+#: tetrace's casters: the tet walk (the default) and Reshetov's BVH (``accel=``), one ray at a
+#: time and in 4×4 packets with frustum vertex culling.
+TETRACE_CASTERS = {
+    "tetrace": None,
+    "tetrace_bvh": "reshetov_bvh",
+    "tetrace_bvh_packets": "reshetov_bvh_packets",
+}
 
 
 def _tetrace(scene, query, o, d, tmax, k, accel=None):
@@ -418,7 +423,9 @@ def _print_timing(rows, out):
             cell = {r["caster"]: r["mqs"] for r in sel if r["threads"] == k}
             t = cell.get("tetrace")
             b = cell.get("tetrace_bvh")
-            row = [q, rs, sel[0]["n"], k, f"{t:.2f}", "--" if not b else f"{b:.2f}"]
+            pk = cell.get("tetrace_bvh_packets")
+            row = [q, rs, sel[0]["n"], k, f"{t:.2f}"]
+            row += ["--" if not x else f"{x:.2f}" for x in (b, pk)]
             for peer in ("embreex", "open3d"):
                 p = cell.get(peer)
                 row.append(
@@ -435,6 +442,7 @@ def _print_timing(rows, out):
                 "threads",
                 "tetrace",
                 "tetrace bvh",
+                "bvh packets",
                 "embreex (tetrace/it, bvh/it)",
                 "open3d (tetrace/it, bvh/it)",
             ],

@@ -183,12 +183,13 @@ fn bvh_agrees(accel: AccelKind) {
             }
         }
         if let AccelKind::ReshetovBvhPackets(_) = accel {
-            let [tests, culled, _, lone, frusta] = g.scene.built_bvh().unwrap().culling.read();
+            let [tests, culled, aperture, _, lone, frusta] =
+                g.scene.built_bvh().unwrap().culling.read();
             eprintln!(
                 "seed {seed}: {culled} of {tests} tests culled, {frusta} frusta, {lone} lone"
             );
             assert!(
-                frusta > 0 && culled > 0 && culled < tests,
+                frusta > 0 && culled > 0 && culled < tests && aperture > 0,
                 "{culled} of {tests} culled, {frusta} frusta"
             );
         }
@@ -282,11 +283,13 @@ fn bvh_tree_holds_every_triangle_once() {
             cost_ratio: 0.0,
             max_leaf: 1,
             bins: 2,
+            ..Default::default()
         },
         BvhParams {
             cost_ratio: 8.0,
             max_leaf: 64,
             bins: 32,
+            ..Default::default()
         },
     ] {
         let bvh = ReshetovBvh::build(&tris, params).unwrap();
