@@ -128,3 +128,29 @@ def embree():
     if not embree_available():
         skip_or_fail("embreex is not installed (pip install embreex)")
     return True
+
+
+@pytest.fixture(scope="session")
+def warp():
+    """Require warp-lang (``warp-lang`` in the ``test`` extra; its CPU device needs no GPU):
+    skip without it locally, fail under CI. Returns the module."""
+    from tetrace.bench.casters import warp_module
+
+    wp, why = warp_module()
+    if wp is None:
+        skip_or_fail(f"{why} (pip install warp-lang)")
+    return wp
+
+
+@pytest.fixture(scope="session")
+def mitsuba():
+    """Require mitsuba with both variants the benches run, ``scalar_rgb`` and ``llvm_ad_rgb``
+    (``mitsuba`` in the ``test`` extra; the LLVM variant needs the system's libLLVM, which
+    Mesa's lavapipe brings): skip without them locally, fail under CI. Returns the module."""
+    from tetrace.bench.casters import mitsuba_module
+
+    for variant in ("llvm_ad_rgb", "scalar_rgb"):
+        mi, why = mitsuba_module(variant)
+        if mi is None:
+            skip_or_fail(f"{why} (pip install mitsuba; apt-get install libllvm15)")
+    return mi

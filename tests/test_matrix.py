@@ -148,7 +148,8 @@ CONFIGS = dict(
 def run(tmp_path_factory, embree):
     """One matrix run on Spot (16^2 x 3 views = 768 rays), every caster instrumented: the
     rays and thread count each one received, recorded where the bench hands them over
-    (Scene.cast, EmbreeReference.intersect and the chunk queue, Open3D's cast_rays)."""
+    (Scene.cast, EmbreeReference.intersect and the chunk queue, Open3D's cast_rays, the warp
+    and mitsuba casters' cast)."""
     out_dir = tmp_path_factory.mktemp("matrix")
     calls, queues, lines = [], [], []
 
@@ -185,6 +186,13 @@ def run(tmp_path_factory, embree):
         mp.setattr(reference.EmbreeReference, "intersect", intersect)
         mp.setattr(reference, "run_chunks", run_chunks)
         mp.setattr(matrix, "_ncpu", lambda: ALL)
+        for cls in (casters.WarpCaster, casters.MitsubaCaster):
+
+            def peer_cast(self, origins, directions, threads, real=cls.cast):
+                record(self.name, origins, directions, threads)
+                return real(self, origins, directions, threads)
+
+            mp.setattr(cls, "cast", peer_cast)
         o3d, _ = casters.open3d_module()
         if o3d is not None:
 
@@ -279,7 +287,9 @@ def test_matrix_gives_every_caster_the_same_rays(run):
     o64, d64 = matrix.camera_rays(v, 16)
     o32, d32 = o64.astype(np.float32), d64.astype(np.float32)
     calls = run["calls"]
-    expected = {"tetrace", "embreex"} | ({"open3d"} if casters.open3d_module()[0] else set())
+    expected = {"tetrace", "embreex"} | {
+        name for name, (module, _) in casters.PEERS.items() if module()[0] is not None
+    }
     assert {c["caster"] for c in calls} == expected
     for c in calls:
         for got, want in ((c["origins"], o32), (c["directions"], d32)):
@@ -308,6 +318,10 @@ def test_matrix_gives_every_caster_the_same_threads_and_timing(run):
         "tetrace": "{}: rayon work stealing over 4096-ray chunks",
         "embreex": "{}: 4096-ray chunks taken from one shared queue",
         "open3d": "{}: TBB parallel_for over chunks of at most 1024 rays (cast_rays nthreads={})",
+        "warp": "1 thread (asked for {1}): warp runs a CPU launch's kernel threads one after "
+        "another on the calling thread",
+        "mitsuba": "1 thread (asked for {1}): a Python loop over the rays holds the GIL",
+        "mitsuba_llvm": "{}: Dr.Jit's LLVM thread pool (drjit.set_thread_count({}))",
     }
     for r in rows:
         assert r["threads"] in (1, ALL)
@@ -435,8 +449,97 @@ def test_matrix_open3d_row(run, open3d):
         assert 0.0 <= r["p50_dt"] <= r["p99_dt"]
 
 
+#: The peers of the matrix besides embreex and Open3D, by caster name: (library, variant).
+PIP_PEERS = {
+    "warp": "warp-lang {}: wp.mesh_query_ray in a @wp.kernel on device cpu",
+    "mitsuba": "mitsuba {} (scalar_rgb): Scene.ray_intersect_preliminary, one call per ray",
+    "mitsuba_llvm": "mitsuba {} (llvm_ad_rgb): Scene.ray_intersect_preliminary, one vectorised",
+}
+
+
+def test_matrix_warp_and_mitsuba_rows(run, warp, mitsuba):
+    """warp's and both mitsuba variants' rows are there (one per thread count), on every ray,
+    with a throughput, and their agreement columns are the referee's and embreex's judgement
+    of an independent cast of the same rays by the same caster."""
+    v, f = tetrace.mesh.load_triangles(str(default_scene_path()))
+    o64, d64 = matrix.camera_rays(v, 16)
+    o32, d32 = o64.astype(np.float32), d64.astype(np.float32)
+    verdict = Referee(v, f).first_hits(o32, d32)
+    ref = reference.embree_scene((v, f)).cast(o32, d32, threads=1)
+    embreex_rate = {r["threads"]: r["mrays"] for r in run["rows"] if r["caster"] == "embreex"}
+    again = {
+        "warp": casters.WarpCaster(warp, v, f),
+        "mitsuba": casters.MitsubaCaster(mitsuba, v, f, "scalar_rgb"),
+        "mitsuba_llvm": casters.MitsubaCaster(mitsuba, v, f, "llvm_ad_rgb"),
+    }
+    for name, label in PIP_PEERS.items():
+        rows = [r for r in run["rows"] if r["caster"] == name]
+        assert sorted(r["threads"] for r in rows) == [1, ALL], name
+        caster = again[name]
+        hits = caster.hits(caster.cast(o32, d32, 1), o32, d32)
+        right = float(judge(hits, verdict, "f32")["right"].mean())
+        hit = hits.status == tetrace.HIT
+        hit_agree = float((hit == ref.hit).mean())
+        agree = float(((hit == ref.hit) & (~hit | (hits.triangle == ref.triangle))).mean())
+        version = warp.__version__ if name == "warp" else mitsuba.__version__
+        for r in rows:
+            assert r["label"].startswith(label.format(version)), r["label"]
+            assert (r["setting"], r["method"], r["precision"], r["device"]) == (
+                "-",
+                "bvh",
+                "f32",
+                "cpu",
+            )
+            assert r["rays"] == len(o32) == 768 and np.isfinite(r["mrays"]) and r["mrays"] > 0
+            assert r["ratio"] == pytest.approx(r["mrays"] / embreex_rate[r["threads"]], rel=1e-12)
+            assert r["failed"] == 0  # no failure outcome
+            # Judged, not only printed: every ray has one of the referee's five outcomes,
+            # and the row's numbers are those of the independent cast.
+            judged = r["right"] * r["rays"] + r["leaked"] + r["late"] + r["wrong"]
+            assert judged == pytest.approx(r["rays"], abs=1e-9)
+            assert r["right"] == right and r["hit_agreement"] == hit_agree
+            assert r["agreement"] == agree
+            assert 0.0 <= r["p50_dt"] <= r["p99_dt"]
+    # Every peer is drawn on the speed-accuracy chart, named and labelled under it.
+    peers = {r["caster"] for r in run["rows"] if r["caster"] != "tetrace"}
+    assert set(PIP_PEERS) <= peers
+
+
+def test_warp_and_mitsuba_hits_follow_the_hits_convention(warp, mitsuba, embree):
+    """The same triangle, t and barycentrics as embreex on the same rays (a few hundred, on
+    Spot): warp's (u, v) weigh p0 and p1, mitsuba's prim_uv p1 and p2 like embreex's, and
+    the casters map them to Hits' (point = (1 - u - v) p0 + u p1 + v p2)."""
+    v, f = tetrace.mesh.load_triangles(str(default_scene_path()))
+    o64, d64 = matrix.camera_rays(v, 12)
+    o, d = o64.astype(np.float32), d64.astype(np.float32)
+    ref = reference.embree_scene((v, f)).cast(o, d, threads=1)
+    assert ref.hit.sum() > 100
+    for caster in (
+        casters.WarpCaster(warp, v, f),
+        casters.MitsubaCaster(mitsuba, v, f, "scalar_rgb"),
+        casters.MitsubaCaster(mitsuba, v, f, "llvm_ad_rgb"),
+    ):
+        hits = caster.hits(caster.cast(o, d, 1), o, d)
+        hit = hits.status == tetrace.HIT
+        np.testing.assert_array_equal(hit, ref.hit, err_msg=caster.name)
+        np.testing.assert_array_equal(hits.triangle, ref.triangle, err_msg=caster.name)
+        both = hit & ref.hit
+        for got, want in ((hits.t, ref.t), (hits.u, ref.u), (hits.v, ref.v)):
+            np.testing.assert_allclose(got[both], want[both], atol=1e-3, err_msg=caster.name)
+        p = v[f[hits.triangle[hit]]]
+        u, w = hits.u[hit, None], hits.v[hit, None]
+        bary = (1 - u - w) * p[:, 0] + u * p[:, 1] + w * p[:, 2]
+        diagonal = np.linalg.norm(v.max(0) - v.min(0))
+        assert np.abs(bary - hits.point[hit]).max() < 1e-4 * diagonal, caster.name
+
+
 def test_matrix_skips_a_missing_peer_and_names_why(tmp_path, monkeypatch, embree):
-    monkeypatch.setattr(matrix, "open3d_peer", lambda: (None, "open3d not available (test)"))
+    missing = {name: f"{name} not available (test)" for name in casters.PEERS}
+    monkeypatch.setattr(
+        matrix,
+        "peer_modules",
+        lambda: {name: (lambda why=why: (None, why)) for name, why in missing.items()},
+    )
     lines = []
     rows = matrix.run_matrix(
         [str(default_scene_path())],
@@ -451,7 +554,9 @@ def test_matrix_skips_a_missing_peer_and_names_why(tmp_path, monkeypatch, embree
         out=lines.append,
     )["rows"]
     assert {r["caster"] for r in rows} == {"embreex", "tetrace"}
-    assert any("Open3D peer skipped: open3d not available (test)" in line for line in lines)
+    for name, why in missing.items():
+        said = f"{casters.PEER_TITLES[name]} peer skipped: {why}"
+        assert any(said in line for line in lines), said
 
 
 def test_matrix_command_line(tmp_path, embree):

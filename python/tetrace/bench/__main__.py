@@ -145,8 +145,9 @@ def queries_main(argv):
     p = argparse.ArgumentParser(
         prog="python -m tetrace.bench queries",
         description="Every query kind (closest, any, all hits, counts, containment) timed "
-        "against embreex and Open3D on the same float32 rays, and judged ray by ray by the "
-        "exact referee, on the scene and on the stress families.",
+        "against embreex and Open3D (closest hits also against warp-lang and mitsuba) on the "
+        "same float32 rays, and judged ray by ray by the exact referee, on the scene and on "
+        "the stress families.",
     )
     p.add_argument("scene", nargs="?", default=None, help="mesh file (default: the bundled scene)")
     p.add_argument("--res", type=int, default=256, help="camera resolution")
@@ -192,7 +193,8 @@ def main(argv=None):
         return bvh_main(argv[1:])
     p = argparse.ArgumentParser(
         prog="python -m tetrace.bench",
-        description="Full-scene benchmark: a pinhole camera cast by tetrace and by embreex on "
+        description="Full-scene benchmark: a pinhole camera cast by tetrace, by embreex and by "
+        "the peers that import (Open3D, warp-lang, mitsuba scalar_rgb and llvm_ad_rgb) on "
         "the same rays, with build times, structure size and hit agreement. "
         "'python -m tetrace.bench agreement [mesh ...]' reports agreement on the "
         "acceptance rays instead; 'python -m tetrace.bench scenes' builds every "

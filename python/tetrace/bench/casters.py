@@ -11,7 +11,11 @@ treats every caster alike:
   :data:`~tetrace.baselines.embree.CHUNK`-ray chunks from one shared queue
   (:func:`tetrace.baselines.embree.run_chunks`); Open3D's ``cast_rays(nthreads=k)`` runs TBB's
   ``parallel_for`` over chunks of at most 1024 rays in a ``k``-thread arena (its own
-  scheduler: ``cast_rays`` holds the GIL, so Python threads cannot drive it);
+  scheduler: ``cast_rays`` holds the GIL, so Python threads cannot drive it); warp-lang's CPU
+  launch runs its kernel threads one after another on the calling thread, and mitsuba's
+  ``scalar_rgb`` variant is a Python loop over the rays (it holds the GIL): both run on one
+  thread whatever ``k`` is, and their :meth:`schedule` says so; mitsuba's ``llvm_ad_rgb``
+  variant runs in Dr.Jit's pool of ``k`` threads (``drjit.set_thread_count(k)``);
 * **the same timing**: one untimed warm-up cast of the same rays on the same threads (lazy
   BVH commits and layout builds are not timed), then the best of ``repeat`` casts.
 
@@ -21,6 +25,7 @@ its flags) and how it was scheduled (:meth:`schedule`); the benchmarks print and
 
 from __future__ import annotations
 
+import functools
 import time
 
 import numpy as np
@@ -56,7 +61,7 @@ def timed(caster, origins, directions, threads, repeat):
 
     Parameters
     ----------
-    caster : TetraceCaster or EmbreexCaster or Open3DCaster
+    caster : TetraceCaster or EmbreexCaster or Open3DCaster or WarpCaster or MitsubaCaster
     origins, directions : numpy.ndarray
         ``(N, 3)`` rays in the caster's precision (see :func:`rays_for`).
     threads : int or None
@@ -244,3 +249,273 @@ class Open3DCaster:
         uv = raw["primitive_uvs"].numpy()
         prim = np.where(np.isfinite(t), prim, -1)
         return _peer_hits(origins, directions, prim, t, uv[:, 0], uv[:, 1])
+
+
+def warp_module():
+    """The ``warp`` module (warp-lang), initialised, or None with the reason it cannot be.
+
+    Its log level is set to warnings: no greeting and no module-load lines on stdout.
+    """
+    try:
+        import warp as wp
+
+        wp.config.log_level = wp.LOG_WARNING
+        wp.init()
+    except Exception as exc:
+        return None, f"warp-lang not available ({type(exc).__name__}: {exc})"
+    return wp, None
+
+
+@functools.cache
+def _warp_kernel(wp):
+    """The warp kernel of :class:`WarpCaster`: one ``wp.mesh_query_ray`` per kernel thread,
+    one kernel thread per ray; a miss is ``face = -1``, ``t = inf``."""
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def first_hits(
+        mesh: wp.uint64,
+        origins: wp.array(dtype=wp.vec3),
+        directions: wp.array(dtype=wp.vec3),
+        tmax: float,
+        t: wp.array(dtype=float),
+        face: wp.array(dtype=int),
+        u: wp.array(dtype=float),
+        v: wp.array(dtype=float),
+    ):
+        i = wp.tid()
+        q = wp.mesh_query_ray(mesh, origins[i], directions[i], tmax)
+        if q.result:
+            t[i] = q.t
+            face[i] = q.face
+            u[i] = q.u
+            v[i] = q.v
+        else:
+            t[i] = wp.inf
+            face[i] = -1
+            u[i] = 0.0
+            v[i] = 0.0
+
+    return first_hits
+
+
+class WarpCaster:
+    """warp-lang's ``wp.mesh_query_ray`` in a ``@wp.kernel`` on warp's ``"cpu"`` device, float32.
+
+    ``wp.Mesh`` (its default BVH) is built in the constructor, and the kernel is compiled
+    there too (one launch on one ray: warp compiles a module on its first launch, seconds
+    that are not the cast's; :attr:`compile_seconds`). A cast wraps the rays in ``wp.array``
+    views, launches one kernel thread per ray and reads the outputs back.
+
+    Warp runs a CPU launch's kernel threads one after another on the calling thread (its CPU
+    device has no thread pool): a cast runs on one thread whatever thread count the bench
+    asks for, and :meth:`schedule` says so.
+
+    warp's barycentrics weigh the triangle's first two vertices (``point = u p0 + v p1 +
+    (1 - u - v) p2``); :meth:`hits` turns them into embreex's and :class:`~tetrace.hits.Hits`'
+    (``point = (1 - u - v) p0 + u p1 + v p2``).
+    """
+
+    name = "warp"
+    precision = "f32"
+    arithmetic = "f32"
+
+    def __init__(self, wp, vertices, faces):
+        self.wp = wp
+        t0 = time.perf_counter()
+        self.mesh = wp.Mesh(
+            points=wp.array(
+                np.ascontiguousarray(vertices, np.float32), dtype=wp.vec3, device="cpu"
+            ),
+            indices=wp.array(
+                np.ascontiguousarray(faces, np.int32).ravel(), dtype=int, device="cpu"
+            ),
+        )
+        self.build_seconds = time.perf_counter() - t0
+        self.kernel = _warp_kernel(wp)
+        t0 = time.perf_counter()
+        one = np.zeros((1, 3), np.float32)
+        self._launch(one, one + np.float32(1))  # compiles (or loads) the kernel's module
+        self.compile_seconds = time.perf_counter() - t0
+
+    @property
+    def label(self):
+        return (
+            f"warp-lang {self.wp.__version__}: wp.mesh_query_ray in a @wp.kernel on device cpu "
+            f"(float32, one ray per kernel thread, wp.Mesh default BVH)"
+        )
+
+    def schedule(self, threads):
+        return (
+            f"1 thread (asked for {threads}): warp runs a CPU launch's kernel threads one after "
+            f"another on the calling thread"
+        )
+
+    def cast(self, origins, directions, threads):
+        return self._launch(origins, directions)
+
+    def _launch(self, origins, directions):
+        wp = self.wp
+        n = len(origins)
+        o = wp.array(np.ascontiguousarray(origins, np.float32), dtype=wp.vec3, device="cpu")
+        d = wp.array(np.ascontiguousarray(directions, np.float32), dtype=wp.vec3, device="cpu")
+        out = [wp.empty(n, dtype=dt, device="cpu") for dt in (float, int, float, float)]
+        wp.launch(
+            self.kernel, dim=n, inputs=[self.mesh.id, o, d, float(np.inf), *out], device="cpu"
+        )
+        wp.synchronize_device("cpu")
+        return tuple(a.numpy() for a in out)
+
+    def hits(self, raw, origins, directions):
+        t, face, u, v = raw
+        # warp's (u, v) weigh p0 and p1; embreex's (and Hits') weigh p1 and p2.
+        return _peer_hits(origins, directions, face, t, v, np.float32(1) - u - v)
+
+
+def mitsuba_module(variant="scalar_rgb"):
+    """The ``mitsuba`` module with ``variant`` set, or None with the reason it cannot be."""
+    try:
+        import mitsuba as mi
+
+        if variant not in mi.variants():
+            return None, f"mitsuba {mi.__version__} has no variant {variant} ({mi.variants()})"
+        if variant.startswith("llvm_"):
+            import drjit as dr
+
+            if not dr.has_backend(dr.JitBackend.LLVM):
+                return None, (
+                    f"mitsuba {mi.__version__}: no {variant}: Dr.Jit finds no LLVM library "
+                    f"(libLLVM; Debian: libllvm15)"
+                )
+        mi.set_variant(variant)
+    except Exception as exc:
+        return None, f"mitsuba not available ({type(exc).__name__}: {exc})"
+    return mi, None
+
+
+class MitsubaCaster:
+    """mitsuba 3's ``Scene.ray_intersect_preliminary`` (its bundled Embree 3, robust
+    intersections on), float32.
+
+    The mesh is an ``mi.Mesh`` filled from numpy (``vertex_positions``, ``faces``) in a
+    scene of ``mi.load_dict`` (Embree's BVH is built there: :attr:`build_seconds`).
+
+    * ``scalar_rgb`` (the caster ``mitsuba``): one ``ray_intersect_preliminary`` call per ray
+      in a Python loop; the loop holds the GIL, so a cast runs on one thread whatever thread
+      count the bench asks for, and :meth:`schedule` says so. Its time includes the loop.
+    * ``llvm_ad_rgb`` (the caster ``mitsuba_llvm``): one vectorised call on all the rays,
+      Dr.Jit's LLVM backend on its pool of ``k`` threads (``drjit.set_thread_count``); its
+      time includes moving the rays into Dr.Jit arrays and the hits back to numpy.
+
+    Its ``prim_uv`` has embreex's convention (``point = (1 - u - v) p0 + u p1 + v p2``).
+    """
+
+    precision = "f32"
+    arithmetic = "f32"
+
+    def __init__(self, mi, vertices, faces, variant="scalar_rgb"):
+        mi.set_variant(variant)
+        self.mi, self.variant = mi, variant
+        self.name = "mitsuba" if variant == "scalar_rgb" else f"mitsuba_{variant.split('_')[0]}"
+        self.types = getattr(mi, variant)  # Ray3f, Point3f, Vector3f of this variant
+        t0 = time.perf_counter()
+        mesh = mi.Mesh(
+            "tetrace",
+            vertex_count=len(vertices),
+            face_count=len(faces),
+            has_vertex_normals=False,
+            has_vertex_texcoords=False,
+        )
+        params = mi.traverse(mesh)
+        params["vertex_positions"] = np.ascontiguousarray(vertices, np.float32).ravel()
+        params["faces"] = np.ascontiguousarray(faces, np.uint32).ravel()
+        params.update()
+        self.scene = mi.load_dict(
+            {"type": "scene", "embree_use_robust_intersections": True, "mesh": mesh}
+        )
+        self.build_seconds = time.perf_counter() - t0
+
+    @property
+    def label(self):
+        call = (
+            "one call per ray in a Python loop"
+            if self.variant == "scalar_rgb"
+            else "one vectorised call on all rays"
+        )
+        return (
+            f"mitsuba {self.mi.__version__} ({self.variant}): Scene.ray_intersect_preliminary, "
+            f"{call} (its bundled Embree 3, embree_use_robust_intersections)"
+        )
+
+    def schedule(self, threads):
+        if self.variant == "scalar_rgb":
+            return f"1 thread (asked for {threads}): a Python loop over the rays holds the GIL"
+        return f"{_threads(threads)}: Dr.Jit's LLVM thread pool (drjit.set_thread_count({threads}))"
+
+    def cast(self, origins, directions, threads):
+        m = self.types
+        if self.variant == "scalar_rgb":
+            ray, intersect = m.Ray3f, self.scene.ray_intersect_preliminary
+            out = []
+            for o, d in zip(origins.tolist(), directions.tolist()):
+                pi = intersect(ray(o, d))
+                uv = pi.prim_uv
+                out.append((pi.t, pi.prim_index, uv[0], uv[1]))
+            out = np.array(out, np.float64).reshape(-1, 4)
+            return out[:, 0], out[:, 1].astype(np.int64), out[:, 2], out[:, 3]
+        import drjit as dr
+
+        dr.set_thread_count(int(threads))
+        o = np.ascontiguousarray(np.asarray(origins, np.float32).T)
+        d = np.ascontiguousarray(np.asarray(directions, np.float32).T)
+        pi = self.scene.ray_intersect_preliminary(
+            m.Ray3f(m.Point3f(o[0], o[1], o[2]), m.Vector3f(d[0], d[1], d[2]))
+        )
+        uv = np.array(pi.prim_uv)
+        return np.array(pi.t), np.array(pi.prim_index).astype(np.int64), uv[0], uv[1]
+
+    def hits(self, raw, origins, directions):
+        t, prim, u, v = raw
+        prim = np.where(np.isfinite(t), prim, -1)  # a miss: t = inf (its prim_index is 0)
+        return _peer_hits(origins, directions, prim, t, u, v)
+
+
+#: The peers besides embreex that install with pip, by caster name: the getter of each one's
+#: module (the module, or None and why it cannot be imported) and how its caster is built.
+PEERS = {
+    "open3d": (open3d_module, lambda m, v, f: Open3DCaster(m, v, f)),
+    "warp": (warp_module, lambda m, v, f: WarpCaster(m, v, f)),
+    "mitsuba": (lambda: mitsuba_module("scalar_rgb"), lambda m, v, f: MitsubaCaster(m, v, f)),
+    "mitsuba_llvm": (
+        lambda: mitsuba_module("llvm_ad_rgb"),
+        lambda m, v, f: MitsubaCaster(m, v, f, "llvm_ad_rgb"),
+    ),
+}
+#: How the peers are named in messages.
+PEER_TITLES = {"open3d": "Open3D", "warp": "warp", "mitsuba": "mitsuba", "mitsuba_llvm": "mitsuba"}
+
+
+def optional_peers(vertices, faces, modules=None):
+    """The casters of :data:`PEERS` on one mesh, and why any is missing.
+
+    Parameters
+    ----------
+    vertices, faces : numpy.ndarray
+    modules : dict, optional
+        Module getters by caster name, replacing those of :data:`PEERS` (the matrix passes
+        its own, which a test swaps for a missing module).
+
+    Returns
+    -------
+    peers : list
+        The casters whose module imports, in the order of :data:`PEERS`.
+    skipped : dict
+        Caster name -> the reason, for each peer whose module does not.
+    """
+    peers, skipped = [], {}
+    for name, (module, make) in PEERS.items():
+        m, why = (modules or {}).get(name, module)()
+        if m is None:
+            skipped[name] = why
+        else:
+            peers.append(make(m, vertices, faces))
+    return peers, skipped

@@ -2,7 +2,9 @@
 
 Runs scenes x mesher settings x methods x layouts x precisions x threads (x GPU kernels
 with ``--gpu``) on the same camera rays (three orbit views), with embreex and, when
-installed, Open3D's ``RaycastingScene`` as peers timed in the same run. Every caster gets the
+installed, Open3D's ``RaycastingScene``, warp-lang's ``wp.mesh_query_ray`` (CPU) and mitsuba's
+``ray_intersect_preliminary`` (``scalar_rgb`` and ``llvm_ad_rgb``) as peers timed in the same
+run. Every caster gets the
 same float32 rays (widened exactly for float64 walks), the same thread count with dynamic
 chunks, one untimed warm-up and the best of ``repeat`` (:mod:`tetrace.bench.casters`). It
 writes:
@@ -45,11 +47,12 @@ from ..dev.camera import orbit_views, pinhole
 from ..dev.compare import compare, same_plane
 from ..hits import FAILED, HIT
 from .casters import (
+    PEER_TITLES,
+    PEERS,
     EmbreexCaster,
-    Open3DCaster,
     TetraceCaster,
     is_accel,
-    open3d_module,
+    optional_peers,
     rays_for,
     structure_bytes,
     timed,
@@ -123,9 +126,11 @@ def hardware_gpu():
         return False
 
 
-def open3d_peer():
-    """The ``open3d`` module, or None with the reason it cannot run (the Open3D peer)."""
-    return open3d_module()
+def peer_modules():
+    """The module getters of the peers besides embreex, by caster name
+    (:data:`tetrace.bench.casters.PEERS`): each returns the module, or None with the reason it
+    cannot run."""
+    return {name: module for name, (module, _) in PEERS.items()}
 
 
 def _accuracy(hits, ref, verdict, arithmetic, v, f, diagonal, d):
@@ -198,12 +203,10 @@ def run_scene_settings(
             **_accuracy(hits, ref, verdict, caster.arithmetic, v, f, diagonal, d),
         )
 
-    peers = [EmbreexCaster(v, f)]
-    o3d, why = open3d_peer()
-    if o3d is None:
-        out(f"  {name}: Open3D peer skipped: {why}")
-    else:
-        peers.append(Open3DCaster(o3d, v, f))
+    others, skipped = optional_peers(v, f, peer_modules())
+    for peer, why in skipped.items():
+        out(f"  {name}: {PEER_TITLES[peer]} peer skipped: {why}")
+    peers = [EmbreexCaster(v, f), *others]
     for peer in peers:
         for label in threads:
             k = counts[label]

@@ -1,10 +1,14 @@
-"""``python -m tetrace.bench queries``: every query kind, timed against embreex and Open3D on
-the same rays and judged ray by ray by the exact referee.
+"""``python -m tetrace.bench queries``: every query kind, timed against embreex and Open3D (and
+closest hits against warp-lang and mitsuba) on the same rays and judged ray by ray by the exact
+referee.
 
 Query kinds and their peers (same float32 rays, same thread count, an untimed warm-up, the
 best of ``repeat``):
 
 * closest: ``Scene.cast``; embreex ``run`` (``rtcIntersect1``); Open3D ``cast_rays``;
+  warp-lang ``wp.mesh_query_ray`` (CPU) and mitsuba ``ray_intersect_preliminary``
+  (``scalar_rgb`` and ``llvm_ad_rgb``), the casters of :mod:`tetrace.bench.casters`, on the
+  closest-hit ray sets (their ``tmax`` is infinite, which those casters take as given);
 * any: ``Scene.occluded``; embreex ``run(query="OCCLUDED")``; Open3D ``test_occlusions``;
 * all: ``Scene.intersections``; Open3D ``list_intersections`` (embreex has none);
 * count: ``Scene.count_intersections``; Open3D ``count_intersections``;
@@ -37,10 +41,14 @@ from ..baselines.embree import cpu_count, embree_scene
 from ..dev.camera import orbit_views, pinhole, random_rays
 from ..referee import Referee, judge, judge_lists
 from ..scene import Scene, default_scene_path, simd_levels
-from .casters import _peer_hits, open3d_module
+from .casters import PEER_TITLES, PEERS, _peer_hits, open3d_module
 from .scene_bench import _table
 
 QUERIES = ("closest", "any", "all", "count", "contains")
+#: The peers that answer closest hits only, through their bench casters.
+CLOSEST_PEERS = ("warp", "mitsuba", "mitsuba_llvm")
+#: Every peer, as the tables show them.
+PEER_NAMES = ("embreex", "open3d", *CLOSEST_PEERS)
 #: Shadow rays stop this fraction of the way to the hit they aim at.
 SHADOW_TMAX = 1.0 - 2.0**-10
 
@@ -122,6 +130,21 @@ class _Peers:
         self.embree = embree_scene((v, f))
         self.o3d, self.o3d_reason = open3d_module()
         self.o3d_scene = _open3d_scene(self.o3d, v, f) if self.o3d else None
+        self.closest_casters, self.skipped = {}, {}
+        for name in CLOSEST_PEERS:
+            module, make = PEERS[name]
+            m, why = module()
+            if m is None:
+                self.skipped[name] = why
+            else:
+                self.closest_casters[name] = make(m, v, f)
+
+    def closest_peer(self, name, query, o, d, tmax, k):
+        """A closest-only peer's cast (None for other queries and for a finite ``tmax``)."""
+        caster = self.closest_casters.get(name)
+        if caster is None or query != "closest" or np.isfinite(tmax):
+            return None
+        return lambda: caster.cast(o, d, k)
 
     def embreex(self, query, o, d, tmax, k):
         if query == "closest":
@@ -186,12 +209,13 @@ def _lists_of(caster, out, n):
     return splits, t[order], tri[order], "f32"
 
 
-def judge_answer(query, caster, out, ref, origins=None, directions=None):
+def judge_answer(query, caster, out, ref, origins=None, directions=None, peer=None):
     """``(right, judged)`` of one caster's answer to ``query`` against the referee's ``ref``.
 
     ``ref`` is a :class:`~tetrace.referee.Verdict` (closest, any), a
     :class:`~tetrace.referee.Crossings` (all, count) or ``(inside, decided)`` (contains);
-    ``origins``, ``directions`` (the rays cast) are needed for a peer's closest hits.
+    ``origins``, ``directions`` (the rays cast) are needed for a peer's closest hits;
+    ``peer`` is the bench caster of a closest-only peer (:data:`CLOSEST_PEERS`).
     """
     if query == "contains":
         inside, decided = ref
@@ -201,6 +225,8 @@ def judge_answer(query, caster, out, ref, origins=None, directions=None):
     if query == "closest":
         if caster == "embreex":
             hits, arith = _peer_hits(origins, directions, *out), "f32"
+        elif peer is not None:
+            hits, arith = peer.hits(out, origins, directions), peer.arithmetic
         elif caster == "open3d":
             t = out["t_hit"].numpy()
             prim = np.where(np.isfinite(t), out["primitive_ids"].numpy().astype(np.int64), -1)
@@ -308,6 +334,8 @@ def run_queries(path=None, *, res=256, n_random=20_000, repeat=3, stress=300, ou
     )
     if peers.o3d is None:
         out(f"Open3D: {peers.o3d_reason}")
+    for name, why in peers.skipped.items():
+        out(f"{PEER_TITLES[name]} ({name}): {why}")
     plan = [
         ("closest", "camera"),
         ("closest", "random"),
@@ -328,11 +356,13 @@ def run_queries(path=None, *, res=256, n_random=20_000, repeat=3, stress=300, ou
             ref = reference_contains(referee, o)
         else:
             ref = None
-        for caster in (*TETRACE_CASTERS, "embreex", "open3d"):
+        for caster in (*TETRACE_CASTERS, *PEER_NAMES):
             calls = {
                 k: (
                     _tetrace(scene, query, o, d, tmax, k, TETRACE_CASTERS[caster])
                     if caster in TETRACE_CASTERS
+                    else peers.closest_peer(caster, query, o, d, tmax, k)
+                    if caster in CLOSEST_PEERS
                     else getattr(peers, caster)(query, o, d, tmax, k)
                 )
                 for k in threads
@@ -357,7 +387,9 @@ def run_queries(path=None, *, res=256, n_random=20_000, repeat=3, stress=300, ou
                 if query == "closest":
                     hint = scene.cast(o, d, tmax=tmax).triangle
                 ref = _reference(referee, query, o, d, 0.0, tmax, hint)
-            right, n = judge_answer(query, caster, answer, ref, o, d)
+            right, n = judge_answer(
+                query, caster, answer, ref, o, d, peers.closest_casters.get(caster)
+            )
             judged.append(dict(query=query, rays=set_name, caster=caster, right=right, judged=n))
     if closed:
         judged += judge_surface_points(scene, referee, peers, v)
@@ -426,7 +458,7 @@ def _print_timing(rows, out):
             pk = cell.get("tetrace_bvh_packets")
             row = [q, rs, sel[0]["n"], k, f"{t:.2f}"]
             row += ["--" if not x else f"{x:.2f}" for x in (b, pk)]
-            for peer in ("embreex", "open3d"):
+            for peer in PEER_NAMES:
                 p = cell.get(peer)
                 row.append(
                     "--" if not p else f"{p:.2f} ({t / p:.2f}x" + (f", {b / p:.2f}x)" if b else ")")
@@ -443,8 +475,7 @@ def _print_timing(rows, out):
                 "tetrace",
                 "tetrace bvh",
                 "bvh packets",
-                "embreex (tetrace/it, bvh/it)",
-                "open3d (tetrace/it, bvh/it)",
+                *(f"{peer} (tetrace/it, bvh/it)" for peer in PEER_NAMES),
             ],
         )
     )
@@ -469,8 +500,8 @@ def _print_judged(rows, out):
     pairs = list(dict.fromkeys((k[0], k[1]) for k in agg))
     for q, rs in sorted(pairs, key=lambda x: QUERIES.index(x[0])):  # stable: as run within
         row = [q, rs]
-        for c in (*TETRACE_CASTERS, "embreex", "open3d"):
+        for c in (*TETRACE_CASTERS, *PEER_NAMES):
             a = agg.get((q, rs, c))
             row.append("--" if a is None else f"{a[0]:,}/{a[1]:,} ({a[1] - a[0]:,})")
         table.append(row)
-    out(_table(table, ["query", "rays", "tetrace", "tetrace bvh", "embreex", "open3d"]))
+    out(_table(table, ["query", "rays", "tetrace", "tetrace bvh", *PEER_NAMES]))

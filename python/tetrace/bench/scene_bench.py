@@ -1,4 +1,5 @@
-"""The full-scene benchmark of the foundation: camera rays, tetrace against embreex."""
+"""The full-scene benchmark of the foundation: camera rays, tetrace against embreex and the
+peers that install with pip (Open3D, warp-lang, mitsuba: :data:`tetrace.bench.casters.PEERS`)."""
 
 from __future__ import annotations
 
@@ -136,7 +137,9 @@ def run_scene_bench(
     devices=("cpu",),
     out=print,
 ):
-    """Build a scene, cast a pinhole camera with tetrace and embreex, print one report.
+    """Build a scene, cast a pinhole camera with tetrace, embreex and the peers that import
+    (:func:`tetrace.bench.casters.optional_peers`; the others are named with the reason),
+    print one report.
 
     Parameters
     ----------
@@ -178,7 +181,7 @@ def run_scene_bench(
     from ..baselines.embree import cpu_count
     from ..scene import layouts as all_layouts
     from ..scene import methods as all_methods
-    from .casters import EmbreexCaster, Open3DCaster, TetraceCaster, open3d_module, rays_for, timed
+    from .casters import EmbreexCaster, TetraceCaster, optional_peers, rays_for, timed
 
     methods_arg, layouts_arg = methods, layouts
     methods = (
@@ -208,10 +211,8 @@ def run_scene_bench(
     ncpu = cpu_count()
     thread_counts = {"1": 1, "all": ncpu}
     embreex = EmbreexCaster(v, f)
-    peers = [embreex]
-    o3d, why = open3d_module()
-    if o3d is not None:
-        peers.append(Open3DCaster(o3d, v, f))
+    others, skipped = optional_peers(v, f)
+    peers = [embreex, *others]
 
     results = {
         "scene": name,
@@ -223,7 +224,7 @@ def run_scene_bench(
         "build_seconds": {k: float(x) for k, x in bt.items()},
         "embree_build_seconds": float(embreex.build_seconds),
         "runs": [],
-        "peers_skipped": [] if o3d is not None else [why],
+        "peers_skipped": list(skipped.values()),
     }
     rows = []
     embree_rate = {}
