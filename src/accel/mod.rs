@@ -4,6 +4,7 @@
 //! query's gatherer (`query::gather`). Portalez's octree goes beside them (one file each);
 //! all are listed in [`ACCELS`], so a cast and the benchmarks drive them all the same way.
 
+pub mod portalez_octree;
 pub mod reshetov_bvh;
 pub mod reshetov_bvh_packets;
 pub mod tetwalk;
@@ -12,6 +13,7 @@ use crate::geom::ray::Ray;
 use crate::geom::real::Real;
 use crate::query::{QueryKind, Sink};
 
+pub use portalez_octree::{OctreeParams, PortalezOctree};
 pub use reshetov_bvh::{BvhParams, ReshetovBvh};
 pub use reshetov_bvh_packets::{BvhPackets, CullCounters};
 pub use tetwalk::TetWalk;
