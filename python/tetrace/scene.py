@@ -438,9 +438,11 @@ class Scene:
             (Reshetov 2007's BVH over the same triangles, built on first use or by
             :meth:`build_bvh`, one ray at a time) or ``"reshetov_bvh_packets"`` /
             ``"reshetov_bvh_packets8"`` (that BVH walked by packets of 16 / 64 rays with
-            the paper's frustum vertex culling; :meth:`bvh_info` counts what was culled).
-            All keep the contract exactly and give the same answers; the BVH takes only
-            the ``exact`` method, any layout, and the CPU.
+            the paper's frustum vertex culling; :meth:`bvh_info` counts what was culled)
+            or ``"portalez_octree"`` (Portalez & Duguet's neighbour-linked octree, built on
+            first use or by :meth:`build_octree`). All keep the contract exactly and give
+            the same answers; those other than the tet walk take only the ``exact``
+            method, any layout, and the CPU.
 
         Returns
         -------
@@ -837,7 +839,7 @@ class Scene:
         inside = self.contains(points, threads=threads)
         return np.where(inside, -d, d)
 
-    def build_bvh(self, *, cost_ratio=1.0, max_leaf=8, bins=16):
+    def build_bvh(self, *, cost_ratio=1.0, max_leaf=8, bins=16, aperture=True):
         """Build Reshetov's BVH over the scene's triangles for ``accel="reshetov_bvh"``.
 
         A query with that accel builds one with the defaults when none is built; this
@@ -852,13 +854,54 @@ class Scene:
             Most triangles per leaf (1 to 65536); more are split even where SAH would not.
         bins : int
             Bins per axis of the binned SAH (2 to 256).
+        aperture : bool
+            Whether packets (``accel="reshetov_bvh_packets"``) whose rays share an origin
+            also run the paper's optional aperture test on the triangles the frustum keeps.
 
         Returns
         -------
         dict
             As :meth:`bvh_info`.
         """
-        return self._native.build_bvh(cost_ratio, max_leaf, bins)
+        return self._native.build_bvh(cost_ratio, max_leaf, bins, bool(aperture))
+
+    def build_octree(self, *, max_depth=8, leaf_size=8, balance=True):
+        """Build Portalez & Duguet's octree over the scene's triangles for
+        ``accel="portalez_octree"``.
+
+        A query with that accel builds one with the defaults when none is built.
+
+        Parameters
+        ----------
+        max_depth : int
+            Leaves are at most this deep (0 to 16; the root is depth 0).
+        leaf_size : int
+            A node splits while it holds more triangles than this (1 to 65536).
+        balance : bool
+            Keep face-adjacent leaves within one level of each other (2:1), as the paper
+            does: each leaf face then has 0, 1 or 4 neighbours.
+
+        Returns
+        -------
+        dict
+            As :meth:`octree_info`.
+        """
+        return self._native.build_octree(max_depth, leaf_size, balance)
+
+    def octree_info(self):
+        """Return the octree's statistics and memory, or None when none is built.
+
+        Returns
+        -------
+        dict or None
+            ``leaves``, ``empty_leaves``, ``neighbours_per_leaf`` (links per leaf),
+            ``triangles_per_leaf``, ``depth`` (deepest leaf), ``node_links`` (links to
+            coarser hierarchy nodes, unbalanced trees only); bytes per part as the
+            paper's Table 4 (``bytes_cube_map``, ``bytes_octree``, ``bytes_triangles``,
+            ``bytes_boxes``), ``bytes_hierarchy`` (kept to locate origins inside the
+            root box) and ``bytes`` (the total); the parameters it was built with.
+        """
+        return self._native.octree_info()
 
     def bvh_info(self):
         """Return the BVH's shape, or None when none is built.
@@ -867,7 +910,7 @@ class Scene:
         -------
         dict or None
             ``nodes``, ``leaves``, ``depth``, ``bytes`` and the parameters it was built
-            with (``cost_ratio``, ``max_leaf``, ``bins``); and what packets
+            with (``cost_ratio``, ``max_leaf``, ``bins``, ``aperture``); and what packets
             (``accel="reshetov_bvh_packets"``) did on this tree since it was built:
             ``packet_tests`` (ray-triangle pairs reached at leaves), ``packet_culled``
             (those the frustum culled), and the leaves reached with a frustum

@@ -1,8 +1,9 @@
 //! Acceleration structures behind one interface: each answers a [`QueryKind`] for one ray at a
 //! time, with per-chunk state it may carry between neighbouring rays. The tet walk answers
-//! through the query's walk policy; Reshetov's BVH tests triangles and answers through the
-//! query's gatherer (`query::gather`). Portalez's octree goes beside them (one file each);
-//! all are listed in [`ACCELS`], so a cast and the benchmarks drive them all the same way.
+//! through the query's walk policy; Reshetov's BVH (one ray at a time or in culling packets)
+//! and Portalez & Duguet's octree test triangles and answer through the query's gatherer
+//! (`query::gather`). One file each; all are listed in [`ACCELS`], so a cast and the
+//! benchmarks drive them all the same way.
 
 pub mod portalez_octree;
 pub mod reshetov_bvh;
@@ -19,11 +20,12 @@ pub use reshetov_bvh_packets::{BvhPackets, CullCounters};
 pub use tetwalk::TetWalk;
 
 /// The acceleration structures there are, by name.
-pub const ACCELS: [&str; 4] = [
+pub const ACCELS: [&str; 5] = [
     "tetwalk",
     "reshetov_bvh",
     "reshetov_bvh_packets",
     "reshetov_bvh_packets8",
+    "portalez_octree",
 ];
 
 /// Which acceleration structure a cast runs.
@@ -38,15 +40,26 @@ pub enum AccelKind {
     /// The same BVH walked by packets of this many rays with Reshetov's frustum vertex
     /// culling (`reshetov_bvh_packets`: 16, a 4×4 tile; `reshetov_bvh_packets8`: 64, 8×8).
     ReshetovBvhPackets(u8),
+    /// Portalez & Duguet's neighbour-linked octree (`portalez_octree`), built on first use
+    /// with [`OctreeParams::default`].
+    PortalezOctree,
 }
 
 impl AccelKind {
-    /// Whether it tests triangles with a BVH (rather than walking tets).
-    pub fn is_bvh(self) -> bool {
-        matches!(
-            self,
-            AccelKind::ReshetovBvh | AccelKind::ReshetovBvhPackets(_)
-        )
+    /// Its name in [`ACCELS`].
+    pub fn name(self) -> &'static str {
+        match self {
+            AccelKind::TetWalk => ACCELS[0],
+            AccelKind::ReshetovBvh => ACCELS[1],
+            AccelKind::ReshetovBvhPackets(64) => ACCELS[3],
+            AccelKind::ReshetovBvhPackets(_) => ACCELS[2],
+            AccelKind::PortalezOctree => ACCELS[4],
+        }
+    }
+
+    /// Whether it tests the caller's triangles (a BVH, the octree) rather than walking tets.
+    pub fn tests_triangles(self) -> bool {
+        self != AccelKind::TetWalk
     }
 
     pub fn from_name(name: &str) -> crate::Result<AccelKind> {
@@ -55,6 +68,7 @@ impl AccelKind {
             "reshetov_bvh" => Ok(AccelKind::ReshetovBvh),
             "reshetov_bvh_packets" => Ok(AccelKind::ReshetovBvhPackets(16)),
             "reshetov_bvh_packets8" => Ok(AccelKind::ReshetovBvhPackets(64)),
+            "portalez_octree" => Ok(AccelKind::PortalezOctree),
             _ => Err(crate::Error::InvalidOption(format!(
                 "unknown accel {name:?}; expected one of {ACCELS:?}"
             ))),

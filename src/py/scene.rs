@@ -4,7 +4,7 @@ use super::arrays::{check_cols, rows, slice};
 use super::errors::guarded;
 use super::names::{AccelArg, LayoutArg, MethodArg};
 use crate::accel::reshetov_bvh::nearest::NearestPoint;
-use crate::accel::{BvhParams, ReshetovBvh};
+use crate::accel::{BvhParams, OctreeParams, PortalezOctree, ReshetovBvh};
 use crate::geom::real::Real;
 use crate::layout::LayoutKind;
 use crate::query::Listed;
@@ -390,6 +390,34 @@ impl PyScene {
         self.inner.built_bvh().map(|b| bvh_info(py, &b)).transpose()
     }
 
+    /// Builds Portalez & Duguet's octree with these parameters for the casts that follow;
+    /// returns what `octree_info` returns.
+    #[pyo3(signature = (max_depth=8, leaf_size=8, balance=true))]
+    fn build_octree<'py>(
+        &self,
+        py: Python<'py>,
+        max_depth: u32,
+        leaf_size: u32,
+        balance: bool,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let params = OctreeParams {
+            max_depth,
+            leaf_size,
+            balance,
+        };
+        let octree = py.detach(|| guarded(|| self.inner.build_octree(params)))?;
+        octree_info(py, &octree)
+    }
+
+    /// The octree's statistics and bytes per part, or None when none is built.
+    fn octree_info<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        self.inner
+            .octree
+            .get()
+            .map(|o| octree_info(py, &o))
+            .transpose()
+    }
+
     /// Bytes used by each part of the structure (`gpu_<layout>`: on the device).
     fn memory<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let d = PyDict::new(py);
@@ -591,6 +619,28 @@ fn cast_options(
         accel: accel.map_or(AccelKind::TetWalk, |a| a.0),
         ..Default::default()
     }
+}
+
+fn octree_info<'py>(py: Python<'py>, octree: &PortalezOctree) -> PyResult<Bound<'py, PyDict>> {
+    let (stats, memory) = (octree.stats(), octree.memory());
+    let d = PyDict::new(py);
+    d.set_item("leaves", stats.leaves)?;
+    d.set_item("empty_leaves", stats.empty_leaves)?;
+    d.set_item("neighbours_per_leaf", stats.neighbours_per_leaf)?;
+    d.set_item("triangles_per_leaf", stats.triangles_per_leaf)?;
+    d.set_item("depth", stats.max_depth)?;
+    d.set_item("node_links", stats.node_links)?;
+    // Table 4's columns (bytes), and the hierarchy the paper does not keep.
+    d.set_item("bytes_cube_map", memory.cube_map)?;
+    d.set_item("bytes_octree", memory.octree)?;
+    d.set_item("bytes_triangles", memory.triangles)?;
+    d.set_item("bytes_boxes", memory.boxes)?;
+    d.set_item("bytes_hierarchy", memory.hierarchy)?;
+    d.set_item("bytes", memory.total)?;
+    d.set_item("max_depth", octree.params.max_depth)?;
+    d.set_item("leaf_size", octree.params.leaf_size)?;
+    d.set_item("balance", octree.params.balance)?;
+    Ok(d)
 }
 
 fn bvh_info<'py>(py: Python<'py>, bvh: &ReshetovBvh) -> PyResult<Bound<'py, PyDict>> {

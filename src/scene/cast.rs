@@ -190,8 +190,8 @@ impl Scene {
         opts: &CastOptions,
     ) -> Result<()> {
         opts.check()?;
-        if opts.accel.is_bvh() {
-            return self.dispatch_bvh(method, rays, job, opts);
+        if opts.accel.tests_triangles() {
+            return self.dispatch_tested(method, rays, job, opts);
         }
         let step = LayoutStep {
             scene: self,
@@ -203,9 +203,9 @@ impl Scene {
         self.layouts.visit(layout, &self.mesh, step)?
     }
 
-    /// A cast on Reshetov's BVH, one ray at a time or in packets: exact, so only the exact
-    /// method's name is taken.
-    fn dispatch_bvh<R: Real>(
+    /// A cast on an accelerator that tests triangles (Reshetov's BVH, one ray at a time or in
+    /// packets; Portalez's octree): exact, so only the exact method's name is taken.
+    fn dispatch_tested<R: Real>(
         &self,
         method: Method,
         rays: &Rays<R>,
@@ -214,21 +214,22 @@ impl Scene {
     ) -> Result<()> {
         if method != Method::Exact {
             return Err(Error::InvalidOption(format!(
-                "accel reshetov_bvh tests triangles exactly and has no exit method; method {} \
-                 is for the tet walk",
+                "accel {} tests triangles exactly and has no exit method; method {} is for the \
+                 tet walk",
+                opts.accel.name(),
                 method.name()
             )));
         }
-        let bvh = &*self.bvh()?;
         match opts.accel {
             AccelKind::ReshetovBvhPackets(size) => {
                 let packets = BvhPackets {
-                    bvh,
+                    bvh: &*self.bvh()?,
                     size: size as usize,
                 };
                 self.cast_job(&packets, rays, job, opts)
             }
-            _ => self.cast_job(bvh, rays, job, opts),
+            AccelKind::PortalezOctree => self.cast_job(&*self.octree()?, rays, job, opts),
+            _ => self.cast_job(&*self.bvh()?, rays, job, opts),
         }
     }
 

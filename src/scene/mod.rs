@@ -6,7 +6,7 @@ pub mod buffers;
 pub mod cast;
 
 use crate::accel::reshetov_bvh::nearest::NearestPoint;
-use crate::accel::{BvhParams, ReshetovBvh};
+use crate::accel::{BvhParams, OctreeParams, PortalezOctree, ReshetovBvh};
 use crate::error::{Error, Result};
 use crate::geom::real::Real;
 use crate::layout::{LayoutKind, Layouts};
@@ -26,6 +26,40 @@ use std::sync::{Arc, OnceLock, RwLock};
 pub use buffers::{check_lengths, HitBuffers, HitsOut, Rays};
 pub use cast::{AccelKind, CastOptions, Lanes, Packets, CHUNK};
 
+/// A structure built on first use, or again with other parameters: casts hold the `Arc` they
+/// started with, so a rebuild never changes a cast under way.
+pub struct Built<T>(RwLock<Option<Arc<T>>>);
+
+impl<T> Default for Built<T> {
+    fn default() -> Self {
+        Built(RwLock::new(None))
+    }
+}
+
+impl<T> Built<T> {
+    /// The one built last, if any.
+    pub fn get(&self) -> Option<Arc<T>> {
+        self.0.read().unwrap_or_else(|e| e.into_inner()).clone()
+    }
+
+    /// The one built last, else `build()`'s (kept).
+    pub fn get_or_build(&self, build: impl FnOnce() -> Result<T>) -> Result<Arc<T>> {
+        if let Some(b) = self.get() {
+            return Ok(b);
+        }
+        let built = Arc::new(build()?);
+        let mut slot = self.0.write().unwrap_or_else(|e| e.into_inner());
+        Ok(slot.get_or_insert(built).clone())
+    }
+
+    /// Keeps `built` for what follows.
+    pub fn set(&self, built: T) -> Result<Arc<T>> {
+        let built = Arc::new(built);
+        *self.0.write().unwrap_or_else(|e| e.into_inner()) = Some(built.clone());
+        Ok(built)
+    }
+}
+
 pub struct Scene {
     pub mesh: TetMesh,
     pub locator: GridLocator,
@@ -41,7 +75,10 @@ pub struct Scene {
     pub parity: OnceLock<Parity>,
     /// Reshetov's BVH over the caller's triangles: built by the first cast that asks for it,
     /// or again with other parameters by [`Scene::build_bvh`].
-    pub bvh: RwLock<Option<Arc<ReshetovBvh>>>,
+    pub bvh: Built<ReshetovBvh>,
+    /// Portalez & Duguet's octree over the same triangles (`accel="portalez_octree"`), built
+    /// on first use with the default parameters or again by [`Scene::build_octree`].
+    pub octree: Built<PortalezOctree>,
 }
 
 impl Scene {
@@ -131,7 +168,8 @@ impl Scene {
             },
             incidence,
             parity: OnceLock::new(),
-            bvh: RwLock::new(None),
+            bvh: Built::default(),
+            octree: Built::default(),
         };
         scene.layouts.prepare(LayoutKind::DEFAULT, &scene.mesh)?;
         Ok(scene)
@@ -166,6 +204,10 @@ impl Scene {
                 "bvh".to_string(),
                 self.built_bvh().map_or(0, |b| b.memory()),
             ),
+            (
+                "octree".to_string(),
+                self.octree.get().map_or(0, |o| o.memory().total),
+            ),
         ];
         m.extend(
             self.layouts
@@ -193,28 +235,34 @@ impl Scene {
     /// The closest-hit query over this scene's triangles.
     /// Reshetov's BVH: the one built last, else one with the default parameters (built now).
     pub fn bvh(&self) -> Result<Arc<ReshetovBvh>> {
-        if let Some(b) = self.built_bvh() {
-            return Ok(b);
-        }
-        let built = Arc::new(ReshetovBvh::build(
-            &self.surface.triangles,
-            BvhParams::default(),
-        )?);
-        let mut slot = self.bvh.write().unwrap_or_else(|e| e.into_inner());
-        Ok(slot.get_or_insert(built).clone())
+        self.bvh.get_or_build(|| {
+            ReshetovBvh::build(&self.surface.triangles, BvhParams::default())
+        })
     }
 
     /// The BVH if one is built.
     pub fn built_bvh(&self) -> Option<Arc<ReshetovBvh>> {
-        self.bvh.read().unwrap_or_else(|e| e.into_inner()).clone()
+        self.bvh.get()
     }
 
     /// Builds Reshetov's BVH with `params`, for the casts that follow (casts running now keep
     /// the tree they started with).
     pub fn build_bvh(&self, params: BvhParams) -> Result<Arc<ReshetovBvh>> {
-        let built = Arc::new(ReshetovBvh::build(&self.surface.triangles, params)?);
-        *self.bvh.write().unwrap_or_else(|e| e.into_inner()) = Some(built.clone());
-        Ok(built)
+        self.bvh
+            .set(ReshetovBvh::build(&self.surface.triangles, params)?)
+    }
+
+    /// Portalez & Duguet's octree: the one built last, else one with the default parameters.
+    pub fn octree(&self) -> Result<Arc<PortalezOctree>> {
+        self.octree.get_or_build(|| {
+            PortalezOctree::build(&self.surface.triangles, OctreeParams::default())
+        })
+    }
+
+    /// Builds the octree with `params`, for the casts that follow.
+    pub fn build_octree(&self, params: OctreeParams) -> Result<Arc<PortalezOctree>> {
+        self.octree
+            .set(PortalezOctree::build(&self.surface.triangles, params)?)
     }
 
     pub fn closest(&self) -> ClosestHit<'_> {
