@@ -20,9 +20,9 @@ def test_queries_bench_judges_every_kind(embree, open3d, warp, mitsuba):
         assert r["judged"] > 0 and r["right"] == r["judged"], r
     # the bundled scene is closed (welded), so containment was judged on and off the surface
     assert {r["rays"] for r in mine if r["query"] == "contains"} == {"points", "vertices"}
-    # Reshetov's BVH, one ray at a time and in packets, answers every ray query, all right
-    # too (containment is the walk's).
-    for caster in ("tetrace_bvh", "tetrace_bvh_packets"):
+    # Reshetov's BVH, one ray at a time and in packets, and Portalez's octree answer every
+    # ray query, all right too (containment is the walk's).
+    for caster in ("tetrace_bvh", "tetrace_bvh_packets", "tetrace_octree"):
         bvh = [r for r in judged if r["caster"] == caster]
         assert {r["query"] for r in bvh} == set(QUERIES) - {"contains"}, caster
         assert {r["rays"] for r in bvh} >= {"camera", "random", "shadow", "stress"}, caster
@@ -46,6 +46,6 @@ def test_queries_bench_judges_every_kind(embree, open3d, warp, mitsuba):
         assert all(r["mqs"] > 0 and r["n"] > 0 for r in times), peer
     timed = {(r["caster"], r["query"]) for r in rows["timing"]}
     assert {("tetrace", q) for q in QUERIES} <= timed
-    for caster in ("tetrace_bvh", "tetrace_bvh_packets"):
+    for caster in ("tetrace_bvh", "tetrace_bvh_packets", "tetrace_octree"):
         assert {(caster, q) for q in QUERIES if q != "contains"} <= timed
     assert any("Throughput" in line for line in lines)

@@ -1,6 +1,6 @@
 """Reshetov's BVH (``accel="reshetov_bvh"``, issue 16), one ray at a time and in packets with
-frustum vertex culling (``"reshetov_bvh_packets"``, ``"reshetov_bvh_packets8"``), keeps
-tetrace's contract.
+frustum vertex culling (``"reshetov_bvh_packets"``, ``"reshetov_bvh_packets8"``), and Portalez
+& Duguet's octree (``"portalez_octree"``) keep tetrace's contract.
 
 Its answers are judged by the exact referee on every local stress family (rays through
 vertices, along edges, in face planes, from the surface, at tmin, with directions from
@@ -24,7 +24,11 @@ PRECISIONS = ("f32", "f64")
 LOCAL = [f for f in FAMILIES if f not in SHARED_SCENES]
 BVH = "reshetov_bvh"
 PACKETS = ("reshetov_bvh_packets", "reshetov_bvh_packets8")
-ACCELS = (BVH, *PACKETS)
+OCTREE = "portalez_octree"
+#: The ways of walking the BVH (the sweep's rows).
+WALKS = (BVH, *PACKETS)
+#: Every accelerator that tests triangles.
+ACCELS = (*WALKS, OCTREE)
 
 
 @pytest.fixture(scope="module")
@@ -114,7 +118,7 @@ def test_packets_cull_and_answer_as_one_ray(accel):
 def test_bvh_options_and_shape():
     """The accel names, the BVH's parameters (checked), its shape and memory, and the
     refusals: an unknown accel, a float method, the GPU."""
-    assert tetrace.accels() == ["tetwalk", BVH, *PACKETS]
+    assert tetrace.accels() == ["tetwalk", BVH, *PACKETS, OCTREE]
     scene = tetrace.default_scene()
     n_triangles = len(scene.faces)
     built = scene.build_bvh(cost_ratio=4.0, max_leaf=32, bins=8)
@@ -156,12 +160,12 @@ def test_bvh_sweep_measures_every_tree(embree):
 
     lines = []
     rows = run_bvh_sweep(None, res=24, ratios=(0.0, 100.0), leaves=(8,), repeat=1, out=lines.append)
-    assert [r["accel"] for r in rows] == ["tetwalk", *ACCELS, *ACCELS]
+    assert [r["accel"] for r in rows] == ["tetwalk", *WALKS, *WALKS]
     for r in rows:
         assert r["right"] == 1.0 and r["nodes_per_ray"] > 0 and r["mrays_per_s"] > 0, r
         # Packets report the share culled (computed: rays hit, so not every test is culled).
         assert ("culled" in r) == (r["accel"] in PACKETS), r
         assert 0 <= r.get("culled", 0) < 1, r
-    fine, coarse = rows[1], rows[1 + len(ACCELS)]
+    fine, coarse = rows[1], rows[1 + len(WALKS)]
     assert coarse["leaves"] < fine["leaves"] and coarse["bytes"] < fine["bytes"]
     assert any("BVH sweep" in line for line in lines)

@@ -187,6 +187,10 @@ def main(argv=None):
         return scenes_main(argv[1:])
     if argv[:1] == ["queries"]:
         return queries_main(argv[1:])
+    if argv[:1] == ["octree"]:
+        from .octree import octree_main
+
+        return octree_main(argv[1:])
     if argv[:1] == ["bvh"]:
         from .bvh import bvh_main
 

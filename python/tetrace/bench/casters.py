@@ -49,7 +49,9 @@ def is_accel(method):
 def structure_bytes(memory, method, layout):
     """Bytes of what a cast with ``method`` on ``layout`` walks or tests: the layout's
     records, or the accelerator's structure."""
-    return memory["bvh"] if is_accel(method) else memory[f"tets_{layout}"]
+    if not is_accel(method):
+        return memory[f"tets_{layout}"]
+    return memory["octree"] if method == "portalez_octree" else memory["bvh"]
 
 
 def _threads(k):

@@ -82,6 +82,7 @@ FULL = dict(
         "robust",
         "reshetov_bvh",
         "reshetov_bvh_packets",
+        "portalez_octree",
     ],
     layouts=["tet32", "tet20"],
     precisions=["f32", "f64"],

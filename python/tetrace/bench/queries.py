@@ -171,12 +171,13 @@ class _Peers:
         }[query]
 
 
-#: tetrace's casters: the tet walk (the default) and Reshetov's BVH (``accel=``), one ray at a
-#: time and in 4×4 packets with frustum vertex culling.
+#: tetrace's casters: the tet walk (the default), Reshetov's BVH (``accel=``), one ray at a
+#: time and in 4×4 packets with frustum vertex culling, and Portalez & Duguet's octree.
 TETRACE_CASTERS = {
     "tetrace": None,
     "tetrace_bvh": "reshetov_bvh",
     "tetrace_bvh_packets": "reshetov_bvh_packets",
+    "tetrace_octree": "portalez_octree",
 }
 
 
@@ -456,8 +457,9 @@ def _print_timing(rows, out):
             t = cell.get("tetrace")
             b = cell.get("tetrace_bvh")
             pk = cell.get("tetrace_bvh_packets")
+            oc = cell.get("tetrace_octree")
             row = [q, rs, sel[0]["n"], k, f"{t:.2f}"]
-            row += ["--" if not x else f"{x:.2f}" for x in (b, pk)]
+            row += ["--" if not x else f"{x:.2f}" for x in (b, pk, oc)]
             for peer in PEER_NAMES:
                 p = cell.get(peer)
                 row.append(
@@ -475,6 +477,7 @@ def _print_timing(rows, out):
                 "tetrace",
                 "tetrace bvh",
                 "bvh packets",
+                "octree",
                 *(f"{peer} (tetrace/it, bvh/it)" for peer in PEER_NAMES),
             ],
         )
