@@ -223,7 +223,7 @@ def main(argv=None):
         "--method",
         action="append",
         default=None,
-        help="exit method, or an accelerator ('reshetov_bvh': the exact answers from a BVH) "
+        help="exit method, or an accelerator (tetrace.accels(): 'reshetov_bvh', 'reshetov_bvh_packets', 'portalez_octree' ...: exact answers from a BVH or an octree) "
         "(repeatable, or 'all'; default: the default method)",
     )
     p.add_argument(
