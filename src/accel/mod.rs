@@ -137,3 +137,19 @@ pub fn trace_each<R: Real, A: Accel<R> + ?Sized, K: QueryKind, S: Sink<K::Answer
         out.put(j, answer, &ray);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every name in ACCELS parses to the kind that names itself so, and nothing else parses.
+    #[test]
+    fn accel_names_round_trip() {
+        for name in ACCELS {
+            assert_eq!(AccelKind::from_name(name).unwrap().name(), name);
+        }
+        assert!(AccelKind::from_name("kdtree").is_err());
+        assert!(!AccelKind::TetWalk.tests_triangles());
+        assert!(AccelKind::PortalezOctree.tests_triangles());
+    }
+}

@@ -235,9 +235,8 @@ impl Scene {
     /// The closest-hit query over this scene's triangles.
     /// Reshetov's BVH: the one built last, else one with the default parameters (built now).
     pub fn bvh(&self) -> Result<Arc<ReshetovBvh>> {
-        self.bvh.get_or_build(|| {
-            ReshetovBvh::build(&self.surface.triangles, BvhParams::default())
-        })
+        self.bvh
+            .get_or_build(|| ReshetovBvh::build(&self.surface.triangles, BvhParams::default()))
     }
 
     /// The BVH if one is built.
