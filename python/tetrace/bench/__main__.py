@@ -223,7 +223,8 @@ def main(argv=None):
         "--method",
         action="append",
         default=None,
-        help="exit method, or an accelerator (tetrace.accels(): 'reshetov_bvh', 'reshetov_bvh_packets', 'portalez_octree' ...: exact answers from a BVH or an octree) "
+        help="exit method, or an accelerator (one of tetrace.accels() but 'tetwalk': exact "
+        "answers from a BVH, its packets or an octree) "
         "(repeatable, or 'all'; default: the default method)",
     )
     p.add_argument(

@@ -86,6 +86,58 @@ def timed(caster, origins, directions, threads, repeat):
     return best, raw
 
 
+class CameraRun:
+    """One scene's pinhole camera (``res``² float32 rays, one thread) with embreex timed on it:
+    what the sweeps of one accelerator's parameters (``bench bvh``, ``bench octree``) measure
+    each tetrace cast against, judged by the exact referee.
+
+    Parameters
+    ----------
+    path : str or None
+        Mesh file; None uses the bundled scene.
+    res : int
+    distance : float
+        Camera distance from the scene centre, in bounding radii.
+    repeat : int
+        Timed casts per measurement; the best is kept.
+    """
+
+    def __init__(self, path, res, distance, repeat):
+        from ..dev.camera import orbit_views, pinhole
+        from ..scene import Scene, default_scene_path
+
+        self.path = str(path) if path is not None else str(default_scene_path())
+        self.scene = Scene.from_mesh(self.path)
+        v, f = self.scene.vertices, self.scene.faces
+        eye, target, up = orbit_views(np.array([v.min(0), v.max(0)]), n=1, distance=distance)[0]
+        self.o, self.d = pinhole(
+            eye, target, up, fov_deg=40.0, width=res, height=res, dtype=np.float32
+        )
+        self.n, self.repeat, self.verdict = len(self.o), repeat, None
+        te, _ = timed(EmbreexCaster(v, f), self.o, self.d, 1, repeat)
+        self.embree_rate = self.n / te / 1e6
+
+    def measure(self, method):
+        """Cast with ``method`` (an exit method or an accelerator); return ``mrays_per_s``,
+        ``ratio_to_embree``, ``steps_per_ray`` (tets, nodes or leaves visited) and ``right``
+        (the share of rays the referee finds right)."""
+        from ..dev.compare import agreement
+        from ..referee import Referee
+
+        caster = TetraceCaster(self.scene, method, None, "f32")
+        seconds, hits = timed(caster, self.o, self.d, 1, self.repeat)
+        if self.verdict is None:
+            v, f = self.scene.vertices, self.scene.faces
+            self.verdict = Referee(v, f).first_hits(self.o, self.d, hint=hits.triangle)
+        rate = self.n / seconds / 1e6
+        return dict(
+            mrays_per_s=rate,
+            ratio_to_embree=rate / self.embree_rate,
+            steps_per_ray=float(hits.steps.mean()),
+            right=agreement(hits, self.verdict, "f64").fraction,
+        )
+
+
 def rays_for(precision, origins32, directions32):
     """The rays a caster of ``precision`` gets: the float32 rays, or them widened exactly."""
     if precision == "f32":

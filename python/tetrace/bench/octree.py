@@ -14,11 +14,6 @@ from __future__ import annotations
 import argparse
 import time
 
-import numpy as np
-
-from ..dev.camera import orbit_views, pinhole
-from ..scene import Scene, default_scene_path
-
 DEPTHS = (8,)
 LEAF_SIZES = (8,)
 
@@ -60,33 +55,16 @@ def run_octree_stats(
         ``ratio_to_embree``, ``leaves_per_ray`` and ``right`` (the share of rays the referee
         finds right).
     """
-    from ..dev.compare import agreement
-    from ..referee import Referee
-    from .casters import EmbreexCaster, TetraceCaster, timed
+    from .casters import CameraRun
     from .scene_bench import _table
 
-    path = str(path) if path is not None else str(default_scene_path())
-    scene = Scene.from_mesh(path)
-    v, f = scene.vertices, scene.faces
-    eye, target, up = orbit_views(np.array([v.min(0), v.max(0)]), n=1, distance=distance)[0]
-    o, d = pinhole(eye, target, up, fov_deg=40.0, width=res, height=res, dtype=np.float32)
-    n = len(o)
-    te, _ = timed(EmbreexCaster(v, f), o, d, 1, repeat)
-    embree_rate = n / te / 1e6
-    verdict = None
+    run = CameraRun(path, res, distance, repeat)
+    scene, path, f, embree_rate = run.scene, run.path, run.scene.faces, run.embree_rate
 
     def measure(method):
-        nonlocal verdict
-        seconds, hits = timed(TetraceCaster(scene, method, None, "f32"), o, d, 1, repeat)
-        if verdict is None:
-            verdict = Referee(v, f).first_hits(o, d, hint=hits.triangle)
-        rate = n / seconds / 1e6
-        return dict(
-            mrays_per_s=rate,
-            ratio_to_embree=rate / embree_rate,
-            leaves_per_ray=float(hits.steps.mean()),
-            right=agreement(hits, verdict, "f64").fraction,
-        )
+        m = run.measure(method)
+        m["leaves_per_ray"] = m.pop("steps_per_ray")
+        return m
 
     rows = [dict(accel="tetwalk", **measure("exact"))]
     for depth in depths:
