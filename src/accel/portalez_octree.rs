@@ -287,8 +287,11 @@ impl Frame {
     }
 }
 
-fn tables() -> &'static ([[u8; 8]; 8], [[u8; 8]; 6]) {
-    static T: OnceLock<([[u8; 8]; 8], [[u8; 8]; 6])> = OnceLock::new();
+/// outFacesLookup and faceToNeighborIndex.
+type Tables = ([[u8; 8]; 8], [[u8; 8]; 6]);
+
+fn tables() -> &'static Tables {
+    static T: OnceLock<Tables> = OnceLock::new();
     T.get_or_init(|| (out_faces_lookup(), face_to_neighbor_index()))
 }
 

@@ -4,9 +4,9 @@
 //! leaf listed, by exact rational clipping; every face-adjacent pair linked both ways).
 //!
 //! Mutations tried, each caught: reading the sign bit the other way (b = 1 ⇔ Π > 0) in
-//! `exit_face` fails `octree_answers_are_the_referees_and_the_walks` (the step guard fires);
-//! resolving a zero Π at a face centre to bit 0 instead of the ray's side (`quadrant`) ...
-//! (see the notes at the end of this file for what each produced).
+//! `exit_face` fails the answers, every-scale and along-planes tests on their first rays
+//! (hits leaked); trusting the cube map's guess without the exact check (`start`) fails the
+//! answers test on the depth-12 tree (another triangle than the BVH's).
 
 use super::*;
 use crate::layout::LayoutKind;
@@ -105,7 +105,7 @@ fn sign2_is_exact() {
         let (mut a, mut b, mut c, mut e) = (x(&mut rng), x(&mut rng), x(&mut rng), x(&mut rng));
         let mut m = rng.f() - 0.5;
         // n chosen so the products nearly cancel.
-        let mut n = if k % 3 == 0 {
+        let mut n = if k.is_multiple_of(3) {
             rng.f()
         } else {
             (a - b) * m / (c - e)
@@ -181,7 +181,7 @@ fn dyadic_scene(rng: &mut Rng, n: usize) -> Vec<Tri> {
             [0, 1, 2].map(|k| (c[k] + ((rng.f() * 4.0).round() - 2.0) * s).clamp(0.0, 1.0))
         };
         let (a, b) = (p(rng), p(rng));
-        let c3 = if tris.len() % 7 == 0 {
+        let c3 = if tris.len().is_multiple_of(7) {
             [0, 1, 2].map(|k| 0.5 * a[k] + 0.5 * b[k]) // zero area
         } else {
             p(rng)
@@ -680,11 +680,11 @@ fn octree_walks_along_planes_and_through_corners() {
         node_links += oct.stats().node_links;
         let mut st = OctreeState::default();
         let mut hits = 0;
-        for i in 0..6000 {
+        for i in 0..6000usize {
             let q = |rng: &mut Rng| (rng.f() * 40.0).round() / 32.0 - 0.125;
             let o = [q(&mut rng), q(&mut rng), q(&mut rng)];
             let mut d = [0, 1, 2].map(|_| (rng.f() * 4.0).round() - 2.0);
-            if i % 4 == 0 {
+            if i.is_multiple_of(4) {
                 d[i / 4 % 3] = 0.0;
             }
             if d == [0.0; 3] {
