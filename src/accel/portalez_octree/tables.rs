@@ -57,10 +57,10 @@ pub fn out_faces_lookup() -> [[u8; 8]; 8] {
                     !less[k]
                 }
             };
-            for i in 0..3 {
+            for (i, &p) in pos.iter().enumerate() {
                 let (j, k) = ((i + 1) % 3, (i + 2) % 3);
                 if lt(i, j) && lt(i, k) {
-                    *entry = face_of(i, pos[i]) as u8;
+                    *entry = face_of(i, p) as u8;
                 }
             }
         }
