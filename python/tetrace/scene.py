@@ -865,7 +865,7 @@ class Scene:
         """
         return self._native.build_bvh(cost_ratio, max_leaf, bins, bool(aperture))
 
-    def build_octree(self, *, max_depth=8, leaf_size=8, balance=True):
+    def build_octree(self, *, max_depth=8, leaf_size=12, balance=True):
         """Build Portalez & Duguet's octree over the scene's triangles for
         ``accel="portalez_octree"``.
 

@@ -392,7 +392,7 @@ impl PyScene {
 
     /// Builds Portalez & Duguet's octree with these parameters for the casts that follow;
     /// returns what `octree_info` returns.
-    #[pyo3(signature = (max_depth=8, leaf_size=8, balance=true))]
+    #[pyo3(signature = (max_depth=8, leaf_size=12, balance=true))]
     fn build_octree<'py>(
         &self,
         py: Python<'py>,

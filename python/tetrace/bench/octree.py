@@ -15,7 +15,7 @@ import argparse
 import time
 
 DEPTHS = (8,)
-LEAF_SIZES = (8,)
+LEAF_SIZES = (12,)
 
 
 def run_octree_stats(
