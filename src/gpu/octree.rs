@@ -290,6 +290,101 @@ impl OctreeHost {
         s as u32
     }
 
+    /// The kernel's entry from outside the root box: the slab test (Err: a miss), the cube
+    /// map's leaf at the entry point, and the steps within the root face to the leaf holding
+    /// it. Ok: the first leaf's record and those steps (tests read them).
+    pub fn entry(
+        &self,
+        ray: &OctRayIn,
+        max_steps: u32,
+    ) -> std::result::Result<(usize, u32), OctRayOut> {
+        self.enter(ray, &ray.d.map(|x| 1.0 / x), max_steps)
+    }
+
+    fn enter(
+        &self,
+        ray: &OctRayIn,
+        inv: &[f32; 3],
+        max_steps: u32,
+    ) -> std::result::Result<(usize, u32), OctRayOut> {
+        let (o, d) = (ray.o, ray.d);
+        let p = &self.params;
+        let pos = d.map(|x| x > 0.0);
+        let miss = OctRayOut::new(MISS, NO_TRI, 0.0, 0);
+        let (mut tn, mut tf, mut e) = (0f32, f32::MAX, 3usize);
+        for k in 0..3 {
+            if d[k] == 0.0 {
+                if o[k] < p.lo[k] || o[k] > p.hi[k] {
+                    return Err(miss);
+                }
+            } else {
+                let near = if pos[k] { p.lo[k] } else { p.hi[k] };
+                let far = if pos[k] { p.hi[k] } else { p.lo[k] };
+                let t0 = (near - o[k]) * inv[k];
+                let t1 = (far - o[k]) * inv[k];
+                if e == 3 || t0 > tn {
+                    tn = t0;
+                    e = k;
+                }
+                if t1 < tf {
+                    tf = t1;
+                }
+            }
+        }
+        if e == 3 || tn > tf || tf < 0.0 {
+            return Err(miss);
+        }
+        let mut ent = [0f32; 3];
+        for k in 0..3 {
+            ent[k] = o[k] + tn * d[k];
+        }
+        ent[e] = if pos[e] { p.lo[e] } else { p.hi[e] };
+        let (u, w) = in_plane(e);
+        let res = p.cube_res as usize;
+        let face = face_of(e, !pos[e]);
+        let mut addr = self.cube
+            [(face * res + self.texel(ent[w], w) as usize) * res + self.texel(ent[u], u) as usize]
+            as usize;
+        let mut fixes = 0u32;
+        loop {
+            let b = self.boxes[self.records[addr + 2] as usize];
+            let size = 1u32 << (p.depth - b[3]);
+            let m = if ent[u] < self.plane(u, b[u]) {
+                Some((u, false))
+            } else if ent[u] > self.plane(u, b[u] + size) {
+                Some((u, true))
+            } else if ent[w] < self.plane(w, b[w]) {
+                Some((w, false))
+            } else if ent[w] > self.plane(w, b[w] + size) {
+                Some((w, true))
+            } else {
+                None
+            };
+            let Some((m, up)) = m else {
+                break;
+            };
+            fixes += 1;
+            if fixes > max_steps {
+                return Err(OctRayOut::new(FAILED, NO_TRI, 0.0, 0));
+            }
+            let f = face_of(m, up);
+            let nc = self.records[addr + 3];
+            let n = (nc >> (4 * f)) & 15;
+            if n == 0 {
+                break;
+            }
+            let mut j = 0;
+            if n == 4 {
+                let half = size >> 1;
+                let (mu, mw) = in_plane(m);
+                j = (ent[mu] < self.plane(mu, b[mu] + half)) as u32
+                    + 2 * (ent[mw] < self.plane(mw, b[mw] + half)) as u32;
+            }
+            addr = self.records[addr + 4 + (Self::links_before(nc, f) + j) as usize] as usize;
+        }
+        Ok((addr, fixes))
+    }
+
     /// The kernel's `trace`, operation for operation (see the WGSL for the why of each step).
     pub fn twin(&self, ray: &OctRayIn, max_steps: u32) -> OctRayOut {
         let (o, d) = (ray.o, ray.d);
@@ -308,78 +403,11 @@ impl OctreeHost {
             let (k1, k2) = ((k + 1) % 3, (k + 2) % 3);
             (q[k1] - o[k1]) * d[k2] - (q[k2] - o[k2]) * d[k1]
         };
-        let miss = OctRayOut::new(MISS, NO_TRI, 0.0, 0);
         let mut addr = ray.start as usize;
         if ray.start == NO_START {
-            let (mut tn, mut tf, mut e) = (0f32, f32::MAX, 3usize);
-            for k in 0..3 {
-                if d[k] == 0.0 {
-                    if o[k] < p.lo[k] || o[k] > p.hi[k] {
-                        return miss;
-                    }
-                } else {
-                    let near = if pos[k] { p.lo[k] } else { p.hi[k] };
-                    let far = if pos[k] { p.hi[k] } else { p.lo[k] };
-                    let t0 = (near - o[k]) * inv[k];
-                    let t1 = (far - o[k]) * inv[k];
-                    if e == 3 || t0 > tn {
-                        tn = t0;
-                        e = k;
-                    }
-                    if t1 < tf {
-                        tf = t1;
-                    }
-                }
-            }
-            if e == 3 || tn > tf || tf < 0.0 {
-                return miss;
-            }
-            let mut ent = [0f32; 3];
-            for k in 0..3 {
-                ent[k] = o[k] + tn * d[k];
-            }
-            ent[e] = if pos[e] { p.lo[e] } else { p.hi[e] };
-            let (u, w) = in_plane(e);
-            let res = p.cube_res as usize;
-            let face = face_of(e, !pos[e]);
-            addr = self.cube[(face * res + self.texel(ent[w], w) as usize) * res
-                + self.texel(ent[u], u) as usize] as usize;
-            let mut fixes = 0u32;
-            loop {
-                let b = self.boxes[self.records[addr + 2] as usize];
-                let size = 1u32 << (p.depth - b[3]);
-                let m = if ent[u] < self.plane(u, b[u]) {
-                    Some((u, false))
-                } else if ent[u] > self.plane(u, b[u] + size) {
-                    Some((u, true))
-                } else if ent[w] < self.plane(w, b[w]) {
-                    Some((w, false))
-                } else if ent[w] > self.plane(w, b[w] + size) {
-                    Some((w, true))
-                } else {
-                    None
-                };
-                let Some((m, up)) = m else {
-                    break;
-                };
-                fixes += 1;
-                if fixes > max_steps {
-                    return OctRayOut::new(FAILED, NO_TRI, 0.0, 0);
-                }
-                let f = face_of(m, up);
-                let nc = self.records[addr + 3];
-                let n = (nc >> (4 * f)) & 15;
-                if n == 0 {
-                    break;
-                }
-                let mut j = 0;
-                if n == 4 {
-                    let half = size >> 1;
-                    let (mu, mw) = in_plane(m);
-                    j = (ent[mu] < self.plane(mu, b[mu] + half)) as u32
-                        + 2 * (ent[mw] < self.plane(mw, b[mw] + half)) as u32;
-                }
-                addr = self.records[addr + 4 + (Self::links_before(nc, f) + j) as usize] as usize;
+            match self.enter(ray, &inv, max_steps) {
+                Ok((a, _)) => addr = a,
+                Err(out) => return out,
             }
         }
         let (mut best, mut best_t, mut visited) = (NO_TRI, 0f32, 0u32);
