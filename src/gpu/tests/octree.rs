@@ -114,8 +114,8 @@ fn rays(
     for _ in 0..n {
         o.extend(around(&mut rng).map(|x| x as f32));
         d.extend([0, 1, 2].map(|_| (rng.f() - 0.5) as f32));
-        kind.push(0);
     }
+    kind.resize(n, 0);
     let eye = [0.5, 0.45, -1.2];
     let eye = [0, 1, 2].map(|k| (at[k] + eye[k] * sc) as f32);
     for y in 0..res {
@@ -133,8 +133,8 @@ fn rays(
         let p = around(&mut rng);
         o.extend(p.map(|x| x as f32));
         d.extend([0, 1, 2].map(|k| (c[k] - p[k]) as f32));
-        kind.push(2);
     }
+    kind.resize(o.len() / 3, 2);
     (o, d, kind)
 }
 
