@@ -1,6 +1,10 @@
 //! The octree kernel (`shaders/octree/portalez.wgsl`): naga validation and its structs' layout
 //! (no GPU), its CPU twin judged by the exact referee and the exact CPU walk (no GPU), and the
 //! kernel against its twin bit for bit (lavapipe or any adapter).
+//!
+//! Mutation tried: the twin reading the sign of Π_u at the exit face's centre the other way
+//! (the 4-neighbour choice): the twin test fails (8 of 3000 random rays wrong, 277 with other
+//! leaves than the exact walk's) and so does parity (15,413 of 56,384 rays differ).
 
 use super::device_or_skip;
 use crate::accel::portalez_octree::{OctreeParams, OctreeState, PortalezOctree, Walked};
