@@ -13,6 +13,7 @@ pub mod context;
 pub mod device_scene;
 pub mod kernels;
 pub mod launch;
+pub mod octree;
 pub mod structs;
 
 pub use cast::GpuTimings;

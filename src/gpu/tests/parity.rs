@@ -127,7 +127,7 @@ const NO_FMA_DRIVERS: &[&str] = &["llvmpipe"];
 /// second needs a product below ~1e-31, which these rays do not produce: the bound is 0.
 /// Elsewhere a sign within an ulp of zero may flip: the differing rays are printed (and the
 /// referee judges the GPU's answers above), with no bound from a run.
-fn float_kernel_parity(test: &str, differ: usize, n: usize) {
+pub(super) fn float_kernel_parity(test: &str, differ: usize, n: usize) {
     let name = crate::gpu::gpu()
         .map(|g| g.adapter.name.clone())
         .unwrap_or_default();

@@ -47,6 +47,10 @@ fn every_shader_validates_with_naga() {
         .iter()
         .flat_map(|k| k.parts().map(|p| p.path.to_string()))
         .collect();
+    // The octree kernel stands alone (tests/octree.rs validates it).
+    used.push(crate::gpu::octree::PATH.to_string());
+    let disk = std::fs::read_to_string(shaders_dir().join(crate::gpu::octree::PATH)).unwrap();
+    assert_eq!(disk, crate::gpu::octree::file(), "octree kernel: stale");
     used.sort();
     used.dedup();
     assert_eq!(files, used, "shaders/ holds exactly the kernels' parts");
