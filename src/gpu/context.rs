@@ -213,6 +213,36 @@ impl Gpu {
             .map_err(|e| Error::Gpu(format!("waiting for the device: {e}")))
     }
 
+    /// Maps the first `size` bytes of `readback` (a MAP_READ buffer the results were copied
+    /// into), appends them to `out` as T, and unmaps it; `what` names the results in errors.
+    pub fn read_mapped<T: bytemuck::Pod>(
+        &self,
+        readback: &wgpu::Buffer,
+        size: u64,
+        out: &mut Vec<T>,
+        what: &str,
+    ) -> Result<()> {
+        let (tx, rx) = std::sync::mpsc::channel();
+        readback
+            .slice(..size)
+            .map_async(wgpu::MapMode::Read, move |r| {
+                let _ = tx.send(r);
+            });
+        self.wait()?;
+        rx.recv()
+            .map_err(|_| Error::Gpu("the readback callback never ran".into()))?
+            .map_err(|e| Error::Gpu(format!("mapping {what}: {e}")))?;
+        {
+            let view = readback
+                .slice(..size)
+                .get_mapped_range()
+                .map_err(|e| Error::Gpu(format!("reading {what}: {e}")))?;
+            out.extend_from_slice(bytemuck::cast_slice(&view[..]));
+        }
+        readback.unmap();
+        Ok(())
+    }
+
     /// The kernel's compute pipeline, compiled on first use.
     pub fn pipeline(&self, kernel: &KernelSpec) -> Result<Arc<wgpu::ComputePipeline>> {
         let key = (kernel.method, kernel.layout.name);

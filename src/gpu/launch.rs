@@ -5,7 +5,7 @@ use super::cast::GpuTimings;
 use super::context::Gpu;
 use super::device_scene::LayoutBuffers;
 use super::structs::{Params, RayIn, RayOut, WORKGROUP};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use std::time::Instant;
 use wgpu::util::DeviceExt;
 
@@ -230,25 +230,7 @@ fn read_back(
         enc.copy_buffer_to_buffer(&bufs.hits, 0, &bufs.readback, 0, size);
         g.queue.submit([enc.finish()]);
     })?;
-    let (tx, rx) = std::sync::mpsc::channel();
-    bufs.readback
-        .slice(..size)
-        .map_async(wgpu::MapMode::Read, move |r| {
-            let _ = tx.send(r);
-        });
-    g.wait()?;
-    rx.recv()
-        .map_err(|_| Error::Gpu("the readback callback never ran".into()))?
-        .map_err(|e| Error::Gpu(format!("mapping the results: {e}")))?;
-    {
-        let view = bufs
-            .readback
-            .slice(..size)
-            .get_mapped_range()
-            .map_err(|e| Error::Gpu(format!("reading the results: {e}")))?;
-        results.extend_from_slice(bytemuck::cast_slice(&view[..]));
-    }
-    bufs.readback.unmap();
+    g.read_mapped(&bufs.readback, size, results, "the results")?;
     timings.readback += t.elapsed().as_secs_f64();
     Ok(())
 }

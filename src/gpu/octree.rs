@@ -664,24 +664,7 @@ impl DeviceOctree {
                 enc.copy_buffer_to_buffer(&hits, 0, &readback, 0, size);
                 g.queue.submit([enc.finish()]);
             })?;
-            let (tx, rx) = std::sync::mpsc::channel();
-            readback
-                .slice(..size)
-                .map_async(wgpu::MapMode::Read, move |r| {
-                    let _ = tx.send(r);
-                });
-            g.wait()?;
-            rx.recv()
-                .map_err(|_| Error::Gpu("the readback callback never ran".into()))?
-                .map_err(|e| Error::Gpu(format!("mapping the octree results: {e}")))?;
-            {
-                let view = readback
-                    .slice(..size)
-                    .get_mapped_range()
-                    .map_err(|e| Error::Gpu(format!("reading the octree results: {e}")))?;
-                out.extend_from_slice(bytemuck::cast_slice(&view[..]));
-            }
-            readback.unmap();
+            g.read_mapped(&readback, size, &mut out, "the octree results")?;
         }
         Ok(out)
     }
