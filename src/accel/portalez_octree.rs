@@ -32,13 +32,12 @@ pub use tables::{face_of, face_to_neighbor_index, in_plane, out_faces_lookup};
 
 use super::Accel;
 use crate::error::{Error, Result};
+use crate::geom::exact::sign2;
 use crate::geom::ray::Ray;
 use crate::mesh::surface::check_finite;
 use crate::query::gather::{Gather, Line, Tri};
 use crate::query::QueryKind;
 use crate::status::FAILED;
-use num_rational::BigRational;
-use num_traits::{Signed, Zero};
 use std::sync::OnceLock;
 
 /// How the octree is built.
@@ -172,64 +171,6 @@ pub enum Walked {
 /// Relative error of (x − o) / d in float64: two roundings, padded as in `reshetov_bvh`.
 const PAD: f64 = 4.0 * f64::EPSILON;
 const TINY: f64 = 4.0 * f64::MIN_POSITIVE;
-/// The 2×2 filter: (a − b) m − (c − e) n has error below 3 ε (|p| + |q|) (ε = 2^-53).
-const DET2_BOUND: f64 = 2.0 * f64::EPSILON;
-/// Below this permanent the products' underflow (3 · 2^-1075 at most) could exceed the bound.
-const DET2_TINY: f64 = 1e-304;
-
-fn rat(x: f64) -> BigRational {
-    BigRational::from_float(x).unwrap_or_else(BigRational::zero)
-}
-
-/// The exact sign of (a − b)·m − (c − e)·n: the float filter; then, where every operation
-/// was exact (grid-aligned rays: the zeros of rays through edges and corners), the exact
-/// products compared; else rationals.
-#[inline]
-pub fn sign2(a: f64, b: f64, m: f64, c: f64, e: f64, n: f64) -> i32 {
-    let (ab, ce) = (a - b, c - e);
-    let (p, q) = (ab * m, ce * n);
-    let det = p - q;
-    let perm = p.abs() + q.abs();
-    if perm.is_finite() && perm > DET2_TINY {
-        let bound = DET2_BOUND * perm;
-        if det > bound {
-            return 1;
-        }
-        if -det > bound {
-            return -1;
-        }
-    }
-    if let (Some(p), Some(q)) = (exact_product(a, b, ab, m), exact_product(c, e, ce, n)) {
-        return (p > q) as i32 - (p < q) as i32;
-    }
-    let x = (rat(a) - rat(b)) * rat(m) - (rat(c) - rat(e)) * rat(n);
-    if x.is_zero() {
-        0
-    } else if x.is_positive() {
-        1
-    } else {
-        -1
-    }
-}
-
-/// (a − b)·m when both the difference `ab` and the product round nothing (TwoSum's error
-/// and the fused product's error are exact, the latter while the factors are far from
-/// underflow); None otherwise.
-#[inline]
-fn exact_product(a: f64, b: f64, ab: f64, m: f64) -> Option<f64> {
-    let nb = -b;
-    let bv = ab - a;
-    let av = ab - bv;
-    let err = (a - av) + (nb - bv);
-    let p = ab * m;
-    let far = |x: f64| x == 0.0 || x.abs() >= FAR_FROM_UNDERFLOW;
-    (err == 0.0 && p.is_finite() && far(ab) && far(m) && ab.mul_add(m, -p) == 0.0).then_some(p)
-}
-
-/// Factors at least this large have a product whose rounding error is a float (not lost
-/// below the subnormals): 2^-480.
-const FAR_FROM_UNDERFLOW: f64 = 3.2e-145;
-
 /// The ray as the walk reads it: the origin, the scaled direction (signs only), its octant.
 struct Frame {
     o: [f64; 3],

@@ -211,6 +211,53 @@ pub fn rationals(v: V3<f64>) -> [BigRational; 3] {
     rat3(v)
 }
 
+/// The 2×2 filter: (a − b) m − (c − e) n has error below 3 ε (|p| + |q|) (ε = 2^-53).
+const DET2_BOUND: f64 = 2.0 * f64::EPSILON;
+/// Below this permanent the products' underflow (3 · 2^-1075 at most) could exceed the bound.
+const DET2_TINY: f64 = 1e-304;
+
+/// The exact sign of (a − b)·m − (c − e)·n: the float filter; then, where every operation
+/// was exact (grid-aligned rays: the zeros of rays through edges and corners), the exact
+/// products compared; else rationals.
+#[inline]
+pub fn sign2(a: f64, b: f64, m: f64, c: f64, e: f64, n: f64) -> i32 {
+    let (ab, ce) = (a - b, c - e);
+    let (p, q) = (ab * m, ce * n);
+    let det = p - q;
+    let perm = p.abs() + q.abs();
+    if perm.is_finite() && perm > DET2_TINY {
+        let bound = DET2_BOUND * perm;
+        if det > bound {
+            return 1;
+        }
+        if -det > bound {
+            return -1;
+        }
+    }
+    if let (Some(p), Some(q)) = (exact_product(a, b, ab, m), exact_product(c, e, ce, n)) {
+        return (p > q) as i32 - (p < q) as i32;
+    }
+    sign_of(&((rat(a) - rat(b)) * rat(m) - (rat(c) - rat(e)) * rat(n))) as i32
+}
+
+/// (a − b)·m when both the difference `ab` and the product round nothing (TwoSum's error
+/// and the fused product's error are exact, the latter while the factors are far from
+/// underflow); None otherwise.
+#[inline]
+fn exact_product(a: f64, b: f64, ab: f64, m: f64) -> Option<f64> {
+    let nb = -b;
+    let bv = ab - a;
+    let av = ab - bv;
+    let err = (a - av) + (nb - bv);
+    let p = ab * m;
+    let far = |x: f64| x == 0.0 || x.abs() >= FAR_FROM_UNDERFLOW;
+    (err == 0.0 && p.is_finite() && far(ab) && far(m) && ab.mul_add(m, -p) == 0.0).then_some(p)
+}
+
+/// Factors at least this large have a product whose rounding error is a float (not lost
+/// below the subnormals): 2^-480.
+const FAR_FROM_UNDERFLOW: f64 = 3.2e-145;
+
 #[cfg(test)]
 mod tests {
     use super::*;

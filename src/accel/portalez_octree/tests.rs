@@ -18,6 +18,7 @@ use crate::status::{HIT, MISS};
 use crate::testing::{exact_case_rays, grid_scene_inside, Rng};
 use crate::traverse::Method;
 use num_rational::BigRational;
+use num_traits::{Signed, Zero};
 use std::cmp::Ordering;
 
 const PUBLISHED_OUT_FACES: [[u8; 8]; 8] = [
