@@ -54,6 +54,7 @@ fn time_cast<R: Real>(
         directions,
         tmin: &[0.0],
         tmax: &[f64::INFINITY],
+        leaving: None,
     };
     let (mut best, mut steps, mut hits) = (f64::INFINITY, 0u64, 0usize);
     for _ in 0..repeat {

@@ -97,6 +97,9 @@ class NativeScene:
         packet: bool = True,
         # None: the tet walk; "reshetov_bvh": the BVH (same answers).
         accel: str | None = None,
+        # Rays started from hits: per ray the scene triangle it leaves and the tet its hit's
+        # walk ended in (int32, -1: none).
+        start: tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]] | None = None,
     ) -> dict[str, np.ndarray]: ...
     def cast_gpu(
         self,
@@ -123,6 +126,7 @@ class NativeScene:
         layout: str | None = None,
         packet: bool = True,
         accel: str | None = None,
+        start: tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]] | None = None,
     ) -> npt.NDArray[np.uint8]: ...
     # "offsets" int64 (N+1,), "t" float64 (M,), "triangle" int32 (M,), "u", "v" float64 (M,),
     # "status" uint8 (N,): every point where a ray meets the surface once, sorted by t per ray.
@@ -138,6 +142,7 @@ class NativeScene:
         layout: str | None = None,
         packet: bool = True,
         accel: str | None = None,
+        start: tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]] | None = None,
     ) -> dict[str, np.ndarray]: ...
     # "count" int32 (N,), "status" uint8 (N,).
     def count_intersections(
@@ -152,6 +157,7 @@ class NativeScene:
         layout: str | None = None,
         packet: bool = True,
         accel: str | None = None,
+        start: tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]] | None = None,
     ) -> dict[str, np.ndarray]: ...
     # (N, 3) float64 points -> (N,) bool: inside (on the surface counts as inside).
     def contains(

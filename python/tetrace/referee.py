@@ -400,7 +400,9 @@ class Referee:
         keep = tri >= 0
         return rays[keep], tri[keep]
 
-    def first_hits(self, origins, directions, tmin=0.0, tmax=np.inf, *, hint=None, chunk=2048):
+    def first_hits(
+        self, origins, directions, tmin=0.0, tmax=np.inf, *, hint=None, leaving=None, chunk=2048
+    ):
         """The exact first hit of every ray.
 
         Parameters
@@ -413,6 +415,11 @@ class Referee:
             ``(N,)`` triangle ids, ``-1`` for none: a guess at each ray's first hit (from any
             caster). It only speeds the search up: a hinted triangle the referee finds surely
             hit bounds the region searched; the verdict does not depend on the hint.
+        leaving : array_like, optional
+            ``(N,)`` triangle ids, ``-1`` for none: rays started from a hit on that triangle
+            (``Scene.cast(start=hits)``). Such a ray's hits must lie strictly beyond the
+            point where its line crosses the triangle's plane (strictly beyond ``t = 0``
+            when the line is parallel to that plane), on top of ``[tmin, tmax]``.
         chunk : int
             Rays per batch (bounds memory).
 
@@ -422,6 +429,9 @@ class Referee:
         """
         o, d, tmin, tmax, invalid = _prepare(origins, directions, tmin, tmax)
         n = len(o)
+        leaving = self._leaving(leaving, n)
+        if leaving is not None:
+            hint = None  # a hinted hit short of the leaving plane would bound the search wrongly
         if hint is not None:
             hint = np.broadcast_to(np.asarray(hint, np.int64), (n,))
             hint = np.where((hint >= 0) & (hint < len(self.tris)), hint, -1)
@@ -437,7 +447,7 @@ class Referee:
             if not len(idx):
                 continue
             exact_pairs += self._chunk(
-                o, d, tmin, tmax, idx, hint, out_t, out_tri, zeros, bound, ties
+                o, d, tmin, tmax, idx, hint, out_t, out_tri, zeros, bound, ties, leaving
             )
         rays = np.concatenate([x[0] for x in ties] + [np.zeros(0, np.int64)])
         ids = np.concatenate([x[1] for x in ties] + [np.zeros(0, np.int64)]).astype(np.int64)
@@ -457,7 +467,7 @@ class Referee:
             exact_pairs=exact_pairs,
         )
 
-    def crossings(self, origins, directions, tmin=0.0, tmax=np.inf, *, chunk=2048):
+    def crossings(self, origins, directions, tmin=0.0, tmax=np.inf, *, leaving=None, chunk=2048):
         """Every point where each ray meets the surface in ``[tmin, tmax]``, exactly.
 
         The reference for all hits, crossing counts and parity: each distinct exact ``t`` at
@@ -466,7 +476,7 @@ class Referee:
 
         Parameters
         ----------
-        origins, directions, tmin, tmax, chunk
+        origins, directions, tmin, tmax, leaving, chunk
             As for :meth:`first_hits`.
 
         Returns
@@ -475,12 +485,13 @@ class Referee:
         """
         o, d, tmin, tmax, invalid = _prepare(origins, directions, tmin, tmax)
         n = len(o)
+        leaving = self._leaving(leaving, n)
         parts = []  # per chunk: (ray, point key within the ray, t, triangle, zeros, bound)
         for s in range(0, n, chunk):
             idx = np.arange(s, min(s + chunk, n))
             idx = idx[~invalid[idx]]
             if len(idx):
-                parts.append(self._crossings_chunk(o, d, tmin, tmax, idx))
+                parts.append(self._crossings_chunk(o, d, tmin, tmax, idx, leaving))
         cols = [np.concatenate([p[k] for p in parts] + [np.zeros(0)]) for k in range(6)]
         ray = cols[0].astype(np.int64)
         new_point = cols[1].astype(bool)
@@ -499,7 +510,40 @@ class Referee:
             invalid=invalid,
         )
 
-    def _crossings_chunk(self, o, d, tmin, tmax, idx):
+    def _leaving(self, leaving, n):
+        """``leaving`` as ``(n,)`` int64 ids (-1: none), checked; None when not given."""
+        if leaving is None:
+            return None
+        ids = np.broadcast_to(np.asarray(leaving, np.int64), (n,))
+        if ((ids < -1) | (ids >= len(self.tris))).any():
+            raise ValueError("leaving names triangles that do not exist")
+        return ids
+
+    def _beyond(self, o, d, r, f, pairs, keep, leaving):
+        """``keep`` (pairs of rays ``r`` and triangles ``f`` met in range) less the pairs of
+        rays leaving a triangle whose crossing does not lie strictly beyond the line's
+        crossing of that triangle's plane (beyond t = 0 for a line parallel to it), exactly."""
+        if leaving is None:
+            return keep
+        j = np.flatnonzero(keep & (leaving[r] >= 0))
+        if not len(j):
+            return keep
+        want = np.zeros(len(r), bool)
+        want[j] = True
+        pairs.fill(want)
+        rays = np.unique(r[j])
+        t = self.tris[leaving[rays]]
+        _, num, den = _exact_pairs(o[rays], d[rays], t[:, 0], t[:, 1], t[:, 2])
+        plane = {
+            int(k): Fraction(0) if dn == 0 else Fraction(nm, dn)
+            for k, nm, dn in zip(rays, num, den)
+        }
+        out = keep.copy()
+        for k in j:
+            out[k] = Fraction(pairs.num[k], pairs.den[k]) > plane[int(r[k])]
+        return out
+
+    def _crossings_chunk(self, o, d, tmin, tmax, idx, leaving=None):
         """The (ray, triangle) pairs of ``idx``'s rays met in ``[tmin, tmax]``, ordered by ray
         and exact ``t``, with a flag on each pair that starts a new point."""
         empty = tuple(np.zeros(0) for _ in range(6))
@@ -508,7 +552,7 @@ class Referee:
         if not len(r):
             return empty
         pairs = _Pairs(self, o, d, r, f)
-        h = np.flatnonzero(pairs.inside(tmin[r], tmax[r]))
+        h = np.flatnonzero(self._beyond(o, d, r, f, pairs, pairs.inside(tmin[r], tmax[r]), leaving))
         if not len(h):
             return empty
         want = np.zeros(len(r), bool)
@@ -538,7 +582,7 @@ class Referee:
         bound = _t_bound(pairs.O[h], pairs.D[h], pairs.A[h], pairs.B[h], pairs.C[h], te)
         return r[h], new_point, te, f[h], zeros, bound
 
-    def _chunk(self, o, d, tmin, tmax, idx, hint, out_t, out_tri, zeros, bound, ties):
+    def _chunk(self, o, d, tmin, tmax, idx, hint, out_t, out_tri, zeros, bound, ties, leaving):
         prune = tmax.copy()
         exact_pairs = 0
         if hint is not None:
@@ -554,7 +598,7 @@ class Referee:
         if not len(r):
             return exact_pairs
         pairs = _Pairs(self, o, d, r, f)
-        inside = pairs.inside(tmin[r], tmax[r])
+        inside = self._beyond(o, d, r, f, pairs, pairs.inside(tmin[r], tmax[r]), leaving)
         t_lo, t_hi = pairs.t_lo, pairs.t_hi
         enum, eden_, esign, fill = pairs.num, pairs.den, pairs.sign, pairs.fill
         O, D, A, B, C = pairs.O, pairs.D, pairs.A, pairs.B, pairs.C

@@ -116,10 +116,47 @@ def _query_points(points):
     return flat, p.shape[:-1]
 
 
+def _from_hits(start, directions, geometries):
+    """Rays started from a cast's hits (``start=hits``): origins at the hit points, the
+    directions given, and per ray whether its entry was a hit, the scene triangle it leaves
+    and the tet the hit's walk ended in, all broadcast to the rays' leading shape."""
+    if not isinstance(start, Hits):
+        raise TypeError(f"start must be the Hits of a cast of this scene, got {type(start)}")
+    if directions is None:
+        raise TypeError("start=hits needs directions (one per hit, or broadcasting to the hits)")
+    triangle = start.scene_triangle
+    if triangle is None:
+        if geometries is not None:
+            raise TypeError("start must be a tetrace cast's Hits: they name the scene triangle")
+        triangle = start.triangle
+    d = np.asarray(directions)
+    if d.dtype.kind not in "biuf":
+        raise TypeError(f"directions must be real numbers, got dtype {d.dtype}")
+    if d.ndim == 0 or d.shape[-1] != 3:
+        raise ValueError(f"directions must have shape (..., 3), got {d.shape}")
+    try:
+        shape = np.broadcast_shapes(np.shape(start.t), d.shape[:-1])
+    except ValueError:
+        raise ValueError(
+            f"directions {d.shape} must broadcast against the hits' shape {np.shape(start.t)}"
+        ) from None
+    hit = np.broadcast_to(np.asarray(start.status) == HIT, shape)
+    point = np.broadcast_to(np.asarray(start.point), shape + (3,))
+    # A miss has no point to start from: such rays are answered as misses (tmax = -inf), and
+    # their NaN origins and directions are replaced so that they are not taken as invalid.
+    origins = np.where(hit[..., None], point, 0).astype(point.dtype, copy=False)
+    with np.errstate(invalid="ignore"):
+        d = np.where(hit[..., None], np.broadcast_to(d, shape + (3,)), 1).astype(d.dtype)
+    ids = lambda a: np.where(hit, np.broadcast_to(np.asarray(a), shape), -1).astype(np.int32)
+    tet = start.tet if start.tet is not None else np.full(np.shape(start.t), -1)
+    return origins, d, (hit.reshape(-1), ids(triangle).reshape(-1), ids(tet).reshape(-1))
+
+
 class _Query:
     """The arguments every ray query shares, checked once: flat rays (``o``, ``d``) of
     leading ``shape``, bounds ``lo``/``hi``, ``threads``, ``max_steps``, ``packet``,
-    ``accel``."""
+    ``accel``, and for rays started from hits, ``start`` (the scene triangle each leaves
+    and the tet its hit's walk ended in, as the core takes them)."""
 
     def __init__(
         self,
@@ -133,7 +170,16 @@ class _Query:
         precision,
         packet,
         accel=None,
+        start=None,
+        geometries=None,
     ):
+        leaving = None
+        if start is not None:
+            if origins is not None:
+                raise TypeError("give origins or start=hits, not both")
+            origins, directions, leaving = _from_hits(start, directions, geometries)
+        elif origins is None:
+            raise TypeError("rays need origins (or start=hits)")
         batch = prepare_ray_batch(origins, directions, invalid=invalid)
         o, d = batch.origins, batch.directions
         if precision is not None:
@@ -144,6 +190,12 @@ class _Query:
         self.o, self.d, self.shape, self.invalid = o, d, batch.shape, invalid
         self.lo = prepare_bounds(tmin, len(o), "tmin", batch.shape)
         self.hi = prepare_bounds(tmax, len(o), "tmax", batch.shape)
+        self.start = None
+        if leaving is not None:
+            hit, triangle, tet = leaving
+            self.hi = np.broadcast_to(self.hi, (len(o),)).copy()
+            self.hi[~hit] = -np.inf  # below tmin: the core answers MISS
+            self.start = (triangle, tet)
         _check_threads(threads)
         if max_steps is not None and (
             not isinstance(max_steps, (int, np.integer)) or not 0 < max_steps < 2**32
@@ -370,9 +422,10 @@ class Scene:
 
     def cast(
         self,
-        origins,
+        origins=None,
         directions=None,
         *,
+        start=None,
         tmin=0.0,
         tmax=np.inf,
         threads=None,
@@ -389,15 +442,29 @@ class Scene:
 
         Parameters
         ----------
-        origins : array_like
+        origins : array_like, optional
             ``(N, 3)`` or ``(..., 3)`` ray origins, or ``(N, 6)``/``(..., 6)`` rays
             ``[ox, oy, oz, dx, dy, dz]`` when ``directions`` is None. Origins may lie
-            anywhere, inside or outside the domain.
+            anywhere, inside or outside the domain. Not with ``start``.
         directions : array_like, optional
             ``(N, 3)`` or ``(..., 3)`` directions, not necessarily unit length; ``t`` is in
             their units. Origins and directions broadcast over their leading axes (one
             ``(3,)`` origin with ``(H, W, 3)`` directions: ``(H, W)`` rays); the results
             have that leading shape (a single ray gives shape ``(1,)``).
+        start : Hits, optional
+            Secondary rays (shadow rays, reflections, bounces): start each ray at a hit of
+            an earlier :meth:`cast` of this scene, at ``start.point``, in ``directions``
+            (which broadcast against the hits' shape: ``(S, *hits.shape, 3)`` casts ``S``
+            rays from every hit). Such a ray needs no offset origin and never hits the
+            triangle it leaves: its hits lie strictly beyond the point where its line
+            crosses that triangle's plane (beyond its origin for a line parallel to the
+            plane), decided exactly, so it goes off on the side its direction points to
+            (a reflection stays, a transmission crosses), on grazing and concave
+            geometry alike; ``tmin``/``tmax`` still apply (``tmax=1`` with
+            ``directions = light - hits.point`` stops at the light). Its walk starts from
+            the tet the hit's walk ended in (Lagae & Dutré 2008's ray connectivity: no
+            point location). Rays whose ``start`` entry is not a ``HIT`` are answered as
+            misses. Needs the ``exact`` method and the CPU; every ``accel`` takes it.
         tmin, tmax : float or array_like
             Only hits with ``tmin <= t <= tmax`` count: scalars, or arrays that broadcast
             to the rays' leading shape.
@@ -464,13 +531,29 @@ class Scene:
             raise ValueError(
                 f'device="gpu" walks the tetrahedralization; accel {accel!r} is CPU only'
             )
+        if device == "gpu" and start is not None:
+            raise ValueError(
+                "start=hits runs on the CPU: the exact walk decides where a ray "
+                'leaves the surface (device="cpu")'
+            )
         if device == "gpu" and precision == "f64":
             raise ValueError(
                 'device="gpu" walks in float32 (WGSL has no float64); use '
                 'precision="f32" or device="cpu"'
             )
         q = _Query(
-            origins, directions, tmin, tmax, threads, max_steps, invalid, precision, packet, accel
+            origins,
+            directions,
+            tmin,
+            tmax,
+            threads,
+            max_steps,
+            invalid,
+            precision,
+            packet,
+            accel,
+            start=start,
+            geometries=self.geometries,
         )
         _names(method, layout, defaults=False)
         use_gpu = False
@@ -483,6 +566,7 @@ class Scene:
             # "auto" must not trade the contract for speed behind the caller's back.
             use_gpu = (
                 accel in (None, "tetwalk")
+                and start is None
                 and method is not None
                 and gpu.kernel_for(method, layout) is not None
                 and gpu.available()
@@ -505,6 +589,7 @@ class Scene:
                 layout,
                 packet=q.packet,
                 accel=q.accel,
+                start=q.start,
             )
         q.check(r["status"])
         return self._hits(r).reshape(q.shape)
@@ -554,9 +639,10 @@ class Scene:
 
     def occluded(
         self,
-        origins,
+        origins=None,
         directions=None,
         *,
+        start=None,
         tmin=0.0,
         tmax=np.inf,
         threads=None,
@@ -580,8 +666,8 @@ class Scene:
         ----------
         origins, directions, tmin, tmax, threads, max_steps, invalid, method, layout
             As for :meth:`cast` (rays of any leading shape, CPU only).
-        precision, packet, accel
-            As for :meth:`cast`.
+        start, precision, packet, accel
+            As for :meth:`cast` (``start=hits``: rays from an earlier cast's hits).
         return_status : bool
             Also return the status per ray.
 
@@ -596,7 +682,18 @@ class Scene:
             ``FAILED`` or ``INVALID``.
         """
         q = _Query(
-            origins, directions, tmin, tmax, threads, max_steps, invalid, precision, packet, accel
+            origins,
+            directions,
+            tmin,
+            tmax,
+            threads,
+            max_steps,
+            invalid,
+            precision,
+            packet,
+            accel,
+            start=start,
+            geometries=self.geometries,
         )
         method, layout = _names(method, layout)
         status = np.asarray(
@@ -611,6 +708,7 @@ class Scene:
                 layout,
                 packet=q.packet,
                 accel=q.accel,
+                start=q.start,
             )
         )
         q.check(status)
@@ -620,9 +718,10 @@ class Scene:
 
     def intersections(
         self,
-        origins,
+        origins=None,
         directions=None,
         *,
+        start=None,
         tmin=0.0,
         tmax=np.inf,
         threads=None,
@@ -647,8 +746,8 @@ class Scene:
         ----------
         origins, directions, tmin, tmax, threads, max_steps, invalid, method, layout
             As for :meth:`cast` (rays of any leading shape, CPU only).
-        precision, packet, accel
-            As for :meth:`cast`.
+        start, precision, packet, accel
+            As for :meth:`cast` (``start=hits``: rays from an earlier cast's hits).
 
         Returns
         -------
@@ -660,7 +759,18 @@ class Scene:
             ``point`` is ``origin + t * direction`` in float64.
         """
         q = _Query(
-            origins, directions, tmin, tmax, threads, max_steps, invalid, precision, packet, accel
+            origins,
+            directions,
+            tmin,
+            tmax,
+            threads,
+            max_steps,
+            invalid,
+            precision,
+            packet,
+            accel,
+            start=start,
+            geometries=self.geometries,
         )
         method, layout = _names(method, layout)
         r = self._native.intersections(
@@ -674,6 +784,7 @@ class Scene:
             layout,
             packet=q.packet,
             accel=q.accel,
+            start=q.start,
         )
         status = np.asarray(r["status"])
         q.check(status)
@@ -698,9 +809,10 @@ class Scene:
 
     def count_intersections(
         self,
-        origins,
+        origins=None,
         directions=None,
         *,
+        start=None,
         tmin=0.0,
         tmax=np.inf,
         threads=None,
@@ -723,8 +835,8 @@ class Scene:
         ----------
         origins, directions, tmin, tmax, threads, max_steps, invalid, method, layout
             As for :meth:`cast` (rays of any leading shape, CPU only).
-        precision, packet, accel
-            As for :meth:`cast`.
+        start, precision, packet, accel
+            As for :meth:`cast` (``start=hits``: rays from an earlier cast's hits).
         return_status : bool
             Also return the status per ray.
 
@@ -737,7 +849,18 @@ class Scene:
             uint8, the same shape (``return_status=True`` only).
         """
         q = _Query(
-            origins, directions, tmin, tmax, threads, max_steps, invalid, precision, packet, accel
+            origins,
+            directions,
+            tmin,
+            tmax,
+            threads,
+            max_steps,
+            invalid,
+            precision,
+            packet,
+            accel,
+            start=start,
+            geometries=self.geometries,
         )
         method, layout = _names(method, layout)
         r = self._native.count_intersections(
@@ -751,6 +874,7 @@ class Scene:
             layout,
             packet=q.packet,
             accel=q.accel,
+            start=q.start,
         )
         status = np.asarray(r["status"])
         q.check(status)

@@ -441,6 +441,7 @@ mod tests {
                     d,
                     tmin: 0.0,
                     tmax: f64::INFINITY,
+                    leaving: None,
                 };
                 let line = Line::new(&ray).unwrap();
                 PacketRay {

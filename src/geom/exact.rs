@@ -145,6 +145,17 @@ pub fn cmp_t(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3], x: f64) -> Ordering {
             return Ordering::Greater;
         }
     }
+    if x == 0.0 {
+        // The sign of t = num / den from two adaptive predicates, not rationals: an origin on
+        // the plane (a ray started from a hit, a touch at the origin) is the common case here.
+        // num = det(a − o, b − o, c − o) = −orient(a, b, c, o); den = side(d, a, b, c).
+        let [a, b, c] = *tri;
+        let den = side(d, a, b, c);
+        if den == 0 {
+            return Ordering::Greater;
+        }
+        return (-(orient_sign(a, b, c, o) as i32) * den as i32).cmp(&0);
+    }
     let (o, d) = (rat3(o), rat3(d));
     let [a, b, c] = tri.map(rat3);
     let num = rdet(&rsub(&a, &o), &rsub(&b, &o), &rsub(&c, &o));
@@ -175,6 +186,29 @@ pub fn cmp_plane_t(o: V3<f64>, d: V3<f64>, tri1: &[V3<f64>; 3], tri2: &[V3<f64>;
         num / den
     };
     exact_t(tri1).cmp(&exact_t(tri2))
+}
+
+/// Whether the line o + t d crosses the plane of `tri` (which it meets at one point)
+/// strictly beyond where it crosses the plane of `from`, the triangle a ray started from a
+/// hit leaves ([`crate::geom::ray::Leaving`]); when the line is parallel to `from`'s plane,
+/// strictly beyond its origin (t > 0). `dir` is d scaled by a power of two (for the sign of
+/// the parallel test). Exact.
+pub fn beyond(
+    o: V3<f64>,
+    d: V3<f64>,
+    dir: V3<f64>,
+    from: &[V3<f64>; 3],
+    tri: &[V3<f64>; 3],
+) -> bool {
+    if tri == from {
+        // The same plane: crossed at the same point, not beyond it (and no rationals).
+        return false;
+    }
+    if in_plane(dir, from[0], from[1], from[2]) {
+        cmp_t(o, d, tri, 0.0) == Ordering::Greater
+    } else {
+        cmp_plane_t(o, d, tri, from) == Ordering::Greater
+    }
 }
 
 /// The ray's hit on one of the caller's triangles: t and its error bound (as [`plane_t`]), and
@@ -379,5 +413,63 @@ mod tests {
         let (t, err, u, v) = triangle_hit(o, d, &tri);
         assert_eq!((t, err), plane_t(o, d, &tri));
         assert!((t - third).abs() <= 1e-16 && (u - 0.25).abs() < 1e-15 && (v - 0.25).abs() < 1e-15);
+    }
+
+    /// `cmp_t` against 0 (its predicate path) and `beyond` agree with rationals where the
+    /// origin lies on the plane, near it, or the line is parallel to the plane left.
+    #[test]
+    fn zero_crossings_and_beyond_are_exact() {
+        let mut x = 0x853c_49e6_748f_ea9bu64;
+        let mut f = move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            ((x >> 11) as f64 / (1u64 << 53) as f64 * 8.0).round() / 8.0 - 0.5
+        };
+        let exact_t = |o: V3<f64>, d: V3<f64>, t: &[V3<f64>; 3]| {
+            let (ro, rd) = (rat3(o), rat3(d));
+            let [a, b, c] = t.map(rat3);
+            let den = rdet(&rd, &rsub(&b, &a), &rsub(&c, &a));
+            (!den.is_zero()).then(|| rdet(&rsub(&a, &ro), &rsub(&b, &ro), &rsub(&c, &ro)) / den)
+        };
+        let (mut on_plane, mut parallel) = (0, 0);
+        for k in 0..20_000 {
+            let tri = [[f(), f(), f()], [f(), f(), f()], [f(), f(), f()]];
+            // The origin on the triangle's plane (dyadic weights: exactly), or anywhere.
+            let (a, b) = (f(), f());
+            let o = if k % 2 == 0 {
+                [0, 1, 2]
+                    .map(|i| tri[0][i] + a * (tri[1][i] - tri[0][i]) + b * (tri[2][i] - tri[0][i]))
+            } else {
+                [f(), f(), f()]
+            };
+            // Some directions along an edge of the plane left (parallel to it).
+            let d = if k % 7 == 0 {
+                [0, 1, 2].map(|i| tri[1][i] - tri[0][i])
+            } else {
+                [f(), f(), f()]
+            };
+            let other = [[f(), f(), f()], [f(), f(), f()], [f(), f(), f()]];
+            if d == [0.0; 3] {
+                continue;
+            }
+            let Some(t_other) = exact_t(o, d, &other) else {
+                continue;
+            };
+            let zero = BigRational::zero();
+            if let Some(t) = exact_t(o, d, &tri) {
+                on_plane += t.is_zero() as usize;
+                assert_eq!(cmp_t(o, d, &tri, 0.0), t.cmp(&zero), "case {k}");
+                assert_eq!(beyond(o, d, d, &tri, &other), t_other > t, "case {k}");
+            } else {
+                parallel += 1;
+                assert_eq!(beyond(o, d, d, &tri, &other), t_other > zero, "case {k}");
+            }
+            assert!(!beyond(o, d, d, &tri, &tri), "case {k}");
+        }
+        assert!(
+            on_plane > 1000 && parallel > 500,
+            "{on_plane} on the plane, {parallel} parallel"
+        );
     }
 }

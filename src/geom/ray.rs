@@ -8,13 +8,47 @@ pub struct Ray {
     pub d: [f64; 3],
     pub tmin: f64,
     pub tmax: f64,
+    /// Set for a ray that leaves the surface (a secondary ray started from a hit).
+    pub leaving: Option<Leaving>,
+}
+
+impl Ray {
+    /// A ray that starts nowhere in particular (not from a hit).
+    pub fn new(o: [f64; 3], d: [f64; 3], tmin: f64, tmax: f64) -> Ray {
+        Ray {
+            o,
+            d,
+            tmin,
+            tmax,
+            leaving: None,
+        }
+    }
+}
+
+/// What a ray started from a hit (`start=hits`) knows of where it starts: the caller's
+/// triangle it leaves and the tet the hit's walk ended in. Its hits lie strictly beyond the
+/// point where its line crosses that triangle's plane (beyond its origin when the line is
+/// parallel to the plane, [`crate::geom::exact::beyond`]): it never hits the triangle it
+/// leaves, nor what its line meets before leaving it, however the hit point was rounded; and
+/// it needs no offset origin.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Leaving {
+    /// The caller's triangle (its id and corners, as the scene holds them).
+    pub triangle: u32,
+    pub corners: [[f64; 3]; 3],
+    /// Where location starts instead of the point locator (Lagae & Dutré's ray
+    /// connectivity); `u32::MAX` when the hit names no tet (an accelerator that tests
+    /// triangles found it).
+    pub tet: u32,
 }
 
 /// The range [tmin, tmax] of a ray every exact query walks or tests: tmin raised to 0. Err:
 /// the status of a ray no query traces (INVALID: a non-finite number, a zero direction or a
 /// NaN bound; MISS: tmax below that range's start).
 pub fn checked_range(ray: &Ray) -> Result<(f64, f64), u8> {
-    let Ray { o, d, tmin, tmax } = *ray;
+    let Ray {
+        o, d, tmin, tmax, ..
+    } = *ray;
     let finite = o.iter().chain(&d).all(|x| x.is_finite());
     if !finite || d == [0.0; 3] || tmin.is_nan() || tmax.is_nan() {
         return Err(crate::status::INVALID);

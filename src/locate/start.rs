@@ -8,7 +8,7 @@ use crate::mesh::build::OUTWARD_FACES;
 use crate::mesh::TetMesh;
 use crate::status::{FAILED, INVALID, MISS};
 use crate::traverse::packet::{DirBox, Edge};
-use crate::traverse::robust::settle_start;
+use crate::traverse::robust::{settle_from, settle_start};
 use crate::traverse::ExitMethod;
 
 /// Where a ray's walk starts, once located.
@@ -30,6 +30,8 @@ pub struct WalkStart {
     /// The walk starts at the origin itself or at the box entry ([`Locators::locate_exact`]),
     /// not at o + tmin d: the query skips what lies before tmin.
     pub exact: bool,
+    /// For a ray started from a hit: the caller's triangle it leaves ([`crate::geom::ray::Leaving`]).
+    pub leaving: Option<u32>,
 }
 
 impl WalkStart {
@@ -123,7 +125,9 @@ impl Locators<'_> {
         settle: Option<&[[R; 3]]>,
         st: &mut LocateState,
     ) -> Start {
-        let Ray { o, d, tmin, tmax } = *ray;
+        let Ray {
+            o, d, tmin, tmax, ..
+        } = *ray;
         let finite = o.iter().chain(&d).all(|x| x.is_finite());
         if !finite || d == [0.0; 3] || tmin.is_nan() || tmax.is_nan() {
             return Start::Done(INVALID);
@@ -207,6 +211,7 @@ impl Locators<'_> {
             tet: start,
             entry: entry_face,
             exact: false,
+            leaving: ray.leaving.map(|l| l.triangle),
         })
     }
 
@@ -227,8 +232,15 @@ impl Locators<'_> {
         let mesh = self.mesh;
         let prepared = M::prepare(o, dir, &mesh.bounds);
         let ExactOrigin::Outside { side } = origin else {
-            start.tet = match st.camera {
-                Some((co, _, t)) if co == o => t,
+            // A ray started from a hit starts next to the tet that hit's walk ended in (Lagae
+            // & Dutré's ray connectivity): a few orientations instead of point location.
+            let from_hit = ray
+                .leaving
+                .filter(|l| (l.tet as usize) < mesh.tets.len())
+                .and_then(|l| settle_from(mesh, points, l.tet, o));
+            start.tet = match (st.camera, from_hit) {
+                (_, Some(t)) => t,
+                (Some((co, _, t)), None) if co == o => t,
                 _ => {
                     let Located::Inside(t) = self.grid.locate(mesh, o, &mut st.hint, &mut st.rng)
                     else {
@@ -296,6 +308,7 @@ impl Locators<'_> {
             tet: 0,
             entry: None,
             exact: true,
+            leaving: ray.leaving.map(|l| l.triangle),
         };
         let [lo, hi] = self.mesh.bounds;
         if (0..3).all(|a| o[a] >= lo[a] && o[a] <= hi[a]) {
@@ -428,6 +441,7 @@ mod tests {
                     d,
                     tmin: 0.0,
                     tmax: f64::INFINITY,
+                    leaving: None,
                 };
                 let start = |st: &mut LocateState| {
                     locators

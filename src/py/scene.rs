@@ -8,6 +8,7 @@ use crate::accel::{BvhParams, OctreeParams, PortalezOctree, ReshetovBvh};
 use crate::geom::real::Real;
 use crate::layout::LayoutKind;
 use crate::query::Listed;
+use crate::scene::buffers::LeavingRays;
 use crate::scene::{AccelKind, CastOptions, HitBuffers, HitsOut, Packets, Rays, Scene};
 use crate::traverse::Method;
 use numpy::{
@@ -87,7 +88,7 @@ impl PyScene {
     /// "audit": (N, 2) uint32, per ray the exit faces taken that exact predicates reject and
     /// the steps where the method found no exit face. `method`, `layout`: None for the core's
     /// defaults.
-    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, audit=false, packet=true, accel=None))]
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, audit=false, packet=true, accel=None, start=None))]
     #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
     fn cast<'py>(
         &self,
@@ -103,6 +104,7 @@ impl PyScene {
         audit: bool,
         packet: bool,
         accel: Option<AccelArg>,
+        start: Option<StartArrays<'py>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let scene = &self.inner;
         let opts = cast_options(threads, max_steps, packet, accel);
@@ -113,8 +115,8 @@ impl PyScene {
             directions.extract::<PyReadonlyArray2<'py, f32>>(),
         );
         if let (Ok(o), Ok(d)) = f32s {
-            let rays = RayArrays::new(o, d, tmin, tmax);
-            return cast_impl(py, rays, &opts, audit, |r, out, opts| {
+            let rays = RayArrays::new(o, d, tmin, tmax, start);
+            return cast_impl(py, scene, rays, &opts, audit, |r, out, opts| {
                 scene.cast_with(method, layout, r, out, opts)
             });
         }
@@ -123,8 +125,8 @@ impl PyScene {
             directions.extract::<PyReadonlyArray2<'py, f64>>(),
         ) {
             (Ok(o), Ok(d)) => {
-                let rays = RayArrays::new(o, d, tmin, tmax);
-                cast_impl(py, rays, &opts, audit, |r, out, opts| {
+                let rays = RayArrays::new(o, d, tmin, tmax, start);
+                cast_impl(py, scene, rays, &opts, audit, |r, out, opts| {
                     scene.cast_with(method, layout, r, out, opts)
                 })
             }
@@ -136,7 +138,7 @@ impl PyScene {
 
     /// Any hit (occlusion) per ray: status HIT when a scene triangle lies on the ray within
     /// [tmin, tmax], else MISS (FAILED, INVALID as for casts). Arguments as for `cast`.
-    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packet=true, accel=None))]
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packet=true, accel=None, start=None))]
     #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
     fn occluded<'py>(
         &self,
@@ -151,20 +153,30 @@ impl PyScene {
         layout: Option<LayoutArg>,
         packet: bool,
         accel: Option<AccelArg>,
+        start: Option<StartArrays<'py>>,
     ) -> PyResult<Bound<'py, numpy::PyArray1<u8>>> {
         let job = Occluded {
             method: method.map_or(Method::DEFAULT, |m| m.0),
             layout: layout.map_or(LayoutKind::DEFAULT, |l| l.0),
         };
         let opts = cast_options(threads, max_steps, packet, accel);
-        let out = query_rays(py, &self.inner, origins, directions, tmin, tmax, &opts, job)?;
+        let bounds = (tmin, tmax);
+        let out = query_rays(
+            py,
+            &self.inner,
+            (origins, directions),
+            bounds,
+            start,
+            &opts,
+            job,
+        )?;
         Ok(out.into_pyarray(py))
     }
 
     /// Every point where each ray meets the surface in [tmin, tmax] (the exact walk): a dict
     /// of flat arrays "offsets" (N + 1), "t", "triangle", "u", "v" sorted by t within each
     /// ray, and "status" (N). `method` must be None or "exact"; `layout` is ignored.
-    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packet=true, accel=None))]
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packet=true, accel=None, start=None))]
     #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
     fn intersections<'py>(
         &self,
@@ -179,15 +191,16 @@ impl PyScene {
         layout: Option<LayoutArg>,
         packet: bool,
         accel: Option<AccelArg>,
+        start: Option<StartArrays<'py>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let _ = layout;
         let opts = cast_options(threads, max_steps, packet, accel);
         let listed = all_hits(
             py,
             &self.inner,
-            origins,
-            directions,
+            (origins, directions),
             (tmin, tmax),
+            start,
             &opts,
             method,
         )?;
@@ -224,7 +237,7 @@ impl PyScene {
 
     /// The number of points where each ray meets the surface in [tmin, tmax] (as
     /// `intersections`): a dict of "count" (int32, N) and "status" (N).
-    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packet=true, accel=None))]
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packet=true, accel=None, start=None))]
     #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
     fn count_intersections<'py>(
         &self,
@@ -239,15 +252,16 @@ impl PyScene {
         layout: Option<LayoutArg>,
         packet: bool,
         accel: Option<AccelArg>,
+        start: Option<StartArrays<'py>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let _ = layout;
         let opts = cast_options(threads, max_steps, packet, accel);
         let listed = all_hits(
             py,
             &self.inner,
-            origins,
-            directions,
+            (origins, directions),
             (tmin, tmax),
+            start,
             &opts,
             method,
         )?;
@@ -291,8 +305,8 @@ impl PyScene {
             };
             let (method, layout) = (method.map(|m| m.0.name()), layout.map(|l| l.0.name()));
             let mut timings = crate::gpu::GpuTimings::default();
-            let rays = RayArrays::new(origins, directions, tmin, tmax);
-            let hits = cast_impl(py, rays, &opts, false, |r, out, opts| {
+            let rays = RayArrays::new(origins, directions, tmin, tmax, None);
+            let hits = cast_impl(py, scene, rays, &opts, false, |r, out, opts| {
                 timings = self.device.cast(scene, method, layout, r, out, opts)?;
                 Ok(())
             })?;
@@ -480,27 +494,60 @@ fn contains_impl<'py, R: Real + Element>(
     Ok(out.into_pyarray(py))
 }
 
+/// Per ray, the hit a ray starts from (`start=hits`): the caller's triangle it leaves and the
+/// tet that hit's walk ended in, −1 for none.
+type StartArrays<'py> = (PyReadonlyArray1<'py, i32>, PyReadonlyArray1<'py, i32>);
+
 /// A cast's ray arrays as numpy passed them.
 struct RayArrays<'py, R: Element> {
     origins: PyReadonlyArray2<'py, R>,
     directions: PyReadonlyArray2<'py, R>,
     tmin: PyReadonlyArray1<'py, f64>,
     tmax: PyReadonlyArray1<'py, f64>,
+    start: Option<StartArrays<'py>>,
 }
 
-impl<'py, R: Element> RayArrays<'py, R> {
+impl<'py, R: Element + Real> RayArrays<'py, R> {
     fn new(
         origins: PyReadonlyArray2<'py, R>,
         directions: PyReadonlyArray2<'py, R>,
         tmin: PyReadonlyArray1<'py, f64>,
         tmax: PyReadonlyArray1<'py, f64>,
+        start: Option<StartArrays<'py>>,
     ) -> Self {
         RayArrays {
             origins,
             directions,
             tmin,
             tmax,
+            start,
         }
+    }
+
+    /// The rays as slices over `scene` (the number of rays, checked against the directions).
+    fn slices<'a>(&'a self, scene: &'a Scene) -> PyResult<(usize, Rays<'a, R>)> {
+        let n = check_cols(&self.origins, 3, "origins")?;
+        if check_cols(&self.directions, 3, "directions")? != n {
+            return Err(PyValueError::new_err(
+                "origins and directions must have the same number of rows",
+            ));
+        }
+        let leaving = match &self.start {
+            Some((triangle, tet)) => Some(LeavingRays {
+                triangles: &scene.surface.triangles,
+                triangle: slice(triangle, "start triangles")?,
+                tet: slice(tet, "start tets")?,
+            }),
+            None => None,
+        };
+        let rays = Rays {
+            origins: slice(&self.origins, "origins")?,
+            directions: slice(&self.directions, "directions")?,
+            tmin: slice(&self.tmin, "tmin")?,
+            tmax: slice(&self.tmax, "tmax")?,
+            leaving,
+        };
+        Ok((n, rays))
     }
 }
 
@@ -508,35 +555,16 @@ impl<'py, R: Element> RayArrays<'py, R> {
 /// GIL released, returns the fields (the vectors become numpy arrays without a copy).
 fn cast_impl<'py, R: Real + Element>(
     py: Python<'py>,
+    scene: &Scene,
     rays: RayArrays<'py, R>,
     opts: &CastOptions,
     audit: bool,
     cast: impl FnOnce(&Rays<R>, HitsOut<R>, &CastOptions) -> crate::Result<()> + Send,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let n = check_cols(&rays.origins, 3, "origins")?;
-    if check_cols(&rays.directions, 3, "directions")? != n {
-        return Err(PyValueError::new_err(
-            "origins and directions must have the same number of rows",
-        ));
-    }
+    let (n, rays) = rays.slices(scene)?;
     opts.check()?;
-    let (o, d) = (
-        slice(&rays.origins, "origins")?,
-        slice(&rays.directions, "directions")?,
-    );
-    let (lo, hi) = (slice(&rays.tmin, "tmin")?, slice(&rays.tmax, "tmax")?);
     let mut buffers = HitBuffers::<R>::new(n, audit);
-    py.detach(|| {
-        guarded(|| {
-            let rays = Rays {
-                origins: o,
-                directions: d,
-                tmin: lo,
-                tmax: hi,
-            };
-            cast(&rays, buffers.out(), opts)
-        })
-    })?;
+    py.detach(|| guarded(|| cast(&rays, buffers.out(), opts)))?;
     let out = PyDict::new(py);
     out.set_item("t", buffers.t.into_pyarray(py))?;
     out.set_item("u", buffers.u.into_pyarray(py))?;
@@ -668,9 +696,9 @@ fn bvh_info<'py>(py: Python<'py>, bvh: &ReshetovBvh) -> PyResult<Bound<'py, PyDi
 fn all_hits<'py>(
     py: Python<'py>,
     scene: &Scene,
-    origins: &Bound<'py, PyAny>,
-    directions: &Bound<'py, PyAny>,
+    (origins, directions): (&Bound<'py, PyAny>, &Bound<'py, PyAny>),
     (tmin, tmax): (PyReadonlyArray1<'py, f64>, PyReadonlyArray1<'py, f64>),
+    start: Option<StartArrays<'py>>,
     opts: &CastOptions,
     method: Option<MethodArg>,
 ) -> PyResult<Vec<Listed>> {
@@ -682,18 +710,24 @@ fn all_hits<'py>(
             )));
         }
     }
-    query_rays(py, scene, origins, directions, tmin, tmax, opts, AllHitsJob)
+    query_rays(
+        py,
+        scene,
+        (origins, directions),
+        (tmin, tmax),
+        start,
+        opts,
+        AllHitsJob,
+    )
 }
 
 /// Validates rays of either precision and runs `query` with the GIL released.
-#[allow(clippy::too_many_arguments)] // the bindings' shared arguments
 fn query_rays<'py, Q: RayQuery>(
     py: Python<'py>,
     scene: &Scene,
-    origins: &Bound<'py, PyAny>,
-    directions: &Bound<'py, PyAny>,
-    tmin: PyReadonlyArray1<'py, f64>,
-    tmax: PyReadonlyArray1<'py, f64>,
+    (origins, directions): (&Bound<'py, PyAny>, &Bound<'py, PyAny>),
+    (tmin, tmax): (PyReadonlyArray1<'py, f64>, PyReadonlyArray1<'py, f64>),
+    start: Option<StartArrays<'py>>,
     opts: &CastOptions,
     query: Q,
 ) -> PyResult<Q::Out> {
@@ -704,43 +738,35 @@ fn query_rays<'py, Q: RayQuery>(
         opts: &CastOptions,
         query: Q,
     ) -> PyResult<Q::Out> {
-        let n = check_cols(&rays.origins, 3, "origins")?;
-        if check_cols(&rays.directions, 3, "directions")? != n {
-            return Err(PyValueError::new_err(
-                "origins and directions must have the same number of rows",
-            ));
-        }
+        let (n, rays) = rays.slices(scene)?;
         opts.check()?;
-        let (o, d) = (
-            slice(&rays.origins, "origins")?,
-            slice(&rays.directions, "directions")?,
-        );
-        let (lo, hi) = (slice(&rays.tmin, "tmin")?, slice(&rays.tmax, "tmax")?);
         let mut out = query.output(n);
-        py.detach(|| {
-            guarded(|| {
-                let rays = Rays {
-                    origins: o,
-                    directions: d,
-                    tmin: lo,
-                    tmax: hi,
-                };
-                query.run(scene, &rays, &mut out, opts)
-            })
-        })?;
+        py.detach(|| guarded(|| query.run(scene, &rays, &mut out, opts)))?;
         Ok(out)
     }
     if let (Ok(o), Ok(d)) = (
         origins.extract::<PyReadonlyArray2<'py, f32>>(),
         directions.extract::<PyReadonlyArray2<'py, f32>>(),
     ) {
-        return go(py, scene, RayArrays::new(o, d, tmin, tmax), opts, query);
+        return go(
+            py,
+            scene,
+            RayArrays::new(o, d, tmin, tmax, start),
+            opts,
+            query,
+        );
     }
     match (
         origins.extract::<PyReadonlyArray2<'py, f64>>(),
         directions.extract::<PyReadonlyArray2<'py, f64>>(),
     ) {
-        (Ok(o), Ok(d)) => go(py, scene, RayArrays::new(o, d, tmin, tmax), opts, query),
+        (Ok(o), Ok(d)) => go(
+            py,
+            scene,
+            RayArrays::new(o, d, tmin, tmax, start),
+            opts,
+            query,
+        ),
         _ => Err(pyo3::exceptions::PyTypeError::new_err(
             "origins and directions must be 2-D arrays, both float32 or both float64",
         )),

@@ -2,7 +2,7 @@
 //! it crosses or at a vertex or edge it touches, with t, the caller's triangle and its range
 //! against [tmin, tmax], each decided exactly (`geom::exact`).
 
-use crate::geom::exact::{cmp_t, in_plane, orient_sign, plane_t, side, triangle_hit};
+use crate::geom::exact::{beyond, cmp_t, in_plane, orient_sign, plane_t, side, triangle_hit};
 use crate::locate::WalkStart;
 use crate::mesh::{Incidence, Surface, TetMesh};
 use crate::traverse::{Contact, Touch};
@@ -41,6 +41,9 @@ pub struct ExactRay<'a> {
     pub dir: [f64; 3],
     pub tmin: f64,
     pub tmax: f64,
+    /// A ray started from a hit: the corners of the caller's triangle it leaves (its points
+    /// lie beyond that triangle's plane, [`beyond`]).
+    pub leaving: Option<[[f64; 3]; 3]>,
 }
 
 /// The key of the ray's origin (t = 0): the same point however it is reported.
@@ -67,6 +70,7 @@ impl<'a> ExactRay<'a> {
             dir: s.dir,
             tmin: s.tmin,
             tmax: s.tmax,
+            leaving: s.leaving.map(|k| surface.triangles[k as usize]),
         }
     }
 
@@ -80,9 +84,14 @@ impl<'a> ExactRay<'a> {
         }
     }
 
-    /// Where the crossing of triangle `tri`'s plane lies against [tmin, tmax], exactly.
+    /// Where the crossing of triangle `tri`'s plane lies against [tmin, tmax], exactly; for a
+    /// ray started from a hit, a crossing not beyond the plane of the triangle it leaves is
+    /// `Before` (the walk meets those first, in order).
     pub fn range(&self, tri: &[[f64; 3]; 3]) -> Range {
-        range_of(self.o, self.d, self.tmin, self.tmax, tri)
+        match &self.leaving {
+            Some(from) if !beyond(self.o, self.d, self.dir, from, tri) => Range::Before,
+            _ => range_of(self.o, self.d, self.tmin, self.tmax, tri),
+        }
     }
 
     fn meet_on(&self, triangle: u32, key: [u32; 3]) -> (Meet, Range) {

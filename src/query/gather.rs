@@ -6,7 +6,7 @@
 //! exact walk gives, whatever order the triangles come in.
 
 use super::contact::{meet_at, Meet};
-use crate::geom::exact::{cmp_plane_t, cmp_t, plane_t, triangle_sides};
+use crate::geom::exact::{beyond, cmp_plane_t, cmp_t, plane_t, triangle_sides};
 use crate::geom::ray::{checked_range, Ray};
 use crate::geom::real::unit_scale;
 use std::cmp::Ordering;
@@ -23,6 +23,9 @@ pub struct Line {
     pub dir: [f64; 3],
     pub tmin: f64,
     pub tmax: f64,
+    /// A ray started from a hit: the corners of the caller's triangle it leaves; it meets
+    /// only what lies beyond that triangle's plane ([`beyond`]).
+    pub leaving: Option<Tri>,
 }
 
 impl Line {
@@ -35,6 +38,7 @@ impl Line {
             dir: unit_scale(ray.d),
             tmin,
             tmax,
+            leaving: ray.leaving.map(|l| l.corners),
         })
     }
 
@@ -52,6 +56,9 @@ impl Line {
         // Exact t against [tmin, tmax] (tmin ≥ 0 also rules out crossings behind the origin).
         cmp_t(o, self.d, tri, self.tmin) != Ordering::Less
             && !(self.tmax.is_finite() && cmp_t(o, self.d, tri, self.tmax) == Ordering::Greater)
+            && self
+                .leaving
+                .is_none_or(|from| beyond(o, self.d, self.dir, &from, tri))
     }
 
     /// Which of two triangles the ray meets first: the sign of t1 − t2, exactly.

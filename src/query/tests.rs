@@ -42,6 +42,7 @@ fn any_hit_agrees_with_closest_hit_and_the_referee() {
         directions: &d[..],
         tmin: &[0.0],
         tmax: &tmax,
+        leaving: None,
     };
     let opts = CastOptions::default();
     for method in [Method::DEFAULT, Method::Robust] {
@@ -123,6 +124,7 @@ fn continuing_policy_crosses_every_triangle_once() {
             d,
             tmin: 0.0,
             tmax: f64::INFINITY,
+            leaving: None,
         };
         let mut st = crate::locate::LocateState::for_chunk(0);
         let settle = Some(&scene.mesh.points[..]);
@@ -211,6 +213,7 @@ fn exact_walk_is_right_where_float_walks_fail() {
                 directions: &d[..],
                 tmin: &tmin,
                 tmax: &tmax,
+                leaving: None,
             };
             g.scene
                 .cast(&r64, h64.out(), &CastOptions::default())
@@ -221,6 +224,7 @@ fn exact_walk_is_right_where_float_walks_fail() {
                 directions: &d32[..],
                 tmin: &tmin,
                 tmax: &tmax,
+                leaving: None,
             };
             g.scene
                 .cast(&r32, h32.out(), &CastOptions::default())
@@ -285,6 +289,7 @@ fn all_hits_counts_and_occlusion_agree_with_the_referee() {
             directions: &d[..],
             tmin: &tmin,
             tmax: &tmax,
+            leaving: None,
         };
         let mut listed = vec![crate::query::Listed::default(); n];
         g.scene
@@ -460,12 +465,14 @@ fn same_answers(
         directions: d,
         tmin,
         tmax,
+        leaving: None,
     };
     let r32 = Rays {
         origins: &o32[..],
         directions: &d32[..],
         tmin,
         tmax,
+        leaving: None,
     };
     for &method in Method::ALL {
         same_closest(scene, method, &r64, what, ab);
@@ -660,6 +667,7 @@ fn packets_end_on_invalid_origins() {
         directions: &d[..],
         tmin: &tmin,
         tmax: &tmax,
+        leaving: None,
     };
     let cast = |packets| {
         let mut b = HitBuffers::<f64>::new(200, false);

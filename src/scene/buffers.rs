@@ -2,7 +2,7 @@
 //! a caller without numpy allocates.
 
 use crate::error::{Error, Result};
-use crate::geom::ray::Ray;
+use crate::geom::ray::{Leaving, Ray};
 use crate::geom::real::Real;
 use crate::query::{RayHit, Sink};
 use crate::status::HIT;
@@ -14,6 +14,59 @@ pub struct Rays<'a, R> {
     /// One value for all rays, or one per ray.
     pub tmin: &'a [f64],
     pub tmax: &'a [f64],
+    /// For rays started from hits (`start=hits`): what each leaves.
+    pub leaving: Option<LeavingRays<'a>>,
+}
+
+/// Per ray, the caller's triangle a ray started from a hit leaves (−1: none, an ordinary ray)
+/// and the tet that hit's walk ended in (−1: none), with the triangles the ids index.
+#[derive(Clone, Copy)]
+pub struct LeavingRays<'a> {
+    pub triangles: &'a [[[f64; 3]; 3]],
+    pub triangle: &'a [i32],
+    pub tet: &'a [i32],
+}
+
+impl LeavingRays<'_> {
+    /// Refuses ids out of range and lengths other than `n`; `n_tets`: the scene's tet count.
+    pub fn check(&self, n: usize, n_tets: usize) -> Result<()> {
+        if self.triangle.len() != n || self.tet.len() != n {
+            return Err(Error::InvalidInput(format!(
+                "{n} rays started from hits need {n} hit triangles and tets, got {} and {}",
+                self.triangle.len(),
+                self.tet.len()
+            )));
+        }
+        let bad = |ids: &[i32], limit: usize| {
+            ids.iter().position(|&k| k < -1 || k as i64 >= limit as i64)
+        };
+        if let Some(i) = bad(self.triangle, self.triangles.len()) {
+            return Err(Error::InvalidInput(format!(
+                "ray {i} starts from triangle {} but the scene has {} triangles (hits of \
+                 another scene?)",
+                self.triangle[i],
+                self.triangles.len()
+            )));
+        }
+        if let Some(i) = bad(self.tet, n_tets) {
+            return Err(Error::InvalidInput(format!(
+                "ray {i} starts from tet {} but the scene has {n_tets} tets (hits of another \
+                 scene?)",
+                self.tet[i]
+            )));
+        }
+        Ok(())
+    }
+
+    #[inline]
+    fn of(&self, i: usize) -> Option<Leaving> {
+        let k = self.triangle[i];
+        (k >= 0).then(|| Leaving {
+            triangle: k as u32,
+            corners: self.triangles[k as usize],
+            tet: u32::try_from(self.tet[i]).unwrap_or(u32::MAX),
+        })
+    }
 }
 
 impl<R: Real> Rays<'_, R> {
@@ -26,6 +79,7 @@ impl<R: Real> Rays<'_, R> {
             d: [0, 1, 2].map(|a| self.directions[3 * i + a].to_f64()),
             tmin: at(self.tmin),
             tmax: at(self.tmax),
+            leaving: self.leaving.as_ref().and_then(|l| l.of(i)),
         }
     }
 

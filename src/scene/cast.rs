@@ -190,6 +190,16 @@ impl Scene {
         opts: &CastOptions,
     ) -> Result<()> {
         opts.check()?;
+        if let Some(leaving) = &rays.leaving {
+            leaving.check(rays.len(), self.mesh.len())?;
+            if method != Method::Exact {
+                return Err(Error::InvalidOption(format!(
+                    "rays started from hits (start=) need the exact method: it decides exactly \
+                     that a ray's points lie beyond the triangle it leaves; {} cannot",
+                    method.name()
+                )));
+            }
+        }
         if opts.accel.tests_triangles() {
             return self.dispatch_tested(method, rays, job, opts);
         }

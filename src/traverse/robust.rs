@@ -203,19 +203,12 @@ fn perturbed_orient(x: V3<f64>, y: V3<f64>, z: V3<f64>, s: V3<f64>, delta: V3<f6
     if o != 0.0 {
         return o;
     }
-    use num_rational::BigRational;
-    use num_traits::{Signed, Zero};
-    let r = |v: V3<f64>| v.map(|c| BigRational::from_float(c).unwrap_or_else(BigRational::zero));
-    let (x, y, z) = (r(x), r(y), r(z));
-    let e1 = [0, 1, 2].map(|k| &y[k] - &x[k]);
-    let e2 = [0, 1, 2].map(|k| &z[k] - &x[k]);
+    // det(y − x, z − x, w) = det(w, y − x, z − x): `side`'s filtered exact sign (a start on a
+    // face is common for rays started from hits: rationals only when the filter cannot tell).
     for w in [delta, DELTA2] {
-        let w = r(w);
-        let det = &e1[0] * (&e2[1] * &w[2] - &e2[2] * &w[1])
-            - &e1[1] * (&e2[0] * &w[2] - &e2[2] * &w[0])
-            + &e1[2] * (&e2[0] * &w[1] - &e2[1] * &w[0]);
-        if !det.is_zero() {
-            return if det.is_positive() { 1.0 } else { -1.0 };
+        let s = crate::geom::exact::side(w, x, y, z);
+        if s != 0 {
+            return s as f64;
         }
     }
     0.0
@@ -225,7 +218,30 @@ fn perturbed_orient(x: V3<f64>, y: V3<f64>, z: V3<f64>, s: V3<f64>, delta: V3<f6
 /// boundary, perhaps): the robust walk's line starts there, so it must start in that tet. A
 /// start strictly inside `t` costs four orientation tests; one on a face, edge or vertex
 /// moves to the neighbour the perturbed point lies in. `points` are those the walk reads.
-pub fn settle_start<R: Real>(mesh: &TetMesh, points: &[[R; 3]], mut t: u32, start: V3<f64>) -> u32 {
+pub fn settle_start<R: Real>(mesh: &TetMesh, points: &[[R; 3]], t: u32, start: V3<f64>) -> u32 {
+    settle(mesh, points, t, start).unwrap_or_else(|last| last)
+}
+
+/// As [`settle_start`] from any tet `t` near the start (a secondary ray's: the tet its hit's
+/// walk ended in): None when the walk from there found no tet holding the perturbed start
+/// within its guard (the caller then locates as usual).
+pub fn settle_from<R: Real>(
+    mesh: &TetMesh,
+    points: &[[R; 3]],
+    t: u32,
+    start: V3<f64>,
+) -> Option<u32> {
+    settle(mesh, points, t, start).ok()
+}
+
+/// The visibility walk towards s + εδ: Ok(the tet holding it), Err(the tet it stopped in,
+/// at the domain's boundary or the step guard).
+fn settle<R: Real>(
+    mesh: &TetMesh,
+    points: &[[R; 3]],
+    mut t: u32,
+    start: V3<f64>,
+) -> Result<u32, u32> {
     let s = start_point::<R>(start, &mesh.bounds);
     let delta = start_delta::<R>(start, &mesh.bounds);
     let mut prev = BOUNDARY;
@@ -238,11 +254,12 @@ pub fn settle_start<R: Real>(mesh: &TetMesh, points: &[[R; 3]], mut t: u32, star
             (n != prev && perturbed_orient(v[f[0]], v[f[1]], v[f[2]], s, delta) > 0.0).then_some(n)
         });
         match next {
+            None => return Ok(t),
             Some(n) if n != BOUNDARY => (prev, t) = (t, n),
-            _ => return t,
+            Some(_) => return Err(t),
         }
     }
-    t
+    Err(t)
 }
 
 impl<R: Real> ExitMethod<R> for Robust {

@@ -115,6 +115,7 @@ fn cast<R: Real>(
         directions: d,
         tmin: &[0.0],
         tmax: &[f64::INFINITY],
+        leaving: None,
     };
     let out = HitsOut {
         t: &mut t,

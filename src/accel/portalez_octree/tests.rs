@@ -456,12 +456,14 @@ fn octree_answers_are_the_referees_and_the_walks() {
                 directions: &d[..],
                 tmin: &tmin,
                 tmax: &tmax,
+                leaving: None,
             };
             let r32 = Rays {
                 origins: &o32[..],
                 directions: &d32[..],
                 tmin: &tmin,
                 tmax: &tmax,
+                leaving: None,
             };
             for f32_rays in [false, true] {
                 let (ws, wt, wtri) = if f32_rays {
@@ -628,6 +630,7 @@ fn octree_is_exact_at_every_scale() {
                     d,
                     tmin: 0.0,
                     tmax: f64::INFINITY,
+                    leaving: None,
                 };
                 let Ok(line) = Line::new(&ray) else { continue };
                 let mut near = Nearest::new(&line, &tris);
@@ -696,6 +699,7 @@ fn octree_walks_along_planes_and_through_corners() {
                 d,
                 tmin: 0.0,
                 tmax: f64::INFINITY,
+                leaving: None,
             };
             let line = Line::new(&ray).unwrap();
             let mut near = Nearest::new(&line, &tris);
@@ -756,6 +760,7 @@ fn octree_refuses_bad_parameters_and_triangles() {
             d: [1.0, 0.0, 0.0],
             tmin: 0.0,
             tmax: f64::INFINITY,
+            leaving: None,
         })
         .unwrap();
         let mut near = Nearest::new(&line, &tris);

@@ -68,12 +68,14 @@ fn bvh_agrees(accel: AccelKind) {
                 directions: &d[..],
                 tmin: &tmin,
                 tmax: &tmax,
+                leaving: None,
             };
             let r32 = Rays {
                 origins: &o32[..],
                 directions: &d32[..],
                 tmin: &tmin,
                 tmax: &tmax,
+                leaving: None,
             };
             // Closest hits, both precisions.
             for f32_rays in [false, true] {
@@ -231,6 +233,7 @@ fn bvh_is_exact_far_from_float32() {
                 d,
                 tmin: 0.0,
                 tmax: f64::INFINITY,
+                leaving: None,
             };
             let Ok(line) = Line::new(&ray) else { continue };
             let mut near = Nearest::new(&line, &tris);
@@ -345,6 +348,7 @@ fn bvh_tree_holds_every_triangle_once() {
         d: [1.0, 0.0, 0.0],
         tmin: 0.0,
         tmax: 1.0,
+        leaving: None,
     })
     .unwrap();
     let mut near = Nearest::new(&line, &[]);

@@ -18,6 +18,7 @@ fn robust_entries_are_settled_without_an_entry_face() {
         directions: &d,
         tmin: &[0.0],
         tmax: &[f64::INFINITY],
+        leaving: None,
     };
     let [lo, hi] = scene.mesh.bounds;
     let outside = |i: usize| (0..3).any(|a| !(lo[a]..=hi[a]).contains(&(o[3 * i + a] as f64)));
@@ -63,6 +64,7 @@ fn gpu_cast_refuses_the_audit() {
         directions: &d,
         tmin: &[0.0],
         tmax: &[f64::INFINITY],
+        leaving: None,
     };
     let out = HitsOut {
         t: &mut t,

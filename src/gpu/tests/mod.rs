@@ -93,6 +93,7 @@ fn walked_lines(scene: &Scene, o: &[f32], d: &[f32]) -> (Vec<f64>, usize) {
         directions: d,
         tmin: &[0.0],
         tmax: &[f64::INFINITY],
+        leaving: None,
     };
     let points = Some(&scene.points_f32[..]);
     let mut st = crate::locate::LocateState::seeded(1);
@@ -263,6 +264,7 @@ fn run(
         directions: d,
         tmin: &[0.0],
         tmax: &[f64::INFINITY],
+        leaving: None,
     };
     let out = HitsOut {
         t: &mut t,

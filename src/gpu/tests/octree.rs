@@ -312,6 +312,7 @@ fn judge_twin(
                 d: di,
                 tmin: 0.0,
                 tmax: f64::INFINITY,
+                leaving: None,
             })
             .unwrap();
             let mut gather = Nearest::new(&line, tris);
