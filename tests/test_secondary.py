@@ -431,3 +431,17 @@ def test_shadow_and_bounce_rays_on_a_real_scene(which):
     dd = _unit(d)
     n = np.nan_to_num(hits.normal.astype(np.float64))
     _cast_judged(scene, v, f, hits, dd - 2 * np.sum(dd * n, axis=-1, keepdims=True) * n)
+
+
+def test_secondary_bench_rows_are_right():
+    """``python -m tetrace.bench secondary`` on the bundled scene: both ``start=hits`` rows are
+    right on every ray, and locating every origin walks the very same tets (same steps)."""
+    from tetrace.bench.secondary import run_secondary
+
+    rows = run_secondary([None], res=24, repeat=1)
+    assert {r["kind"] for r in rows} == {"shadow", "bounce"}
+    for kind in ("shadow", "bounce"):
+        mine = [r for r in rows if r["kind"] == kind and r["caster"].startswith("tetrace start")]
+        assert len(mine) == 2 and mine[0]["rays"] > 50
+        assert all(r["wrong"] == 0 for r in mine)
+        assert mine[0]["steps_per_ray"] == mine[1]["steps_per_ray"]

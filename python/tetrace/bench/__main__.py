@@ -191,6 +191,10 @@ def main(argv=None):
         from .octree import octree_main
 
         return octree_main(argv[1:])
+    if argv[:1] == ["secondary"]:
+        from .secondary import secondary_main
+
+        return secondary_main(argv[1:])
     if argv[:1] == ["bvh"]:
         from .bvh import bvh_main
 
