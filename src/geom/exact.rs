@@ -145,11 +145,11 @@ pub fn cmp_t(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3], x: f64) -> Ordering {
             return Ordering::Greater;
         }
     }
-    if x == 0.0 {
+    let [a, b, c] = *tri;
+    if x == 0.0 && [a, b, c, o].iter().flatten().all(|&v| expansion_safe(v)) {
         // The sign of t = num / den from two adaptive predicates, not rationals: an origin on
         // the plane (a ray started from a hit, a touch at the origin) is the common case here.
         // num = det(a − o, b − o, c − o) = −orient(a, b, c, o); den = side(d, a, b, c).
-        let [a, b, c] = *tri;
         let den = side(d, a, b, c);
         if den == 0 {
             return Ordering::Greater;
@@ -186,6 +186,13 @@ pub fn cmp_plane_t(o: V3<f64>, d: V3<f64>, tri1: &[V3<f64>; 3], tri2: &[V3<f64>;
         num / den
     };
     exact_t(tri1).cmp(&exact_t(tri2))
+}
+
+/// Whether Shewchuk's adaptive orientation (`predicates::orient`) is exact on a coordinate:
+/// zero, or far enough from float64's ends that no product of its expansions underflows or
+/// overflows (tiny or huge scenes take the rationals instead).
+fn expansion_safe(v: f64) -> bool {
+    v == 0.0 || (v.abs() >= f64::powi(2.0, -200) && v.abs() <= f64::powi(2.0, 200))
 }
 
 /// Whether the line o + t d crosses the plane of `tri` (which it meets at one point)
@@ -434,14 +441,18 @@ mod tests {
         };
         let (mut on_plane, mut parallel) = (0, 0);
         for k in 0..20_000 {
-            let tri = [[f(), f(), f()], [f(), f(), f()], [f(), f(), f()]];
+            // Powers of two keep every relation exact; the tiny and huge scales are where the
+            // adaptive predicates would underflow or overflow (the rationals must take over).
+            let scale = [1.0, f64::powi(2.0, -1000), f64::powi(2.0, 900)][k % 3];
+            let p = |f: &mut dyn FnMut() -> f64| [f() * scale, f() * scale, f() * scale];
+            let tri = [p(&mut f), p(&mut f), p(&mut f)];
             // The origin on the triangle's plane (dyadic weights: exactly), or anywhere.
             let (a, b) = (f(), f());
             let o = if k % 2 == 0 {
                 [0, 1, 2]
                     .map(|i| tri[0][i] + a * (tri[1][i] - tri[0][i]) + b * (tri[2][i] - tri[0][i]))
             } else {
-                [f(), f(), f()]
+                p(&mut f)
             };
             // Some directions along an edge of the plane left (parallel to it).
             let d = if k % 7 == 0 {
@@ -449,7 +460,7 @@ mod tests {
             } else {
                 [f(), f(), f()]
             };
-            let other = [[f(), f(), f()], [f(), f(), f()], [f(), f(), f()]];
+            let other = [p(&mut f), p(&mut f), p(&mut f)];
             if d == [0.0; 3] {
                 continue;
             }
