@@ -14,8 +14,10 @@ four ways on the same directions, one thread, best of ``repeat``:
 * embreex (Embree, robust flag) from the same offset origins.
 
 Every row is judged by the exact referee (``leaving=``: the rule of ``start=hits``): the
-``start=hits`` rows must be right on every ray; the offset rows answer a slightly different
-question (a moved origin) and the table counts where that changes the answer.
+``start=hits`` rows must be right on every ray (hit or miss, the triangle, ``t`` within the
+referee's bound); the offset rows answer a slightly different question (a moved origin, whose
+``t`` is measured from there) and the table counts the rays where that changes the answer:
+hit or miss, or the triangle hit.
 """
 
 from __future__ import annotations
@@ -84,8 +86,11 @@ def _setup(path, res, rng):
     return scene, path, hits, n, {"shadow": shadow, "bounce": bounce}
 
 
-def _wrong(scene, hits, d, tmax, got_hit, got_t=None, got_tri=None):
-    """Rays whose answer differs from the exact one for rays started from ``hits``."""
+def _wrong(scene, hits, d, tmax, got_hit, got_t=None, got_tri=None, moved=False):
+    """Rays whose answer differs from the exact one for rays started from ``hits``: hit or
+    miss, the triangle (one of those tied) and ``t`` within the referee's bound; ``moved``
+    (rays cast from another origin, whose ``t`` is measured from there): hit or miss and the
+    triangle only."""
     from ..referee import Referee, judge
 
     o, dd = hits.point.astype(np.float64), d.astype(np.float64)
@@ -94,6 +99,12 @@ def _wrong(scene, hits, d, tmax, got_hit, got_t=None, got_tri=None):
     )
     if got_t is None:  # any hit: only the yes/no is asked
         return int((np.asarray(got_hit, bool) != verdict.hit).sum())
+    if moved:
+        got_hit = np.asarray(got_hit, bool)
+        same = (got_hit == verdict.hit) & (
+            ~got_hit | verdict.in_ties(np.where(got_hit, got_tri, -1))
+        )
+        return int((~same).sum())
     got = dataclasses.replace(
         hits, status=np.where(got_hit, HIT, 0).astype(np.uint8), t=got_t, triangle=got_tri
     )
@@ -168,9 +179,10 @@ def _pass(scene, embree, hits, n, kind, d, eps, repeat):
             wrong = _wrong(scene, hits, d, tmax, out)
         elif label.startswith("embreex"):
             prim, t, _, _ = out
-            wrong = _wrong(scene, hits, d, tmax, prim >= 0, t, prim.astype(np.int32))
+            wrong = _wrong(scene, hits, d, tmax, prim >= 0, t, prim.astype(np.int32), True)
         else:
-            wrong = _wrong(scene, hits, d, tmax, out.status == HIT, out.t, out.triangle)
+            moved = "offset" in label
+            wrong = _wrong(scene, hits, d, tmax, out.status == HIT, out.t, out.triangle, moved)
         rows.append(
             dict(caster=label, mrays_per_s=k / seconds / 1e6, steps_per_ray=st, wrong=wrong,
                  rays=k)
