@@ -141,6 +141,26 @@ def test_bunny_follows_smooth_frames_and_every_query(scene_path, embree):
     np.testing.assert_array_equal(near.distance, near_fresh.distance)
 
 
+def test_steiner_points_on_triangles_follow_them(embree):
+    """A volume bound makes TetGen split the caller's triangles (Steiner points on
+    constrained faces) and refine the box's sides: those follow their triangle, these stay,
+    and every frame is still a move, answered right."""
+    scene = tetrace.Scene.from_mesh(tetrace.default_scene_path(), maxvolume=1e-3)
+    o, d = rays_for(np.asarray(scene.vertices), 32, 1000)
+    rest = np.array(scene.vertices, dtype=np.float64)
+    for k in (2, 5, 8):
+        report = scene.update_vertices(smooth_frame(rest, k))
+        assert report.action == "moved", report
+        judge_frame(scene, o, d, f"spot maxvolume frame {k}")
+    counts = scene._point_map.counts
+    assert counts["surface"] > 0 and counts["box"] > 8 and counts["volume"] > 0, counts
+    # The rebuild keeps the options: the volume bound again splits triangles.
+    scene.update_vertices(smooth_frame(rest, 5, amplitude=0.1))
+    assert scene.last_deformation.action == "rebuilt"
+    assert scene.tetrahedralization.options["maxvolume"] == 1e-3
+    judge_frame(scene, o, d, "spot maxvolume rebuilt")
+
+
 @pytest.fixture
 def device():
     return gpu_device()

@@ -183,7 +183,16 @@ impl PyScene {
             layout: layout.map_or(LayoutKind::DEFAULT, |l| l.0),
         };
         let opts = cast_options(threads, max_steps, packet, accel);
-        let out = query_rays(py, &self.loaded().scene, origins, directions, tmin, tmax, &opts, job)?;
+        let out = query_rays(
+            py,
+            &self.loaded().scene,
+            origins,
+            directions,
+            tmin,
+            tmax,
+            &opts,
+            job,
+        )?;
         Ok(out.into_pyarray(py))
     }
 
@@ -414,7 +423,11 @@ impl PyScene {
     /// The BVH's shape (nodes, leaves, depth, bytes, its parameters), or None when none is
     /// built.
     fn bvh_info<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
-        self.loaded().scene.built_bvh().map(|b| bvh_info(py, &b)).transpose()
+        self.loaded()
+            .scene
+            .built_bvh()
+            .map(|b| bvh_info(py, &b))
+            .transpose()
     }
 
     /// Builds Portalez & Duguet's octree with these parameters for the casts that follow;

@@ -198,10 +198,10 @@ mod tests {
             tmax: &[f64::INFINITY],
         };
         let mut b = HitBuffers::<f64>::new(n, false);
-        scene
-            .cast(&rays, b.out(), &CastOptions::default())
-            .unwrap();
-        (0..n).map(|i| (b.status[i], b.triangle[i], b.t[i])).collect()
+        scene.cast(&rays, b.out(), &CastOptions::default()).unwrap();
+        (0..n)
+            .map(|i| (b.status[i], b.triangle[i], b.t[i]))
+            .collect()
     }
 
     /// A smooth displacement that vanishes on the box's sides: small enough to invert nothing
@@ -285,9 +285,7 @@ mod tests {
         assert!(!m.applied && m.inverted > 0 && m.outside == 0, "{m:?}");
         assert_eq!(scene.mesh.points, points_before);
         assert_eq!(cast(&scene, 500, 2), before);
-        let (copy, m2) = scene
-            .moved_copy(&pts, triangles(&pts, &g.faces))
-            .unwrap();
+        let (copy, m2) = scene.moved_copy(&pts, triangles(&pts, &g.faces)).unwrap();
         assert!(copy.is_none() && m2 == m);
     }
 
@@ -353,11 +351,12 @@ mod tests {
     fn a_moved_copy_leaves_the_original() {
         let g = grid_scene_inside(&mut Rng(4), 3, 0.3, 0.4);
         let mut scene = g.scene;
-        scene.build_bvh(BvhParams {
-            max_leaf: 2,
-            ..Default::default()
-        })
-        .unwrap();
+        scene
+            .build_bvh(BvhParams {
+                max_leaf: 2,
+                ..Default::default()
+            })
+            .unwrap();
         scene.octree().unwrap();
         let before = cast(&scene, 800, 5);
         let pts = moved(&g.pts, |p| bend(p, 0.03));

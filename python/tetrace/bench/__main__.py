@@ -191,6 +191,10 @@ def main(argv=None):
         from .octree import octree_main
 
         return octree_main(argv[1:])
+    if argv[:1] == ["deform"]:
+        from .deform import deform_main
+
+        return deform_main(argv[1:])
     if argv[:1] == ["bvh"]:
         from .bvh import bvh_main
 
