@@ -14,6 +14,7 @@ from .errors import GpuError, MeshError, MeshFileNotFoundError, MeshingError, To
 from .hits import FAILED, HIT, INVALID, MISS, STATUS_NAMES, Hits
 from .scene import (
     LAYOUT_BYTES,
+    Deformation,
     Scene,
     accels,
     cast,
@@ -28,6 +29,7 @@ __version__ = _native.__version__
 
 __all__ = [
     "Scene",
+    "Deformation",
     "Hits",
     "cast",
     "default_scene",

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+import inspect
 import time
 from functools import lru_cache
 from importlib import resources
@@ -14,6 +16,7 @@ from .rays import prepare_bounds, prepare_ray_batch, raise_invalid
 
 __all__ = [
     "Scene",
+    "Deformation",
     "cast",
     "measure_accuracy",
     "default_scene",
@@ -215,6 +218,40 @@ class _Query:
             raise_invalid(np.asarray(status).reshape(-1), self.o, self.d, self.shape)
 
 
+@dataclasses.dataclass(frozen=True)
+class Deformation:
+    """What :meth:`Scene.update_vertices` did.
+
+    Attributes
+    ----------
+    action : {"moved", "rebuilt"}
+        ``"moved"``: the tetrahedralization kept its topology and took the new positions
+        (every tet stayed positively oriented, exactly). ``"rebuilt"``: the scene was
+        meshed again from the new vertices, with the options it was built with.
+    inverted : int
+        Tets whose orientation with the proposed positions was not positive (inverted or
+        flat), counted exactly; 0 when the move was not tried (see ``reason``).
+    outside : int
+        Proposed points that left the domain box (or box points that moved).
+    reason : str
+        Why the scene was rebuilt (``""`` when moved).
+    seconds : dict
+        Seconds per stage: ``map`` (how the points follow the vertices: once after each
+        build), ``points`` (the proposed positions), ``update`` (the exact check and the
+        swap in the core), ``rebuild`` (meshing again; 0 when moved), ``total``.
+    frames : int
+        Updates since the scene was last built or rebuilt, this one included (0 when this
+        one rebuilt it).
+    """
+
+    action: str
+    inverted: int
+    outside: int
+    reason: str
+    seconds: dict
+    frames: int
+
+
 class Scene:
     """A triangle scene tetrahedralized for ray casting.
 
@@ -271,6 +308,13 @@ class Scene:
             alternatives=alternatives,
         )
         self.hilbert = bool(hilbert)
+        #: Deformation or None: what the last :meth:`update_vertices` did.
+        self.last_deformation = None
+        # The options from_mesh was given (a rebuild meshes with them), how the CT's points
+        # follow the vertices (built by the first update) and updates since the last build.
+        self._build_options: dict = {}
+        self._point_map = None
+        self._frames = 0
         #: dict or None: seconds of each phase of the last GPU cast (``locate``,
         #: ``scene_upload``, ``upload``, ``kernel``, ``readback``, ``finish``) and counts
         #: (``walked``: rays the GPU walked, ``deferred``: robust rays re-walked on the CPU,
@@ -381,7 +425,22 @@ class Scene:
             measure=measure_accuracy,
             name=_mesh_name(mesh),
         )
-        return cls(tet, vertices, faces, hilbert=hilbert)
+        scene = cls(tet, vertices, faces, hilbert=hilbert)
+        scene._build_options = dict(
+            preset=preset,
+            mesher=mesher,
+            margin=margin,
+            contain=contain,
+            minratio=minratio,
+            maxvolume=maxvolume,
+            sizing=sizing,
+            repair=repair,
+            epsilon=epsilon,
+            edge_length=edge_length,
+            timeout=timeout,
+            accuracy=accuracy,
+        )
+        return scene
 
     @classmethod
     def from_meshes(cls, meshes, preset="quality", **mesh_options):
@@ -1072,6 +1131,143 @@ class Scene:
         flat, shape = _query_points(points)
         _check_threads(threads)
         return np.asarray(self._native.contains(flat, threads), dtype=bool).reshape(shape)
+
+    def update_vertices(self, vertices):
+        """Move the scene's vertices, keeping its tetrahedralization when it stays valid.
+
+        Lagae & Dutré 2008: the constrained tetrahedralization keeps its topology and every
+        point moves (``docs/deformation.md`` gives the rule: the caller's vertices go where
+        they are sent, points on the domain box stay, Steiner points on a triangle follow it,
+        Steiner points in the volume follow a smoothed displacement). The core checks every
+        tet's orientation exactly and that every point stays in the domain box; if all hold
+        it takes the new points, else the scene is meshed again from the new vertices with
+        the options it was built with. Either way every query answers on the moved mesh
+        afterwards, with the same contract.
+
+        Parameters
+        ----------
+        vertices : array_like
+            The new positions, of the shape of :attr:`vertices` (the faces stay), real
+            numbers, all finite.
+
+        Returns
+        -------
+        Deformation
+            What happened (also kept as :attr:`last_deformation`).
+
+        Raises
+        ------
+        TypeError
+            ``vertices`` are not real numbers.
+        ValueError
+            ``vertices`` have another shape than :attr:`vertices`, or a NaN or infinite
+            coordinate. The scene is unchanged.
+        tetrace.MeshingError
+            The move needs a rebuild and meshing the new vertices fails; the scene is
+            unchanged.
+        """
+        t_start = time.perf_counter()
+        V = self._check_new_vertices(vertices)
+        seconds = dict(map=0.0, points=0.0, update=0.0, rebuild=0.0, total=0.0)
+        if self._point_map is None:
+            from .mesh.deform import PointMap
+
+            t = time.perf_counter()
+            self._point_map = PointMap.build(self.tetrahedralization, self.vertices, self.faces)
+            seconds["map"] = time.perf_counter() - t
+        pm = self._point_map
+        inverted = outside = 0
+        reason = pm.reason or pm.check(V)
+        if not reason:
+            t = time.perf_counter()
+            points = pm.points(V)
+            tri = np.ascontiguousarray(V[np.asarray(self.faces)], dtype=np.float64)
+            seconds["points"] = time.perf_counter() - t
+            t = time.perf_counter()
+            applied, inverted, outside = self._native.update_points(points, tri)
+            seconds["update"] = time.perf_counter() - t
+            if applied:
+                tz = self.tetrahedralization
+                cm = tz.clean
+                self.tetrahedralization = dataclasses.replace(
+                    tz,
+                    points=points,
+                    clean=dataclasses.replace(cm, vertices=V[pm.input_src]),
+                    _weight=None,
+                )
+                self._set_vertices(V)
+                self._frames += 1
+                seconds["total"] = time.perf_counter() - t_start
+                return self._report("moved", inverted, outside, "", seconds)
+            reason = (
+                f"{inverted} tets would invert or flatten"
+                if inverted
+                else f"{outside} points would leave the domain box"
+            )
+        t = time.perf_counter()
+        self._rebuild(V)
+        seconds["rebuild"] = time.perf_counter() - t
+        seconds["total"] = time.perf_counter() - t_start
+        return self._report("rebuilt", inverted, outside, reason, seconds)
+
+    def _check_new_vertices(self, vertices):
+        """New vertices as a float64 copy of the scene's shape, or a clear error."""
+        v = np.asarray(vertices)
+        if v.dtype.kind not in "iuf":
+            raise TypeError(f"vertices must be real numbers, got dtype {v.dtype}")
+        shape = np.shape(self.vertices)
+        if v.shape != shape:
+            raise ValueError(
+                f"vertices must have the shape of scene.vertices {shape}, got {v.shape}"
+            )
+        v = np.array(v, dtype=np.float64, order="C", copy=True)
+        bad = ~np.isfinite(v).all(axis=1)
+        if bad.any():
+            k = int(np.argmax(bad))
+            raise ValueError(
+                f"{int(bad.sum())} of {len(v)} vertices have a NaN/inf coordinate "
+                f"(first: vertex {k}, {v[k].tolist()})"
+            )
+        return v
+
+    def _set_vertices(self, V):
+        V.setflags(write=False)
+        self.vertices = V
+        self._normals = None
+        self.gpu_timings = None
+
+    def _report(self, action, inverted, outside, reason, seconds):
+        self.last_deformation = Deformation(
+            action=action,
+            inverted=int(inverted),
+            outside=int(outside),
+            reason=reason,
+            seconds=seconds,
+            frames=self._frames,
+        )
+        return self.last_deformation
+
+    def _rebuild(self, V):
+        """Mesh the scene again from vertices ``V`` with the options it was built with;
+        the BVH and octree are built again with the parameters they had."""
+        bvh, octree = self.bvh_info(), self.octree_info()
+        fresh = Scene.from_mesh(
+            (V, np.asarray(self.faces)), hilbert=self.hilbert, **self._build_options
+        )
+        self.tetrahedralization = fresh.tetrahedralization
+        self._native = fresh._native
+        self.build_times = fresh.build_times
+        self._set_vertices(V)
+        self._point_map = None
+        self._frames = 0
+        # As the core does after a move: a structure built with other than the default
+        # parameters is built again now; a default one on its next use.
+        for info, build in ((bvh, self.build_bvh), (octree, self.build_octree)):
+            if info is not None:
+                defaults = inspect.signature(build).parameters
+                params = {k: info[k] for k in defaults}
+                if any(params[k] != defaults[k].default for k in params):
+                    build(**params)
 
     def _cast_audited(
         self,

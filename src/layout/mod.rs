@@ -73,6 +73,15 @@ macro_rules! layout_table {
                 out
             }
 
+            /// Drops the layouts whose records hold vertex positions ([`Layout::INLINE`]), so
+            /// that they are built again, on the moved points, by their next use; the others
+            /// hold topology only and stay.
+            pub fn forget_points(&mut self) {
+                $(if <$ty as Layout>::INLINE {
+                    self.$field = OnceLock::new();
+                })*
+            }
+
             /// Calls `v` with layout `kind` of `mesh`, built now if it was not yet.
             pub fn visit<V: LayoutVisitor>(&self, kind: LayoutKind, mesh: &TetMesh, v: V) -> Result<V::Out> {
                 match kind {

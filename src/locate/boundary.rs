@@ -5,6 +5,7 @@
 use crate::mesh::build::OUTWARD_FACES;
 use crate::mesh::{TetMesh, BOUNDARY};
 
+#[derive(Clone)]
 struct Side {
     /// The two in-plane axes.
     axes: [usize; 2],
@@ -31,6 +32,7 @@ fn contains(tri: &[[f64; 2]; 3], q: [f64; 2]) -> bool {
     o.iter().all(|&x| x >= 0.0) || o.iter().all(|&x| x <= 0.0)
 }
 
+#[derive(Clone)]
 pub struct BoundaryLocator {
     /// Index 2*axis + (0 for the low side, 1 for the high side).
     sides: Vec<Side>,

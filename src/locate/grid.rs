@@ -17,6 +17,7 @@ pub enum Located {
     Outside,
 }
 
+#[derive(Clone)]
 pub struct GridLocator {
     lo: [f64; 3],
     inv_cell: [f64; 3],

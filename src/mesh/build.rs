@@ -59,6 +59,27 @@ pub fn bounds_of(points: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
     (lo, hi)
 }
 
+/// Snaps coordinates within 1e-10 of the box's largest extent of a side of box `[lo, hi]`
+/// onto it: a mesher's Steiner points on the box's sides can be an ulp or two off their plane.
+pub fn snap_to_box(points: &mut [[f64; 3]], lo: [f64; 3], hi: [f64; 3]) {
+    let tol = 1e-10 * (0..3).map(|a| hi[a] - lo[a]).fold(0.0, f64::max);
+    for p in points.iter_mut() {
+        for a in 0..3 {
+            if (p[a] - lo[a]).abs() <= tol {
+                p[a] = lo[a];
+            } else if (hi[a] - p[a]).abs() <= tol {
+                p[a] = hi[a];
+            }
+        }
+    }
+}
+
+/// Whether point `p` lies on a side of box `[lo, hi]`.
+#[inline]
+pub fn on_box(p: &[f64; 3], [lo, hi]: &[[f64; 3]; 2]) -> bool {
+    (0..3).any(|a| p[a] == lo[a] || p[a] == hi[a])
+}
+
 #[inline]
 fn sorted3(mut k: [u32; 3]) -> [u32; 3] {
     if k[0] > k[1] {
@@ -127,16 +148,7 @@ impl TetMesh {
         // ulp or two; snap them so that the domain is exactly the box (rays from outside are
         // clipped against it). Orientation is checked after, exactly, on the snapped points.
         let (lo, hi) = bounds_of(&points);
-        let tol = 1e-10 * (0..3).map(|a| hi[a] - lo[a]).fold(0.0, f64::max);
-        for p in points.iter_mut() {
-            for a in 0..3 {
-                if (p[a] - lo[a]).abs() <= tol {
-                    p[a] = lo[a];
-                } else if (hi[a] - p[a]).abs() <= tol {
-                    p[a] = hi[a];
-                }
-            }
-        }
+        snap_to_box(&mut points, lo, hi);
 
         // Orient positively with exact predicates; a flat tet cannot be walked through.
         let oriented: Vec<[u32; 4]> = tets

@@ -80,12 +80,20 @@ pub fn order(points: &[[f64; 3]], bounds: [[f64; 3]; 2], groups: Option<&[u32]>)
     keyed.into_iter().map(|(_, _, i)| i).collect()
 }
 
-/// Points, tets and faces renumbered, and the tet permutation (`tet_order[new] = old`).
-pub type Reordered = (Vec<[f64; 3]>, Vec<[u32; 4]>, Vec<[u32; 3]>, Vec<u32>);
+/// Points, tets and faces renumbered, the tet permutation (`tet_order[new] = old`) and the
+/// point permutation (`point_order[new] = old`).
+pub type Reordered = (
+    Vec<[f64; 3]>,
+    Vec<[u32; 4]>,
+    Vec<[u32; 3]>,
+    Vec<u32>,
+    Vec<u32>,
+);
 
 /// Reorders points, then tets by centroid (grouped by `regions` first when given: a ray stays
 /// in one region between two scene triangles, so its tets then sit together), rewriting every
-/// index; returns (points, tets, faces) and the permutation of tets (`tet_order[new] = old`).
+/// index; returns (points, tets, faces) and the permutations of tets and points
+/// (`order[new] = old`).
 pub fn reorder(
     points: &[[f64; 3]],
     tets: &[[u32; 4]],
@@ -120,7 +128,7 @@ pub fn reorder(
         .iter()
         .map(|f| f.map(|v| new_id[v as usize]))
         .collect();
-    (new_points, new_tets, new_faces, tet_order)
+    (new_points, new_tets, new_faces, tet_order, point_order)
 }
 
 #[cfg(test)]
@@ -160,7 +168,7 @@ mod tests {
             [1.0, 1.0, 1.0],
         ];
         let tets = vec![[0, 1, 2, 3], [1, 2, 3, 4]];
-        let (p, t, f, order) = reorder(
+        let (p, t, f, order, point_order) = reorder(
             &pts,
             &tets,
             &[[1, 2, 3]],
@@ -178,5 +186,8 @@ mod tests {
         }
         let fp: Vec<_> = f[0].iter().map(|&v| p[v as usize]).collect();
         assert_eq!(fp, vec![pts[1], pts[2], pts[3]]);
+        for (new, &old) in point_order.iter().enumerate() {
+            assert_eq!(p[new], pts[old as usize]);
+        }
     }
 }

@@ -18,13 +18,40 @@ use numpy::{
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use std::sync::{Arc, RwLock};
 
 #[pyclass(frozen, name = "NativeScene", module = "tetrace._native")]
 pub struct PyScene {
-    inner: Scene,
+    /// The scene as it is now. Each call clones the `Arc` once (a cast under way keeps the
+    /// scene it started on); `update_points` swaps in a moved one. The lock is taken only
+    /// with the GIL held and only to clone or swap the `Arc`, so no two callers wait on each
+    /// other across a released GIL.
+    state: RwLock<Arc<Loaded>>,
+}
+
+/// A scene and what lives beside it.
+struct Loaded {
+    scene: Scene,
     /// The scene's buffers on the GPU, uploaded per layout by the first GPU cast with it.
     #[cfg(feature = "gpu")]
     device: crate::gpu::DeviceScene,
+}
+
+impl Loaded {
+    fn new(scene: Scene) -> Arc<Loaded> {
+        Arc::new(Loaded {
+            scene,
+            #[cfg(feature = "gpu")]
+            device: Default::default(),
+        })
+    }
+}
+
+impl PyScene {
+    /// The scene as it is now (held by the caller for the whole call).
+    fn loaded(&self) -> Arc<Loaded> {
+        self.state.read().unwrap_or_else(|e| e.into_inner()).clone()
+    }
 }
 
 #[pymethods]
@@ -77,9 +104,7 @@ impl PyScene {
             })
         })?;
         Ok(PyScene {
-            inner,
-            #[cfg(feature = "gpu")]
-            device: Default::default(),
+            state: RwLock::new(Loaded::new(inner)),
         })
     }
 
@@ -106,7 +131,8 @@ impl PyScene {
         accel: Option<AccelArg>,
         start: Option<StartArrays<'py>>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let scene = &self.inner;
+        let loaded = self.loaded();
+        let scene = &loaded.scene;
         let opts = cast_options(threads, max_steps, packet, accel);
         let method = method.map_or(Method::DEFAULT, |m| m.0);
         let layout = layout.map_or(LayoutKind::DEFAULT, |l| l.0);
@@ -163,7 +189,7 @@ impl PyScene {
         let bounds = (tmin, tmax);
         let out = query_rays(
             py,
-            &self.inner,
+            &self.loaded().scene,
             (origins, directions),
             bounds,
             start,
@@ -197,7 +223,7 @@ impl PyScene {
         let opts = cast_options(threads, max_steps, packet, accel);
         let listed = all_hits(
             py,
-            &self.inner,
+            &self.loaded().scene,
             (origins, directions),
             (tmin, tmax),
             start,
@@ -258,7 +284,7 @@ impl PyScene {
         let opts = cast_options(threads, max_steps, packet, accel);
         let listed = all_hits(
             py,
-            &self.inner,
+            &self.loaded().scene,
             (origins, directions),
             (tmin, tmax),
             start,
@@ -297,7 +323,8 @@ impl PyScene {
         }
         #[cfg(feature = "gpu")]
         {
-            let scene = &self.inner;
+            let loaded = self.loaded();
+            let scene = &loaded.scene;
             let opts = CastOptions {
                 threads,
                 max_steps,
@@ -307,7 +334,7 @@ impl PyScene {
             let mut timings = crate::gpu::GpuTimings::default();
             let rays = RayArrays::new(origins, directions, tmin, tmax, None);
             let hits = cast_impl(py, scene, rays, &opts, false, |r, out, opts| {
-                timings = self.device.cast(scene, method, layout, r, out, opts)?;
+                timings = loaded.device.cast(scene, method, layout, r, out, opts)?;
                 Ok(())
             })?;
             Ok((hits, super::gpu::timings_dict(py, &timings)?))
@@ -325,10 +352,10 @@ impl PyScene {
         threads: Option<usize>,
     ) -> PyResult<Bound<'py, PyArray1<bool>>> {
         if let Ok(p) = points.extract::<PyReadonlyArray2<'py, f32>>() {
-            return contains_impl(py, &self.inner, p, threads);
+            return contains_impl(py, &self.loaded().scene, p, threads);
         }
         if let Ok(p) = points.extract::<PyReadonlyArray2<'py, f64>>() {
-            return contains_impl(py, &self.inner, p, threads);
+            return contains_impl(py, &self.loaded().scene, p, threads);
         }
         let shape = points.getattr("shape").map(|s| s.to_string());
         let dtype = points.getattr("dtype").map(|s| s.to_string());
@@ -358,7 +385,7 @@ impl PyScene {
         let n = check_cols(&points, 3, "points")?;
         let p = slice(&points, "points")?;
         let mut out = vec![NearestPoint::NONE; n];
-        py.detach(|| guarded(|| self.inner.nearest_points(p, &mut out, threads)))?;
+        py.detach(|| guarded(|| self.loaded().scene.nearest_points(p, &mut out, threads)))?;
         let point: Vec<f64> = out.iter().flat_map(|r| r.point).collect();
         let d = PyDict::new(py);
         d.set_item("point", point.into_pyarray(py).reshape([n, 3])?)?;
@@ -394,14 +421,18 @@ impl PyScene {
             bins,
             aperture,
         };
-        let bvh = py.detach(|| guarded(|| self.inner.build_bvh(params)))?;
+        let bvh = py.detach(|| guarded(|| self.loaded().scene.build_bvh(params)))?;
         bvh_info(py, &bvh)
     }
 
     /// The BVH's shape (nodes, leaves, depth, bytes, its parameters), or None when none is
     /// built.
     fn bvh_info<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
-        self.inner.built_bvh().map(|b| bvh_info(py, &b)).transpose()
+        self.loaded()
+            .scene
+            .built_bvh()
+            .map(|b| bvh_info(py, &b))
+            .transpose()
     }
 
     /// Builds Portalez & Duguet's octree with these parameters for the casts that follow;
@@ -419,27 +450,75 @@ impl PyScene {
             leaf_size,
             balance,
         };
-        let octree = py.detach(|| guarded(|| self.inner.build_octree(params)))?;
+        let octree = py.detach(|| guarded(|| self.loaded().scene.build_octree(params)))?;
         octree_info(py, &octree)
     }
 
     /// The octree's statistics and bytes per part, or None when none is built.
     fn octree_info<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
-        self.inner
+        self.loaded()
+            .scene
             .octree
             .get()
             .map(|o| octree_info(py, &o))
             .transpose()
     }
 
+    /// Moves the scene's points to `points` ((P, 3) float64, in the order they were given to
+    /// the constructor) and its triangles to `triangles` ((F, 3, 3) float64, as many as
+    /// before), keeping the topology, when every tet stays positively oriented (exact) and
+    /// the domain box stays: returns (applied, inverted tets, points outside). When not
+    /// applied, nothing changes. Moving drops the GPU buffers (uploaded again by the next GPU
+    /// cast). Runs with the GIL held: the swap must not interleave with other calls.
+    fn update_points(
+        &self,
+        points: PyReadonlyArray2<'_, f64>,
+        triangles: PyReadonlyArray3<'_, f64>,
+    ) -> PyResult<(bool, usize, usize)> {
+        check_cols(&points, 3, "points")?;
+        let ts = triangles.shape();
+        if ts[1] != 3 || ts[2] != 3 {
+            return Err(PyValueError::new_err(format!(
+                "triangles must have shape (F, 3, 3), got {ts:?}"
+            )));
+        }
+        let p: Vec<[f64; 3]> = rows(slice(&points, "points")?);
+        let tri: Vec<[[f64; 3]; 3]> = rows::<f64, 9>(slice(&triangles, "triangles")?)
+            .into_iter()
+            .map(|r| [[r[0], r[1], r[2]], [r[3], r[4], r[5]], [r[6], r[7], r[8]]])
+            .collect();
+        let mut slot = self.state.write().unwrap_or_else(|e| e.into_inner());
+        let moved = guarded(|| match Arc::get_mut(&mut *slot) {
+            // No cast holds the scene: move it in place.
+            Some(loaded) => {
+                let moved = loaded.scene.update_points(&p, tri)?;
+                #[cfg(feature = "gpu")]
+                if moved.applied {
+                    loaded.device = Default::default();
+                }
+                Ok(moved)
+            }
+            // A cast on another thread still reads it: move a copy.
+            None => {
+                let (copy, moved) = slot.scene.moved_copy(&p, tri)?;
+                if let Some(scene) = copy {
+                    *slot = Loaded::new(scene);
+                }
+                Ok(moved)
+            }
+        })?;
+        Ok((moved.applied, moved.inverted, moved.outside))
+    }
+
     /// Bytes used by each part of the structure (`gpu_<layout>`: on the device).
     fn memory<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let d = PyDict::new(py);
-        for (k, v) in self.inner.memory() {
+        let loaded = self.loaded();
+        for (k, v) in loaded.scene.memory() {
             d.set_item(k, v)?;
         }
         #[cfg(feature = "gpu")]
-        for (k, v) in self.device.bytes() {
+        for (k, v) in loaded.device.bytes() {
             d.set_item(format!("gpu_{k}"), v)?;
         }
         Ok(d)
@@ -447,35 +526,40 @@ impl PyScene {
 
     #[getter]
     fn n_tets(&self) -> usize {
-        self.inner.mesh.len()
+        self.loaded().scene.mesh.len()
     }
     #[getter]
     fn n_points(&self) -> usize {
-        self.inner.mesh.points.len()
+        self.loaded().scene.mesh.points.len()
     }
     #[getter]
     fn n_constrained(&self) -> usize {
-        self.inner.mesh.constrained.len()
+        self.loaded().scene.mesh.constrained.len()
     }
     /// Builds a traversal layout now instead of at its first cast; returns its bytes.
     fn prepare_layout(&self, py: Python<'_>, layout: LayoutArg) -> PyResult<usize> {
-        py.detach(|| guarded(|| self.inner.layouts.prepare(layout.0, &self.inner.mesh)))
+        let loaded = self.loaded();
+        let scene = &loaded.scene;
+        py.detach(|| guarded(|| scene.layouts.prepare(layout.0, &scene.mesh)))
     }
     #[getter]
     fn bounds(&self) -> [[f64; 3]; 2] {
-        self.inner.mesh.bounds
+        self.loaded().scene.mesh.bounds
     }
     /// The points (P, 3) in the scene's order (Hilbert order unless disabled).
     fn points<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, numpy::PyArray2<f64>>> {
-        let flat: Vec<f64> = self.inner.mesh.points.iter().flatten().copied().collect();
-        flat.into_pyarray(py)
-            .reshape([self.inner.mesh.points.len(), 3])
+        let loaded = self.loaded();
+        let points = &loaded.scene.mesh.points;
+        let flat: Vec<f64> = points.iter().flatten().copied().collect();
+        flat.into_pyarray(py).reshape([points.len(), 3])
     }
 
     /// The positively oriented tets (T, 4), for inspection and plotting.
     fn tets<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, numpy::PyArray2<u32>>> {
-        let flat: Vec<u32> = self.inner.mesh.tets.iter().flatten().copied().collect();
-        flat.into_pyarray(py).reshape([self.inner.mesh.len(), 4])
+        let loaded = self.loaded();
+        let tets = &loaded.scene.mesh.tets;
+        let flat: Vec<u32> = tets.iter().flatten().copied().collect();
+        flat.into_pyarray(py).reshape([tets.len(), 4])
     }
 }
 

@@ -4,6 +4,7 @@
 
 pub mod buffers;
 pub mod cast;
+pub mod deform;
 
 use crate::accel::reshetov_bvh::nearest::NearestPoint;
 use crate::accel::{BvhParams, OctreeParams, PortalezOctree, ReshetovBvh};
@@ -25,6 +26,7 @@ use std::sync::{Arc, OnceLock, RwLock};
 
 pub use buffers::{check_lengths, HitBuffers, HitsOut, Rays};
 pub use cast::{AccelKind, CastOptions, Lanes, Packets, CHUNK};
+pub use deform::Moved;
 
 /// A structure built on first use, or again with other parameters: casts hold the `Arc` they
 /// started with, so a rebuild never changes a cast under way.
@@ -79,6 +81,22 @@ pub struct Scene {
     /// Portalez & Duguet's octree over the same triangles (`accel="portalez_octree"`), built
     /// on first use with the default parameters or again by [`Scene::build_octree`].
     pub octree: Built<PortalezOctree>,
+    /// Where each point came from: scene point k is point `input_index[k]` of those given to
+    /// [`Scene::build_with`] (the Hilbert order renumbers them); [`Scene::update_points`]
+    /// takes new points in the order given.
+    pub input_index: Vec<u32>,
+}
+
+/// Whether some constrained face has a corner that is not a corner of the caller's triangle it
+/// names (see [`Incidence::split`]).
+pub(crate) fn split(mesh: &TetMesh, incidence: &Incidence, triangles: &[[[f64; 3]; 3]]) -> bool {
+    incidence.faces.iter().any(|f| {
+        let named = mesh.constrained[f.side as usize].triangle as usize;
+        let tri = &triangles[named];
+        f.points
+            .iter()
+            .any(|&p| !tri.contains(&mesh.points[p as usize]))
+    })
 }
 
 impl Scene {
@@ -121,18 +139,20 @@ impl Scene {
             .flatten()
             .chain(faces.iter().flatten())
             .all(|&v| (v as u64) < np);
+        let mut input_index: Vec<u32> = (0..np as u32).collect();
         let mesh = if hilbert && in_range && points.iter().flatten().all(|x| x.is_finite()) {
             // Build once unordered to find the regions, then again in Hilbert order within
             // regions: construction is cheap next to meshing (bunny: ~0.1 s).
             let unordered = TetMesh::build(points, tets, faces, face_triangle)?;
             let regions = unordered.regions();
-            let (p, t, f, _) = crate::mesh::hilbert::reorder(
+            let (p, t, f, _, point_order) = crate::mesh::hilbert::reorder(
                 &unordered.points,
                 &unordered.tets,
                 faces,
                 unordered.bounds,
                 Some(&regions),
             );
+            input_index = point_order;
             TetMesh::build(p, &t, &f, face_triangle)?
         } else {
             // Out-of-range or non-finite input: let build() name the problem.
@@ -149,13 +169,7 @@ impl Scene {
         let entry = BoundaryLocator::build(&mesh);
         let points_f32 = mesh.points.iter().map(|p| p.map(|x| x as f32)).collect();
         let mut incidence = Incidence::build(&mesh);
-        incidence.split = incidence.faces.iter().any(|f| {
-            let named = mesh.constrained[f.side as usize].triangle as usize;
-            let tri = &triangles[named];
-            f.points
-                .iter()
-                .any(|&p| !tri.contains(&mesh.points[p as usize]))
-        });
+        incidence.split = split(&mesh, &incidence, &triangles);
         let scene = Scene {
             mesh,
             locator,
@@ -170,6 +184,7 @@ impl Scene {
             parity: OnceLock::new(),
             bvh: Built::default(),
             octree: Built::default(),
+            input_index,
         };
         scene.layouts.prepare(LayoutKind::DEFAULT, &scene.mesh)?;
         Ok(scene)

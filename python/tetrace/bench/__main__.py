@@ -195,6 +195,10 @@ def main(argv=None):
         from .secondary import secondary_main
 
         return secondary_main(argv[1:])
+    if argv[:1] == ["deform"]:
+        from .deform import deform_main
+
+        return deform_main(argv[1:])
     if argv[:1] == ["bvh"]:
         from .bvh import bvh_main
 
