@@ -530,8 +530,10 @@ class FakeNative:
         layout=None,
         packet=True,
         accel=None,
+        start=None,
     ):
-        assert isinstance(packet, bool) and accel is None
+        # Ordinary rays here: the wrappers pass no start arrays for them.
+        assert isinstance(packet, bool) and accel is None and start is None
         return self._check(o, d, tmin, tmax, method, layout)[1]
 
     def count_intersections(
@@ -546,8 +548,10 @@ class FakeNative:
         layout=None,
         packet=True,
         accel=None,
+        start=None,
     ):
-        assert isinstance(packet, bool) and accel is None
+        # Ordinary rays here: the wrappers pass no start arrays for them.
+        assert isinstance(packet, bool) and accel is None and start is None
         bf, status = self._check(o, d, tmin, tmax, method, layout)
         return {"count": np.array([len(h) for h in bf], np.int32), "status": status}
 
@@ -563,8 +567,10 @@ class FakeNative:
         layout=None,
         packet=True,
         accel=None,
+        start=None,
     ):
-        assert isinstance(packet, bool) and accel is None
+        # Ordinary rays here: the wrappers pass no start arrays for them.
+        assert isinstance(packet, bool) and accel is None and start is None
         bf, status = self._check(o, d, tmin, tmax, method, layout)
         tri = self.v[self.f]
         t, ids, u, w = [], [], [], []
