@@ -1455,41 +1455,45 @@ class Scene:
         # Loaded arrays are views of ``data``: copy them (writable, independent of it) once.
         arrays = {k: np.array(v) for k, v in arrays.items()}
         try:
-            if meta.get("kind") != "tetrace.Scene":
-                raise ValueError(f"holds {meta.get('kind')!r}, not a tetrace.Scene")
-            dec = lambda key: scenefile.decode(meta[key], arrays)  # noqa: E731
-            tz, rest_tz = _tz_from_fields(dec("tetrahedralization")), None
-            vertices, faces = dec("vertices"), dec("faces")
-            moved = bool(meta["moved"])
-            if moved:
-                rest_tz, rest_vertices = (
-                    _tz_from_fields(dec("rest_tetrahedralization")),
-                    dec("rest_vertices"),
-                )
-            geometries = dec("geometries")
-            build_options, build_times = dec("build_options"), dec("build_times")
-            frames, last = int(meta["frames"]), dec("last_deformation")
-            structures, hilbert = dict(meta["structures"]), bool(meta["hilbert"])
-        except (KeyError, TypeError, ValueError) as exc:
+            return cls._restore(arrays, meta, source)
+        except SceneFileError:
+            raise
+        except (KeyError, TypeError, ValueError, IndexError, AttributeError) as exc:
+            # A header whose checksum holds but whose content is not a scene (written by
+            # something else), or arrays the core rejects (tetrace.MeshError).
             raise SceneFileError(
                 f"{source}: not a valid scene ({type(exc).__name__}: {exc})"
             ) from exc
-        try:
-            scene = cls(
-                rest_tz if moved else tz,
-                rest_vertices if moved else vertices,
-                faces,
-                hilbert=hilbert,
-            )
-            if moved:
-                tri = np.asarray(vertices)[np.asarray(faces)]
-                applied, inverted, outside = scene._native.update_points(
-                    np.ascontiguousarray(tz.points, dtype=np.float64),
-                    np.ascontiguousarray(tri, dtype=np.float64),
-                )
-        except (IndexError, ValueError) as exc:  # tetrace.MeshError is a ValueError
-            raise SceneFileError(f"{source}: the saved mesh is not valid ({exc})") from exc
+
+    @classmethod
+    def _restore(cls, arrays, meta, source):
+        """The scene :meth:`to_bytes` described by ``meta`` over ``arrays``."""
+        from . import scenefile
+        from .errors import SceneFileError
+
+        if not isinstance(meta, dict) or meta.get("kind") != "tetrace.Scene":
+            kind = meta.get("kind") if isinstance(meta, dict) else type(meta).__name__
+            raise ValueError(f"holds {kind!r}, not a tetrace.Scene")
+        dec = lambda key: scenefile.decode(meta[key], arrays)  # noqa: E731
+        tz, vertices, faces = (
+            _tz_from_fields(dec("tetrahedralization")),
+            dec("vertices"),
+            dec("faces"),
+        )
+        moved = bool(meta["moved"])
+        rest_tz, rest_vertices = tz, vertices
         if moved:
+            rest_tz, rest_vertices = (
+                _tz_from_fields(dec("rest_tetrahedralization")),
+                dec("rest_vertices"),
+            )
+        scene = cls(rest_tz, rest_vertices, faces, hilbert=bool(meta["hilbert"]))
+        if moved:
+            tri = np.asarray(vertices)[np.asarray(faces)]
+            applied, inverted, outside = scene._native.update_points(
+                np.ascontiguousarray(tz.points, dtype=np.float64),
+                np.ascontiguousarray(tri, dtype=np.float64),
+            )
             if not applied:
                 raise SceneFileError(
                     f"{source}: the saved positions are not a valid move of the saved "
@@ -1497,14 +1501,17 @@ class Scene:
                 )
             scene.tetrahedralization, scene._rest = tz, (rest_tz, rest_vertices)
             scene._set_vertices(vertices)
+        geometries = dec("geometries")
         if geometries is not None:
             from .meshes import Geometries
 
             scene.geometries = Geometries(*geometries)
-        scene._build_options = build_options
-        scene.build_times = build_times
-        scene._frames = frames
+        scene._build_options = dec("build_options")
+        scene.build_times = dec("build_times")
+        scene._frames = int(meta["frames"])
+        last = dec("last_deformation")
         scene.last_deformation = None if last is None else Deformation(**last)
+        structures = meta["structures"]
         for name, build in (("bvh", scene.build_bvh), ("octree", scene.build_octree)):
             if name in structures:
                 build(**structures[name])
