@@ -200,10 +200,17 @@ def test_pickle_and_deepcopy_do_not_mesh_and_are_independent(spot, monkeypatch):
 
 def test_from_meshes_scene_keeps_its_geometries(tmp_path):
     v, f = icosphere(2)
-    scene = tetrace.Scene.from_meshes([(v, f), (v * 0.5 + [3.0, 0, 0], f)], preset="constrained")
+    scene = tetrace.Scene.from_meshes(
+        [(v, f), (v * 0.5 + [3.0, 0, 0], f)],
+        preset="constrained",
+        contain=np.array([[0.0, 0.0, 4.0]]),
+    )
     scene.save(tmp_path / "two.tetrace")
     loaded = tetrace.Scene.load(tmp_path / "two.tetrace")
     assert loaded.geometries is not None and len(loaded.geometries) == 2
+    options = loaded._build_options
+    assert options.keys() == scene._build_options.keys() and options["preset"] == "constrained"
+    assert np.array_equal(options["contain"], [[0.0, 0.0, 4.0]])
     for name in ("triangle_offsets", "vertex_offsets"):
         assert np.array_equal(getattr(loaded.geometries, name), getattr(scene.geometries, name))
     o = np.array([[-5.0, 0.01, 0.02], [10.0, 0.01, 0.02]])
@@ -211,6 +218,33 @@ def test_from_meshes_scene_keeps_its_geometries(tmp_path):
     h = loaded.cast(o, d)
     assert h.geometry.tolist() == [0, 1]
     assert_same_answers(scene, loaded, accels=("tetwalk",))
+
+
+def test_metadata_encoding_round_trips_exactly():
+    a = np.arange(6, dtype=np.int32).reshape(2, 3)
+    value = {
+        "tuple": (1.0, 2),
+        "floats": [0.1, float("inf"), float("nan"), -0.0, 1e-300],
+        "array": a,
+        "same": a,
+        "keys": {1: "one", (2, 3): "pair"},
+        "__odd": np.float32(0.5),
+        "none": None,
+        "flag": np.bool_(True),
+    }
+    arrays = {}
+    meta = scenefile.encode(value, arrays, "m")
+    assert len(arrays) == 1  # shared arrays are stored once
+    data = scenefile.pack(arrays, meta)
+    back_arrays, back_meta, _ = scenefile.unpack(data)
+    back = scenefile.decode(back_meta, back_arrays)
+    assert back["tuple"] == (1.0, 2) and isinstance(back["tuple"], tuple)
+    assert back["floats"][:2] == [0.1, float("inf")] and np.isnan(back["floats"][2])
+    assert str(back["floats"][3]) == "-0.0" and back["floats"][4] == 1e-300
+    assert back["array"].dtype == np.int32 and np.array_equal(back["array"], a)
+    assert back["same"] is back["array"]
+    assert back["keys"] == {1: "one", (2, 3): "pair"}
+    assert back["__odd"] == 0.5 and back["none"] is None and back["flag"] is True
 
 
 # ----------------------------------------------------------------------- broken files
