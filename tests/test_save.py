@@ -220,6 +220,16 @@ def test_from_meshes_scene_keeps_its_geometries(tmp_path):
     assert_same_answers(scene, loaded, accels=("tetwalk",))
 
 
+def test_ftetwild_scene_round_trip():
+    # fTetWild's faces name neighbour triangles (recomputed on load from the saved cleaned
+    # mesh): the hits must still be the same.
+    scene = tetrace.Scene.from_mesh(icosphere(2), mesher="ftetwild")
+    loaded = tetrace.Scene.from_bytes(scene.to_bytes())
+    assert loaded.tetrahedralization.mesher == "ftetwild"
+    assert loaded.tetrahedralization.surface_distance == scene.tetrahedralization.surface_distance
+    assert_same_answers(scene, loaded, accels=("tetwalk",))
+
+
 def test_metadata_encoding_round_trips_exactly():
     a = np.arange(6, dtype=np.int32).reshape(2, 3)
     value = {
