@@ -10,7 +10,15 @@ from . import (
     _native,
     gpu,  # noqa: F401  (tetrace.gpu.info() is part of the API)
 )
-from .errors import GpuError, MeshError, MeshFileNotFoundError, MeshingError, TooLargeError
+from .errors import (
+    GpuError,
+    MeshError,
+    MeshFileNotFoundError,
+    MeshingError,
+    SceneFileError,
+    SceneFileNotFoundError,
+    TooLargeError,
+)
 from .hits import FAILED, HIT, INVALID, MISS, STATUS_NAMES, Hits
 from .scene import (
     LAYOUT_BYTES,
@@ -46,6 +54,8 @@ __all__ = [
     "STATUS_NAMES",
     "MeshingError",
     "MeshFileNotFoundError",
+    "SceneFileError",
+    "SceneFileNotFoundError",
     "MeshError",
     "TooLargeError",
     "GpuError",

@@ -5,6 +5,9 @@ The hierarchy (the built-in base each one also is, so ``except ValueError`` keep
     ValueError
     ├── MeshingError            a scene cannot be loaded or tetrahedralized (tetrace.mesh)
     │   └── MeshFileNotFoundError   ... because the file is missing (also a FileNotFoundError)
+    ├── SceneFileError          a saved scene cannot be loaded: not a scene file, a newer
+    │   │                       format version, truncated or corrupt (tetrace.Scene.load)
+    │   └── SceneFileNotFoundError  ... because the file is missing (also a FileNotFoundError)
     ├── MeshError               the compiled core rejects a tetrahedralization (bad indices,
     │                           inverted or degenerate tets, a face that is no tet face)
     └── TooLargeError           the mesh exceeds a layout's limits (e.g. tet16's 24-bit links)
@@ -22,7 +25,15 @@ from __future__ import annotations
 
 from . import _native
 
-__all__ = ["MeshingError", "MeshFileNotFoundError", "MeshError", "TooLargeError", "GpuError"]
+__all__ = [
+    "MeshingError",
+    "MeshFileNotFoundError",
+    "SceneFileError",
+    "SceneFileNotFoundError",
+    "MeshError",
+    "TooLargeError",
+    "GpuError",
+]
 
 
 class MeshingError(ValueError):
@@ -31,6 +42,17 @@ class MeshingError(ValueError):
 
 class MeshFileNotFoundError(MeshingError, FileNotFoundError):
     """The mesh file does not exist (both a :class:`MeshingError` and a ``FileNotFoundError``)."""
+
+
+class SceneFileError(ValueError):
+    """A saved scene cannot be loaded (:meth:`tetrace.Scene.load`, unpickling): not a scene
+    file, a newer format version, a truncated or corrupt file; the message names the file
+    and what is wrong."""
+
+
+class SceneFileNotFoundError(SceneFileError, FileNotFoundError):
+    """The scene file does not exist (both a :class:`SceneFileError` and a
+    ``FileNotFoundError``)."""
 
 
 #: The compiled core rejects a tetrahedralization (a ``ValueError``).

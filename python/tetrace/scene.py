@@ -315,6 +315,9 @@ class Scene:
         self._build_options: dict = {}
         self._point_map = None
         self._frames = 0
+        # (tetrahedralization, vertices) as last built, once a move has replaced them: the
+        # point map and a saved scene start from it.
+        self._rest = None
         #: dict or None: seconds of each phase of the last GPU cast (``locate``,
         #: ``scene_upload``, ``upload``, ``kernel``, ``readback``, ``finish``) and counts
         #: (``walked``: rays the GPU walked, ``deferred``: robust rays re-walked on the CPU,
@@ -1173,7 +1176,8 @@ class Scene:
             from .mesh.deform import PointMap
 
             t = time.perf_counter()
-            self._point_map = PointMap.build(self.tetrahedralization, self.vertices, self.faces)
+            rest = self._rest or (self.tetrahedralization, self.vertices)
+            self._point_map = PointMap.build(*rest, self.faces)
             seconds["map"] = time.perf_counter() - t
         pm = self._point_map
         inverted = outside = 0
@@ -1188,6 +1192,8 @@ class Scene:
             seconds["update"] = time.perf_counter() - t
             if applied:
                 tz = self.tetrahedralization
+                if self._rest is None:
+                    self._rest = (tz, self.vertices)
                 cm = tz.clean
                 self.tetrahedralization = dataclasses.replace(
                     tz,
@@ -1259,6 +1265,7 @@ class Scene:
         self.build_times = fresh.build_times
         self._set_vertices(V)
         self._point_map = None
+        self._rest = None
         self._frames = 0
         # As the core does after a move: a structure built with other than the default
         # parameters is built again now; a default one on its next use.
@@ -1368,12 +1375,223 @@ class Scene:
         """Return the ``(P, 3)`` float64 points, in the order ``tets()`` indexes."""
         return self._native.points()
 
+    # ------------------------------------------------------------------ save and load
+
+    def to_bytes(self):
+        """Serialize the scene in tetrace's scene file format (``docs/save_format.md``).
+
+        What is written rebuilds the scene exactly, without meshing: the tetrahedralization
+        as last built (the core rebuilds its structure from it deterministically), the
+        current positions of a moved scene (:meth:`update_vertices`) and its rest state (so
+        that it keeps deforming as the original would), the caller's mesh, the meshes of a
+        :meth:`from_meshes` scene, the meshing options a rebuild uses, the build times, the
+        last deformation report, and the parameters of a built BVH or octree.
+
+        Returns
+        -------
+        bytes
+            Loaded back by :meth:`from_bytes`; every query answers the same, bit for bit.
+        """
+        from . import scenefile
+
+        arrays, seen = {}, {}
+
+        def enc(value, path):
+            return scenefile.encode(value, arrays, path, seen)
+
+        rest_tz, rest_vertices = self._rest or (self.tetrahedralization, self.vertices)
+        structures = {}
+        for name, info, build in (
+            ("bvh", self.bvh_info(), self.build_bvh),
+            ("octree", self.octree_info(), self.build_octree),
+        ):
+            if info is not None:
+                structures[name] = {k: info[k] for k in inspect.signature(build).parameters}
+        geometries = self.geometries
+        meta = dict(
+            kind="tetrace.Scene",
+            hilbert=self.hilbert,
+            tetrahedralization=enc(_tz_fields(self.tetrahedralization), "tz"),
+            vertices=enc(np.asarray(self.vertices), "vertices"),
+            faces=enc(np.asarray(self.faces), "faces"),
+            moved=self._rest is not None,
+            rest_tetrahedralization=enc(_tz_fields(rest_tz), "rest_tz"),
+            rest_vertices=enc(np.asarray(rest_vertices), "rest_vertices"),
+            geometries=None
+            if geometries is None
+            else enc((geometries.triangle_offsets, geometries.vertex_offsets), "geometries"),
+            build_options=enc(self._build_options, "build_options"),
+            build_times=enc(self.build_times, "build_times"),
+            frames=self._frames,
+            last_deformation=enc(self.last_deformation, "last_deformation"),
+            structures=structures,
+        )
+        return scenefile.pack(arrays, meta, package_version=_native.__version__)
+
+    @classmethod
+    def from_bytes(cls, data, *, source="<bytes>"):
+        """Rebuild a scene from :meth:`to_bytes`'s bytes (no meshing).
+
+        Parameters
+        ----------
+        data : bytes-like
+        source : str
+            How error messages name the data (a path).
+
+        Returns
+        -------
+        Scene
+
+        Raises
+        ------
+        tetrace.SceneFileError
+            Not a scene file, a newer format version, truncated or corrupt data; the
+            message names ``source`` and what is wrong.
+        """
+        from . import scenefile
+        from .errors import SceneFileError
+
+        arrays, meta, _ = scenefile.unpack(data, source=source)
+        # Loaded arrays are views of ``data``: copy them (writable, independent of it) once.
+        arrays = {k: np.array(v) for k, v in arrays.items()}
+        try:
+            return cls._restore(arrays, meta, source)
+        except SceneFileError:
+            raise
+        except (KeyError, TypeError, ValueError, IndexError, AttributeError) as exc:
+            # A header whose checksum holds but whose content is not a scene (written by
+            # something else), or arrays the core rejects (tetrace.MeshError).
+            raise SceneFileError(
+                f"{source}: not a valid scene ({type(exc).__name__}: {exc})"
+            ) from exc
+
+    @classmethod
+    def _restore(cls, arrays, meta, source):
+        """The scene :meth:`to_bytes` described by ``meta`` over ``arrays``."""
+        from . import scenefile
+        from .errors import SceneFileError
+
+        if not isinstance(meta, dict) or meta.get("kind") != "tetrace.Scene":
+            kind = meta.get("kind") if isinstance(meta, dict) else type(meta).__name__
+            raise ValueError(f"holds {kind!r}, not a tetrace.Scene")
+        dec = lambda key: scenefile.decode(meta[key], arrays)  # noqa: E731
+        tz, vertices, faces = (
+            _tz_from_fields(dec("tetrahedralization")),
+            dec("vertices"),
+            dec("faces"),
+        )
+        moved = bool(meta["moved"])
+        rest_tz, rest_vertices = tz, vertices
+        if moved:
+            rest_tz, rest_vertices = (
+                _tz_from_fields(dec("rest_tetrahedralization")),
+                dec("rest_vertices"),
+            )
+        scene = cls(rest_tz, rest_vertices, faces, hilbert=bool(meta["hilbert"]))
+        if moved:
+            tri = np.asarray(vertices)[np.asarray(faces)]
+            applied, inverted, outside = scene._native.update_points(
+                np.ascontiguousarray(tz.points, dtype=np.float64),
+                np.ascontiguousarray(tri, dtype=np.float64),
+            )
+            if not applied:
+                raise SceneFileError(
+                    f"{source}: the saved positions are not a valid move of the saved "
+                    f"tetrahedralization ({inverted} tets inverted, {outside} points outside)"
+                )
+            scene.tetrahedralization, scene._rest = tz, (rest_tz, rest_vertices)
+            scene._set_vertices(vertices)
+        geometries = dec("geometries")
+        if geometries is not None:
+            from .meshes import Geometries
+
+            scene.geometries = Geometries(*geometries)
+        scene._build_options = dec("build_options")
+        scene.build_times = dec("build_times")
+        scene._frames = int(meta["frames"])
+        last = dec("last_deformation")
+        scene.last_deformation = None if last is None else Deformation(**last)
+        structures = meta["structures"]
+        for name, build in (("bvh", scene.build_bvh), ("octree", scene.build_octree)):
+            if name in structures:
+                build(**structures[name])
+        return scene
+
+    def save(self, path):
+        """Write the scene to a file (:meth:`to_bytes`'s format), to load with :meth:`load`.
+
+        Parameters
+        ----------
+        path : str or os.PathLike or file object
+            A path (written to a temporary file beside it, then renamed) or a binary file
+            object open for writing.
+        """
+        from .scenefile import write_bytes
+
+        write_bytes(path, self.to_bytes())
+
+    @classmethod
+    def load(cls, path):
+        """Read a scene that :meth:`save` wrote, without meshing it again.
+
+        Parameters
+        ----------
+        path : str or os.PathLike or file object
+            A path or a binary file object open for reading (read to its end).
+
+        Returns
+        -------
+        Scene
+            Answers every query as the saved scene did, bit for bit; a moved scene stays
+            moved and keeps deforming from the same rest state.
+
+        Raises
+        ------
+        tetrace.SceneFileError
+            The file is not a scene file, is of a newer format version, or is truncated or
+            corrupt (every array's CRC32 is checked); the message names the path and what
+            is wrong. :class:`tetrace.SceneFileNotFoundError` (also a ``FileNotFoundError``)
+            when it does not exist.
+        """
+        from .scenefile import read_bytes
+
+        data, source = read_bytes(path)
+        return cls.from_bytes(data, source=source)
+
+    def __reduce__(self):
+        # Pickling ships the scene file's bytes: unpickling rebuilds, it never re-meshes.
+        return (_scene_from_bytes, (self.to_bytes(),))
+
+    def __deepcopy__(self, memo):
+        return Scene.from_bytes(self.to_bytes(), source="<deepcopy>")
+
     def __repr__(self):
         tz = self.tetrahedralization
         return (
             f"Scene({self.n_triangles} triangles, {self.n_tets} tets, {self.n_points} points, "
             f"mesher={getattr(tz, 'mesher', 'tetgen')!r}, preset={tz.preset!r})"
         )
+
+
+def _scene_from_bytes(data):
+    """Unpickle a :class:`Scene` (its :meth:`Scene.__reduce__`)."""
+    return Scene.from_bytes(data, source="<pickle>")
+
+
+def _tz_fields(tz):
+    """A tetrahedralization's fields to save (its cached weight is recomputed)."""
+    fields = {f.name: getattr(tz, f.name) for f in dataclasses.fields(tz) if f.init}
+    fields.pop("_weight", None)
+    fields["clean"] = {f.name: getattr(tz.clean, f.name) for f in dataclasses.fields(tz.clean)}
+    return fields
+
+
+def _tz_from_fields(fields):
+    from .mesh.types import CleanMesh, Tetrahedralization
+
+    fields = dict(fields)
+    fields["clean"] = CleanMesh(**fields["clean"])
+    return Tetrahedralization(**fields)
 
 
 def default_scene_path():

@@ -203,6 +203,10 @@ def main(argv=None):
         from .bvh import bvh_main
 
         return bvh_main(argv[1:])
+    if argv[:1] == ["dask"]:
+        from .dask_scale import dask_main
+
+        return dask_main(argv[1:])
     p = argparse.ArgumentParser(
         prog="python -m tetrace.bench",
         description="Full-scene benchmark: a pinhole camera cast by tetrace, by embreex and by "
