@@ -38,6 +38,7 @@ __version__: str
 
 DEFAULT_METHOD: str
 DEFAULT_LAYOUT: str
+MAX_THREADS: int
 
 def methods() -> list[str]: ...
 def accels() -> list[str]: ...
