@@ -499,23 +499,23 @@ impl PyScene {
         // In tetrace's pool (fork-safe), as the constructor.
         let moved = guarded(|| {
             crate::threads::install(None, || match Arc::get_mut(target) {
-            // No cast holds the scene: move it in place.
-            Some(loaded) => {
-                let moved = loaded.scene.update_points(&p, tri)?;
-                #[cfg(feature = "gpu")]
-                if moved.applied {
-                    loaded.device = Default::default();
+                // No cast holds the scene: move it in place.
+                Some(loaded) => {
+                    let moved = loaded.scene.update_points(&p, tri)?;
+                    #[cfg(feature = "gpu")]
+                    if moved.applied {
+                        loaded.device = Default::default();
+                    }
+                    Ok(moved)
                 }
-                Ok(moved)
-            }
-            // A cast on another thread still reads it: move a copy.
-            None => {
-                let (copy, moved) = target.scene.moved_copy(&p, tri)?;
-                if let Some(scene) = copy {
-                    *target = Loaded::new(scene);
+                // A cast on another thread still reads it: move a copy.
+                None => {
+                    let (copy, moved) = target.scene.moved_copy(&p, tri)?;
+                    if let Some(scene) = copy {
+                        *target = Loaded::new(scene);
+                    }
+                    Ok(moved)
                 }
-                Ok(moved)
-            }
             })?
         })?;
         Ok((moved.applied, moved.inverted, moved.outside))
