@@ -20,6 +20,7 @@ __all__ = [
     "gpu_kernel_for",
     "DEFAULT_METHOD",
     "DEFAULT_LAYOUT",
+    "MAX_THREADS",
     "MeshError",
     "TooLargeError",
     "GpuError",
