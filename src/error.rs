@@ -15,6 +15,10 @@ pub enum Error {
     InvalidOption(String),
     /// No GPU adapter, or the device failed (validation, out of memory, lost).
     Gpu(String),
+    /// An allocation sized by the caller failed: `bytes` asked for, for `what`.
+    OutOfMemory { bytes: usize, what: String },
+    /// The caller's poll ([`crate::threads::with_poll`]) asked to stop; nothing was returned.
+    Interrupted,
 }
 
 impl fmt::Display for Error {
@@ -25,6 +29,12 @@ impl fmt::Display for Error {
             Error::TooLarge(m) => write!(f, "too large: {m}"),
             Error::InvalidOption(m) => write!(f, "invalid option: {m}"),
             Error::Gpu(m) => write!(f, "GPU: {m}"),
+            Error::OutOfMemory { bytes, what } => write!(
+                f,
+                "cannot allocate {bytes} bytes ({:.3} GiB) for {what}",
+                *bytes as f64 / (1u64 << 30) as f64
+            ),
+            Error::Interrupted => write!(f, "interrupted"),
         }
     }
 }
@@ -39,6 +49,19 @@ impl Error {
             known.join(", ")
         ))
     }
+}
+
+/// A vector of `n` copies of `value`, or [`Error::OutOfMemory`] naming `what` and the bytes
+/// asked for instead of aborting the process (outputs sized by the caller's ray count).
+pub fn try_vec<T: Clone>(n: usize, value: T, what: &str) -> Result<Vec<T>> {
+    let oom = || Error::OutOfMemory {
+        bytes: n.saturating_mul(std::mem::size_of::<T>()),
+        what: what.to_string(),
+    };
+    let mut v = Vec::new();
+    v.try_reserve_exact(n).map_err(|_| oom())?;
+    v.resize(n, value);
+    Ok(v)
 }
 
 pub type Result<T> = std::result::Result<T, Error>;

@@ -20,6 +20,7 @@ __all__ = [
     "gpu_kernel_for",
     "DEFAULT_METHOD",
     "DEFAULT_LAYOUT",
+    "MAX_THREADS",
     "MeshError",
     "TooLargeError",
     "GpuError",
@@ -38,6 +39,7 @@ __version__: str
 
 DEFAULT_METHOD: str
 DEFAULT_LAYOUT: str
+MAX_THREADS: int
 
 def methods() -> list[str]: ...
 def accels() -> list[str]: ...

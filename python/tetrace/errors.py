@@ -15,8 +15,28 @@ The hierarchy (the built-in base each one also is, so ``except ValueError`` keep
     └── GpuError                no GPU adapter can run the kernels, or the device failed
 
 ``MeshError``, ``TooLargeError`` and ``GpuError`` are defined by the compiled core
-(``tetrace._native``) and re-exported here unchanged. Bad arguments (a wrong shape, an unknown
-method name) raise plain ``ValueError`` or ``TypeError``. The mesher's forked-child signals
+(``tetrace._native``) and re-exported here unchanged.
+
+Built-in exceptions, where they say it best (each message names the argument and the problem;
+the scene stays usable after any of them, ``tests/test_bad_input.py`` checks each case):
+
+* ``TypeError``: an argument of the wrong type: rays of dtype object, complex, bool or str;
+  ``threads`` or ``max_steps`` not an int (``1.5``, ``"2"``, ``True``); a method or layout
+  name that is not a str; an unknown keyword.
+* ``ValueError``: a wrong value: a ray array of the wrong shape, or origins and directions
+  that do not broadcast; NaN/inf in ``origins`` or ``directions``, a zero-length direction, or
+  a hit whose ``t`` overflows the rays' precision (a direction so short that ``t`` has no
+  finite value), unless ``invalid="mark"``; ``tmin < 0`` or NaN bounds; an unknown method,
+  layout, accel, precision or device name; ``threads`` outside ``[1, MAX_THREADS]``
+  (``tetrace.scene.MAX_THREADS``: 4 per core, at least 64); ``max_steps`` outside
+  ``[1, 2**32)``.
+* ``MemoryError``: the outputs of a query (sized by the ray count) cannot be allocated; the
+  message gives the bytes asked for. The core allocates them before it starts, so nothing is
+  half-done.
+* ``KeyboardInterrupt`` (or whatever a signal handler raises): Ctrl-C during a cast or query
+  (the core polls Python's signal handlers every 50 ms and stops between chunks of 4096
+  rays; no partial answer is returned) or during meshing (the mesher's child process is
+  killed). The mesher's forked-child signals
 (``_TetGenFailed`` and its kin) are private to :mod:`tetrace.mesh.isolate` and never reach
 the caller: they become :class:`MeshingError`.
 """

@@ -116,10 +116,23 @@ def raise_invalid(status, origins, directions, shape=None):
         k = int(np.flatnonzero(bad)[0])
         where = k if shape is None or len(shape) == 1 else np.unravel_index(k, shape)
         where = tuple(int(i) for i in where) if isinstance(where, tuple) else where
+        o, d = np.asarray(origins[k]), np.asarray(directions[k])
+        if not np.isfinite(o).all():
+            why = "origins: a NaN/inf coordinate"
+        elif not np.isfinite(d).all():
+            why = "directions: a NaN/inf component"
+        elif not d.any():
+            why = "directions: zero length"
+        else:
+            why = (
+                f"directions: so short that the hit's t overflows {d.dtype} (scale the "
+                f"direction up: t is measured in direction lengths)"
+            )
         raise ValueError(
-            f"{int(bad.sum())} of {len(status)} rays have a NaN/inf component or a zero-length "
-            f"direction (first: ray {where}, origin {origins[k].tolist()}, direction "
-            f'{directions[k].tolist()}); pass invalid="mark" to get status INVALID for them instead'
+            f"{int(bad.sum())} of {len(status)} rays are invalid (first: ray {where}, {why}; "
+            f"origin {o.tolist()}, direction {d.tolist()}); rays with a NaN/inf component, a "
+            f"zero-length direction or a hit whose t overflows the rays' precision raise; pass "
+            f'invalid="mark" to get status INVALID for them instead'
         )
 
 
@@ -153,7 +166,9 @@ def prepare_bounds(value, n, name, shape=None):
 
 def _as_float(a, name):
     arr = np.asarray(a)
-    if arr.dtype.kind in "biu":
+    if arr.dtype.kind == "b":
+        raise TypeError(f"{name} must be numbers (float32 or float64), got dtype bool")
+    if arr.dtype.kind in "iu":
         return arr.astype(np.float64)
     if arr.dtype.kind != "f":
         raise TypeError(f"{name} must be a float array (float32 or float64), got dtype {arr.dtype}")

@@ -25,6 +25,7 @@ __all__ = [
     "accels",
     "layouts",
     "LAYOUT_BYTES",
+    "MAX_THREADS",
 ]
 
 #: Bytes per tet of each layout's record.
@@ -84,9 +85,35 @@ def simd_levels():
     return list(levels), current
 
 
+#: The most worker threads a call may ask for: 4 per core, and at least 64. More only adds
+#: switching, and a typo (``threads=10**9``) would otherwise try to start them all.
+MAX_THREADS = _native.MAX_THREADS
+
+
 def _check_threads(threads):
-    if threads is not None and (not isinstance(threads, (int, np.integer)) or threads < 1):
-        raise ValueError(f"threads must be a positive int or None, got {threads!r}")
+    """``threads``: None (all cores) or an int in [1, :data:`MAX_THREADS`]; TypeError for
+    other types (bool, float, str), ValueError for counts out of range."""
+    if threads is None:
+        return
+    if isinstance(threads, (bool, np.bool_)) or not isinstance(threads, (int, np.integer)):
+        raise TypeError(f"threads must be an int or None, got {type(threads).__name__} {threads!r}")
+    if not 1 <= threads <= MAX_THREADS:
+        raise ValueError(
+            f"threads must be between 1 and {MAX_THREADS} (4 per core, at least 64) or None "
+            f"for all cores, got {threads}"
+        )
+
+
+def _check_max_steps(max_steps):
+    """``max_steps``: None (the scene's default) or an int in [1, 2**32)."""
+    if max_steps is None:
+        return
+    if isinstance(max_steps, (bool, np.bool_)) or not isinstance(max_steps, (int, np.integer)):
+        raise TypeError(
+            f"max_steps must be an int or None, got {type(max_steps).__name__} {max_steps!r}"
+        )
+    if not 0 < max_steps < 2**32:
+        raise ValueError(f"max_steps must be a positive int below 2**32, got {max_steps!r}")
 
 
 def _names(method, layout, *, defaults=True):
@@ -200,11 +227,9 @@ class _Query:
             self.hi[~hit] = -np.inf  # below tmin: the core answers MISS
             self.start = (triangle, tet)
         _check_threads(threads)
-        if max_steps is not None and (
-            not isinstance(max_steps, (int, np.integer)) or not 0 < max_steps < 2**32
-        ):
-            raise ValueError(f"max_steps must be a positive int below 2**32, got {max_steps!r}")
-        self.threads, self.max_steps = threads, max_steps
+        _check_max_steps(max_steps)
+        self.threads = None if threads is None else int(threads)
+        self.max_steps = None if max_steps is None else int(max_steps)
         if not isinstance(packet, (bool, np.bool_)):
             raise TypeError(f"packet must be True or False, got {packet!r}")
         self.packet = bool(packet)
@@ -529,13 +554,18 @@ class Scene:
             misses. Needs the ``exact`` method and the CPU; every ``accel`` takes it.
         tmin, tmax : float or array_like
             Only hits with ``tmin <= t <= tmax`` count: scalars, or arrays that broadcast
-            to the rays' leading shape.
+            to the rays' leading shape. A ray with ``tmin > tmax`` (an empty interval)
+            misses, as in Embree; ``tmin < 0`` or NaN raises ``ValueError``.
         threads : int, optional
-            Worker threads; None uses all cores. The GIL is released while casting.
+            Worker threads, 1 to :data:`MAX_THREADS`; None uses all cores. The GIL is
+            released while casting; Ctrl-C stops the cast (``KeyboardInterrupt``, within
+            about 50 ms plus a chunk of 4096 rays).
         max_steps : int, optional
             Guard on tets visited per ray; a ray that reaches it is reported FAILED.
         invalid : {"raise", "mark"}
-            Rays with NaN/inf components or zero directions raise ``ValueError``, or with
+            Rays with NaN/inf components or zero directions, and hits whose ``t``
+            overflows the rays' precision (a direction so short, e.g. a denormal, that
+            ``t`` has no finite value), raise ``ValueError``, or with
             ``"mark"`` come back with status ``INVALID``.
         method : str, optional
             Exit-face method, one of :func:`tetrace.methods` (default: ``exact``, the only

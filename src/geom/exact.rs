@@ -3,7 +3,7 @@
 //! numbers passed in. Each is a float64 evaluation with a certified error bound first, and
 //! exact rational arithmetic only when the bound cannot decide (near-degenerate cases).
 
-use super::real::V3;
+use super::real::{exponent, times_pow2, V3};
 use num_rational::BigRational;
 use num_traits::{Signed, Zero};
 use std::cmp::Ordering;
@@ -109,7 +109,30 @@ pub fn in_plane(d: V3<f64>, a: V3<f64>, b: V3<f64>, c: V3<f64>) -> bool {
 /// Where the line o + t d crosses the plane of (a, b, c): t = num / den with
 /// num = det(a − o, b − o, c − o) and den = d · ((b − a) × (c − a)), evaluated in float64
 /// (the evaluation whose forward error the referee bounds), and that error bound.
+///
+/// d is first scaled by a power of two to a largest component in [1, 2) (exact, and t scales
+/// back exactly), so that a tiny or huge direction (1e-300, a denormal, 1e300) neither
+/// underflows den to 0 nor overflows it: t is then right, or ±inf where the true t is beyond
+/// float64. For other directions the result is the same, bit for bit, as without scaling.
 pub fn plane_t(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3]) -> (f64, f64) {
+    // t = num / den and den is linear in d: with d scaled by 2^-e, t comes out scaled by 2^e.
+    let (d, e) = unit_direction(d);
+    let (t, err) = plane_t_scaled(o, d, tri);
+    (times_pow2(t, -e), times_pow2(err, -e))
+}
+
+/// d scaled by 2^-e to a largest component in [1, 2), and e (0 for a zero or non-finite d).
+fn unit_direction(d: V3<f64>) -> (V3<f64>, i32) {
+    let m = d.iter().fold(0f64, |m, x| m.max(x.abs()));
+    if m == 0.0 || !m.is_finite() {
+        return (d, 0);
+    }
+    let e = exponent(m);
+    (d.map(|x| times_pow2(x, -e)), e)
+}
+
+/// [`plane_t`] without the scaling.
+fn plane_t_scaled(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3]) -> (f64, f64) {
     let [a, b, c] = *tri;
     let (av, bv, cv) = (
         [0, 1, 2].map(|k| a[k] - o[k]),
@@ -223,6 +246,8 @@ pub fn beyond(
 /// share of den).
 pub fn triangle_hit(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3]) -> (f64, f64, f64, f64) {
     let (t, err) = plane_t(o, d, tri);
+    // u and v do not change with d's length: take it to unit scale (no underflow).
+    let d = unit_direction(d).0;
     let [a, b, c] = *tri;
     let sub = |x: V3<f64>| [0, 1, 2].map(|k| x[k] - o[k]);
     let (av, bv, cv) = (sub(a), sub(b), sub(c));

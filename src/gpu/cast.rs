@@ -85,15 +85,8 @@ impl DeviceScene {
             scene_upload,
             ..Default::default()
         };
-        let pool = match opts.threads {
-            None => None,
-            Some(k) => Some(
-                rayon::ThreadPoolBuilder::new()
-                    .num_threads(k)
-                    .build()
-                    .map_err(|e| Error::InvalidOption(format!("cannot start {k} threads: {e}")))?,
-            ),
-        };
+        // tetrace's pool (fork-safe, kept per thread count), not rayon's global one.
+        let pool = Some(crate::threads::pool(opts.threads)?);
 
         // 1. Locate and prepare, chunk by chunk as the CPU cast does (same hints and seeds).
         let max_steps = opts.max_steps_for(scene.mesh.len());

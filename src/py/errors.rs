@@ -2,7 +2,7 @@
 //! from crossing into Python.
 
 use crate::error::Error;
-use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::exceptions::{PyKeyboardInterrupt, PyMemoryError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
@@ -35,6 +35,8 @@ impl From<Error> for PyErr {
             Error::InvalidMesh(_) => MeshError::new_err(msg),
             Error::TooLarge(_) => TooLargeError::new_err(msg),
             Error::Gpu(_) => GpuError::new_err(msg),
+            Error::OutOfMemory { .. } => PyMemoryError::new_err(msg),
+            Error::Interrupted => PyKeyboardInterrupt::new_err(msg),
         }
     }
 }
@@ -54,5 +56,36 @@ pub(crate) fn guarded<T>(f: impl FnOnce() -> crate::Result<T>) -> PyResult<T> {
                 "internal error in tetrace (please report): {what}"
             )))
         }
+    }
+}
+
+/// Runs core code as [`guarded`] does, with the GIL released and Python's signal handlers
+/// polled from this thread every [`crate::threads::POLL_EVERY`] while the core's pieces run
+/// (`threads::run_pieces`): a handler that raises (Ctrl-C's `KeyboardInterrupt`) stops the
+/// pieces not yet started, and once the running ones finish, its exception is raised here;
+/// nothing the core computed is returned. Every binding that casts or queries goes through it.
+pub(crate) fn interruptible<T: Send>(
+    py: Python<'_>,
+    f: impl FnOnce() -> crate::Result<T> + Send,
+) -> PyResult<T> {
+    use std::sync::{Arc, Mutex};
+    let raised: Arc<Mutex<Option<PyErr>>> = Arc::default();
+    let slot = raised.clone();
+    let poll = move || {
+        Python::attach(|py| match py.check_signals() {
+            Ok(()) => true,
+            Err(e) => {
+                *slot.lock().unwrap_or_else(|p| p.into_inner()) = Some(e);
+                false
+            }
+        })
+    };
+    let out = py.detach(|| crate::threads::with_poll(poll, || guarded(f)));
+    match out {
+        Err(e) if e.is_instance_of::<PyKeyboardInterrupt>(py) => {
+            let taken = raised.lock().unwrap_or_else(|p| p.into_inner()).take();
+            Err(taken.unwrap_or(e))
+        }
+        other => other,
     }
 }

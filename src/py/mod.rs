@@ -28,6 +28,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("MeshError", m.py().get_type::<errors::MeshError>())?;
     m.add("TooLargeError", m.py().get_type::<errors::TooLargeError>())?;
     m.add("GpuError", m.py().get_type::<errors::GpuError>())?;
+    m.add("MAX_THREADS", crate::threads::max_threads())?;
     m.add("MISS", crate::MISS)?;
     m.add("HIT", crate::HIT)?;
     m.add("FAILED", crate::FAILED)?;

@@ -1,10 +1,11 @@
 //! `NativeScene`: building a scene and casting through it (CPU and GPU).
 
 use super::arrays::{check_cols, rows, slice};
-use super::errors::guarded;
+use super::errors::{guarded, interruptible};
 use super::names::{AccelArg, LayoutArg, MethodArg};
 use crate::accel::reshetov_bvh::nearest::NearestPoint;
 use crate::accel::{BvhParams, OctreeParams, PortalezOctree, ReshetovBvh};
+use crate::error::try_vec;
 use crate::geom::real::Real;
 use crate::layout::LayoutKind;
 use crate::query::Listed;
@@ -94,13 +95,17 @@ impl PyScene {
             )),
             None => None,
         };
+        // In tetrace's pool: the build's parallel sorts must not use rayon's global pool,
+        // whose threads a forked child lacks.
         let inner = py.detach(|| {
             guarded(|| {
-                let mut scene = Scene::build_with(p, &t, &f, ft, tri, hilbert)?;
-                if let Some((offsets, ids)) = alternatives {
-                    scene.set_alternatives(offsets, ids)?;
-                }
-                Ok(scene)
+                crate::threads::install(None, || {
+                    let mut scene = Scene::build_with(p, &t, &f, ft, tri, hilbert)?;
+                    if let Some((offsets, ids)) = alternatives {
+                        scene.set_alternatives(offsets, ids)?;
+                    }
+                    Ok(scene)
+                })?
             })
         })?;
         Ok(PyScene {
@@ -232,14 +237,15 @@ impl PyScene {
         )?;
         let n = listed.len();
         let total: usize = listed.iter().map(|l| l.meets.len()).sum();
-        let mut offsets = Vec::with_capacity(n + 1);
+        let mut offsets = try_capacity(n + 1, "the offsets of the intersections")?;
+        let what = "the intersections";
         let (mut t, mut tri, mut u, mut v) = (
-            Vec::with_capacity(total),
-            Vec::with_capacity(total),
-            Vec::with_capacity(total),
-            Vec::with_capacity(total),
+            try_capacity(total, what)?,
+            try_capacity(total, what)?,
+            try_capacity(total, what)?,
+            try_capacity(total, what)?,
         );
-        let mut status = Vec::with_capacity(n);
+        let mut status = try_capacity(n, "the statuses")?;
         offsets.push(0i64);
         for l in &listed {
             for m in &l.meets {
@@ -384,8 +390,9 @@ impl PyScene {
     ) -> PyResult<Bound<'py, PyDict>> {
         let n = check_cols(&points, 3, "points")?;
         let p = slice(&points, "points")?;
-        let mut out = vec![NearestPoint::NONE; n];
-        py.detach(|| guarded(|| self.loaded().scene.nearest_points(p, &mut out, threads)))?;
+        let mut out = try_vec(n, NearestPoint::NONE, "the closest points")?;
+        let loaded = self.loaded();
+        interruptible(py, || loaded.scene.nearest_points(p, &mut out, threads))?;
         let point: Vec<f64> = out.iter().flat_map(|r| r.point).collect();
         let d = PyDict::new(py);
         d.set_item("point", point.into_pyarray(py).reshape([n, 3])?)?;
@@ -488,24 +495,28 @@ impl PyScene {
             .map(|r| [[r[0], r[1], r[2]], [r[3], r[4], r[5]], [r[6], r[7], r[8]]])
             .collect();
         let mut slot = self.state.write().unwrap_or_else(|e| e.into_inner());
-        let moved = guarded(|| match Arc::get_mut(&mut *slot) {
-            // No cast holds the scene: move it in place.
-            Some(loaded) => {
-                let moved = loaded.scene.update_points(&p, tri)?;
-                #[cfg(feature = "gpu")]
-                if moved.applied {
-                    loaded.device = Default::default();
+        let target: &mut Arc<Loaded> = &mut slot;
+        // In tetrace's pool (fork-safe), as the constructor.
+        let moved = guarded(|| {
+            crate::threads::install(None, || match Arc::get_mut(target) {
+                // No cast holds the scene: move it in place.
+                Some(loaded) => {
+                    let moved = loaded.scene.update_points(&p, tri)?;
+                    #[cfg(feature = "gpu")]
+                    if moved.applied {
+                        loaded.device = Default::default();
+                    }
+                    Ok(moved)
                 }
-                Ok(moved)
-            }
-            // A cast on another thread still reads it: move a copy.
-            None => {
-                let (copy, moved) = slot.scene.moved_copy(&p, tri)?;
-                if let Some(scene) = copy {
-                    *slot = Loaded::new(scene);
+                // A cast on another thread still reads it: move a copy.
+                None => {
+                    let (copy, moved) = target.scene.moved_copy(&p, tri)?;
+                    if let Some(scene) = copy {
+                        *target = Loaded::new(scene);
+                    }
+                    Ok(moved)
                 }
-                Ok(moved)
-            }
+            })?
         })?;
         Ok((moved.applied, moved.inverted, moved.outside))
     }
@@ -573,8 +584,8 @@ fn contains_impl<'py, R: Real + Element>(
 ) -> PyResult<Bound<'py, PyArray1<bool>>> {
     let n = check_cols(&points, 3, "points")?;
     let p = slice(&points, "points")?;
-    let mut out = vec![false; n];
-    py.detach(|| guarded(|| scene.contains(p, &mut out, threads)))?;
+    let mut out = try_vec(n, false, "the answers of contains")?;
+    interruptible(py, || scene.contains(p, &mut out, threads))?;
     Ok(out.into_pyarray(py))
 }
 
@@ -647,8 +658,8 @@ fn cast_impl<'py, R: Real + Element>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let (n, rays) = rays.slices(scene)?;
     opts.check()?;
-    let mut buffers = HitBuffers::<R>::new(n, audit);
-    py.detach(|| guarded(|| cast(&rays, buffers.out(), opts)))?;
+    let mut buffers = HitBuffers::<R>::try_new(n, audit)?;
+    interruptible(py, || cast(&rays, buffers.out(), opts))?;
     let out = PyDict::new(py);
     out.set_item("t", buffers.t.into_pyarray(py))?;
     out.set_item("u", buffers.u.into_pyarray(py))?;
@@ -664,10 +675,21 @@ fn cast_impl<'py, R: Real + Element>(
     Ok(out)
 }
 
+/// An empty vector with room for `n`, or `MemoryError` naming `what` and the bytes.
+fn try_capacity<T>(n: usize, what: &str) -> crate::Result<Vec<T>> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(n)
+        .map_err(|_| crate::Error::OutOfMemory {
+            bytes: n.saturating_mul(std::mem::size_of::<T>()),
+            what: what.to_string(),
+        })?;
+    Ok(v)
+}
+
 /// A query over rays of either precision: what the query bindings share.
 trait RayQuery: Sync {
     type Out: Send;
-    fn output(&self, n: usize) -> Self::Out;
+    fn output(&self, n: usize) -> crate::Result<Self::Out>;
     fn run<R: Real>(
         &self,
         scene: &Scene,
@@ -684,8 +706,8 @@ struct Occluded {
 
 impl RayQuery for Occluded {
     type Out = Vec<u8>;
-    fn output(&self, n: usize) -> Vec<u8> {
-        vec![0; n]
+    fn output(&self, n: usize) -> crate::Result<Vec<u8>> {
+        try_vec(n, 0, "the answers of occluded")
     }
     fn run<R: Real>(
         &self,
@@ -702,8 +724,8 @@ struct AllHitsJob;
 
 impl RayQuery for AllHitsJob {
     type Out = Vec<Listed>;
-    fn output(&self, n: usize) -> Vec<Listed> {
-        vec![Listed::default(); n]
+    fn output(&self, n: usize) -> crate::Result<Vec<Listed>> {
+        try_vec(n, Listed::default(), "the hits of each ray")
     }
     fn run<R: Real>(
         &self,
@@ -824,8 +846,8 @@ fn query_rays<'py, Q: RayQuery>(
     ) -> PyResult<Q::Out> {
         let (n, rays) = rays.slices(scene)?;
         opts.check()?;
-        let mut out = query.output(n);
-        py.detach(|| guarded(|| query.run(scene, &rays, &mut out, opts)))?;
+        let mut out = query.output(n)?;
+        interruptible(py, || query.run(scene, &rays, &mut out, opts))?;
         Ok(out)
     }
     if let (Ok(o), Ok(d)) = (

@@ -1,11 +1,11 @@
 //! A cast's inputs and outputs as flat slices (what numpy hands over), and the owned buffers
 //! a caller without numpy allocates.
 
-use crate::error::{Error, Result};
+use crate::error::{try_vec, Error, Result};
 use crate::geom::ray::{Leaving, Ray};
 use crate::geom::real::Real;
 use crate::query::{RayHit, Sink};
-use crate::status::HIT;
+use crate::status::{HIT, INVALID};
 
 /// Rays as flat slices of length 3N (origins, directions) in the walk's precision.
 pub struct Rays<'a, R> {
@@ -122,20 +122,28 @@ impl<'a, R> HitsOut<'a, R> {
     where
         R: Real,
     {
-        self.t[j] = R::from_f64(r.t);
+        let t = R::from_f64(r.t);
+        // A hit whose t is beyond the rays' precision (a direction so short that t
+        // overflows): no finite t would be true, so the ray is INVALID, not a HIT at inf.
+        let status = if r.status == HIT && !t.to_f64().is_finite() {
+            INVALID
+        } else {
+            r.status
+        };
+        self.t[j] = t;
         self.u[j] = R::from_f64(r.u);
         self.v[j] = R::from_f64(r.v);
         for a in 0..3 {
-            self.point[3 * j + a] = R::from_f64(if r.status == HIT {
+            self.point[3 * j + a] = R::from_f64(if status == HIT {
                 ray.o[a] + r.t * ray.d[a]
             } else {
                 f64::NAN
             });
         }
-        self.triangle[j] = r.triangle;
+        self.triangle[j] = if status == r.status { r.triangle } else { -1 };
         self.tet[j] = r.tet;
         self.steps[j] = r.steps;
-        self.status[j] = r.status;
+        self.status[j] = status;
     }
 
     pub fn split_at(self, n: usize) -> (Self, Self) {
@@ -223,6 +231,29 @@ impl<R: Real> HitBuffers<R> {
             status: vec![0; n],
             audit: vec![0; if audit { 2 * n } else { 0 }],
         }
+    }
+
+    /// [`HitBuffers::new`], or [`Error::OutOfMemory`] with the bytes all of them need when
+    /// they cannot be allocated (the ray count is the caller's).
+    pub fn try_new(n: usize, audit: bool) -> Result<Self> {
+        let r = std::mem::size_of::<R>();
+        let per_ray = 6 * r + 3 * 4 + 1 + if audit { 8 } else { 0 };
+        let oom = |_| Error::OutOfMemory {
+            bytes: n.saturating_mul(per_ray),
+            what: format!("the hits of {n} rays"),
+        };
+        let what = "hits";
+        Ok(HitBuffers {
+            t: try_vec(n, R::ZERO, what).map_err(oom)?,
+            u: try_vec(n, R::ZERO, what).map_err(oom)?,
+            v: try_vec(n, R::ZERO, what).map_err(oom)?,
+            point: try_vec(n.saturating_mul(3), R::ZERO, what).map_err(oom)?,
+            triangle: try_vec(n, 0, what).map_err(oom)?,
+            tet: try_vec(n, 0, what).map_err(oom)?,
+            steps: try_vec(n, 0, what).map_err(oom)?,
+            status: try_vec(n, 0, what).map_err(oom)?,
+            audit: try_vec(if audit { n.saturating_mul(2) } else { 0 }, 0, what).map_err(oom)?,
+        })
     }
 
     pub fn out(&mut self) -> HitsOut<'_, R> {

@@ -18,7 +18,8 @@ use crate::traverse::{
 /// How a cast runs; `CastOptions::default()` is what Python's defaults mean.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct CastOptions {
-    /// None: all cores (rayon's global pool); Some(1): this thread only.
+    /// None: all cores (tetrace's fork-safe pool, `crate::threads`); Some(1): this thread
+    /// only; at most [`crate::threads::max_threads`].
     pub threads: Option<usize>,
     /// The step guard; None: [`default_max_steps`] of the scene.
     pub max_steps: Option<u32>,
@@ -40,12 +41,7 @@ pub struct CastOptions {
 impl CastOptions {
     /// Refuses options no cast can run with.
     pub fn check(&self) -> Result<()> {
-        if self.threads == Some(0) {
-            return Err(Error::InvalidOption(
-                "threads must be at least 1 (or None for all cores)".into(),
-            ));
-        }
-        Ok(())
+        crate::threads::check_threads(self.threads)
     }
 
     /// The SIMD level a cast runs at (see [`CastOptions::simd`]).
