@@ -13,6 +13,19 @@ The hierarchy (the built-in base each one also is, so ``except ValueError`` keep
     └── TooLargeError           the mesh exceeds a layout's limits (e.g. tet16's 24-bit links)
     RuntimeError
     └── GpuError                no GPU adapter can run the kernels, or the device failed
+    UserWarning
+    └── MeshingWarning          a warning, not an error: the scene was built, but cleaning
+                                dropped triangles of non-zero area (needles collinear up to
+                                rounding, negligible slivers) that rays then miss
+
+Bad mesh input (``tests/test_bad_mesh.py``): a missing path raises
+:class:`MeshFileNotFoundError`; a directory, a file trimesh cannot read or reads no
+triangles from (empty, corrupt, truncated), NaN/inf vertices or coordinates beyond
+``tetrace.io.MAX_COORDINATE``, negative or out-of-range indices, faces not of shape
+``(F, 3)``, no faces, or only degenerate triangles raise :class:`MeshingError`, the message
+naming the file (or the argument) and the problem; faces that are not integers raise
+``TypeError``. Needles that TetGen takes for self-intersections are named as needles in
+the failure's message.
 
 ``MeshError``, ``TooLargeError`` and ``GpuError`` are defined by the compiled core
 (``tetrace._native``) and re-exported here unchanged.
@@ -53,6 +66,7 @@ __all__ = [
     "MeshError",
     "TooLargeError",
     "GpuError",
+    "MeshingWarning",
 ]
 
 
@@ -62,6 +76,11 @@ class MeshingError(ValueError):
 
 class MeshFileNotFoundError(MeshingError, FileNotFoundError):
     """The mesh file does not exist (both a :class:`MeshingError` and a ``FileNotFoundError``)."""
+
+
+class MeshingWarning(UserWarning):
+    """The scene was built, but not quite from the triangles given: cleaning dropped
+    triangles of non-zero area (the message names them), which rays then miss."""
 
 
 class SceneFileError(ValueError):
