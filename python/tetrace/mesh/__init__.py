@@ -56,6 +56,7 @@ import numpy as np
 
 from ..errors import MeshFileNotFoundError, MeshingError, MeshingWarning
 from ..io import _mesh_name, load_triangles
+from ..progress import stage, with_progress
 from .auto import DEFAULT_ACCURACY, auto_tetrahedralize
 from .clean import clean, describe_degenerate, domain_box
 from .ftetwild import _ftetwild_route, ftetwild_available, neighbour_triangles
@@ -123,6 +124,7 @@ def _warn_dropped(name, vertices, faces, cm):
         )
 
 
+@with_progress
 def tetrahedralize(
     mesh,
     preset=DEFAULT_PRESET,
@@ -143,6 +145,7 @@ def tetrahedralize(
     accuracy=None,
     measure=None,
     name=None,
+    progress=None,
 ) -> Tetrahedralization:
     """Build a constrained tetrahedralization of a triangle scene inside a box.
 
@@ -217,6 +220,10 @@ def tetrahedralize(
         see :func:`tetrace.mesh.auto.auto_tetrahedralize`.
     name : str, optional
         What error messages call the mesh (default: a path's file name, else "the mesh").
+    progress : bool, optional
+        Show a status line per stage (cleaning, each repair and TetGen attempt, fTetWild)
+        with its running time: None (default) when stderr is a terminal or in a Jupyter
+        kernel and ``CI`` is not set, or True/False (:mod:`tetrace.progress`).
 
     Returns
     -------
@@ -273,7 +280,8 @@ def tetrahedralize(
     )
 
     t = time.perf_counter()
-    cm = clean(vertices, faces)
+    with stage(f"clean {name} ({len(faces)} triangles)"):
+        cm = clean(vertices, faces)
     timings["clean"] = time.perf_counter() - t
     if len(cm.faces) == 0:
         raise MeshingError(
@@ -312,6 +320,7 @@ def tetrahedralize(
                 attempts=attempts,
                 diagonal=diagonal,
                 constrained_last=mesher == "fallback",
+                preset_name=preset,
             )
         except MeshingError as exc:
             if mesher == "tetgen":
