@@ -13,10 +13,6 @@ The hierarchy (the built-in base each one also is, so ``except ValueError`` keep
     └── TooLargeError           the mesh exceeds a layout's limits (e.g. tet16's 24-bit links)
     RuntimeError
     └── GpuError                no GPU adapter can run the kernels, or the device failed
-    UserWarning
-    └── MeshingWarning          a warning, not an error: the scene was built, but cleaning
-                                dropped triangles of non-zero area (needles collinear up to
-                                rounding, negligible slivers) that rays then miss
 
 Bad mesh input (``tests/test_bad_mesh.py``): a missing path raises
 :class:`MeshFileNotFoundError`; a directory, a file trimesh cannot read or reads no
@@ -25,7 +21,9 @@ triangles from (empty, corrupt, truncated), NaN/inf vertices or coordinates beyo
 ``(F, 3)``, no faces, or only degenerate triangles raise :class:`MeshingError`, the message
 naming the file (or the argument) and the problem; faces that are not integers raise
 ``TypeError``. Needles that TetGen takes for self-intersections are named as needles in
-the failure's message.
+the failure's message; needles narrower than ``tetrace.mesh.clean.DEGENERATE_WIDTH`` of
+their longest edge (collinear up to rounding) are dropped by cleaning like zero-area ones
+(``tetrahedralization.clean.triangle_ids`` lacks them).
 
 ``MeshError``, ``TooLargeError`` and ``GpuError`` are defined by the compiled core
 (``tetrace._native``) and re-exported here unchanged.
@@ -66,7 +64,6 @@ __all__ = [
     "MeshError",
     "TooLargeError",
     "GpuError",
-    "MeshingWarning",
 ]
 
 
@@ -76,11 +73,6 @@ class MeshingError(ValueError):
 
 class MeshFileNotFoundError(MeshingError, FileNotFoundError):
     """The mesh file does not exist (both a :class:`MeshingError` and a ``FileNotFoundError``)."""
-
-
-class MeshingWarning(UserWarning):
-    """The scene was built, but not quite from the triangles given: cleaning dropped
-    triangles of non-zero area (the message names them), which rays then miss."""
 
 
 class SceneFileError(ValueError):

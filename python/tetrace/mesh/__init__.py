@@ -50,11 +50,10 @@ imported when needed, so this module loads without the compiled extension.
 from __future__ import annotations
 
 import time
-import warnings
 
 import numpy as np
 
-from ..errors import MeshFileNotFoundError, MeshingError, MeshingWarning
+from ..errors import MeshFileNotFoundError, MeshingError
 from ..io import _mesh_name, load_triangles
 from ..progress import stage, with_progress
 from .auto import DEFAULT_ACCURACY, auto_tetrahedralize
@@ -97,31 +96,6 @@ __all__ = [
 
 
 # --------------------------------------------------------------------------- entry point
-
-
-def _warn_dropped(name, vertices, faces, cm):
-    """Warn (:class:`MeshingWarning`) when cleaning dropped triangles of non-zero area that
-    duplicate no kept triangle: needles collinear up to rounding, or slivers negligible next
-    to the largest triangle. Rays that meet only them miss, where the exact answer hits."""
-    dropped = np.setdiff1d(np.arange(len(faces)), cm.triangle_ids)
-    if not len(dropped):
-        return
-    p = vertices[faces[dropped]]
-    area = np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
-    dropped, p = dropped[area > 0], p[area > 0]
-    if not len(dropped):
-        return
-    kept = {tuple(sorted(map(tuple, t))) for t in vertices[faces[cm.triangle_ids]].tolist()}
-    lost = [i for i, t in zip(dropped, p.tolist()) if tuple(sorted(map(tuple, t))) not in kept]
-    if lost:
-        warnings.warn(
-            f"{name}: {len(lost)} triangle(s) of non-zero area were dropped as degenerate "
-            f"(vertices collinear up to rounding, or an area negligible next to the largest "
-            f"triangle); rays that meet only them miss: "
-            f"{describe_degenerate(vertices, faces, lost)}",
-            MeshingWarning,
-            stacklevel=3,
-        )
 
 
 @with_progress
@@ -288,7 +262,6 @@ def tetrahedralize(
             f"{name}: all {len(faces)} triangles are degenerate (zero area); nothing to "
             f"mesh: {describe_degenerate(vertices, faces)}"
         )
-    _warn_dropped(name, vertices, faces, cm)
     # Bounds of every vertex a caller triangle uses, degenerate ones included.
     used = vertices[np.unique(faces)]
     box = domain_box(used, margin=margin, contain=contain)
