@@ -14,6 +14,17 @@ The hierarchy (the built-in base each one also is, so ``except ValueError`` keep
     RuntimeError
     └── GpuError                no GPU adapter can run the kernels, or the device failed
 
+Bad mesh input (``tests/test_bad_mesh.py``): a missing path raises
+:class:`MeshFileNotFoundError`; a directory, a file trimesh cannot read or reads no
+triangles from (empty, corrupt, truncated), NaN/inf vertices or coordinates beyond
+``tetrace.io.MAX_COORDINATE``, negative or out-of-range indices, faces not of shape
+``(F, 3)``, no faces, or only degenerate triangles raise :class:`MeshingError`, the message
+naming the file (or the argument) and the problem; faces that are not integers raise
+``TypeError``. Needles that TetGen takes for self-intersections are named as needles in
+the failure's message; needles narrower than ``tetrace.mesh.clean.DEGENERATE_WIDTH`` of
+their longest edge (collinear up to rounding) are dropped by cleaning like zero-area ones
+(``tetrahedralization.clean.triangle_ids`` lacks them).
+
 ``MeshError``, ``TooLargeError`` and ``GpuError`` are defined by the compiled core
 (``tetrace._native``) and re-exported here unchanged.
 

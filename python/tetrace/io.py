@@ -94,8 +94,10 @@ def load_triangles(mesh) -> tuple[np.ndarray, np.ndarray]:
     MeshFileNotFoundError
         The path does not exist (also a ``FileNotFoundError``).
     MeshingError
-        The file cannot be loaded; the mesh has no faces; vertices have
-        non-finite coordinates; face indices are negative or out of range;
+        The file cannot be loaded or holds no triangles (the message names the
+        file and trimesh's complaint); the mesh has no faces; vertices have
+        non-finite coordinates or coordinates beyond :data:`MAX_COORDINATE`;
+        face indices are negative or out of range;
         arrays have the wrong shape.
     TypeError
         ``mesh`` is of an unsupported type, faces are not integers, or vertices
@@ -119,6 +121,16 @@ def load_triangles(mesh) -> tuple[np.ndarray, np.ndarray]:
                 f"could not load mesh file {path}: trimesh returned "
                 f"{type(mesh).__name__}, not a triangle mesh"
             )
+        if len(mesh.faces) == 0:
+            raise MeshingError(
+                f"could not load mesh file {path}: trimesh read no triangles from it "
+                f"({path.stat().st_size} bytes; empty, truncated, corrupt or not a "
+                f"{path.suffix or 'mesh'} file)"
+            )
+        try:
+            return _validate(mesh.vertices, mesh.faces)
+        except (MeshingError, TypeError) as exc:
+            raise type(exc)(f"mesh file {path}: {exc}") from None
     if _is_soup(mesh):
         soup = np.asarray(mesh)
         if not np.isfinite(soup).all():
@@ -138,6 +150,16 @@ def load_triangles(mesh) -> tuple[np.ndarray, np.ndarray]:
             f"(F, 3, 3) triangle soup, got {type(mesh).__name__}"
         )
 
+    return _validate(vertices, faces)
+
+
+#: Largest coordinate magnitude accepted: exact orientation tests multiply three coordinate
+#: differences, which must not overflow float64 (``(2e100)**3`` does not).
+MAX_COORDINATE = 1e100
+
+
+def _validate(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
+    """Check ``(vertices, faces)`` arrays (see :func:`load_triangles`) and convert them."""
     vertices = np.asarray(vertices)
     faces = np.asarray(faces)
     if vertices.dtype.kind not in "biuf":
@@ -156,6 +178,15 @@ def load_triangles(mesh) -> tuple[np.ndarray, np.ndarray]:
         raise MeshingError(
             f"{int(bad.sum())} of {len(vertices)} vertices have non-finite "
             f"coordinates (NaN or inf), first at vertex {int(np.argmax(bad))}"
+        )
+    big = (np.abs(vertices) > MAX_COORDINATE).any(axis=1)
+    if big.any():
+        i = int(np.argmax(big))
+        raise MeshingError(
+            f"{int(big.sum())} of {len(vertices)} vertices have coordinates beyond "
+            f"+-{MAX_COORDINATE:g}, first at vertex {i} {vertices[i].tolist()}: exact "
+            f"orientation tests multiply three coordinates, which would overflow float64; "
+            f"rescale the mesh"
         )
     # Compare before converting: a huge uint64 would wrap to a negative int64.
     if faces.dtype.kind == "i" and faces.min() < 0:

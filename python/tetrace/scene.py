@@ -371,6 +371,7 @@ class Scene:
         timeout=None,
         accuracy=None,
         hilbert=True,
+        progress=None,
     ):
         """Tetrahedralize a triangle scene.
 
@@ -422,6 +423,12 @@ class Scene:
             Renumber points along a Hilbert curve and tets by region, then along the curve
             (Aman et al. 2022), for memory locality; False keeps the mesher's order (to measure
             the effect).
+        progress : bool, optional
+            Show a status line per stage on stderr (cleaning, each repair and TetGen attempt
+            with its preset and running time, fTetWild, the build of the compiled scene) and
+            ``mesher="auto"``'s candidates as a bar. None (default): on when stderr is a
+            terminal or in a Jupyter kernel, off when the environment variable ``CI`` is
+            set; True/False force it (:mod:`tetrace.progress`). The scene is the same.
 
         Returns
         -------
@@ -432,8 +439,48 @@ class Scene:
         tetrace.MeshingError
             The scene cannot be meshed; the message names the stage and the cause.
         """
+        from .progress import reporting
+
+        with reporting(progress):
+            return cls._from_mesh(
+                mesh,
+                preset,
+                mesher=mesher,
+                margin=margin,
+                contain=contain,
+                minratio=minratio,
+                maxvolume=maxvolume,
+                sizing=sizing,
+                repair=repair,
+                epsilon=epsilon,
+                edge_length=edge_length,
+                timeout=timeout,
+                accuracy=accuracy,
+                hilbert=hilbert,
+            )
+
+    @classmethod
+    def _from_mesh(
+        cls,
+        mesh,
+        preset,
+        *,
+        mesher,
+        margin,
+        contain,
+        minratio,
+        maxvolume,
+        sizing,
+        repair,
+        epsilon,
+        edge_length,
+        timeout,
+        accuracy,
+        hilbert,
+    ):
         from .io import _mesh_name
         from .mesh import FTETWILD_EDGE_LENGTH, FTETWILD_EPSILON, load_triangles, tetrahedralize
+        from .progress import stage
 
         vertices, faces = load_triangles(mesh)
         tet = tetrahedralize(
@@ -453,7 +500,8 @@ class Scene:
             measure=measure_accuracy,
             name=_mesh_name(mesh),
         )
-        scene = cls(tet, vertices, faces, hilbert=hilbert)
+        with stage(f"build the scene ({len(tet.tets)} tets)"):
+            scene = cls(tet, vertices, faces, hilbert=hilbert)
         scene._build_options = dict(
             preset=preset,
             mesher=mesher,

@@ -55,6 +55,7 @@ import numpy as np
 
 from ..errors import MeshFileNotFoundError, MeshingError
 from ..io import _mesh_name, load_triangles
+from ..progress import stage, with_progress
 from .auto import DEFAULT_ACCURACY, auto_tetrahedralize
 from .clean import clean, describe_degenerate, domain_box
 from .ftetwild import _ftetwild_route, ftetwild_available, neighbour_triangles
@@ -97,6 +98,7 @@ __all__ = [
 # --------------------------------------------------------------------------- entry point
 
 
+@with_progress
 def tetrahedralize(
     mesh,
     preset=DEFAULT_PRESET,
@@ -117,6 +119,7 @@ def tetrahedralize(
     accuracy=None,
     measure=None,
     name=None,
+    progress=None,
 ) -> Tetrahedralization:
     """Build a constrained tetrahedralization of a triangle scene inside a box.
 
@@ -191,6 +194,10 @@ def tetrahedralize(
         see :func:`tetrace.mesh.auto.auto_tetrahedralize`.
     name : str, optional
         What error messages call the mesh (default: a path's file name, else "the mesh").
+    progress : bool, optional
+        Show a status line per stage (cleaning, each repair and TetGen attempt, fTetWild)
+        with its running time: None (default) when stderr is a terminal or in a Jupyter
+        kernel and ``CI`` is not set, or True/False (:mod:`tetrace.progress`).
 
     Returns
     -------
@@ -247,7 +254,8 @@ def tetrahedralize(
     )
 
     t = time.perf_counter()
-    cm = clean(vertices, faces)
+    with stage(f"clean {name} ({len(faces)} triangles)"):
+        cm = clean(vertices, faces)
     timings["clean"] = time.perf_counter() - t
     if len(cm.faces) == 0:
         raise MeshingError(
@@ -285,6 +293,7 @@ def tetrahedralize(
                 attempts=attempts,
                 diagonal=diagonal,
                 constrained_last=mesher == "fallback",
+                preset_name=preset,
             )
         except MeshingError as exc:
             if mesher == "tetgen":

@@ -35,6 +35,7 @@ import numpy as np
 
 from ..errors import MeshingError
 from ..io import load_triangles
+from ..progress import counter
 
 #: Radius-edge bounds tried on the exact route, in order: the default first, then
 #: looser (fewer tets), then tighter (lower weight on some scenes).
@@ -121,6 +122,8 @@ def auto_tetrahedralize(
     def attempt(setting, **kwargs):
         t0 = time.perf_counter()
         row = dict(setting=setting)
+        candidates.set_postfix_str(setting)
+        candidates.update()
         try:
             tz = build((v, f), margin=margin, contain=contain, timeout=timeout, **kwargs)
         except MeshingError as exc:
@@ -158,6 +161,14 @@ def auto_tetrahedralize(
     def lowest_weight():
         return min((r["weight"] for r, t in built if t is not None and meets(r)), default=np.inf)
 
+    most = len(AUTO_RATIOS) + 1 + len(AUTO_EPSILONS)
+    with counter("mesher='auto': candidates", total=most) as candidates:
+        _search(attempt, meets, lowest_weight, built, tolerance)
+    return _choose(built, meets, accuracy, tolerance, t_start)
+
+
+def _search(attempt, meets, lowest_weight, built, tolerance):
+    """Build the candidates: the radius-edge ladder, then fTetWild's envelopes if needed."""
     first = attempt("quality", preset="quality", mesher="tetgen")
     if first is not None:
         up = [r for r in AUTO_RATIOS if r > 5.0]
@@ -181,6 +192,10 @@ def auto_tetrahedralize(
             if meets(attempt(f"ftetwild{eps:g}", mesher="ftetwild", epsilon=eps)):
                 break
 
+
+def _choose(built, meets, accuracy, tolerance, t_start):
+    """The candidate with the fewest tets among those that meet the target at a near-lowest
+    weight."""
     ok = [(r, t) for r, t in built if t is not None and meets(r)]
     if not ok:
         best = max((r.get("accuracy") or 0.0 for r, _ in built), default=0.0)

@@ -8,6 +8,7 @@ import time
 import numpy as np
 
 from ..errors import MeshingError
+from ..progress import stage
 from .clean import _box_mesh
 from .isolate import _run_stage, _stage_message, _TetGenCrashed, _TetGenFailed
 from .types import CleanMesh, _tet_faces, _unique_rows
@@ -331,18 +332,19 @@ def _ftetwild_route(
     )
     t = time.perf_counter()
     try:
-        points, tets = _run_stage(
-            _ftetwild_arrays,
-            v,
-            f,
-            eps_abs / input_diag,
-            edge_abs,
-            threads,
-            stop_energy,
-            optimize,
-            timeout=timeout,
-            isolate=isolate,
-        )
+        with stage(f"fTetWild (epsilon {epsilon:g}, edge length {edge_length:g})"):
+            points, tets = _run_stage(
+                _ftetwild_arrays,
+                v,
+                f,
+                eps_abs / input_diag,
+                edge_abs,
+                threads,
+                stop_energy,
+                optimize,
+                timeout=timeout,
+                isolate=isolate,
+            )
     except (_TetGenFailed, _TetGenCrashed) as exc:
         timings["ftetwild"] += time.perf_counter() - t
         raise MeshingError(f"{name}: " + _stage_message("fTetWild", exc, timeout)) from None

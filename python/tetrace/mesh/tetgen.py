@@ -7,6 +7,7 @@ import time
 import numpy as np
 
 from ..errors import MeshingError
+from ..progress import stage
 from .clean import _box_mesh, describe_degenerate, needles
 from .isolate import ISOLATE_TETGEN, _run_stage, _stage_message, _TetGenCrashed, _TetGenFailed
 from .options import (
@@ -222,6 +223,7 @@ def _tetgen_route(
     diagonal,
     constrained_last=False,
     isolate=None,
+    preset_name=None,
 ):
     """The exact route: as given (repaired if it self-intersects), then the snap ladder,
     then (``constrained_last``, when the preset refines) the constrained CT of the first
@@ -278,22 +280,25 @@ def _tetgen_route(
     # Snap rounding starts from the exact repair's result when there is one, even if
     # a few intersections were left: that is most of the cutting done.
     start = cm
+    tries = 0
     for snap, overrides, preset in ladder:
         t = time.perf_counter()
         if snap not in repaired_meshes:
             try:
                 if snap:
-                    work, n_cut, left = _run_stage(
-                        _repair, start, name, 1e-14, snap, timeout=timeout, isolate=isolate
-                    )
+                    with stage(f"repair (snap rounding to {snap:.3g})"):
+                        work, n_cut, left = _run_stage(
+                            _repair, start, name, 1e-14, snap, timeout=timeout, isolate=isolate
+                        )
                     label = (
                         f"TetGen on the scene snap-rounded to {snap:.3g} "
                         f"({snap / diagonal:.1g} of the diagonal) and repaired"
                     )
                 elif repair is True or intersects:
-                    work, n_cut, left = _run_stage(
-                        _repair, cm, name, 1e-14, timeout=timeout, isolate=isolate
-                    )
+                    with stage("repair (cutting self-intersections)"):
+                        work, n_cut, left = _run_stage(
+                            _repair, cm, name, 1e-14, timeout=timeout, isolate=isolate
+                        )
                     start = work
                     label = f"TetGen after exact repair of {n_cut} intersecting triangle pairs"
                 else:
@@ -330,8 +335,12 @@ def _tetgen_route(
         if overrides.get("nobisect") is False:
             label += ", scene triangles split (TetGen could not keep them whole)"
         t = time.perf_counter()
+        tries += 1
+        shown = preset or preset_name
+        what = f"TetGen attempt {tries}" + (f": preset {shown!r}" if shown else "")
         try:
-            result = _run_tetgen(work, box, opts, isolate, extra=points, timeout=timeout)
+            with stage(f"{what}, {label.removeprefix('TetGen ')}"):
+                result = _run_tetgen(work, box, opts, isolate, extra=points, timeout=timeout)
         except (_TetGenFailed, _TetGenCrashed) as exc:
             timings["tetgen"] += time.perf_counter() - t
             message = _stage_message(label, exc, timeout)
