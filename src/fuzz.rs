@@ -696,8 +696,7 @@ impl Batch<'_> {
             .occluded(self.method, self.layout, &rays, &mut any, &self.opts)
         {
             Ok(()) => {
-                for i in 0..n {
-                    let (a, c) = (any[i], hits.status[i]);
+                for (i, (&a, &c)) in any.iter().zip(&hits.status).enumerate() {
                     if ![MISS, HIT, FAILED, INVALID].contains(&a) {
                         return Err(format!("ray {i}: any-hit status {a}"));
                     }
@@ -721,7 +720,10 @@ impl Batch<'_> {
                     if ![MISS, HIT, FAILED, INVALID].contains(&l.status) {
                         return Err(format!("ray {i}: all-hits status {}", l.status));
                     }
-                    if l.meets.windows(2).any(|w| !(w[0].t <= w[1].t)) {
+                    if l.meets
+                        .windows(2)
+                        .any(|w| w[0].t > w[1].t || w[0].t.is_nan())
+                    {
                         return Err(format!("ray {i}: all hits not sorted by t"));
                     }
                     let (lo, hi) = (at(self.tmin, i), at(self.tmax, i));
