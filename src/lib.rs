@@ -8,6 +8,9 @@
 pub mod accel;
 pub mod bench;
 pub mod error;
+/// Stable-Rust fuzz targets (construction, the walk): `cargo test` runs them bounded,
+/// `examples/fuzz.rs` long (docs/fuzzing.md).
+pub mod fuzz;
 pub mod geom;
 #[cfg(feature = "gpu")]
 pub mod gpu;
