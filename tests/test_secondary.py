@@ -15,7 +15,6 @@ tangent directions, transmissions through thin walls, and rays from inside a clo
 from __future__ import annotations
 
 import dataclasses
-import os
 from fractions import Fraction
 
 import numpy as np
@@ -401,23 +400,13 @@ def test_bad_starts_are_refused(case):
 # --------------------------------------------------------------------------- a real scene
 
 
-def _real_scene(name):
-    root = os.environ.get("TETRACE_SCENES")
-    path = os.path.join(root, name) if root else None
-    if not path or not os.path.exists(path):
-        if os.environ.get("CI") == "true":
-            pytest.fail(f"{name} not found under TETRACE_SCENES={root!r}")
-        pytest.skip(f"{name} not found: set TETRACE_SCENES to shared/scenes")
-    return path
-
-
 @pytest.mark.parametrize("which", ["default", "bunny.obj"])
-def test_shadow_and_bounce_rays_on_a_real_scene(which):
+def test_shadow_and_bounce_rays_on_a_real_scene(which, scene_path):
     """A camera's hits on the bundled scene and the bunny, then shadow rays to a light and
     mirror bounces from every hit: every ray right against the referee."""
     from tetrace.dev.camera import pinhole
 
-    path = tetrace.default_scene_path() if which == "default" else _real_scene(which)
+    path = tetrace.default_scene_path() if which == "default" else scene_path(which)
     mesh = trimesh.load(path, force="mesh", process=False)
     v, f = np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces, np.int64)
     scene = tetrace.Scene.from_mesh((v, f))
