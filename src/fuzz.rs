@@ -112,8 +112,13 @@ fn coord(rng: &mut Rng, odd: f64) -> f64 {
 }
 
 /// An n³ grid of cubes over [0,1]³, each cut into 6 Kuhn tets, interior points jittered by
-/// `jitter` (0: every face plane is shared by many faces) and rounded to multiples of 2^-24.
-pub fn kuhn_grid(rng: &mut Rng, n: usize, jitter: f64) -> (Vec<[f64; 3]>, Vec<[u32; 4]>) {
+/// `jitter` (0: every face plane is shared by many faces, `uniform` draws in [0, 1)) and
+/// rounded to multiples of 2^-24. The crate's tests build their grids with it too.
+pub fn kuhn_grid(
+    n: usize,
+    jitter: f64,
+    mut uniform: impl FnMut() -> f64,
+) -> (Vec<[f64; 3]>, Vec<[u32; 4]>) {
     let m = n + 1;
     let id = |x: usize, y: usize, z: usize| (x + m * (y + m * z)) as u32;
     let mut pts = Vec::new();
@@ -123,7 +128,7 @@ pub fn kuhn_grid(rng: &mut Rng, n: usize, jitter: f64) -> (Vec<[f64; 3]>, Vec<[u
                 let mut p = [x, y, z].map(|c| c as f64 / n as f64);
                 for (a, c) in [x, y, z].into_iter().enumerate() {
                     if c > 0 && c < n {
-                        p[a] += (rng.f() - 0.5) * jitter / n as f64;
+                        p[a] += (uniform() - 0.5) * jitter / n as f64;
                     }
                 }
                 pts.push(p.map(|x| (x * 16_777_216.0).round() / 16_777_216.0));
@@ -157,8 +162,8 @@ pub fn kuhn_grid(rng: &mut Rng, n: usize, jitter: f64) -> (Vec<[f64; 3]>, Vec<[u
     (pts, tets)
 }
 
-/// Every face of the tets once (sorted triples).
-fn faces_of(tets: &[[u32; 4]]) -> Vec<[u32; 3]> {
+/// Every face of every tet, each sorted, the list sorted (interior faces appear twice).
+pub fn tet_faces(tets: &[[u32; 4]]) -> Vec<[u32; 3]> {
     let mut f: Vec<[u32; 3]> = tets
         .iter()
         .flat_map(|t| {
@@ -175,6 +180,12 @@ fn faces_of(tets: &[[u32; 4]]) -> Vec<[u32; 3]> {
         })
         .collect();
     f.sort();
+    f
+}
+
+/// Every face of the tets once (sorted triples).
+fn faces_of(tets: &[[u32; 4]]) -> Vec<[u32; 3]> {
+    let mut f = tet_faces(tets);
     f.dedup();
     f
 }
@@ -207,7 +218,7 @@ impl BuildInput {
 /// triangles; with `inside`, none on the box's sides (as meshing builds scenes: the domain box
 /// has a margin).
 pub fn grid_input(rng: &mut Rng, n: usize, jitter: f64, frac: f64, inside: bool) -> BuildInput {
-    let (points, tets) = kuhn_grid(rng, n, jitter);
+    let (points, tets) = kuhn_grid(n, jitter, || rng.f());
     let on_side = |v: u32| points[v as usize].iter().any(|&x| x == 0.0 || x == 1.0);
     let faces: Vec<[u32; 3]> = faces_of(&tets)
         .into_iter()

@@ -9,68 +9,13 @@ use crate::scene::Scene;
 /// float32, so the float32 walk reads the very mesh whose triangles the referee judges, and
 /// sums like `p − 3 v` of a test's rays stay exact.
 pub(crate) fn kuhn_grid(n: usize, jitter: f64, rng: &mut Rng) -> (Vec<[f64; 3]>, Vec<[u32; 4]>) {
-    let m = n + 1;
-    let id = |x: usize, y: usize, z: usize| (x + m * (y + m * z)) as u32;
-    let mut pts = Vec::new();
-    for z in 0..m {
-        for y in 0..m {
-            for x in 0..m {
-                let mut p = [x, y, z].map(|c| c as f64 / n as f64);
-                for (a, c) in [x, y, z].into_iter().enumerate() {
-                    if c > 0 && c < n {
-                        p[a] += (rng.f() - 0.5) * jitter / n as f64;
-                    }
-                }
-                pts.push(p.map(|x| (x * 16_777_216.0).round() / 16_777_216.0));
-            }
-        }
-    }
-    let mut tets = Vec::new();
-    let perms = [
-        [0, 1, 2],
-        [0, 2, 1],
-        [1, 0, 2],
-        [1, 2, 0],
-        [2, 0, 1],
-        [2, 1, 0],
-    ];
-    for z in 0..n {
-        for y in 0..n {
-            for x in 0..n {
-                for p in perms {
-                    let mut c = [x, y, z];
-                    let mut t = [id(c[0], c[1], c[2]), 0, 0, 0];
-                    for (k, &a) in p.iter().enumerate() {
-                        c[a] += 1;
-                        t[k + 1] = id(c[0], c[1], c[2]);
-                    }
-                    tets.push(t);
-                }
-            }
-        }
-    }
-    (pts, tets)
+    crate::fuzz::kuhn_grid(n, jitter, || rng.f())
 }
 
 /// The interior faces of the tets (sorted triples).
 pub(crate) fn all_faces(tets: &[[u32; 4]]) -> Vec<[u32; 3]> {
-    let mut f: Vec<[u32; 3]> = tets
-        .iter()
-        .flat_map(|t| {
-            [
-                [t[1], t[2], t[3]],
-                [t[0], t[2], t[3]],
-                [t[0], t[1], t[3]],
-                [t[0], t[1], t[2]],
-            ]
-            .map(|mut k| {
-                k.sort();
-                k
-            })
-        })
-        .collect();
+    let f = crate::fuzz::tet_faces(tets);
     // Interior faces only (listed twice): scene triangles never lie on the domain boundary.
-    f.sort();
     f.chunk_by(|a, b| a == b)
         .filter(|g| g.len() == 2)
         .map(|g| g[0])
