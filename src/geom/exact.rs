@@ -1,11 +1,11 @@
 //! Exact predicates on a ray given as numbers: the sign of the Plücker side product of the ray
 //! (o, d) with an edge, and where the ray crosses a plane, decided exactly for the float64
 //! numbers passed in. Each is a float64 evaluation with a certified error bound first, and
-//! exact rational arithmetic only when the bound cannot decide (near-degenerate cases).
+//! exact arithmetic (dyadic numbers, `geom::dyadic`) only when the bound cannot decide
+//! (near-degenerate cases).
 
+use super::dyadic::{cmp_fractions, Dyadic};
 use super::real::{exponent, times_pow2, V3};
-use num_rational::BigRational;
-use num_traits::{Signed, Zero};
 use std::cmp::Ordering;
 
 const EPS: f64 = f64::EPSILON * 0.5;
@@ -15,32 +15,26 @@ const DET_BOUND: f64 = 8.0 * EPS;
 /// Below this permanent, products may underflow and the bound no longer holds: exact.
 const TINY: f64 = 1e-250;
 
-fn rat(x: f64) -> BigRational {
-    BigRational::from_float(x).unwrap_or_else(BigRational::zero)
+fn rat(x: f64) -> Dyadic {
+    Dyadic::from_f64(x)
 }
 
-fn rat3(v: V3<f64>) -> [BigRational; 3] {
+fn rat3(v: V3<f64>) -> [Dyadic; 3] {
     v.map(rat)
 }
 
-fn rsub(a: &[BigRational; 3], b: &[BigRational; 3]) -> [BigRational; 3] {
+fn rsub(a: &[Dyadic; 3], b: &[Dyadic; 3]) -> [Dyadic; 3] {
     [0, 1, 2].map(|k| &a[k] - &b[k])
 }
 
-/// det(a, b, c) in rationals.
-pub fn rdet(a: &[BigRational; 3], b: &[BigRational; 3], c: &[BigRational; 3]) -> BigRational {
+/// det(a, b, c), exactly.
+pub fn rdet(a: &[Dyadic; 3], b: &[Dyadic; 3], c: &[Dyadic; 3]) -> Dyadic {
     &a[0] * (&b[1] * &c[2] - &b[2] * &c[1]) - &a[1] * (&b[0] * &c[2] - &b[2] * &c[0])
         + &a[2] * (&b[0] * &c[1] - &b[1] * &c[0])
 }
 
-fn sign_of(x: &BigRational) -> i8 {
-    if x.is_zero() {
-        0
-    } else if x.is_positive() {
-        1
-    } else {
-        -1
-    }
+fn sign_of(x: &Dyadic) -> i8 {
+    x.signum()
 }
 
 #[inline(always)]
@@ -186,7 +180,7 @@ pub fn cmp_t(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3], x: f64) -> Ordering {
     if den.is_zero() {
         return Ordering::Greater;
     }
-    (num / den).cmp(&rat(x))
+    cmp_fractions(&num, &den, &rat(x), &rat(1.0))
 }
 
 /// Which of two triangles' planes the line o + t d crosses first: the sign of t1 − t2,
@@ -201,14 +195,15 @@ pub fn cmp_plane_t(o: V3<f64>, d: V3<f64>, tri1: &[V3<f64>; 3], tri2: &[V3<f64>;
             return Ordering::Greater;
         }
     }
+    let (o, d) = (rat3(o), rat3(d));
     let exact_t = |tri: &[V3<f64>; 3]| {
-        let (o, d) = (rat3(o), rat3(d));
         let [a, b, c] = tri.map(rat3);
         let num = rdet(&rsub(&a, &o), &rsub(&b, &o), &rsub(&c, &o));
         let den = rdet(&d, &rsub(&b, &a), &rsub(&c, &a));
-        num / den
+        (num, den)
     };
-    exact_t(tri1).cmp(&exact_t(tri2))
+    let ((n1, d1), (n2, d2)) = (exact_t(tri1), exact_t(tri2));
+    cmp_fractions(&n1, &d1, &n2, &d2)
 }
 
 /// Whether Shewchuk's adaptive orientation (`predicates::orient`) is exact on a coordinate:
@@ -272,8 +267,8 @@ pub fn orient_sign(a: V3<f64>, b: V3<f64>, c: V3<f64>, x: V3<f64>) -> i8 {
     }
 }
 
-/// Rationals for the callers that evaluate a perturbation (the exact walk).
-pub fn rationals(v: V3<f64>) -> [BigRational; 3] {
+/// Exact values for the callers that evaluate a perturbation (the exact walk).
+pub fn exact3(v: V3<f64>) -> [Dyadic; 3] {
     rat3(v)
 }
 
@@ -327,6 +322,36 @@ const FAR_FROM_UNDERFLOW: f64 = 3.2e-145;
 #[cfg(test)]
 mod tests {
     use super::*;
+    use num_rational::BigRational;
+    use num_traits::{Signed, Zero};
+
+    // The tests' judge: rationals, apart from the dyadic numbers the code uses.
+    fn rat(x: f64) -> BigRational {
+        BigRational::from_float(x).unwrap()
+    }
+
+    fn rat3(v: V3<f64>) -> [BigRational; 3] {
+        v.map(rat)
+    }
+
+    fn rsub(a: &[BigRational; 3], b: &[BigRational; 3]) -> [BigRational; 3] {
+        [0, 1, 2].map(|k| &a[k] - &b[k])
+    }
+
+    fn rdet(a: &[BigRational; 3], b: &[BigRational; 3], c: &[BigRational; 3]) -> BigRational {
+        &a[0] * (&b[1] * &c[2] - &b[2] * &c[1]) - &a[1] * (&b[0] * &c[2] - &b[2] * &c[0])
+            + &a[2] * (&b[0] * &c[1] - &b[1] * &c[0])
+    }
+
+    fn sign_of(x: &BigRational) -> i8 {
+        if x.is_zero() {
+            0
+        } else if x.is_positive() {
+            1
+        } else {
+            -1
+        }
+    }
 
     /// The filtered sign equals the rational one, on near-degenerate edges at many scales.
     #[test]

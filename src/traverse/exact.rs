@@ -23,10 +23,10 @@
 
 use super::robust::{certain_side, det2, perturbed_sign, start_delta, FILTER_ULPS};
 use super::{Contact, Exit, ExitMethod};
-use crate::geom::exact::{rationals, side};
+use crate::geom::dyadic::Dyadic;
+use crate::geom::exact::{exact3, side};
 use crate::geom::real::{abs, dot3, sub3, Real, V3};
 use crate::mesh::build::OUTWARD_FACES;
-use num_rational::BigRational;
 
 pub struct Exact;
 
@@ -57,7 +57,7 @@ impl<R: Real> ExactRay<R> {
     fn perturbed(&self, p: V3<R>, q: V3<R>) -> bool {
         match self.sign(p, q) {
             0 => {
-                let (o, d): ([BigRational; 3], _) = (rationals(self.o), rationals(self.d));
+                let (o, d): ([Dyadic; 3], _) = (exact3(self.o), exact3(self.d));
                 perturbed_sign(&o, &d, p.map(R::to_f64), q.map(R::to_f64), self.delta)
             }
             s => s > 0,

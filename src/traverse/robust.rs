@@ -156,30 +156,29 @@ const DELTA2: V3<f64> = [-0.2915382917263, 0.8419846213571, 0.4503218740313];
 /// The side of p→q for the line perturbed as above, as ε → 0⁺ (simulation of simplicity):
 /// with D = b − s, P = p − s, Q = q − s, V = q − p, the orientation becomes
 ///     det(D,P,Q) − ε det(D,δ,V) + ε² det(δ₂,P,Q) − ε³ det(δ₂,δ,V) + …
-/// and its sign is that of the first nonzero term, evaluated exactly in rationals. Every term
+/// and its sign is that of the first nonzero term, evaluated exactly (dyadic numbers). Every term
 /// changes sign with p ↔ q, and each is the orientation of a real nearby line, so the signs of
 /// all edges are those of one line in general position: the walk is that line's exact walk.
 fn perturbed_side(s: V3<f64>, b: V3<f64>, p: V3<f64>, q: V3<f64>, delta: V3<f64>) -> bool {
-    use crate::geom::exact::rationals;
-    let (sr, br) = (rationals(s), rationals(b));
+    use crate::geom::exact::exact3;
+    let (sr, br) = (exact3(s), exact3(b));
     let d = [0, 1, 2].map(|k| &br[k] - &sr[k]);
     perturbed_sign(&sr, &d, p, q, delta)
 }
 
-/// [`perturbed_side`] for the line through s with direction `d`, given in rationals (the exact
+/// [`perturbed_side`] for the line through s with direction `d`, given exactly (the exact
 /// walk's line is (o, d) itself).
 pub(crate) fn perturbed_sign(
-    s: &[num_rational::BigRational; 3],
-    d: &[num_rational::BigRational; 3],
+    s: &[crate::geom::dyadic::Dyadic; 3],
+    d: &[crate::geom::dyadic::Dyadic; 3],
     p: V3<f64>,
     q: V3<f64>,
     delta: V3<f64>,
 ) -> bool {
-    use crate::geom::exact::{rationals, rdet};
-    use num_traits::{Signed, Zero};
+    use crate::geom::exact::{exact3, rdet};
     let sub = |a: &[_; 3], b: &[_; 3]| [0, 1, 2].map(|k| &a[k] - &b[k]);
-    let (p, q) = (rationals(p), rationals(q));
-    let (dl, dl2) = (rationals(delta), rationals(DELTA2));
+    let (p, q) = (exact3(p), exact3(q));
+    let (dl, dl2) = (exact3(delta), exact3(DELTA2));
     let (pv, qv, v) = (sub(&p, s), sub(&q, s), sub(&q, &p));
     let terms = [
         -rdet(d, &dl, &v),
@@ -204,7 +203,7 @@ fn perturbed_orient(x: V3<f64>, y: V3<f64>, z: V3<f64>, s: V3<f64>, delta: V3<f6
         return o;
     }
     // det(y − x, z − x, w) = det(w, y − x, z − x): `side`'s filtered exact sign (a start on a
-    // face is common for rays started from hits: rationals only when the filter cannot tell).
+    // face is common for rays started from hits: exact arithmetic only when the filter cannot tell).
     for w in [delta, DELTA2] {
         let s = crate::geom::exact::side(w, x, y, z);
         if s != 0 {
