@@ -63,6 +63,18 @@ ERRORS = [
         ValueError,
         "overflows float32",
     ),
+    (
+        "intersections-t-overflows",
+        lambda s, o, d: s.intersections(o, d * 1e-310),
+        ValueError,
+        "overflows",
+    ),
+    (
+        "count-t-overflows",
+        lambda s, o, d: s.count_intersections(o, d * 5e-324),
+        ValueError,
+        "overflows",
+    ),
     ("nan-occluded", lambda s, o, d: s.occluded(_one_bad(o, np.nan), d), ValueError, "origins"),
     (
         "nan-intersections",
@@ -138,6 +150,23 @@ def test_invalid_mark_gives_status_invalid(spot):
     h = spot.cast(bad_o, tiny, invalid="mark")
     assert h.status.tolist() == [tetrace.INVALID, tetrace.INVALID, tetrace.HIT, tetrace.HIT]
     assert h.triangle[1] == -1 and np.isinf(h.t[1])
+
+
+def test_invalid_mark_for_every_hit_whose_t_overflows(spot):
+    """As closest hits: a ray whose hits' t overflow float64 is INVALID in the all-hits
+    queries (no points listed, count -1), not a list of hits at t = inf; the others are
+    listed as without it."""
+    o, d = _rays(spot)
+    tiny = d.copy()
+    tiny[1] *= 1e-310
+    listed = spot.intersections(o, tiny, invalid="mark")
+    alone = spot.intersections(o[[0, 2, 3]], d[[0, 2, 3]])
+    assert listed.status.tolist() == [tetrace.HIT, tetrace.INVALID, tetrace.HIT, tetrace.HIT]
+    assert listed.offsets[2] == listed.offsets[1] and np.all(np.isfinite(listed.t))
+    np.testing.assert_array_equal(listed.t, alone.t)
+    count, status = spot.count_intersections(o, tiny, invalid="mark", return_status=True)
+    assert count.tolist()[1] == -1 and status[1] == tetrace.INVALID
+    np.testing.assert_array_equal(np.delete(count, 1), np.diff(alone.offsets))
     _still_right(spot)
 
 
