@@ -1,4 +1,5 @@
-"""Lifecycle (issue 18, item 2): a forked child casts; Ctrl-C stops casts and meshing;
+"""Lifecycle (issue 18, item 2): a forked child casts; Ctrl-C stops casts (CPU and GPU), the
+compiled scene's build and meshing;
 an allocation the machine cannot satisfy raises MemoryError; many Python threads share a
 scene (tests/test_bad_input.py). The risky cases run in child processes with time limits, so
 that a regression fails instead of hanging or killing the test run."""
@@ -121,7 +122,10 @@ INTERRUPTED_CAST = textwrap.dedent(
     def rays(n):
         return (lo + (hi - lo) * rng.random((n, 3))).astype(np.float32), rng.normal(
             size=(n, 3)).astype(np.float32)
-    run = getattr(s, query)
+    if query == "cast_gpu":
+        run = lambda o, d, threads: s.cast(o, d, threads=threads, device="gpu")
+    else:
+        run = getattr(s, query)
     sample = 20000
     t0 = time.perf_counter()
     run(*rays(sample), threads=threads)
@@ -141,9 +145,14 @@ INTERRUPTED_CAST = textwrap.dedent(
 
 
 @pytest.mark.parametrize(
-    "query, threads", [("cast", "1"), ("cast", "None"), ("count_intersections", "2")]
+    "query, threads",
+    [("cast", "1"), ("cast", "None"), ("count_intersections", "2"), ("cast_gpu", "None")],
 )
 def test_ctrl_c_interrupts_a_long_cast(query, threads):
+    if query == "cast_gpu":
+        from conftest import gpu_device
+
+        gpu_device()  # fails without an adapter (or skips with TETRACE_SKIP_GPU=1)
     p = subprocess.Popen(
         [sys.executable, "-c", INTERRUPTED_CAST, query, threads],
         stdout=subprocess.PIPE,
@@ -170,6 +179,64 @@ def test_ctrl_c_interrupts_a_long_cast(query, threads):
     # the uninterrupted cast would have taken `expected` seconds.
     assert expected > 8.0, f"the cast is too short to tell ({expected} s)"
     assert stopped < 5.0, f"stopped {stopped:.2f} s after SIGINT"
+
+
+# A child that builds a compiled scene of 3 million tets (a Kuhn grid: 6 tets per cube of an
+# 80^3 grid) twice: once to time it, once interrupted 0.3 s in; it reports both times.
+INTERRUPTED_BUILD = textwrap.dedent(
+    """
+    import itertools, signal, threading, time
+    import numpy as np
+    from tetrace import _native
+
+    n = 80
+    ax = np.arange(n + 1)
+    pts = np.stack(np.meshgrid(ax, ax, ax, indexing="ij"), -1).reshape(-1, 3).astype(float)
+    i, j, k = [a.ravel() for a in np.meshgrid(*[np.arange(n)] * 3, indexing="ij")]
+    corner = [((i + (b >> 2 & 1)) * (n + 1) + j + (b >> 1 & 1)) * (n + 1) + k + (b & 1)
+              for b in range(8)]
+    paths = []
+    for perm in itertools.permutations(range(3)):
+        b, path = 0, [0]
+        for a in perm:
+            b |= 4 >> a
+            path.append(b)
+        paths.append(path)
+    tets = np.concatenate([np.stack([corner[p] for p in q], 1) for q in paths]).astype(np.uint32)
+    none = (np.zeros((0, 3), np.uint32), np.zeros(0, np.uint32), np.zeros((0, 3, 3)))
+
+    t0 = time.perf_counter()
+    _native.NativeScene(pts, tets, *none)
+    full = time.perf_counter() - t0
+    print(f"full {full:.3f}", flush=True)
+    # SIGINT to this process 0.3 s into the second build (from a thread: the main thread is
+    # in the build, with the GIL released).
+    threading.Timer(0.3, signal.raise_signal, (signal.SIGINT,)).start()
+    t0 = time.perf_counter()
+    try:
+        _native.NativeScene(pts, tets, *none)
+        print("finished", flush=True)
+    except KeyboardInterrupt:
+        print(f"KeyboardInterrupt {time.perf_counter() - t0:.3f}", flush=True)
+    """
+)
+
+
+def test_ctrl_c_interrupts_the_scene_build():
+    """The compiled scene's build (connectivity, Hilbert order, locators) stops at its next
+    stage: well before it would have finished."""
+    out = subprocess.run(
+        [sys.executable, "-c", INTERRUPTED_BUILD],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    lines = out.stdout.split()
+    assert "KeyboardInterrupt" in lines, out.stdout + out.stderr
+    full = float(lines[lines.index("full") + 1])
+    stopped = float(lines[lines.index("KeyboardInterrupt") + 1])
+    assert full > 1.0, f"the build is too short to tell ({full} s)"
+    assert stopped < 0.3 + 0.5 * full, f"stopped after {stopped} s of a {full} s build"
 
 
 INTERRUPTED_MESHING = textwrap.dedent(

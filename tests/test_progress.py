@@ -92,3 +92,87 @@ def test_auto_mesher_counts_candidates(capsys):
 def test_progress_must_be_a_bool():
     with pytest.raises(TypeError, match="progress"):
         tetrace.Scene.from_mesh((V, F), progress="yes")
+
+
+# ----------------------------------------------------------------------------- ray queries
+
+
+@pytest.fixture(scope="module")
+def spot():
+    return tetrace.default_scene()
+
+
+def _many_rays(scene, n):
+    rng = np.random.default_rng(5)
+    lo, hi = scene.domain
+    return lo + (hi - lo) * rng.random((n, 3)), rng.normal(size=(n, 3))
+
+
+def _native_args(o, d):
+    n = len(o)
+    return o, d, np.zeros(n), np.full(n, np.inf)
+
+
+def test_the_core_reports_chunks_done_while_a_query_runs(spot):
+    """The core calls progress(done, total) every 50 ms: chunks of 4096 rays, growing,
+    never past their number; answers are those of a query without it."""
+    o, d = _many_rays(spot, 300_000)
+    chunks = -(-len(o) // 4096)
+    for query in (spot._native.cast, spot._native.count_intersections):
+        calls = []
+        r = query(*_native_args(o, d), 1, progress=lambda *p, log=calls: log.append(p))
+        assert calls, "a query of over a second on one thread reported nothing"
+        assert all(total == chunks and 0 <= done < total for done, total in calls), calls
+        assert all(a[0] <= b[0] for a, b in zip(calls, calls[1:])), calls
+        plain = query(*_native_args(o, d), 1)
+        np.testing.assert_array_equal(r["status"], plain["status"])
+
+
+def test_an_error_in_the_progress_callback_stops_the_query(spot):
+    o, d = _many_rays(spot, 300_000)
+
+    def stop(done, total):
+        raise ValueError(f"stop at {done} of {total}")
+
+    for threads in (1, 2):
+        with pytest.raises(ValueError, match="stop at"):
+            spot._native.cast(*_native_args(o, d), threads, progress=stop)
+    assert spot.cast(o[:10], d[:10]).status.shape == (10,)
+
+
+def test_progress_bar_for_casts(spot, capsys, monkeypatch):
+    """progress=True: a bar of rays on stderr that ends at the ray count; the answers are
+    the same as with progress=False, which writes nothing."""
+    monkeypatch.setattr(progress, "CAST_DELAY_S", 0.0)
+    o, d = _many_rays(spot, 200_000)
+    on = spot.cast(o, d, threads=1, progress=True)
+    err = capsys.readouterr().err
+    assert "casting" in err and "200k/200k" in err, err
+    off = spot.cast(o, d, threads=1, progress=False)
+    assert capsys.readouterr().err == ""
+    for field in ("t", "triangle", "status", "tet"):
+        np.testing.assert_array_equal(getattr(on, field), getattr(off, field))
+    count = spot.count_intersections(o, d, threads=1, progress=True)
+    err = capsys.readouterr().err
+    assert "counting" in err and "200k/200k" in err, err
+    np.testing.assert_array_equal(count, spot.count_intersections(o, d, threads=1))
+
+
+def test_short_casts_and_auto_stay_silent(spot, capsys, monkeypatch):
+    """With the default delay a short cast shows no bar; auto (None) is off without a
+    terminal or with CI set."""
+    o, d = _many_rays(spot, 1000)
+    spot.cast(o, d, progress=True)
+    spot.occluded(o, d, progress=True)
+    monkeypatch.setattr(progress, "CAST_DELAY_S", 0.0)
+    monkeypatch.setenv("CI", "true")
+    monkeypatch.setattr("sys.stderr", _Tty())
+    spot.intersections(o, d)
+    assert capsys.readouterr().err == ""
+
+
+@pytest.mark.parametrize("value", ["yes", 1, 0.5])
+def test_progress_must_be_a_bool_or_none(spot, value):
+    o, d = _many_rays(spot, 4)
+    with pytest.raises(TypeError, match="progress"):
+        spot.cast(o, d, progress=value)

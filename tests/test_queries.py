@@ -531,9 +531,11 @@ class FakeNative:
         packet=True,
         accel=None,
         start=None,
+        progress=None,
     ):
-        # Ordinary rays here: the wrappers pass no start arrays for them.
-        assert isinstance(packet, bool) and accel is None and start is None
+        # Ordinary rays here: the wrappers pass no start arrays (nor, with progress off,
+        # a callback) for them.
+        assert isinstance(packet, bool) and accel is None and start is None and progress is None
         return self._check(o, d, tmin, tmax, method, layout)[1]
 
     def count_intersections(
@@ -549,9 +551,11 @@ class FakeNative:
         packet=True,
         accel=None,
         start=None,
+        progress=None,
     ):
-        # Ordinary rays here: the wrappers pass no start arrays for them.
-        assert isinstance(packet, bool) and accel is None and start is None
+        # Ordinary rays here: the wrappers pass no start arrays (nor, with progress off,
+        # a callback) for them.
+        assert isinstance(packet, bool) and accel is None and start is None and progress is None
         bf, status = self._check(o, d, tmin, tmax, method, layout)
         return {"count": np.array([len(h) for h in bf], np.int32), "status": status}
 
@@ -568,9 +572,11 @@ class FakeNative:
         packet=True,
         accel=None,
         start=None,
+        progress=None,
     ):
-        # Ordinary rays here: the wrappers pass no start arrays for them.
-        assert isinstance(packet, bool) and accel is None and start is None
+        # Ordinary rays here: the wrappers pass no start arrays (nor, with progress off,
+        # a callback) for them.
+        assert isinstance(packet, bool) and accel is None and start is None and progress is None
         bf, status = self._check(o, d, tmin, tmax, method, layout)
         tri = self.v[self.f]
         t, ids, u, w = [], [], [], []

@@ -1,6 +1,7 @@
 """Type stubs for the compiled core (hand-written; `make lint` runs stubtest against the built
 extension, so they cannot drift from src/py/)."""
 
+from collections.abc import Callable
 from typing import Any, final
 
 import numpy as np
@@ -102,6 +103,8 @@ class NativeScene:
         # Rays started from hits: per ray the scene triangle it leaves and the tet its hit's
         # walk ended in (int32, -1: none).
         start: tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]] | None = None,
+        # Called as progress(chunks_done, chunks) every 50 ms while the query runs.
+        progress: Callable[[int, int], object] | None = None,
     ) -> dict[str, np.ndarray]: ...
     def cast_gpu(
         self,
@@ -129,6 +132,8 @@ class NativeScene:
         packet: bool = True,
         accel: str | None = None,
         start: tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]] | None = None,
+        # Called as progress(chunks_done, chunks) every 50 ms while the query runs.
+        progress: Callable[[int, int], object] | None = None,
     ) -> npt.NDArray[np.uint8]: ...
     # "offsets" int64 (N+1,), "t" float64 (M,), "triangle" int32 (M,), "u", "v" float64 (M,),
     # "status" uint8 (N,): every point where a ray meets the surface once, sorted by t per ray.
@@ -145,6 +150,8 @@ class NativeScene:
         packet: bool = True,
         accel: str | None = None,
         start: tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]] | None = None,
+        # Called as progress(chunks_done, chunks) every 50 ms while the query runs.
+        progress: Callable[[int, int], object] | None = None,
     ) -> dict[str, np.ndarray]: ...
     # "count" int32 (N,), "status" uint8 (N,).
     def count_intersections(
@@ -160,6 +167,8 @@ class NativeScene:
         packet: bool = True,
         accel: str | None = None,
         start: tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]] | None = None,
+        # Called as progress(chunks_done, chunks) every 50 ms while the query runs.
+        progress: Callable[[int, int], object] | None = None,
     ) -> dict[str, np.ndarray]: ...
     # (N, 3) float64 points -> (N,) bool: inside (on the surface counts as inside).
     def contains(

@@ -12,7 +12,12 @@ build of the compiled scene) writes one line to stderr with the seconds it has r
 twice a second while it runs (also while a mesher's child process works) and ending in
 ``done`` or ``failed``; ``mesher="auto"`` adds a bar counting its candidates. Nothing else
 changes: the results are the same with progress on or off. tqdm is imported only when a
-line is shown. Casts show no progress.
+line is shown.
+
+Ray queries (:meth:`tetrace.Scene.cast`, ``occluded``, ``intersections``,
+``count_intersections``) take ``progress`` too: while on, a query that runs for more than
+:data:`CAST_DELAY_S` seconds shows a bar of the rays done, updated by the core every 50 ms
+as its chunks of 4096 rays finish (:func:`rays`); shorter ones show nothing.
 """
 
 from __future__ import annotations
@@ -25,13 +30,16 @@ import sys
 import threading
 import time
 
-__all__ = ["enabled", "reporting", "stage", "counter", "with_progress"]
+__all__ = ["enabled", "reporting", "stage", "counter", "rays", "with_progress"]
 
 # Whether the code running now reports progress (None: no caller decided).
 _ACTIVE: contextvars.ContextVar[bool | None] = contextvars.ContextVar("tetrace_progress")
 
 #: Seconds between refreshes of a running stage's line.
 REFRESH_S = 0.5
+
+#: Seconds a ray query runs before its bar appears (short casts stay silent).
+CAST_DELAY_S = 1.0
 
 
 def _in_ci() -> bool:
@@ -193,5 +201,51 @@ def counter(description, total=None):
     bar = _bar(description, total)
     try:
         yield bar
+    finally:
+        bar.close()
+
+
+@contextlib.contextmanager
+def rays(progress, n, description="casting"):
+    """A bar of rays done for one ray query, or nothing when progress is off.
+
+    Parameters
+    ----------
+    progress : bool or None
+        As for :func:`enabled`.
+    n : int
+        Rays in the query.
+    description : str
+        What the query does.
+
+    Yields
+    ------
+    callable or None
+        ``report(done, total)``, which the core calls with the chunks done and their
+        number; None when progress is off (the core then reports nothing). The bar shows
+        only once the query has run :data:`CAST_DELAY_S` seconds, and ends at ``n`` when
+        the query finishes.
+    """
+    if not enabled(progress) or n == 0:
+        yield None
+        return
+    from tqdm.std import tqdm
+
+    bar = tqdm(
+        total=n,
+        desc=description,
+        unit="ray",
+        unit_scale=True,
+        file=sys.stderr,
+        delay=CAST_DELAY_S,
+        leave=True,
+    )
+
+    def report(done, total):
+        bar.update(max(0, n * done // max(total, 1) - bar.n))
+
+    try:
+        yield report
+        bar.update(n - bar.n)
     finally:
         bar.close()

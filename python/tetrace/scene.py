@@ -202,7 +202,12 @@ class _Query:
         accel=None,
         start=None,
         geometries=None,
+        progress=None,
     ):
+        from .progress import enabled
+
+        enabled(progress)  # a TypeError for anything but None/True/False, before any work
+        self.progress = progress
         leaving = None
         if start is not None:
             if origins is not None:
@@ -236,6 +241,27 @@ class _Query:
         if accel is not None and accel not in _native.accels():
             raise ValueError(f"unknown accel {accel!r}; expected one of {_native.accels()}")
         self.accel = accel
+
+    def run(self, query, method, layout, description):
+        """Call the core's ``query`` on these rays (its arguments shared by every ray query),
+        with a progress bar when progress is on."""
+        from . import progress
+
+        with progress.rays(self.progress, len(self.o), description) as report:
+            return query(
+                self.o,
+                self.d,
+                self.lo,
+                self.hi,
+                self.threads,
+                self.max_steps,
+                method,
+                layout,
+                packet=self.packet,
+                accel=self.accel,
+                start=self.start,
+                progress=report,
+            )
 
     def check(self, status):
         """Raise for rays the core marked INVALID, unless ``invalid="mark"``."""
@@ -572,6 +598,7 @@ class Scene:
         device="cpu",
         packet=True,
         accel=None,
+        progress=None,
     ):
         """Cast rays and return their closest hits.
 
@@ -650,6 +677,11 @@ class Scene:
             first use or by :meth:`build_octree`). All keep the contract exactly and give
             the same answers; those other than the tet walk take only the ``exact``
             method, any layout, and the CPU.
+        progress : bool, optional
+            A bar of the rays done (tqdm, on stderr) for a cast that runs more than
+            :data:`tetrace.progress.CAST_DELAY_S` seconds; None (the default): on in a
+            terminal or a notebook, off when ``CI`` is set; see :mod:`tetrace.progress`.
+            Answers are the same either way. GPU casts show none.
 
         Returns
         -------
@@ -694,6 +726,7 @@ class Scene:
             accel,
             start=start,
             geometries=self.geometries,
+            progress=progress,
         )
         _names(method, layout, defaults=False)
         use_gpu = False
@@ -718,19 +751,7 @@ class Scene:
                 o, d, q.lo, q.hi, q.threads, q.max_steps, method, layout
             )
         else:
-            r = self._native.cast(
-                q.o,
-                q.d,
-                q.lo,
-                q.hi,
-                q.threads,
-                q.max_steps,
-                method,
-                layout,
-                packet=q.packet,
-                accel=q.accel,
-                start=q.start,
-            )
+            r = q.run(self._native.cast, method, layout, "casting")
         q.check(r["status"])
         return self._hits(r).reshape(q.shape)
 
@@ -794,6 +815,7 @@ class Scene:
         return_status=False,
         packet=True,
         accel=None,
+        progress=None,
     ):
         """Return whether each ray hits any triangle (a shadow ray), without finding which.
 
@@ -806,7 +828,7 @@ class Scene:
         ----------
         origins, directions, tmin, tmax, threads, max_steps, invalid, method, layout
             As for :meth:`cast` (rays of any leading shape, CPU only).
-        start, precision, packet, accel
+        start, precision, packet, accel, progress
             As for :meth:`cast` (``start=hits``: rays from an earlier cast's hits).
         return_status : bool
             Also return the status per ray.
@@ -834,23 +856,10 @@ class Scene:
             accel,
             start=start,
             geometries=self.geometries,
+            progress=progress,
         )
         method, layout = _names(method, layout)
-        status = np.asarray(
-            self._native.occluded(
-                q.o,
-                q.d,
-                q.lo,
-                q.hi,
-                q.threads,
-                q.max_steps,
-                method,
-                layout,
-                packet=q.packet,
-                accel=q.accel,
-                start=q.start,
-            )
-        )
+        status = np.asarray(q.run(self._native.occluded, method, layout, "occluded"))
         q.check(status)
         status = status.reshape(q.shape)
         hit = status == HIT
@@ -872,6 +881,7 @@ class Scene:
         precision=None,
         packet=True,
         accel=None,
+        progress=None,
     ):
         """Return every hit of every ray, sorted by ray, then by ``t``.
 
@@ -886,7 +896,7 @@ class Scene:
         ----------
         origins, directions, tmin, tmax, threads, max_steps, invalid, method, layout
             As for :meth:`cast` (rays of any leading shape, CPU only).
-        start, precision, packet, accel
+        start, precision, packet, accel, progress
             As for :meth:`cast` (``start=hits``: rays from an earlier cast's hits).
 
         Returns
@@ -911,21 +921,10 @@ class Scene:
             accel,
             start=start,
             geometries=self.geometries,
+            progress=progress,
         )
         method, layout = _names(method, layout)
-        r = self._native.intersections(
-            q.o,
-            q.d,
-            q.lo,
-            q.hi,
-            q.threads,
-            q.max_steps,
-            method,
-            layout,
-            packet=q.packet,
-            accel=q.accel,
-            start=q.start,
-        )
+        r = q.run(self._native.intersections, method, layout, "intersections")
         status = np.asarray(r["status"])
         q.check(status)
         offsets = np.asarray(r["offsets"], np.int64)
@@ -964,6 +963,7 @@ class Scene:
         return_status=False,
         packet=True,
         accel=None,
+        progress=None,
     ):
         """Count the points where each ray meets the surface, in ``[tmin, tmax]``.
 
@@ -975,7 +975,7 @@ class Scene:
         ----------
         origins, directions, tmin, tmax, threads, max_steps, invalid, method, layout
             As for :meth:`cast` (rays of any leading shape, CPU only).
-        start, precision, packet, accel
+        start, precision, packet, accel, progress
             As for :meth:`cast` (``start=hits``: rays from an earlier cast's hits).
         return_status : bool
             Also return the status per ray.
@@ -1001,21 +1001,10 @@ class Scene:
             accel,
             start=start,
             geometries=self.geometries,
+            progress=progress,
         )
         method, layout = _names(method, layout)
-        r = self._native.count_intersections(
-            q.o,
-            q.d,
-            q.lo,
-            q.hi,
-            q.threads,
-            q.max_steps,
-            method,
-            layout,
-            packet=q.packet,
-            accel=q.accel,
-            start=q.start,
-        )
+        r = q.run(self._native.count_intersections, method, layout, "counting")
         status = np.asarray(r["status"])
         q.check(status)
         count = np.asarray(r["count"]).astype(np.int32, copy=True)

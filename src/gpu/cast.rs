@@ -105,6 +105,7 @@ impl DeviceScene {
                 Some(p) => p.install(run),
             }
         };
+        crate::threads::checkpoint()?;
         let walked: usize = located.iter().map(|(s, _)| s.len()).sum();
         timings.walked = walked;
         timings.locate = t0.elapsed().as_secs_f64();
@@ -124,6 +125,7 @@ impl DeviceScene {
             Vec::new()
         };
 
+        crate::threads::checkpoint()?;
         // 3. Finish: hits on the caller's triangles, deferred rays on the CPU.
         let t3 = Instant::now();
         let mut offsets = Vec::with_capacity(located.len());

@@ -83,6 +83,8 @@ impl Launch<'_> {
             if staged.is_empty() {
                 break;
             }
+            // Between batches, Ctrl-C (the bindings' poll) stops the cast.
+            crate::threads::checkpoint()?;
             timings.batches += 1;
             self.upload(&bufs, &staged, timings)?;
             self.dispatch(&bind, staged.len(), max_dim, timings)?;

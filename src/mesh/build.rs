@@ -80,6 +80,32 @@ pub fn on_box(p: &[f64; 3], [lo, hi]: &[[f64; 3]; 2]) -> bool {
     (0..3).any(|a| p[a] == lo[a] || p[a] == hi[a])
 }
 
+/// A tet's face in the face-matching sort: its sorted point triple in the high 96 bits, the
+/// side (tet * 4 + local face) in the low 32.
+#[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+struct FaceKey(u128);
+
+impl FaceKey {
+    fn new(triple: [u32; 3], side: u32) -> FaceKey {
+        let [a, b, c] = triple.map(u128::from);
+        FaceKey(a << 96 | b << 64 | c << 32 | u128::from(side))
+    }
+    /// The triple alone, for comparing faces.
+    fn face(self) -> u128 {
+        self.0 >> 32
+    }
+    fn triple(self) -> [u32; 3] {
+        [
+            (self.0 >> 96) as u32,
+            (self.0 >> 64) as u32,
+            (self.0 >> 32) as u32,
+        ]
+    }
+    fn side(self) -> u32 {
+        self.0 as u32
+    }
+}
+
 #[inline]
 fn sorted3(mut k: [u32; 3]) -> [u32; 3] {
     if k[0] > k[1] {
@@ -166,52 +192,62 @@ impl TetMesh {
                 }
             })
             .collect::<Result<_>>()?;
+        crate::threads::checkpoint()?;
 
         // Match faces: sort (sorted vertex triple, tet*4+local) and pair equal neighbours.
-        let mut keys: Vec<([u32; 3], u32)> = Vec::with_capacity(oriented.len() * 4);
-        for (t, tet) in oriented.iter().enumerate() {
-            for (i, f) in OUTWARD_FACES.iter().enumerate() {
-                keys.push((
-                    sorted3([tet[f[0]], tet[f[1]], tet[f[2]]]),
-                    (t as u32) * 4 + i as u32,
-                ));
-            }
-        }
+        // Packed into one u128 (the triple, then the side), whose comparisons are one or two
+        // integer compares: the sort is this build's longest step (and, between checkpoints,
+        // what bounds how soon Ctrl-C stops it).
+        let mut keys: Vec<FaceKey> = oriented
+            .par_iter()
+            .enumerate()
+            .flat_map_iter(|(t, tet)| {
+                OUTWARD_FACES.iter().enumerate().map(move |(i, f)| {
+                    FaceKey::new(
+                        sorted3([tet[f[0]], tet[f[1]], tet[f[2]]]),
+                        (t as u32) * 4 + i as u32,
+                    )
+                })
+            })
+            .collect();
+        crate::threads::checkpoint()?;
         keys.par_sort_unstable();
+        crate::threads::checkpoint()?;
         let mut links = vec![[BOUNDARY; 4]; oriented.len()];
         let mut boundary_faces = 0usize;
         let mut j = 0;
         while j < keys.len() {
             let mut k = j + 1;
-            while k < keys.len() && keys[k].0 == keys[j].0 {
+            while k < keys.len() && keys[k].face() == keys[j].face() {
                 k += 1;
             }
             match k - j {
                 1 => boundary_faces += 1,
                 2 => {
-                    let (x, y) = (keys[j].1, keys[j + 1].1);
+                    let (x, y) = (keys[j].side(), keys[j + 1].side());
                     links[(x / 4) as usize][(x % 4) as usize] = y / 4;
                     links[(y / 4) as usize][(y % 4) as usize] = x / 4;
                 }
                 n => {
                     return Err(Error::InvalidMesh(format!(
                         "face {:?} is shared by {n} tets (at most 2 allowed)",
-                        keys[j].0
+                        keys[j].triple()
                     )))
                 }
             }
             j = k;
         }
 
+        crate::threads::checkpoint()?;
         // Attach constrained faces to both sides.
         let mut constrained: Vec<ConstrainedSide> = Vec::with_capacity(faces.len() * 2);
         for (f, (&face, &tri)) in faces.iter().zip(face_triangle).enumerate() {
-            let key = sorted3(face);
-            let lo = keys.partition_point(|e| e.0 < key);
+            let key = FaceKey::new(sorted3(face), 0).face();
+            let lo = keys.partition_point(|e| e.face() < key);
             let sides: Vec<u32> = keys[lo..]
                 .iter()
-                .take_while(|e| e.0 == key)
-                .map(|e| e.1)
+                .take_while(|e| e.face() == key)
+                .map(|e| e.side())
                 .collect();
             if sides.is_empty() {
                 return Err(Error::InvalidMesh(format!(

@@ -61,31 +61,48 @@ pub(crate) fn guarded<T>(f: impl FnOnce() -> crate::Result<T>) -> PyResult<T> {
 
 /// Runs core code as [`guarded`] does, with the GIL released and Python's signal handlers
 /// polled from this thread every [`crate::threads::POLL_EVERY`] while the core's pieces run
-/// (`threads::run_pieces`): a handler that raises (Ctrl-C's `KeyboardInterrupt`) stops the
-/// pieces not yet started, and once the running ones finish, its exception is raised here;
-/// nothing the core computed is returned. Every binding that casts or queries goes through it.
+/// (`threads::run_pieces`) and at the checkpoints between a build's stages: a handler that
+/// raises (Ctrl-C's `KeyboardInterrupt`) stops the pieces not yet started, and once the
+/// running ones finish, its exception is raised here; nothing the core computed is returned.
+/// Every binding that builds, casts or queries goes through it.
 pub(crate) fn interruptible<T: Send>(
     py: Python<'_>,
+    f: impl FnOnce() -> crate::Result<T> + Send,
+) -> PyResult<T> {
+    interruptible_with_progress(py, None, f)
+}
+
+/// [`interruptible`], also calling `progress(done, total)` (pieces of the run under way) at
+/// each poll that has a count: a cast's progress bar. An exception it raises stops the run
+/// as Ctrl-C does and is raised here.
+pub(crate) fn interruptible_with_progress<T: Send>(
+    py: Python<'_>,
+    progress: Option<Py<PyAny>>,
     f: impl FnOnce() -> crate::Result<T> + Send,
 ) -> PyResult<T> {
     use std::sync::{Arc, Mutex};
     let raised: Arc<Mutex<Option<PyErr>>> = Arc::default();
     let slot = raised.clone();
-    let poll = move || {
-        Python::attach(|py| match py.check_signals() {
-            Ok(()) => true,
-            Err(e) => {
-                *slot.lock().unwrap_or_else(|p| p.into_inner()) = Some(e);
-                false
+    let poll = move |p: crate::threads::Progress| {
+        Python::attach(|py| {
+            let report = || match &progress {
+                Some(cb) if p.total > 0 => cb.call1(py, (p.done, p.total)).map(|_| ()),
+                _ => Ok(()),
+            };
+            match py.check_signals().and_then(|()| report()) {
+                Ok(()) => true,
+                Err(e) => {
+                    *slot.lock().unwrap_or_else(|p| p.into_inner()) = Some(e);
+                    false
+                }
             }
         })
     };
     let out = py.detach(|| crate::threads::with_poll(poll, || guarded(f)));
+    // The core's Interrupted stands for what the poll caught (Ctrl-C, or the callback's error).
+    let taken = raised.lock().unwrap_or_else(|p| p.into_inner()).take();
     match out {
-        Err(e) if e.is_instance_of::<PyKeyboardInterrupt>(py) => {
-            let taken = raised.lock().unwrap_or_else(|p| p.into_inner()).take();
-            Err(taken.unwrap_or(e))
-        }
+        Err(e) if e.is_instance_of::<PyKeyboardInterrupt>(py) => Err(taken.unwrap_or(e)),
         other => other,
     }
 }

@@ -1,7 +1,7 @@
 //! `NativeScene`: building a scene and casting through it (CPU and GPU).
 
 use super::arrays::{check_cols, rows, slice};
-use super::errors::{guarded, interruptible};
+use super::errors::{guarded, interruptible, interruptible_with_progress};
 use super::names::{AccelArg, LayoutArg, MethodArg};
 use crate::accel::reshetov_bvh::nearest::NearestPoint;
 use crate::accel::{BvhParams, OctreeParams, PortalezOctree, ReshetovBvh};
@@ -96,17 +96,15 @@ impl PyScene {
             None => None,
         };
         // In tetrace's pool: the build's parallel sorts must not use rayon's global pool,
-        // whose threads a forked child lacks.
-        let inner = py.detach(|| {
-            guarded(|| {
-                crate::threads::install(None, || {
-                    let mut scene = Scene::build_with(p, &t, &f, ft, tri, hilbert)?;
-                    if let Some((offsets, ids)) = alternatives {
-                        scene.set_alternatives(offsets, ids)?;
-                    }
-                    Ok(scene)
-                })?
-            })
+        // whose threads a forked child lacks. Ctrl-C stops it at the next stage.
+        let inner = interruptible(py, || {
+            crate::threads::install(None, || {
+                let mut scene = Scene::build_with(p, &t, &f, ft, tri, hilbert)?;
+                if let Some((offsets, ids)) = alternatives {
+                    scene.set_alternatives(offsets, ids)?;
+                }
+                Ok(scene)
+            })?
         })?;
         Ok(PyScene {
             state: RwLock::new(Loaded::new(inner)),
@@ -118,7 +116,7 @@ impl PyScene {
     /// "audit": (N, 2) uint32, per ray the exit faces taken that exact predicates reject and
     /// the steps where the method found no exit face. `method`, `layout`: None for the core's
     /// defaults.
-    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, audit=false, packet=true, accel=None, start=None))]
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, audit=false, packet=true, accel=None, start=None, progress=None))]
     #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
     fn cast<'py>(
         &self,
@@ -135,6 +133,7 @@ impl PyScene {
         packet: bool,
         accel: Option<AccelArg>,
         start: Option<StartArrays<'py>>,
+        progress: Option<Py<PyAny>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let loaded = self.loaded();
         let scene = &loaded.scene;
@@ -147,7 +146,7 @@ impl PyScene {
         );
         if let (Ok(o), Ok(d)) = f32s {
             let rays = RayArrays::new(o, d, tmin, tmax, start);
-            return cast_impl(py, scene, rays, &opts, audit, |r, out, opts| {
+            return cast_impl(py, scene, rays, &opts, audit, progress, |r, out, opts| {
                 scene.cast_with(method, layout, r, out, opts)
             });
         }
@@ -157,7 +156,7 @@ impl PyScene {
         ) {
             (Ok(o), Ok(d)) => {
                 let rays = RayArrays::new(o, d, tmin, tmax, start);
-                cast_impl(py, scene, rays, &opts, audit, |r, out, opts| {
+                cast_impl(py, scene, rays, &opts, audit, progress, |r, out, opts| {
                     scene.cast_with(method, layout, r, out, opts)
                 })
             }
@@ -169,7 +168,7 @@ impl PyScene {
 
     /// Any hit (occlusion) per ray: status HIT when a scene triangle lies on the ray within
     /// [tmin, tmax], else MISS (FAILED, INVALID as for casts). Arguments as for `cast`.
-    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packet=true, accel=None, start=None))]
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packet=true, accel=None, start=None, progress=None))]
     #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
     fn occluded<'py>(
         &self,
@@ -185,6 +184,7 @@ impl PyScene {
         packet: bool,
         accel: Option<AccelArg>,
         start: Option<StartArrays<'py>>,
+        progress: Option<Py<PyAny>>,
     ) -> PyResult<Bound<'py, numpy::PyArray1<u8>>> {
         let job = Occluded {
             method: method.map_or(Method::DEFAULT, |m| m.0),
@@ -197,7 +197,7 @@ impl PyScene {
             &self.loaded().scene,
             (origins, directions),
             bounds,
-            start,
+            (start, progress),
             &opts,
             job,
         )?;
@@ -207,7 +207,7 @@ impl PyScene {
     /// Every point where each ray meets the surface in [tmin, tmax] (the exact walk): a dict
     /// of flat arrays "offsets" (N + 1), "t", "triangle", "u", "v" sorted by t within each
     /// ray, and "status" (N). `method` must be None or "exact"; `layout` is ignored.
-    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packet=true, accel=None, start=None))]
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packet=true, accel=None, start=None, progress=None))]
     #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
     fn intersections<'py>(
         &self,
@@ -223,6 +223,7 @@ impl PyScene {
         packet: bool,
         accel: Option<AccelArg>,
         start: Option<StartArrays<'py>>,
+        progress: Option<Py<PyAny>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let _ = layout;
         let opts = cast_options(threads, max_steps, packet, accel);
@@ -231,7 +232,7 @@ impl PyScene {
             &self.loaded().scene,
             (origins, directions),
             (tmin, tmax),
-            start,
+            (start, progress),
             &opts,
             method,
         )?;
@@ -269,7 +270,7 @@ impl PyScene {
 
     /// The number of points where each ray meets the surface in [tmin, tmax] (as
     /// `intersections`): a dict of "count" (int32, N) and "status" (N).
-    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packet=true, accel=None, start=None))]
+    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packet=true, accel=None, start=None, progress=None))]
     #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
     fn count_intersections<'py>(
         &self,
@@ -285,6 +286,7 @@ impl PyScene {
         packet: bool,
         accel: Option<AccelArg>,
         start: Option<StartArrays<'py>>,
+        progress: Option<Py<PyAny>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let _ = layout;
         let opts = cast_options(threads, max_steps, packet, accel);
@@ -293,7 +295,7 @@ impl PyScene {
             &self.loaded().scene,
             (origins, directions),
             (tmin, tmax),
-            start,
+            (start, progress),
             &opts,
             method,
         )?;
@@ -339,7 +341,7 @@ impl PyScene {
             let (method, layout) = (method.map(|m| m.0.name()), layout.map(|l| l.0.name()));
             let mut timings = crate::gpu::GpuTimings::default();
             let rays = RayArrays::new(origins, directions, tmin, tmax, None);
-            let hits = cast_impl(py, scene, rays, &opts, false, |r, out, opts| {
+            let hits = cast_impl(py, scene, rays, &opts, false, None, |r, out, opts| {
                 timings = loaded.device.cast(scene, method, layout, r, out, opts)?;
                 Ok(())
             })?;
@@ -654,12 +656,13 @@ fn cast_impl<'py, R: Real + Element>(
     rays: RayArrays<'py, R>,
     opts: &CastOptions,
     audit: bool,
+    progress: Option<Py<PyAny>>,
     cast: impl FnOnce(&Rays<R>, HitsOut<R>, &CastOptions) -> crate::Result<()> + Send,
 ) -> PyResult<Bound<'py, PyDict>> {
     let (n, rays) = rays.slices(scene)?;
     opts.check()?;
     let mut buffers = HitBuffers::<R>::try_new(n, audit)?;
-    interruptible(py, || cast(&rays, buffers.out(), opts))?;
+    interruptible_with_progress(py, progress, || cast(&rays, buffers.out(), opts))?;
     let out = PyDict::new(py);
     out.set_item("t", buffers.t.into_pyarray(py))?;
     out.set_item("u", buffers.u.into_pyarray(py))?;
@@ -804,7 +807,7 @@ fn all_hits<'py>(
     scene: &Scene,
     (origins, directions): (&Bound<'py, PyAny>, &Bound<'py, PyAny>),
     (tmin, tmax): (PyReadonlyArray1<'py, f64>, PyReadonlyArray1<'py, f64>),
-    start: Option<StartArrays<'py>>,
+    (start, progress): (Option<StartArrays<'py>>, Option<Py<PyAny>>),
     opts: &CastOptions,
     method: Option<MethodArg>,
 ) -> PyResult<Vec<Listed>> {
@@ -821,7 +824,7 @@ fn all_hits<'py>(
         scene,
         (origins, directions),
         (tmin, tmax),
-        start,
+        (start, progress),
         opts,
         AllHitsJob,
     )
@@ -833,7 +836,7 @@ fn query_rays<'py, Q: RayQuery>(
     scene: &Scene,
     (origins, directions): (&Bound<'py, PyAny>, &Bound<'py, PyAny>),
     (tmin, tmax): (PyReadonlyArray1<'py, f64>, PyReadonlyArray1<'py, f64>),
-    start: Option<StartArrays<'py>>,
+    (start, progress): (Option<StartArrays<'py>>, Option<Py<PyAny>>),
     opts: &CastOptions,
     query: Q,
 ) -> PyResult<Q::Out> {
@@ -841,13 +844,14 @@ fn query_rays<'py, Q: RayQuery>(
         py: Python<'py>,
         scene: &Scene,
         rays: RayArrays<'py, R>,
+        progress: Option<Py<PyAny>>,
         opts: &CastOptions,
         query: Q,
     ) -> PyResult<Q::Out> {
         let (n, rays) = rays.slices(scene)?;
         opts.check()?;
         let mut out = query.output(n)?;
-        interruptible(py, || query.run(scene, &rays, &mut out, opts))?;
+        interruptible_with_progress(py, progress, || query.run(scene, &rays, &mut out, opts))?;
         Ok(out)
     }
     if let (Ok(o), Ok(d)) = (
@@ -858,6 +862,7 @@ fn query_rays<'py, Q: RayQuery>(
             py,
             scene,
             RayArrays::new(o, d, tmin, tmax, start),
+            progress,
             opts,
             query,
         );
@@ -870,6 +875,7 @@ fn query_rays<'py, Q: RayQuery>(
             py,
             scene,
             RayArrays::new(o, d, tmin, tmax, start),
+            progress,
             opts,
             query,
         ),

@@ -19,7 +19,7 @@ use crate::query::contains::{self, Containment, Parity};
 use crate::query::ClosestHit;
 #[cfg(feature = "gpu")]
 use crate::query::RayHit;
-use crate::threads::run_pieces;
+use crate::threads::{checkpoint, run_pieces};
 #[cfg(feature = "gpu")]
 use crate::traverse::Walk;
 use std::sync::{Arc, OnceLock, RwLock};
@@ -144,6 +144,7 @@ impl Scene {
             // Build once unordered to find the regions, then again in Hilbert order within
             // regions: construction is cheap next to meshing (bunny: ~0.1 s).
             let unordered = TetMesh::build(points, tets, faces, face_triangle)?;
+            checkpoint()?;
             let regions = unordered.regions();
             let (p, t, f, _, point_order) = crate::mesh::hilbert::reorder(
                 &unordered.points,
@@ -153,6 +154,7 @@ impl Scene {
                 Some(&regions),
             );
             input_index = point_order;
+            checkpoint()?;
             TetMesh::build(p, &t, &f, face_triangle)?
         } else {
             // Out-of-range or non-finite input: let build() name the problem.
@@ -165,11 +167,14 @@ impl Scene {
                     .into(),
             ));
         }
+        checkpoint()?;
         let locator = GridLocator::build(&mesh);
         let entry = BoundaryLocator::build(&mesh);
+        checkpoint()?;
         let points_f32 = mesh.points.iter().map(|p| p.map(|x| x as f32)).collect();
         let mut incidence = Incidence::build(&mesh);
         incidence.split = split(&mesh, &incidence, &triangles);
+        checkpoint()?;
         let scene = Scene {
             mesh,
             locator,
