@@ -15,7 +15,8 @@ use crate::query::RayHit;
 use crate::scene::CastOptions;
 use crate::scene::{check_lengths, HitsOut, Rays, Scene, CHUNK};
 use crate::traverse::{Walk, WalkEnd};
-use rayon::prelude::*;
+use crate::threads::run_pieces;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 /// Where the time of a GPU cast went, in seconds (each phase waits for the device before the
@@ -85,27 +86,16 @@ impl DeviceScene {
             scene_upload,
             ..Default::default()
         };
-        // tetrace's pool (fork-safe, kept per thread count), not rayon's global one.
-        let pool = Some(crate::threads::pool(opts.threads)?);
-
-        // 1. Locate and prepare, chunk by chunk as the CPU cast does (same hints and seeds).
+        // 1. Locate and prepare, chunk by chunk as the CPU cast does (same hints and seeds),
+        // on tetrace's pools as pieces: Ctrl-C skips the chunks not started.
         let max_steps = opts.max_steps_for(scene.mesh.len());
         let t0 = Instant::now();
         let mut chunks = crate::query::chunks(out, CHUNK);
-        let located: Vec<Located> = {
-            let mut run = || {
-                chunks
-                    .par_iter_mut()
-                    .enumerate()
-                    .map(|(k, chunk)| locate_chunk(scene, kernel, rays, k, chunk))
-                    .collect()
-            };
-            match &pool {
-                None => run(),
-                Some(p) => p.install(run),
-            }
-        };
-        crate::threads::checkpoint()?;
+        let mut located: Vec<Located> = (0..chunks.len()).map(|_| Default::default()).collect();
+        let pieces: Vec<_> = chunks.iter_mut().zip(&mut located).enumerate().collect();
+        run_pieces(pieces, opts.threads, |(k, (chunk, slot))| {
+            *slot = locate_chunk(scene, kernel, rays, k, chunk)
+        })?;
         let walked: usize = located.iter().map(|(s, _)| s.len()).sum();
         timings.walked = walked;
         timings.locate = t0.elapsed().as_secs_f64();
@@ -135,35 +125,26 @@ impl DeviceScene {
             acc += s.len();
         }
         let cpu_walk = kernel.deferred_to.map(|f| f(scene)).transpose()?;
-        let mut finish = || -> usize {
-            chunks
-                .par_iter_mut()
-                .enumerate()
-                .map(|(k, chunk)| {
-                    let (starts, _) = &located[k];
-                    let res = &results[offsets[k]..offsets[k] + starts.len()];
-                    let mut deferred = 0;
-                    for ((j, s), o) in starts.iter().zip(res) {
-                        let w = if o.end == END_DEFERRED {
-                            deferred += 1;
-                            let cpu_walk = cpu_walk
-                                .as_ref()
-                                .expect("only kernels with a CPU walk defer rays");
-                            cpu_walk(s, max_steps)
-                        } else {
-                            gpu_walk(kernel, o)
-                        };
-                        let r = scene.finish(s, &w);
-                        chunk.set(*j as usize, &r, &rays.ray(k * CHUNK + *j as usize));
-                    }
-                    deferred
-                })
-                .sum()
-        };
-        timings.deferred = match &pool {
-            None => finish(),
-            Some(p) => p.install(finish),
-        };
+        let deferred = AtomicUsize::new(0);
+        let pieces: Vec<_> = chunks.into_iter().enumerate().collect();
+        run_pieces(pieces, opts.threads, |(k, mut chunk)| {
+            let (starts, _) = &located[k];
+            let res = &results[offsets[k]..offsets[k] + starts.len()];
+            for ((j, s), o) in starts.iter().zip(res) {
+                let w = if o.end == END_DEFERRED {
+                    deferred.fetch_add(1, Ordering::Relaxed);
+                    let cpu_walk = cpu_walk
+                        .as_ref()
+                        .expect("only kernels with a CPU walk defer rays");
+                    cpu_walk(s, max_steps)
+                } else {
+                    gpu_walk(kernel, o)
+                };
+                let r = scene.finish(s, &w);
+                chunk.set(*j as usize, &r, &rays.ray(k * CHUNK + *j as usize));
+            }
+        })?;
+        timings.deferred = deferred.into_inner();
         timings.finish = t3.elapsed().as_secs_f64();
         Ok(timings)
     }
