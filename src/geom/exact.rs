@@ -5,6 +5,7 @@
 //! (near-degenerate cases).
 
 use super::dyadic::{cmp_fractions, Dyadic};
+use super::predicates::expansion_safe;
 use super::real::{exponent, times_pow2, V3};
 use std::cmp::Ordering;
 
@@ -204,13 +205,6 @@ pub fn cmp_plane_t(o: V3<f64>, d: V3<f64>, tri1: &[V3<f64>; 3], tri2: &[V3<f64>;
     };
     let ((n1, d1), (n2, d2)) = (exact_t(tri1), exact_t(tri2));
     cmp_fractions(&n1, &d1, &n2, &d2)
-}
-
-/// Whether Shewchuk's adaptive orientation (`predicates::orient`) is exact on a coordinate:
-/// zero, or far enough from float64's ends that no product of its expansions underflows or
-/// overflows (tiny or huge scenes take the rationals instead).
-fn expansion_safe(v: f64) -> bool {
-    v == 0.0 || (v.abs() >= f64::powi(2.0, -200) && v.abs() <= f64::powi(2.0, 200))
 }
 
 /// Whether the line o + t d crosses the plane of `tri` (which it meets at one point)

@@ -14,8 +14,8 @@ use crate::locate::{LocateState, Start, WalkStart};
 use crate::query::RayHit;
 use crate::scene::CastOptions;
 use crate::scene::{check_lengths, HitsOut, Rays, Scene, CHUNK};
-use crate::traverse::{Walk, WalkEnd};
 use crate::threads::run_pieces;
+use crate::traverse::{Walk, WalkEnd};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 

@@ -314,6 +314,13 @@ impl Locators<'_> {
         if (0..3).all(|a| o[a] >= lo[a] && o[a] <= hi[a]) {
             return Ok((start, ExactOrigin::Inside));
         }
+        // From outside, the ray must move towards each side its origin lies beyond (exact sign
+        // tests). The float slabs below cannot tell: an origin 1e-310 beyond a side, moving
+        // away at 1e300, crosses that side's plane at t = -1e-610, which rounds to -0.
+        let away = |a: usize| (o[a] < lo[a] && d[a] <= 0.0) || (o[a] > hi[a] && d[a] >= 0.0);
+        if (0..3).any(away) {
+            return Err(MISS);
+        }
         let Some(span) = clip_box(o, d, lo, hi, 0.0, tmax) else {
             return Err(MISS);
         };
