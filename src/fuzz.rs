@@ -446,7 +446,7 @@ thread_local! {
 }
 
 /// The walk's scenes: 48 valid ones, a function of `id` alone (cached per thread).
-fn walk_scene(id: u64) -> (Arc<Scene>, usize) {
+pub(crate) fn walk_scene(id: u64) -> (Arc<Scene>, usize) {
     SCENES.with(|s| {
         s.borrow_mut()
             .entry(id)
