@@ -21,6 +21,7 @@
 use crate::accel::AccelKind;
 use crate::error::Error;
 use crate::layout::LayoutKind;
+use crate::query::contact::Meet;
 use crate::query::Listed;
 use crate::scene::buffers::LeavingRays;
 use crate::scene::{CastOptions, HitBuffers, Rays, Scene};
@@ -446,7 +447,7 @@ thread_local! {
 }
 
 /// The walk's scenes: 48 valid ones, a function of `id` alone (cached per thread).
-fn walk_scene(id: u64) -> (Arc<Scene>, usize) {
+pub(crate) fn walk_scene(id: u64) -> (Arc<Scene>, usize) {
     SCENES.with(|s| {
         s.borrow_mut()
             .entry(id)
@@ -614,6 +615,23 @@ fn walk_once(
     }
 }
 
+/// Whether scaling `d` by a power of two to a largest component in [1, 2) (what the walk and
+/// the exact predicates are prepared with, `real::unit_scale`) is exact. Not where the
+/// components span more than float64's exponent range: the small ones become subnormal and
+/// lose bits, and the walk follows another line (open finding, docs/fuzzing.md).
+fn scales_exactly(d: [f64; 3]) -> bool {
+    use crate::geom::real::{exponent, times_pow2, unit_scale};
+    let m = d.iter().fold(0f64, |m, x| m.max(x.abs()));
+    if m == 0.0 || !m.is_finite() {
+        return true;
+    }
+    let e = exponent(m);
+    unit_scale(d)
+        .iter()
+        .zip(d)
+        .all(|(&s, x)| times_pow2(s, e) == x)
+}
+
 /// One batch of rays and how to cast it.
 struct Batch<'a> {
     scene: &'a Scene,
@@ -731,11 +749,36 @@ impl Batch<'_> {
                     if ![MISS, HIT, FAILED, INVALID].contains(&l.status) {
                         return Err(format!("ray {i}: all-hits status {}", l.status));
                     }
-                    if l.meets
-                        .windows(2)
-                        .any(|w| w[0].t > w[1].t || w[0].t.is_nan())
-                    {
-                        return Err(format!("ray {i}: all hits not sorted by t"));
+                    if l.meets.iter().any(|m| m.t.is_nan()) {
+                        return Err(format!("ray {i}: an all-hits t is NaN"));
+                    }
+                    // Sorted by exact t, each point once: where two neighbours' float t are not
+                    // in increasing order (points closer than t's error), the referee must put
+                    // them in the listed order (the exact crossings of their triangles). Not
+                    // judged: a triangle the referee says the line does not meet (membership
+                    // is not this target's check), and a direction the walk cannot scale
+                    // exactly (open finding, docs/fuzzing.md: it walks another line).
+                    let r = rays.ray(i);
+                    let judged = self.agree && scales_exactly(r.d);
+                    let tris = &self.scene.surface.triangles;
+                    let crossing = |m: &Meet| {
+                        tris.get(m.triangle as usize)
+                            .and_then(|tri| crate::referee::crossing(r.o, r.d, tri))
+                    };
+                    if judged {
+                        for w in l.meets.windows(2).filter(|w| w[0].t >= w[1].t) {
+                            let order = crossing(&w[0])
+                                .zip(crossing(&w[1]))
+                                .map(|(a, b)| a.cmp_t_of(&b));
+                            if order.is_none_or(|o| o.is_lt()) {
+                                continue;
+                            }
+                            return Err(format!(
+                                "ray {i}: all hits not in order of exact t: t {} (triangle {}) \
+                                 then {} (triangle {}), referee {order:?}; o {:?} d {:?}",
+                                w[0].t, w[0].triangle, w[1].t, w[1].triangle, r.o, r.d
+                            ));
+                        }
                     }
                     let (lo, hi) = (at(self.tmin, i), at(self.tmax, i));
                     if let Some(m) = l.meets.iter().find(|m| !(lo <= m.t && m.t <= hi)) {
@@ -745,26 +788,34 @@ impl Batch<'_> {
                         return Err(format!("ray {i}: all hits name a triangle out of range"));
                     }
                     // Scenes whose triangles are not their faces' (construct's mutations) give
-                    // answers that need not agree; they must only not panic.
+                    // answers that need not agree; they must only not panic. Elsewhere the
+                    // first point listed is the closest hit: its triangle, and its t evaluated
+                    // by the same function (bit for bit, in the rays' precision); for a
+                    // direction not scaled exactly (above), t within the meet's error bound.
                     if c == HIT && l.status != FAILED && self.agree {
-                        let first = l.meets.first().map(|m| R::from_f64(m.t).to_f64());
-                        // t is evaluated to a few ulps (README), so points whose exact t are
-                        // that close may sort either way: 4 ulps of the rays' precision.
+                        let first = l.meets.first();
                         let c = hits.t[i].to_f64();
                         let ulp = if R::NAME == "f32" {
                             crate::referee::ulp_f32(c)
                         } else {
                             crate::referee::ulp_f64(c)
                         };
-                        if !first.is_some_and(|f| (f - c).abs() <= 4.0 * ulp) {
-                            let r = rays.ray(i);
+                        let same = first.is_some_and(|m| {
+                            let t = R::from_f64(m.t).to_f64();
+                            if judged {
+                                m.triangle as i32 == hits.triangle[i] && t.to_bits() == c.to_bits()
+                            } else {
+                                (t - c).abs() <= 2.0 * m.err + 4.0 * ulp
+                            }
+                        });
+                        if !same {
                             return Err(format!(
                                 "ray {i}: closest t {} (triangle {}) but first of all hits \
-                                 {first:?} ({:?}); o {:?} d {:?} t in [{}, {}], leaving {:?}, \
+                                 {:?}; o {:?} d {:?} t in [{}, {}], leaving {:?}, \
                                  {:?} {:?} {:?}; alone with default options: {:?}",
                                 hits.t[i].to_f64(),
                                 hits.triangle[i],
-                                l.meets.first().map(|m| (m.triangle, m.key)),
+                                first.map(|m| (m.t, m.triangle, m.key)),
                                 r.o,
                                 r.d,
                                 r.tmin,
@@ -943,52 +994,30 @@ pub fn run(
 mod tests {
     use super::*;
 
-    /// Open findings (docs/fuzzing.md), left out of the bounded runs until fixed and checked
-    /// by the ignored test below. Seed 7686576272770016265: a ray aimed (up to rounding) at a
-    /// mesh vertex; the referee's first hit is t = 1 exactly on an edge of triangles 3, 4, 5
-    /// (the closest hit: triangle 3, t = 1 + 2^-52, right), but all hits list triangle 2 first,
-    /// at t = 1 - 8 ulps, while triangle 2's exact crossing rounds to 1.0: the all-hits t of
-    /// that point is off by more than the referee's bound and sorts it first.
-    const KNOWN: [u64; 1] = [7686576272770016265];
-
     fn bounded(target: Target, cases: u64) {
         let r = run(target, 18, 0, cases, |_, _| {});
         assert_eq!(r.cases, cases);
-        let failures: Vec<_> = r
-            .failures
-            .iter()
-            .filter(|f| !KNOWN.contains(&f.seed))
-            .collect();
         assert!(
-            failures.is_empty(),
+            r.failures.is_empty(),
             "{} fuzz: {} panics, {} violations; first: {:?}",
             target.name(),
             r.panics,
             r.violations,
-            failures
+            r.failures
         );
     }
 
-    /// The open finding of [`KNOWN`]: fails until closest and all hits agree on it.
+    /// The walk case of docs/fuzzing.md's finding (seed 7686576272770016265, ray 957 of a
+    /// 4097-ray batch): a ray aimed, up to rounding, at a mesh vertex meets an edge of
+    /// triangles 3, 4, 5 at t = 1 exactly, then triangles 6 and 2 within an ulp after it (their
+    /// float t, 1 − 2^-51 and 1 − 2^-49, below the edge's 1 + 2^-52). All hits sorted those by
+    /// float t and listed triangle 2 first; by exact t the closest hit (triangle 3) is first.
+    /// The case's other rays: 3873 (an origin 5e-324 off the box, `predicates::orient`) and
+    /// 444 (a direction not scaled exactly: open, judged only by floats here).
     #[test]
-    #[ignore = "open: closest hit vs all hits near a vertex (docs/fuzzing.md)"]
-    fn known_closest_vs_all_hits() {
-        // The ray of the finding, judged by the exact referee.
-        let (scene, _) = walk_scene(KNOWN[0] % 48);
-        let o = [-0.43561294676897977, 1e-300, -0.24631735765479013];
-        let d = [0.7689462602340982, 0.3333333134651184, 0.5796506711199085];
-        let tris = &scene.surface.triangles;
-        eprintln!(
-            "referee: {:?}",
-            crate::referee::first_hit(o, d, 0.0, f64::INFINITY, tris)
-        );
-        for k in [2, 3] {
-            let c = crate::referee::crossing(o, d, &tris[k]);
-            eprintln!("triangle {k}: {:?}", c.map(|c| (c.t(), c.zero_signs)));
-        }
-        for s in KNOWN {
-            assert_eq!(walk_case(s), Ok(()));
-        }
+    fn all_hits_first_is_the_closest_hit_at_a_vertex() {
+        let seed = 7686576272770016265;
+        assert_eq!(walk_case(seed), Ok(()));
     }
 
     /// CI's bounded fuzz run of construction (`examples/fuzz.rs` runs long ones).
@@ -1023,7 +1052,9 @@ mod tests {
     #[test]
     fn denormal_origins_match_the_referee() {
         use crate::scene::{CastOptions, HitBuffers, Rays};
-        let cases: &[(u64, [f64; 3], [f64; 3], f64, f64)] = &[
+        // (seed, origin, direction, tmin, tmax)
+        type Finding = (u64, [f64; 3], [f64; 3], f64, f64);
+        let cases: &[Finding] = &[
             (
                 15170707697638007875,
                 [5e-324, 0.20418553539762063, 0.0],

@@ -883,7 +883,7 @@ class Scene:
         accel=None,
         progress=None,
     ):
-        """Return every hit of every ray, sorted by ray, then by ``t``.
+        """Return every hit of every ray, sorted by ray, then by exact ``t``.
 
         A ray hits a triangle when it meets the closed triangle (edges and vertices
         included) at one point at ``t`` in ``[tmin, tmax]``; a ray in a triangle's plane

@@ -205,8 +205,8 @@ impl PyScene {
     }
 
     /// Every point where each ray meets the surface in [tmin, tmax] (the exact walk): a dict
-    /// of flat arrays "offsets" (N + 1), "t", "triangle", "u", "v" sorted by t within each
-    /// ray, and "status" (N). `method` must be None or "exact"; `layout` is ignored.
+    /// of flat arrays "offsets" (N + 1), "t", "triangle", "u", "v" sorted by exact t within
+    /// each ray, and "status" (N). `method` must be None or "exact"; `layout` is ignored.
     #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packet=true, accel=None, start=None, progress=None))]
     #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
     fn intersections<'py>(

@@ -1,6 +1,6 @@
 //! All hits and counts: every point where the ray meets the surface within [tmin, tmax], in
-//! order of t, each point once (a ray through a shared edge or vertex meets the surface once
-//! there, however many triangles share it). The exact walk's policy: it walks on through
+//! order of exact t, each point once (a ray through a shared edge or vertex meets the surface
+//! once there, however many triangles share it). The exact walk's policy: it walks on through
 //! constrained faces and collects what `contact` reports, skipping points it already has.
 
 use super::contact::{ExactRay, Meet, Range};
@@ -11,7 +11,8 @@ use crate::locate::WalkStart;
 use crate::status::{FAILED, HIT, INVALID, MISS};
 use crate::traverse::{Contact, Touch, Walk, WalkEnd};
 
-/// One ray's points, sorted by t (ties: by triangle), and its status (HIT when there is one).
+/// One ray's points, sorted by exact t (each point once), and its status (HIT when there is
+/// one).
 #[derive(Clone, Debug, Default)]
 pub struct Listed {
     pub status: u8,
@@ -28,18 +29,19 @@ pub struct AllPolicy<'a> {
 }
 
 impl AllPolicy<'_> {
+    /// Adds a point unless it is listed: the same feature (`key`), or the same exact t (the
+    /// same point of the ray, however it was reported: the origin as such or as the vertex
+    /// or edge it is on, a point found around an in-plane face, ...). Of the triangles met at
+    /// one point, the smallest id names it (as the closest hit's `earlier`).
     fn add(&mut self, meet: Meet) {
-        // The origin (t = 0) is one point, reported as such or as the vertex or edge it is on.
-        // Points found around an in-plane face (`ExactRay::around`) are keyed by triangle:
-        // the same t is the same point there.
-        let around = |k: [u32; 3]| k[0] == u32::MAX - 2;
-        let same = |m: &Meet| {
-            m.key == meet.key
-                || (m.t == 0.0 && meet.t == 0.0)
-                || ((around(m.key) || around(meet.key)) && m.t == meet.t)
+        let Some(ray) = &self.exact else {
+            return;
         };
-        if !self.meets.iter().any(same) {
-            self.meets.push(meet);
+        let same = |m: &Meet| m.key == meet.key || ray.cmp_meets(m, &meet).is_eq();
+        match self.meets.iter_mut().find(|m| same(m)) {
+            Some(m) if meet.triangle < m.triangle => *m = meet,
+            Some(_) => {}
+            None => self.meets.push(meet),
         }
     }
 }
@@ -142,8 +144,12 @@ impl<'a> QueryKind for AllHits<'a> {
 
     fn answer(&self, _: &WalkStart, w: &Walk, p: AllPolicy<'a>, _: [u32; 2]) -> Listed {
         let mut meets = p.meets;
-        // In-plane touches arrive out of order: sort (t, then triangle: deterministic).
-        meets.sort_by(|a, b| a.t.total_cmp(&b.t).then(a.triangle.cmp(&b.triangle)));
+        // In-plane touches arrive out of order, and points whose exact t are closer than t's
+        // rounding error may arrive in either order: sort by exact t (`cmp_meets`; no two are
+        // the same point, `add`). Their float t may then be out of order by that error.
+        if let Some(ray) = &p.exact {
+            meets.sort_by(|a, b| ray.cmp_meets(a, b).then(a.triangle.cmp(&b.triangle)));
+        }
         let status = if w.end == WalkEnd::StepLimit {
             FAILED
         } else if meets.is_empty() {

@@ -1,7 +1,7 @@
 //! Closest hit: stop at the first constrained face and evaluate the hit in float64 on the
 //! caller's triangle it lies on.
 
-use super::contact::{earlier, ExactRay, Meet, Range};
+use super::contact::{ExactRay, Meet, Range};
 use super::gather::{Line, Nearest};
 use super::{Crossing, Decision, Query, QueryKind};
 use crate::geom::triangle::{intersect_triangle, on_triangle};
@@ -72,7 +72,7 @@ impl Query for ClosestPolicy<'_> {
             let mut best = self.best;
             ray.around(ids, |m, range| {
                 if range == Range::In {
-                    best = Some(earlier(best, m));
+                    best = Some(ray.earlier(best, m));
                 }
             });
             self.best = best;
@@ -81,7 +81,7 @@ impl Query for ClosestPolicy<'_> {
         match range {
             Range::Before => Decision::Continue,
             Range::In => {
-                self.best = Some(earlier(self.best, meet));
+                self.best = Some(ray.earlier(self.best, meet));
                 Decision::Stop
             }
             Range::After => Decision::Stop,
@@ -95,7 +95,7 @@ impl Query for ClosestPolicy<'_> {
         let (mut best, mut found, mut past) = (self.best, false, false);
         let ordered = ray.touch(at, |meet, range| match range {
             Range::In => {
-                best = Some(earlier(best, meet));
+                best = Some(ray.earlier(best, meet));
                 found = true;
             }
             Range::After => past = true,
@@ -104,7 +104,7 @@ impl Query for ClosestPolicy<'_> {
         if at.contact != Contact::Origin {
             ray.around(ray.ids(at.tet, at.face, at.slots), |m, range| {
                 if range == Range::In {
-                    best = Some(earlier(best, m));
+                    best = Some(ray.earlier(best, m));
                 }
             });
         }

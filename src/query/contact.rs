@@ -2,7 +2,9 @@
 //! it crosses or at a vertex or edge it touches, with t, the caller's triangle and its range
 //! against [tmin, tmax], each decided exactly (`geom::exact`).
 
-use crate::geom::exact::{beyond, cmp_t, in_plane, orient_sign, plane_t, side, triangle_hit};
+use crate::geom::exact::{
+    beyond, cmp_plane_t, cmp_t, in_plane, orient_sign, plane_t, side, triangle_hit,
+};
 use crate::locate::WalkStart;
 use crate::mesh::{Incidence, Surface, TetMesh};
 use crate::traverse::{Contact, Touch};
@@ -11,7 +13,11 @@ use std::cmp::Ordering;
 /// One point where a ray meets the surface.
 #[derive(Clone, Copy, Debug)]
 pub struct Meet {
+    /// t evaluated in float64 on `triangle` ([`meet_at`]), as the closest hit's.
     pub t: f64,
+    /// A bound on |t − the exact t| (`plane_t`'s certified error): meets farther apart than
+    /// their bounds are ordered by t, nearer ones exactly ([`cmp_meets`]).
+    pub err: f64,
     pub u: f64,
     pub v: f64,
     /// The caller's triangle (of those met at this point, the smallest id).
@@ -333,8 +339,10 @@ pub fn meet_at(
         t = 0.0;
     }
     let t = t.max(tmin).min(tmax);
+    // Clamping moves t towards the exact t (which is in [tmin, tmax]): t_err still bounds it.
     Meet {
         t: if t == 0.0 { 0.0 } else { t },
+        err: t_err,
         u,
         v,
         triangle,
@@ -342,11 +350,53 @@ pub fn meet_at(
     }
 }
 
-/// The earlier of two meets (ties: the smaller triangle id).
-#[inline]
-pub fn earlier(a: Option<Meet>, b: Meet) -> Meet {
-    match a {
-        Some(a) if (a.t, a.triangle) <= (b.t, b.triangle) => a,
-        _ => b,
+/// The order of two meets of the ray (o, d) by their exact t, `triangles` the caller's
+/// triangles they name: Equal when they are the same point of the ray. Decided by the floats
+/// where they are farther apart than their error bounds, else exactly ([`cmp_plane_t`]): the
+/// answer is what exact arithmetic gives, whatever the rounding of t.
+pub fn cmp_meets(
+    o: [f64; 3],
+    d: [f64; 3],
+    triangles: &[[[f64; 3]; 3]],
+    a: &Meet,
+    b: &Meet,
+) -> Ordering {
+    if a.triangle == b.triangle {
+        // One plane, one crossing.
+        return Ordering::Equal;
+    }
+    if [a.t, a.err, b.t, b.err].iter().all(|x| x.is_finite()) {
+        if a.t + a.err < b.t - b.err {
+            return Ordering::Less;
+        }
+        if a.t - a.err > b.t + b.err {
+            return Ordering::Greater;
+        }
+    }
+    let tri = |m: &Meet| &triangles[m.triangle as usize];
+    cmp_plane_t(o, d, tri(a), tri(b))
+}
+
+impl ExactRay<'_> {
+    /// [`cmp_meets`] for this ray.
+    #[inline]
+    pub fn cmp_meets(&self, a: &Meet, b: &Meet) -> Ordering {
+        cmp_meets(self.o, self.d, &self.surface.triangles, a, b)
+    }
+
+    /// The earlier of two meets by exact t (the same point: the smaller triangle id).
+    #[inline]
+    pub fn earlier(&self, a: Option<Meet>, b: Meet) -> Meet {
+        match a {
+            Some(a)
+                if self
+                    .cmp_meets(&a, &b)
+                    .then(a.triangle.cmp(&b.triangle))
+                    .is_le() =>
+            {
+                a
+            }
+            _ => b,
+        }
     }
 }

@@ -135,14 +135,22 @@ pub(super) fn exact(o: P3, d: P3, tri: &Tri) -> Exact {
     }
 }
 
-/// `|d · ((b − a) × (c − a))|`, exactly, rounded to the nearest float64 (twice at worst, when
-/// it is subnormal: this feeds an error bound).
+/// `|d · ((b − a) × (c − a))|`, exactly, rounded to the nearest float64 (this feeds an error
+/// bound).
 pub(super) fn exact_den_abs(o: P3, d: P3, tri: &Tri) -> f64 {
     let x = Scaled::new(&[o, d, tri[0], tri[1], tri[2]]);
     let [d, a, b, c] = [1, 2, 3, 4].map(|i| &x.v[i]);
     let den = bdot(d, &bcross(&bsub(b, a), &bsub(c, a)));
-    // den is of degree 3 in the scaled inputs: the true value is den · 2^(3 low).
-    ldexp(round_quotient(&den, &BigInt::from(1)), 3 * x.low).abs()
+    // den is of degree 3 in the scaled inputs: the true value is den · 2^(3 low), rounded once.
+    // Not den rounded, then scaled: where one input is tiny (an origin component of 1e-300)
+    // the scaled integers are huge and den alone overflows float64 (a bound of 2ε|t| then).
+    let e = 3 * x.low;
+    let one = BigInt::from(1);
+    if e >= 0 {
+        round_quotient(&(den << e as usize), &one).abs()
+    } else {
+        round_quotient(&den, &(one << (-e) as usize)).abs()
+    }
 }
 
 /// `x · 2^e` (exact whenever the result is representable).

@@ -387,6 +387,31 @@ fn t_bound_covers_float_evaluation() {
     assert!(checked > 15_000, "{checked}");
 }
 
+/// `B` does not collapse to 2ε|t| when one input is tiny: with an origin component of 1e-300
+/// the pair's inputs scale to integers near 2^1050, whose den alone overflows float64 (the walk
+/// fuzz's seed 7686576272770016265: a bound of 2.2e-16 where t's evaluation may be 6e-14 off).
+/// It is the bound of the same ray from an origin moved by 1e-300 (to 0, an exactly equal den).
+#[test]
+fn t_bound_with_a_tiny_origin_component() {
+    let tri: Tri = [
+        [0.3333333134651184; 3],
+        [0.6666666865348816, 0.3333333134651184, 0.3333333134651184],
+        [0.6666666865348816, 0.6666666865348816, 0.6666666865348816],
+    ];
+    let o = [-0.43561294676897977, 1e-300, -0.24631735765479013];
+    let d = [0.7689462602340982, 0.3333333134651184, 0.5796506711199085];
+    let t = crossing(o, d, &tri)
+        .expect("the ray crosses the triangle")
+        .t();
+    let den = exact::exact_den_abs(o, d, &tri);
+    let plain = exact::exact_den_abs([o[0], 0.0, o[2]], d, &tri);
+    assert!(den.is_finite() && den > 0.01, "den {den:e}");
+    assert_eq!(den, plain);
+    let b = t_bound(o, d, &tri, t);
+    assert_eq!(b, t_bound([o[0], 0.0, o[2]], d, &tri, t));
+    assert!(b > 1e-14 && b < 1e-12, "B {b:e}");
+}
+
 /// Random scenes, random and near-degenerate rays (through vertices and edge points, nudged
 /// by ulps, far from the origin), random bounds: the referee against plain rationals.
 #[test]
