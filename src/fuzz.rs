@@ -615,23 +615,6 @@ fn walk_once(
     }
 }
 
-/// Whether scaling `d` by a power of two to a largest component in [1, 2) (what the walk and
-/// the exact predicates are prepared with, `real::unit_scale`) is exact. Not where the
-/// components span more than float64's exponent range: the small ones become subnormal and
-/// lose bits, and the walk follows another line (open finding, docs/fuzzing.md).
-fn scales_exactly(d: [f64; 3]) -> bool {
-    use crate::geom::real::{exponent, times_pow2, unit_scale};
-    let m = d.iter().fold(0f64, |m, x| m.max(x.abs()));
-    if m == 0.0 || !m.is_finite() {
-        return true;
-    }
-    let e = exponent(m);
-    unit_scale(d)
-        .iter()
-        .zip(d)
-        .all(|(&s, x)| times_pow2(s, e) == x)
-}
-
 /// One batch of rays and how to cast it.
 struct Batch<'a> {
     scene: &'a Scene,
@@ -756,10 +739,9 @@ impl Batch<'_> {
                     // in increasing order (points closer than t's error), the referee must put
                     // them in the listed order (the exact crossings of their triangles). Not
                     // judged: a triangle the referee says the line does not meet (membership
-                    // is not this target's check), and a direction the walk cannot scale
-                    // exactly (open finding, docs/fuzzing.md: it walks another line).
+                    // is not this target's check).
                     let r = rays.ray(i);
-                    let judged = self.agree && scales_exactly(r.d);
+                    let judged = self.agree;
                     let tris = &self.scene.surface.triangles;
                     let crossing = |m: &Meet| {
                         tris.get(m.triangle as usize)

@@ -75,6 +75,12 @@ ERRORS = [
         ValueError,
         "overflows",
     ),
+    (
+        "direction-spans-exponent-range",
+        lambda s, o, d: s.cast(o, np.tile([0.1, -0.2, -1.7976931348623157e308], (len(o), 1))),
+        ValueError,
+        "exponent range",
+    ),
     ("nan-occluded", lambda s, o, d: s.occluded(_one_bad(o, np.nan), d), ValueError, "origins"),
     (
         "nan-intersections",

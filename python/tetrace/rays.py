@@ -104,6 +104,17 @@ def prepare_rays(origins, directions=None, *, invalid="raise"):
     return batch.origins, batch.directions
 
 
+def _spans_exponent_range(d):
+    """Whether scaling d by a power of two to a largest component in [1, 2), as the core
+    does, would round it (its components span more than float64's exponent range)."""
+    d = np.asarray(d, np.float64)
+    m = np.abs(d).max()
+    if m == 0 or not np.isfinite(m):
+        return False
+    e = int(np.frexp(m)[1]) - 1
+    return not np.array_equal(np.ldexp(np.ldexp(d, -e), e), d)
+
+
 def raise_invalid(status, origins, directions, shape=None):
     """Raise ``ValueError`` naming the rays the core marked ``INVALID``, if any.
 
@@ -123,6 +134,11 @@ def raise_invalid(status, origins, directions, shape=None):
             why = "directions: a NaN/inf component"
         elif not d.any():
             why = "directions: zero length"
+        elif _spans_exponent_range(d):
+            why = (
+                "directions: components span more than float64's exponent range (such as "
+                "1e308 beside 0.1), so no power-of-two scaling keeps them exact"
+            )
         else:
             why = (
                 f"directions: so short that the hit's t overflows {d.dtype} (scale the "
@@ -131,7 +147,8 @@ def raise_invalid(status, origins, directions, shape=None):
         raise ValueError(
             f"{int(bad.sum())} of {len(status)} rays are invalid (first: ray {where}, {why}; "
             f"origin {o.tolist()}, direction {d.tolist()}); rays with a NaN/inf component, a "
-            f"zero-length direction or a hit whose t overflows the rays' precision raise; pass "
+            f"zero-length direction, a direction spanning more than float64's exponent range "
+            f"or a hit whose t overflows the rays' precision raise; pass "
             f'invalid="mark" to get status INVALID for them instead'
         )
 

@@ -50,7 +50,11 @@ pub fn checked_range(ray: &Ray) -> Result<(f64, f64), u8> {
         o, d, tmin, tmax, ..
     } = *ray;
     let finite = o.iter().chain(&d).all(|x| x.is_finite());
-    if !finite || d == [0.0; 3] || tmin.is_nan() || tmax.is_nan() {
+    // A direction whose components span more than float64's exponent range cannot be scaled
+    // by a power of two exactly (every exact predicate takes it so): refused, not answered
+    // for a nearby line.
+    let scalable = crate::geom::real::unit_scale_is_exact(d);
+    if !finite || d == [0.0; 3] || !scalable || tmin.is_nan() || tmax.is_nan() {
         return Err(crate::status::INVALID);
     }
     let tmin = tmin.max(0.0);

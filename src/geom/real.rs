@@ -123,6 +123,22 @@ pub fn unit_scale(d: V3<f64>) -> V3<f64> {
     d.map(|x| times_pow2(x, e))
 }
 
+/// Whether [`unit_scale`] is exact on `d` (multiplying back gives d). Not where d's components
+/// span more than float64's exponent range (f64::MAX beside 0.1): the small ones would become
+/// subnormal and lose bits, so the walk would follow another line. Such directions are INVALID
+/// ([`crate::geom::ray::checked_range`]).
+pub fn unit_scale_is_exact(d: V3<f64>) -> bool {
+    let m = d.iter().fold(0f64, |m, x| m.max(x.abs()));
+    if m == 0.0 || !m.is_finite() {
+        return true;
+    }
+    let e = exponent(m);
+    unit_scale(d)
+        .iter()
+        .zip(d)
+        .all(|(&s, x)| times_pow2(s, e) == x)
+}
+
 /// min(a, b) for numbers that are not NaN, in one instruction (`f64::min` also orders NaN,
 /// which costs more; packets and BVH slabs hold none).
 #[inline(always)]
