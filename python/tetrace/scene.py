@@ -638,9 +638,11 @@ class Scene:
         max_steps : int, optional
             Guard on tets visited per ray; a ray that reaches it is reported FAILED.
         invalid : {"raise", "mark"}
-            Rays with NaN/inf components or zero directions, and hits whose ``t``
-            overflows the rays' precision (a direction so short, e.g. a denormal, that
-            ``t`` has no finite value), raise ``ValueError``, or with
+            Rays with NaN/inf components, zero directions or directions whose components
+            span more than float64's exponent range (``1e308`` beside ``0.1``: no
+            power-of-two scaling keeps them exact), and hits whose ``t`` overflows the
+            rays' precision (a direction so short, e.g. a denormal, that ``t`` has no
+            finite value), raise ``ValueError``, or with
             ``"mark"`` come back with status ``INVALID``.
         method : str, optional
             Exit-face method, one of :func:`tetrace.methods` (default: ``exact``, the only
