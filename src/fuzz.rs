@@ -1005,13 +1005,13 @@ mod tests {
     /// CI's bounded fuzz run of construction (`examples/fuzz.rs` runs long ones).
     #[test]
     fn fuzz_construct_bounded() {
-        bounded(Target::Construct, 3000);
+        bounded(Target::Construct, 30_000);
     }
 
     /// CI's bounded fuzz run of the walk.
     #[test]
     fn fuzz_walk_bounded() {
-        bounded(Target::Walk, 1500);
+        bounded(Target::Walk, 20_000);
     }
 
     /// A case is a function of its seed.
