@@ -465,70 +465,12 @@ class Scene:
         tetrace.MeshingError
             The scene cannot be meshed; the message names the stage and the cause.
         """
-        from .progress import reporting
-
-        with reporting(progress):
-            return cls._from_mesh(
-                mesh,
-                preset,
-                mesher=mesher,
-                margin=margin,
-                contain=contain,
-                minratio=minratio,
-                maxvolume=maxvolume,
-                sizing=sizing,
-                repair=repair,
-                epsilon=epsilon,
-                edge_length=edge_length,
-                timeout=timeout,
-                accuracy=accuracy,
-                hilbert=hilbert,
-            )
-
-    @classmethod
-    def _from_mesh(
-        cls,
-        mesh,
-        preset,
-        *,
-        mesher,
-        margin,
-        contain,
-        minratio,
-        maxvolume,
-        sizing,
-        repair,
-        epsilon,
-        edge_length,
-        timeout,
-        accuracy,
-        hilbert,
-    ):
         from .io import _mesh_name
         from .mesh import FTETWILD_EDGE_LENGTH, FTETWILD_EPSILON, load_triangles, tetrahedralize
-        from .progress import stage
+        from .progress import reporting, stage
 
-        vertices, faces = load_triangles(mesh)
-        tet = tetrahedralize(
-            (vertices, faces),
-            preset,
-            mesher=mesher,
-            margin=margin,
-            contain=contain,
-            minratio=minratio,
-            maxvolume=maxvolume,
-            sizing=sizing,
-            repair=repair,
-            epsilon=FTETWILD_EPSILON if epsilon is None else epsilon,
-            edge_length=FTETWILD_EDGE_LENGTH if edge_length is None else edge_length,
-            timeout=timeout,
-            accuracy=accuracy,
-            measure=measure_accuracy,
-            name=_mesh_name(mesh),
-        )
-        with stage(f"build the scene ({len(tet.tets)} tets)"):
-            scene = cls(tet, vertices, faces, hilbert=hilbert)
-        scene._build_options = dict(
+        # What the scene was built with: a rebuild (update_vertices) meshes again with it.
+        options = dict(
             preset=preset,
             mesher=mesher,
             margin=margin,
@@ -542,6 +484,21 @@ class Scene:
             timeout=timeout,
             accuracy=accuracy,
         )
+        with reporting(progress):
+            vertices, faces = load_triangles(mesh)
+            tet = tetrahedralize(
+                (vertices, faces),
+                **dict(
+                    options,
+                    epsilon=FTETWILD_EPSILON if epsilon is None else epsilon,
+                    edge_length=FTETWILD_EDGE_LENGTH if edge_length is None else edge_length,
+                ),
+                measure=measure_accuracy,
+                name=_mesh_name(mesh),
+            )
+            with stage(f"build the scene ({len(tet.tets)} tets)"):
+                scene = cls(tet, vertices, faces, hilbert=hilbert)
+        scene._build_options = options
         return scene
 
     @classmethod
