@@ -103,3 +103,110 @@ def test_one_mesh_scene_geometry_is_zero():
     h = scene.cast(np.array([[0.1, 0.2, 5.0], [5, 5, 5]]), np.array([0.0, 0.0, -1.0]))
     assert h.geometry.tolist() == [0, -1]
     assert np.array_equal(h.triangle, h.scene_triangle)
+
+
+# --- trimesh.Scene (issue 36): what trimesh.load returns for a file of several objects ----
+
+
+def _boxes_scene():
+    """A trimesh.Scene of one unit box placed three times (translated; rotated 90 degrees
+    about y; mirrored in x, which makes trimesh reverse the faces) and a point cloud. Every
+    placed coordinate is exact, so hits can be checked with no tolerance."""
+    tf = trimesh.transformations
+    box = trimesh.creation.box()
+    ts = trimesh.Scene()
+    ts.add_geometry(
+        box, node_name="left", geom_name="box", transform=tf.translation_matrix((-2, 0, 0))
+    )
+    # a quarter turn about y, written out so that every placed coordinate is exact
+    quarter = np.array([[0.0, 0, 1, 0], [0, 1, 0, 0], [-1, 0, 0, 0], [0, 0, 0, 1]])
+    turned = tf.translation_matrix((2, 0, 0)) @ quarter
+    ts.add_geometry(box, node_name="right", geom_name="box", transform=turned)
+    mirrored = tf.translation_matrix((0, 0, -3)) @ np.diag([-1.0, 1, 1, 1])
+    ts.add_geometry(box, node_name="mirror", geom_name="box", transform=mirrored)
+    ts.add_geometry(trimesh.PointCloud(np.ones((4, 3))), node_name="dots", geom_name="dots")
+    return ts
+
+
+def test_from_mesh_takes_a_trimesh_scene():
+    ts = _boxes_scene()
+    placed = [g for g in ts.dump() if isinstance(g, trimesh.Trimesh)]
+    assert [g.metadata["node"] for g in placed] == ["left", "right", "mirror"]
+    scene = tetrace.Scene.from_mesh(ts, progress=False)
+    geo = scene.geometries
+    # one geometry per placed mesh, named by its node; the point cloud has no triangles
+    assert geo.names == ("left", "right", "mirror")
+    assert geo.triangle_offsets.tolist() == [0, 12, 24, 36]
+    # the scene's triangles are trimesh's own concatenation (to_mesh), transforms applied
+    whole = ts.to_mesh()
+    assert np.array_equal(scene.vertices[scene.faces], whole.vertices[whole.faces])
+    # straight down onto each box's top (z = 0.5; the mirror box's is 3 lower), and one ray
+    # between the boxes
+    o = np.array([[-2.1, 0.2, 5.0], [2.2, -0.1, 5.0], [0.3, 0.1, 5.0], [0.0, 3.0, 5.0]])
+    h = scene.cast(o, np.array([0.0, 0.0, -1.0]))
+    assert h.geometry.tolist() == [0, 1, 2, -1]
+    assert h.triangle[3] == -1 and h.scene_triangle[3] == -1
+    # exact: the ray's z falls from 5 to the top at 0.5 (the mirror box: 0.5 - 3)
+    assert h.t.tolist()[:3] == [4.5, 4.5, 7.5] and h.t[3] == np.inf
+    for g in range(3):
+        t = int(h.triangle[g])
+        corners = placed[g].vertices[placed[g].faces[t]]
+        # the triangle within mesh g lies in that box's top face, and is wound outwards
+        top = 0.5 if g < 2 else -2.5
+        assert (corners[:, 2] == top).all()
+        assert h.normal[g][2] > 0
+        assert h.scene_triangle[g] == geo.triangle_offsets[g] + t
+
+
+def test_trimesh_scene_numbers_triangles_as_its_file(tmp_path):
+    """A file of two objects with materials loads as a trimesh.Scene: its scene triangles
+    are the path's triangles (trimesh.load(path, force="mesh")), its meshes named."""
+    (tmp_path / "two.mtl").write_text("newmtl red\nKd 1 0 0\nnewmtl green\nKd 0 1 0\n")
+    path = tmp_path / "two.obj"
+    path.write_text(
+        "mtllib two.mtl\no first\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl red\nf 1 2 3\n"
+        "o second\nv 0 0 1\nv 1 0 1\nv 0 1 1\nv 1 1 1\nusemtl green\nf 4 5 6\nf 5 7 6\n"
+    )
+    ts = trimesh.load(path)
+    assert isinstance(ts, trimesh.Scene)
+    from_path = tetrace.Scene.from_mesh(path, progress=False)
+    from_scene = tetrace.Scene.from_mesh(ts, progress=False)
+    assert np.array_equal(from_scene.vertices, from_path.vertices)
+    assert np.array_equal(from_scene.faces, from_path.faces)
+    assert from_path.geometries is None
+    assert from_scene.geometries.names == tuple(ts.graph.nodes_geometry)
+    # load_triangles (Embree, tetrahedralize) reads a trimesh.Scene the same way
+    v, f = load_triangles(ts)
+    assert np.array_equal(v[f], from_path.vertices[from_path.faces])
+
+
+def test_trimesh_scene_names_survive_save_and_dict_meshes_are_named(tmp_path):
+    scene = tetrace.Scene.from_meshes({"a": _box((0, 0, 0)), "b": _box((3, 0, 0))})
+    assert scene.geometries.names == ("a", "b")
+    path = tmp_path / "named.tetrace"
+    scene.save(path)
+    assert tetrace.Scene.load(path).geometries.names == ("a", "b")
+    assert tetrace.Scene.from_meshes([_box((0, 0, 0))]).geometries.names is None
+    with pytest.raises(MeshingError, match=r"mesh 1 \('b'\): "):
+        concatenate({"a": _box((0, 0, 0)), "b": (np.zeros((3, 3)), np.array([[0, 1, 5]]))})
+
+
+def test_trimesh_scene_without_triangles_is_refused():
+    ts = trimesh.Scene()
+    ts.add_geometry(trimesh.PointCloud(np.ones((4, 3))), node_name="dots")
+    with pytest.raises(MeshingError, match=r"holds no triangles: only 'dots' \(PointCloud\)"):
+        tetrace.Scene.from_mesh(ts)
+    with pytest.raises(MeshingError, match="holds no triangles: it is empty"):
+        load_triangles(trimesh.Scene())
+
+
+def test_cornell_box_as_loaded_by_trimesh(scene_path):
+    """The file of issue 36: trimesh.load gives a Scene, which from_mesh takes (meshed
+    once, as the path is) with each object's id."""
+    path = scene_path("cornell_box.obj")
+    ts = trimesh.load(path)
+    assert isinstance(ts, trimesh.Scene)
+    scene = tetrace.Scene.from_mesh(ts, progress=False)
+    v, f = load_triangles(path)
+    assert np.array_equal(scene.vertices[scene.faces], v[f])
+    assert len(scene.geometries) == len(ts.graph.nodes_geometry) > 1

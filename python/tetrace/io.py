@@ -8,13 +8,14 @@ number triangles alike. trimesh is imported only to read a file.
 from __future__ import annotations
 
 import os
+import sys
 from pathlib import Path
 
 import numpy as np
 
 from .errors import MeshFileNotFoundError, MeshingError
 
-__all__ = ["load_triangles", "weld"]
+__all__ = ["load_triangles", "weld", "is_trimesh_scene", "trimesh_scene_meshes"]
 
 
 def _mesh_name(mesh) -> str:
@@ -22,6 +23,53 @@ def _mesh_name(mesh) -> str:
     if isinstance(mesh, (str, os.PathLike)):
         return Path(mesh).name
     return "the mesh"
+
+
+def is_trimesh_scene(mesh) -> bool:
+    """Whether ``mesh`` is a ``trimesh.Scene`` (what ``trimesh.load`` returns for a file of
+    several objects). Checked without importing trimesh: a caller holding a scene has
+    imported it."""
+    trimesh = sys.modules.get("trimesh")
+    return trimesh is not None and isinstance(mesh, trimesh.Scene)
+
+
+def trimesh_scene_meshes(scene) -> dict:
+    """The triangle meshes of a ``trimesh.Scene``, placed where the scene puts them.
+
+    Parameters
+    ----------
+    scene : trimesh.Scene
+
+    Returns
+    -------
+    dict of str to trimesh.Trimesh
+        One mesh per scene node that holds one (a geometry placed twice is two meshes),
+        keyed by node name, in ``scene.dump()``'s order, each with its node's transform
+        applied (trimesh reverses the faces' winding where a transform mirrors).
+        Concatenated in this order they are ``scene.to_mesh()``, so scene triangle ids
+        are those of ``trimesh.load(path, force="mesh")``. Paths, point clouds and meshes
+        without faces are left out: they have nothing to hit.
+
+    Raises
+    ------
+    MeshingError
+        The scene holds no triangles.
+    """
+    import trimesh
+
+    meshes, other = {}, []
+    for geometry in scene.dump():
+        node = geometry.metadata.get("node", geometry.metadata.get("name"))
+        if isinstance(geometry, trimesh.Trimesh) and len(geometry.faces):
+            meshes[str(node)] = geometry
+        else:
+            other.append(f"{node!r} ({type(geometry).__name__})")
+    if not meshes:
+        raise MeshingError(
+            "the trimesh.Scene holds no triangles"
+            + (f": only {', '.join(other)}" if other else ": it is empty")
+        )
+    return meshes
 
 
 def weld(triangles) -> tuple[np.ndarray, np.ndarray]:
@@ -74,8 +122,10 @@ def load_triangles(mesh) -> tuple[np.ndarray, np.ndarray]:
 
     Parameters
     ----------
-    mesh : trimesh.Trimesh or str or os.PathLike or tuple or numpy.ndarray
-        A ``trimesh.Trimesh`` (anything with ``vertices`` and ``faces``), a file
+    mesh : trimesh.Trimesh or trimesh.Scene or str or os.PathLike or tuple or numpy.ndarray
+        A ``trimesh.Trimesh`` (anything with ``vertices`` and ``faces``), a
+        ``trimesh.Scene`` (its meshes placed and concatenated as
+        :func:`trimesh_scene_meshes` gives them, numbered as ``scene.to_mesh()``), a file
         loaded with ``trimesh.load(path, force="mesh")`` (trimesh's default
         processing, so that every caster numbers triangles alike), a
         ``(vertices (V, 3), faces (F, 3))`` tuple, or a triangle soup: an
@@ -131,6 +181,11 @@ def load_triangles(mesh) -> tuple[np.ndarray, np.ndarray]:
             return _validate(mesh.vertices, mesh.faces)
         except (MeshingError, TypeError) as exc:
             raise type(exc)(f"mesh file {path}: {exc}") from None
+    if is_trimesh_scene(mesh):
+        from .meshes import concatenate
+
+        vertices, faces, _ = concatenate(trimesh_scene_meshes(mesh))
+        return vertices, faces
     if _is_soup(mesh):
         soup = np.asarray(mesh)
         if not np.isfinite(soup).all():
@@ -146,7 +201,8 @@ def load_triangles(mesh) -> tuple[np.ndarray, np.ndarray]:
         vertices, faces = mesh
     else:
         raise TypeError(
-            "mesh must be a trimesh.Trimesh, a path, a (vertices, faces) tuple or an "
+            "mesh must be a trimesh.Trimesh or trimesh.Scene, a path, a (vertices, faces) "
+            "tuple or an "
             f"(F, 3, 3) triangle soup, got {type(mesh).__name__}"
         )
 

@@ -10,11 +10,12 @@ mesh it came from and its index in that mesh's faces. Imports only numpy and
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 
 import numpy as np
 
 from .errors import MeshingError
-from .io import load_triangles
+from .io import is_trimesh_scene, load_triangles, trimesh_scene_meshes
 
 __all__ = ["Geometries", "concatenate"]
 
@@ -30,10 +31,14 @@ class Geometries:
         ``triangle_offsets[g]:triangle_offsets[g + 1]``, in its own face order.
     vertex_offsets : numpy.ndarray
         ``(G + 1,)`` int64: the same for vertices.
+    names : tuple of str or None
+        Mesh ``g``'s name: the keys of a dict of meshes, the node names of a
+        ``trimesh.Scene`` (:func:`tetrace.io.trimesh_scene_meshes`); None for a list.
     """
 
     triangle_offsets: np.ndarray
     vertex_offsets: np.ndarray
+    names: tuple | None = None
 
     @classmethod
     def single(cls, n_triangles, n_vertices=0) -> Geometries:
@@ -78,9 +83,12 @@ def concatenate(meshes):
 
     Parameters
     ----------
-    meshes : iterable
+    meshes : iterable or dict or trimesh.Scene
         Each a ``(vertices, faces)`` pair, a ``trimesh.Trimesh``, a path or an
-        ``(F, 3, 3)`` triangle soup (anything :func:`tetrace.io.load_triangles` takes).
+        ``(F, 3, 3)`` triangle soup (anything :func:`tetrace.io.load_triangles` takes);
+        a dict names them (its keys, in order, become :attr:`Geometries.names`); a
+        ``trimesh.Scene`` is the dict of its placed meshes by node name
+        (:func:`tetrace.io.trimesh_scene_meshes`).
 
     Returns
     -------
@@ -97,17 +105,24 @@ def concatenate(meshes):
     tetrace.MeshingError, TypeError
         A mesh cannot be read; the message names its index.
     """
+    if is_trimesh_scene(meshes):
+        meshes = trimesh_scene_meshes(meshes)
     if isinstance(meshes, (str, bytes)) or not hasattr(meshes, "__iter__"):
         raise TypeError(
             f"meshes must be a list of meshes, got {type(meshes).__name__} "
             f"(use Scene.from_mesh for one mesh)"
         )
+    names = None
+    if isinstance(meshes, Mapping):
+        names = tuple(str(k) for k in meshes)
+        meshes = list(meshes.values())
     vertices, faces = [], []
     for g, mesh in enumerate(meshes):
         try:
             v, f = load_triangles(mesh)
         except (MeshingError, TypeError) as exc:
-            raise type(exc)(f"mesh {g}: {exc}") from exc
+            which = f"mesh {g}" if names is None else f"mesh {g} ({names[g]!r})"
+            raise type(exc)(f"{which}: {exc}") from exc
         vertices.append(v)
         faces.append(f)
     if not vertices:
@@ -118,5 +133,5 @@ def concatenate(meshes):
     return (
         np.ascontiguousarray(np.concatenate(vertices)),
         np.ascontiguousarray(all_faces, dtype=np.int64),
-        Geometries(triangle_offsets, vertex_offsets),
+        Geometries(triangle_offsets, vertex_offsets, names),
     )

@@ -403,11 +403,15 @@ class Scene:
 
         Parameters
         ----------
-        mesh : trimesh.Trimesh or str or os.PathLike or tuple or numpy.ndarray
+        mesh : trimesh.Trimesh or trimesh.Scene or str or os.PathLike or tuple or numpy.ndarray
             A mesh, a file trimesh can load, ``(vertices (V, 3), faces (F, 3))``, or a
             triangle soup ``(F, 3, 3)`` (identical corners are welded exactly; triangle
             ``i`` keeps id ``i``). Non-watertight, multi-component and self-intersecting
-            scenes are accepted.
+            scenes are accepted. A ``trimesh.Scene`` (what ``trimesh.load`` returns for a
+            file of several objects) is :meth:`from_meshes` of its meshes, placed by
+            their transforms: hits name the mesh (``geometry``, its node name in
+            ``geometries.names``) and the triangle within it; ``scene_triangle`` numbers
+            the triangles as the file's path does.
         preset : str
             TetGen settings (``tetrace.mesh.PRESETS``): ``"quality"`` (radius-edge
             bound 5, the default), ``"quality3"``, ``"quality2"``, ``"quality1.5"`` or any
@@ -465,7 +469,7 @@ class Scene:
         tetrace.MeshingError
             The scene cannot be meshed; the message names the stage and the cause.
         """
-        from .io import _mesh_name
+        from .io import _mesh_name, is_trimesh_scene
         from .mesh import FTETWILD_EDGE_LENGTH, FTETWILD_EPSILON, load_triangles, tetrahedralize
         from .progress import reporting, stage
 
@@ -484,6 +488,9 @@ class Scene:
             timeout=timeout,
             accuracy=accuracy,
         )
+        if is_trimesh_scene(mesh):
+            # Meshed as one, like its path, but with the per-mesh ids from_meshes records.
+            return cls.from_meshes(mesh, hilbert=hilbert, progress=progress, **options)
         with reporting(progress):
             vertices, faces = load_triangles(mesh)
             tet = tetrahedralize(
@@ -507,10 +514,13 @@ class Scene:
 
         Parameters
         ----------
-        meshes : iterable
+        meshes : iterable or dict or trimesh.Scene
             Each mesh is anything :meth:`from_mesh` takes: a ``(vertices, faces)`` pair, a
             ``trimesh.Trimesh``, a path, or an ``(F, 3, 3)`` triangle soup. Meshes may
-            touch or cross each other (the scene is repaired as one).
+            touch or cross each other (the scene is repaired as one). A dict's keys name
+            its meshes (``geometries.names``); a ``trimesh.Scene`` is the dict of its
+            meshes by node name, each placed by its transform
+            (:func:`tetrace.io.trimesh_scene_meshes`).
         preset : str
             As for :meth:`from_mesh`.
         **mesh_options
@@ -1445,7 +1455,10 @@ class Scene:
             rest_vertices=enc(np.asarray(rest_vertices), "rest_vertices"),
             geometries=None
             if geometries is None
-            else enc((geometries.triangle_offsets, geometries.vertex_offsets), "geometries"),
+            else enc(
+                (geometries.triangle_offsets, geometries.vertex_offsets, geometries.names),
+                "geometries",
+            ),
             build_options=enc(self._build_options, "build_options"),
             build_times=enc(self.build_times, "build_times"),
             frames=self._frames,
