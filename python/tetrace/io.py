@@ -182,10 +182,18 @@ def load_triangles(mesh) -> tuple[np.ndarray, np.ndarray]:
         except (MeshingError, TypeError) as exc:
             raise type(exc)(f"mesh file {path}: {exc}") from None
     if is_trimesh_scene(mesh):
-        from .meshes import concatenate
-
-        vertices, faces, _ = concatenate(trimesh_scene_meshes(mesh))
-        return vertices, faces
+        # Concatenated here rather than by tetrace.meshes.concatenate, which imports this
+        # module; the order and offsets are the same.
+        vertices, faces, offset = [], [], 0
+        for name, part in trimesh_scene_meshes(mesh).items():
+            try:
+                v, f = _validate(part.vertices, part.faces)
+            except (MeshingError, TypeError) as exc:
+                raise type(exc)(f"trimesh.Scene node {name!r}: {exc}") from None
+            vertices.append(v)
+            faces.append(f + offset)
+            offset += len(v)
+        return np.concatenate(vertices), np.concatenate(faces)
     if _is_soup(mesh):
         soup = np.asarray(mesh)
         if not np.isfinite(soup).all():
