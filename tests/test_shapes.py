@@ -3,6 +3,8 @@ origins and directions give hits of that shape; ``hits.normal``."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 import trimesh
@@ -118,3 +120,101 @@ def test_hits_reshape_and_validation():
     assert h.shape == (2, 3) and h.point.shape == (2, 3, 3) and h.normal is None
     with pytest.raises(ValueError, match="normal has shape"):
         Hits(**{**h.__dict__, "normal": np.zeros((6, 3))})
+
+
+# --- indexing (issue 36): len(hits), hits[mask], hits[:10], hits[idx] ----------------
+
+
+def _distinct_hits(n):
+    """Hits of n rays, every field set (the optional ones too) and each ray's values
+    different from every other's, so an index that mixes up rays between fields shows."""
+    k = np.arange(n)
+    return Hits(
+        t=k + 0.5,
+        triangle=k.astype(np.int32),
+        u=k + 0.25,
+        v=k + 0.125,
+        point=np.arange(3 * n, dtype=np.float64).reshape(n, 3),
+        tet=(k + 100).astype(np.int32),
+        steps=(k + 7).astype(np.uint32),
+        status=(k % 4).astype(np.uint8),
+        normal=-np.arange(3 * n, dtype=np.float64).reshape(n, 3),
+        geometry=(k % 3).astype(np.int32),
+        scene_triangle=(k + 1000).astype(np.int32),
+    )
+
+
+def _assert_indexed(h, key, expect_shape):
+    """Every field of h[key] is that field of h indexed by key along the rays' axes."""
+    sub = h[key]
+    assert sub.shape == expect_shape
+    for field in dataclasses.fields(Hits):
+        whole = getattr(h, field.name)
+        assert whole is not None, field.name  # the test covers every field
+        got = getattr(sub, field.name)
+        assert isinstance(got, np.ndarray) and got.dtype == whole.dtype, field.name
+        vector = field.name in ("point", "normal")
+        assert got.shape == expect_shape + ((3,) if vector else ()), field.name
+        # numpy's own answer: the key on the leading axes, the vector axis whole
+        rays = np.moveaxis(whole, -1, 0) if vector else whole[None]
+        want = np.stack([r[key] for r in rays], axis=-1 if vector else 0)
+        want = want if vector else want[0]
+        assert np.array_equal(got, want), field.name
+
+
+def test_hits_index_every_field_alike():
+    h = _distinct_hits(12)
+    assert len(h) == 12
+    _assert_indexed(h, h.status == 1, (3,))  # a mask
+    _assert_indexed(h, slice(None, 10), (10,))
+    _assert_indexed(h, slice(None, None, -3), (4,))
+    _assert_indexed(h, np.array([5, 0, 5, -1]), (4,))  # repeats and negatives, as numpy
+    _assert_indexed(h, [2, 3], (2,))
+    _assert_indexed(h, np.array([], dtype=np.intp), (0,))
+    _assert_indexed(h, None, (1, 12))
+    _assert_indexed(h, 7, ())  # one ray: a 0-d Hits
+    one = h[7]
+    assert float(one.t) == 7.5 and one.point.tolist() == [21.0, 22.0, 23.0]
+    assert int(one.scene_triangle) == 1007 and one.summary()["rays"] == 1
+    assert len(h[:10]) == 10 and len(h[h.status == 1]) == 3
+    # an image of rays: numpy's multi-axis keys, Ellipsis, masks of the leading shape
+    img = h.reshape((3, 4))
+    _assert_indexed(img, (1, slice(1, 3)), (2,))
+    _assert_indexed(img, (slice(None), 0), (3,))
+    _assert_indexed(img, (Ellipsis, 2), (3,))
+    _assert_indexed(img, (2, Ellipsis), (4,))
+    _assert_indexed(img, img.t > 4, (8,))
+    _assert_indexed(img, 1, (4,))
+    _assert_indexed(img, (2, 3), ())
+    assert len(img) == 3 and len(img[1]) == 4
+
+
+def test_hits_index_views_and_errors():
+    h = _distinct_hits(5)
+    # basic indexing gives views (as numpy), masks and index arrays copies
+    assert np.shares_memory(h[1:3].t, h.t) and np.shares_memory(h[1:3].point, h.point)
+    assert not np.shares_memory(h[h.t > 1].t, h.t)
+    assert [float(r.t) for r in h] == h.t.tolist()  # iteration yields each ray
+    with pytest.raises(IndexError):
+        h[5]
+    with pytest.raises(IndexError):
+        h[np.ones(4, bool)]  # a mask of the wrong length
+    with pytest.raises(IndexError):
+        h[0, 0]  # more indices than the rays have axes
+    with pytest.raises(TypeError, match="use hits.t"):
+        h["t"]
+    with pytest.raises(TypeError, match="len"):
+        len(h[0])
+
+
+def test_hits_mask_of_a_cast_is_the_cast_of_those_rays(sphere):
+    """hits[mask] of a real cast (normal, geometry, scene_triangle set) holds exactly what
+    casting only those rays gives."""
+    o = np.array([0.2, -0.1, 3.0])
+    d = _directions((64,), seed=5) + [0.0, 0.0, -1.5]
+    h = sphere.cast(o, d)
+    mask = h.hit & (h.triangle % 2 == 0)
+    assert 0 < mask.sum() < h.hit.sum()
+    sub, alone = h[mask], sphere.cast(o, d[mask])
+    for field in dataclasses.fields(Hits):
+        assert np.array_equal(getattr(sub, field.name), getattr(alone, field.name)), field.name

@@ -35,9 +35,10 @@ class Hits:
     """Per-ray results of casting ``N`` rays.
 
     All arrays have the rays' leading shape (``(N,)`` for ``(N, 3)`` rays, ``(H, W)`` for
-    ``(H, W, 3)`` directions; ``point`` and ``normal`` add a last axis of 3) and are
-    indexed by ray; the shapes below are written for ``(N,)``. Fields that have no
-    meaning for a ray (a miss, or a failed ray) hold the sentinel given below.
+    ``(H, W, 3)`` directions, ``()`` for one ray picked by an integer index; ``point`` and
+    ``normal`` add a last axis of 3) and are indexed by ray; the shapes below are written
+    for ``(N,)``. Fields that have no meaning for a ray (a miss, or a failed ray) hold the
+    sentinel given below.
 
     Parameters
     ----------
@@ -78,13 +79,17 @@ class Hits:
     Notes
     -----
     The class is a frozen dataclass compared by identity (``eq=False``): use
-    ``numpy`` on the fields to compare two results.
+    ``numpy`` on the fields to compare two results. ``len(hits)`` counts the rays along
+    the first axis and ``hits[key]`` selects rays with any numpy index of the leading
+    shape, every field alike (:meth:`__getitem__`).
 
     Examples
     --------
     >>> h = Hits.misses(2)
     >>> len(h), int(h.hit.sum())
     (2, 0)
+    >>> h[h.hit].shape, h[:1].point.shape
+    ((0,), (1, 3))
     """
 
     t: np.ndarray
@@ -103,8 +108,6 @@ class Hits:
         if not isinstance(self.t, np.ndarray):
             raise TypeError(f"Hits.t must be a numpy array, got {type(self.t).__name__}")
         shape = self.t.shape
-        if len(shape) == 0:
-            raise ValueError("Hits.t must have at least one dimension, got a 0-d array")
         for field in dataclasses.fields(self):
             arr = getattr(self, field.name)
             if arr is None and field.name in _OPTIONAL:
@@ -172,8 +175,69 @@ class Hits:
         )
 
     def __len__(self) -> int:
-        """Rays along the first axis (all rays for a 1-D batch; ``status.size`` counts all)."""
+        """Rays along the first axis (all rays for a 1-D batch; ``status.size`` counts all).
+
+        Raises
+        ------
+        TypeError
+            For the 0-d ``Hits`` of one ray (``hits[i]``), as ``len`` of a 0-d numpy array.
+        """
+        if self.t.ndim == 0:
+            raise TypeError("len() of a 0-d Hits (one ray, from an integer index)")
         return len(self.status)
+
+    def __getitem__(self, key) -> Hits:
+        """Select rays, as numpy indexes the rays' leading shape.
+
+        Every field is indexed alike: ``hits[mask]``, ``hits[:10]``, ``hits[idx]`` (an
+        integer array), ``hits[i, j]`` for ``(H, W)`` rays. ``point`` and ``normal`` keep
+        their last axis of 3, which the key never reaches.
+
+        Parameters
+        ----------
+        key : int, slice, array_like of int or bool, tuple, ``None`` or ``Ellipsis``
+            A numpy index into the leading shape.
+
+        Returns
+        -------
+        Hits
+            The selected rays. Basic indexing (integers, slices) gives views of these
+            arrays, as numpy does; masks and integer arrays give copies. An integer (one
+            index per leading axis) gives a ``Hits`` of shape ``()``: each field a 0-d
+            array (``point`` of shape ``(3,)``), as ``np.arange(3)[..., 1]`` is;
+            ``float(hits[i].t)`` reads the value.
+
+        Raises
+        ------
+        IndexError
+            As numpy's: an index out of range, a mask of the wrong shape, or more indices
+            than the leading shape has axes.
+        TypeError
+            ``key`` is a field name: read fields as attributes (``hits.t``).
+
+        Examples
+        --------
+        >>> h = Hits.misses(5)
+        >>> len(h[h.t > 0]), len(h[:2]), len(h[[0, 4]]), h[3].shape
+        (5, 2, 2, ())
+        """
+        if isinstance(key, str):
+            raise TypeError(f"Hits are indexed by ray, not by field name: use hits.{key}")
+        key = key if isinstance(key, tuple) else (key,)
+        # A trailing Ellipsis keeps a full index's result an array (a 0-d one, not a numpy
+        # scalar, so every field stays an ndarray) and spans point's and normal's last axis;
+        # a key with its own Ellipsis gets an explicit slice for that axis instead.
+        if any(k is Ellipsis for k in key):
+            rays, vectors = key, key + (slice(None),)
+        else:
+            rays = vectors = key + (Ellipsis,)
+        fields = {}
+        for field in dataclasses.fields(self):
+            arr = getattr(self, field.name)
+            if arr is not None:
+                arr = arr[vectors if field.name in ("point", "normal") else rays]
+            fields[field.name] = arr
+        return Hits(**fields)
 
     @property
     def hit(self) -> np.ndarray:
