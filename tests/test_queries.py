@@ -470,15 +470,20 @@ def test_contains_sphere(sphere):
 
 
 def test_contains_open_surfaces():
-    """Open inputs: inside when the fewest crossings to the outside of the domain is odd.
-    A cube without its top is entered for free (0 crossings): its inside is outside."""
+    """Open inputs, parity mode: inside when the fewest crossings to the outside of the
+    domain is odd. A cube without its top is entered for free (0 crossings): its inside is
+    outside. (The default for open inputs is the winding number: test_contains_winding.py.)"""
     v, f = _cube()
     top = np.all(v[f][:, :, 2] == 0.5, axis=1)
     open_box = tetrace.Scene.from_mesh((v, f[~top]))
-    assert not open_box.contains(np.array([[0.0, 0, 0], [0.25, -0.25, -0.25]])).any()
+    with pytest.warns(UserWarning, match="not closed"):
+        got = open_box.contains(np.array([[0.0, 0, 0], [0.25, -0.25, -0.25]]), mode="parity")
+    assert not got.any()
     plane = tetrace.Scene.from_mesh((v, f[top]))
-    assert not plane.contains(np.array([[0.0, 0, 0], [0, 0, 0.75]])).any()
-    assert plane.contains(np.array([[0.0, 0.0, 0.5]])).tolist() == [True]  # on it
+    with pytest.warns(UserWarning, match="not closed"):
+        assert not plane.contains(np.array([[0.0, 0, 0], [0, 0, 0.75]]), mode="parity").any()
+    on_it = plane.contains(np.array([[0.0, 0.0, 0.5]]), mode="parity")  # warned already
+    assert on_it.tolist() == [True]
 
 
 def test_contains_rejects_bad_points(cube):
