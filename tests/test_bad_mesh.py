@@ -4,6 +4,8 @@ scene whose rays the exact referee judges right; either way a second scene build
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 import pytest
 
@@ -147,3 +149,69 @@ def test_needles_are_not_called_self_intersections():
     tz = tetrace.mesh.tetrahedralize((v, NEEDLE_F), timeout=15)
     first = tz.attempts[0]
     assert "triangle 4 (a needle" in first and "no intersecting pair" in first, first
+
+
+# --- why a file is unreadable (issue 32, item 4) -------------------------------------
+
+
+@pytest.mark.parametrize("charset_normalizer", ["installed", "missing"])
+def test_unreadable_files_say_why_not_which_module(tmp_path, monkeypatch, charset_normalizer):
+    """A corrupt (binary) OBJ and a truncated binary STL are named with what is wrong with
+    their bytes, whether or not trimesh's text decoder (charset_normalizer) imports: without
+    it trimesh's own error was "No module named 'charset_normalizer'"."""
+    if charset_normalizer == "missing":
+        monkeypatch.setitem(sys.modules, "charset_normalizer", None)  # import fails
+    cases = {
+        "junk.obj": (RANDOM, ["junk.obj", "binary data, not OBJ text", "not UTF-8"]),
+        # 4 triangles: 84 + 50 * 4 = 284 bytes, 30 cut off
+        "cut.stl": (
+            _binary_stl()[:-30],
+            ["cut.stl", "truncated", "announces 4 triangles", "284 bytes", "has 254 bytes"],
+        ),
+        "short.stl": (_binary_stl()[:50], ["short.stl", "50 bytes, shorter than its 84-byte"]),
+        "empty.off": (b"", ["empty.off", "the file is empty"]),
+    }
+    for name, (data, words) in cases.items():
+        path = tmp_path / name
+        path.write_bytes(data)
+        with pytest.raises(MeshingError) as info:
+            tetrace.io.load_triangles(path)
+        message = str(info.value)
+        for word in words:
+            assert word in message, (word, message)
+        for word in UNRELATED:
+            assert word not in message, message
+
+
+def test_text_in_another_encoding(tmp_path, monkeypatch):
+    """A Latin-1 OBJ is a mesh: it loads (charset-normalizer is a dependency); without the
+    decoder the message says the file is not UTF-8 and what would read it."""
+    path = tmp_path / "latin.obj"
+    path.write_bytes("# café\n".encode("latin-1") + OBJ.encode())
+    v, f = tetrace.io.load_triangles(path)
+    assert np.array_equal(v[f], V[F])  # OBJ holds the tetrahedron V, F
+    monkeypatch.setitem(sys.modules, "charset_normalizer", None)
+    with pytest.raises(MeshingError) as info:
+        tetrace.io.load_triangles(path)
+    message = str(info.value)
+    assert "latin.obj" in message and "not UTF-8 text (byte 0xe9 at offset 5)" in message
+    assert "pip install charset-normalizer" in message and "No module named" not in message
+
+
+def test_readable_files_are_not_diagnosed(tmp_path):
+    """The diagnosis finds nothing wrong with whole files: a binary STL (its header may
+    start with "solid", as some exporters write), an ASCII STL, an OBJ."""
+    import trimesh
+
+    binary = _binary_stl()
+    files = {
+        "ok.stl": binary,
+        "solid.stl": b"solid exported" + binary[14:],
+        "ascii.stl": trimesh.Trimesh(V, F, process=False).export(file_type="stl_ascii"),
+        "ok.obj": OBJ,
+    }
+    for name, data in files.items():
+        path = tmp_path / name
+        path.write_bytes(data.encode() if isinstance(data, str) else data)
+        assert tetrace.io.unreadable_reason(path) is None, name
+        assert len(tetrace.io.load_triangles(path)[1]) == 4, name

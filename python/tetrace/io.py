@@ -7,6 +7,7 @@ number triangles alike. trimesh is imported only to read a file.
 
 from __future__ import annotations
 
+import codecs
 import os
 import sys
 from pathlib import Path
@@ -163,20 +164,22 @@ def load_triangles(mesh) -> tuple[np.ndarray, np.ndarray]:
         try:
             mesh = trimesh.load(path, force="mesh")
         except Exception as exc:  # trimesh raises many types for bad files
-            raise MeshingError(
-                f"could not load mesh file {path}: {type(exc).__name__}: {exc}"
-            ) from exc
+            # What trimesh raises for a damaged file can name an unrelated cause (a module
+            # its text decoder lacks, an unpacking error): say what is wrong with the bytes
+            # where they show it, trimesh's own words otherwise.
+            why = unreadable_reason(path) or f"{type(exc).__name__}: {exc}"
+            raise MeshingError(f"could not load mesh file {path}: {why}") from exc
         if not hasattr(mesh, "faces"):
             raise MeshingError(
                 f"could not load mesh file {path}: trimesh returned "
                 f"{type(mesh).__name__}, not a triangle mesh"
             )
         if len(mesh.faces) == 0:
-            raise MeshingError(
-                f"could not load mesh file {path}: trimesh read no triangles from it "
-                f"({path.stat().st_size} bytes; empty, truncated, corrupt or not a "
-                f"{path.suffix or 'mesh'} file)"
+            why = unreadable_reason(path) or (
+                f"trimesh read no triangles from it ({path.stat().st_size} bytes; empty, "
+                f"truncated, corrupt or not a {path.suffix or 'mesh'} file)"
             )
+            raise MeshingError(f"could not load mesh file {path}: {why}")
         try:
             return _validate(mesh.vertices, mesh.faces)
         except (MeshingError, TypeError) as exc:
@@ -209,12 +212,93 @@ def load_triangles(mesh) -> tuple[np.ndarray, np.ndarray]:
         vertices, faces = mesh
     else:
         raise TypeError(
-            "mesh must be a trimesh.Trimesh or trimesh.Scene, a path, a (vertices, faces) "
-            "tuple or an "
-            f"(F, 3, 3) triangle soup, got {type(mesh).__name__}"
+            "mesh must be a trimesh.Trimesh, a path, a (vertices, faces) tuple, an "
+            f"(F, 3, 3) triangle soup or a trimesh.Scene, got {type(mesh).__name__}"
         )
 
     return _validate(vertices, faces)
+
+
+#: Bytes of a file :func:`unreadable_reason` reads: enough to tell text from binary data.
+_SNIFF_BYTES = 1 << 16
+#: Formats trimesh reads as text (an STL may be either: its bytes decide).
+_TEXT_SUFFIXES = (".obj", ".off", ".stl")
+
+
+def _binary_stl_reason(size: int, head: bytes) -> str | None:
+    """Why a binary STL of ``size`` bytes starting with ``head`` cannot be whole: its length
+    must be the 80-byte header, a uint32 triangle count and 50 bytes per triangle."""
+    if size < 84:
+        return f"truncated binary STL: {size} bytes, shorter than its 84-byte header"
+    count = int(np.frombuffer(head[80:84], "<u4")[0])
+    expected = 84 + 50 * count
+    if size == expected:
+        return None
+    return (
+        f"truncated or corrupt binary STL: its header announces {count:,} triangles "
+        f"(84 + 50 x {count:,} = {expected:,} bytes), but the file has {size:,} bytes"
+    )
+
+
+def unreadable_reason(path) -> str | None:
+    """Say why a mesh file trimesh could not read, or read no triangles from, is unreadable.
+
+    Only what the file's bytes show: it is empty; a binary STL whose length disagrees with
+    its triangle count; an OBJ, OFF or ASCII STL (text formats) that is binary data, or
+    text that is not UTF-8 when trimesh cannot read other encodings. trimesh's own
+    complaint about such files names its internals (``No module named
+    'charset_normalizer'``, a failed unpacking), not the file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+
+    Returns
+    -------
+    str or None
+        A sentence (without the file's name), or None when the bytes show nothing wrong.
+    """
+    path = Path(path)
+    try:
+        size = path.stat().st_size
+        with open(path, "rb") as fh:
+            head = fh.read(_SNIFF_BYTES)
+    except OSError as exc:
+        return f"it cannot be read ({exc.strerror or exc})"
+    if size == 0:
+        return "the file is empty (0 bytes)"
+    suffix = path.suffix.lower()
+    if suffix not in _TEXT_SUFFIXES:
+        return None
+    # Control characters other than whitespace do not occur in text meshes.
+    control = sum(1 for b in head if (b < 32 and b not in b"\t\n\r\f\v") or b == 127)
+    if suffix == ".stl" and not (head[:5].lower() == b"solid" and control == 0):
+        return _binary_stl_reason(size, head)
+    # A prefix may end inside a multi-byte character: the incremental decoder waits for it.
+    try:
+        codecs.getincrementaldecoder("utf-8")().decode(head, final=size <= len(head))
+    except UnicodeDecodeError as exc:
+        at = f"byte 0x{head[exc.start]:02x} at offset {exc.start}"
+        if control:
+            return (
+                f"it is binary data, not {suffix[1:].upper()} text: it is not UTF-8 ({at}) "
+                f"and {control:,} of its first {len(head):,} bytes are control characters"
+            )
+        try:
+            import charset_normalizer  # noqa: F401
+        except ImportError:
+            return (
+                f"it is not UTF-8 text ({at}); trimesh reads text in other encodings only "
+                f"with the charset-normalizer package, which is not installed "
+                f"(pip install charset-normalizer)"
+            )
+        return None
+    if control:
+        return (
+            f"it is not {suffix[1:].upper()} text: {control:,} of its first {len(head):,} "
+            f"bytes are control characters"
+        )
+    return None
 
 
 #: Largest coordinate magnitude accepted: exact orientation tests multiply three coordinate
