@@ -215,3 +215,44 @@ def test_readable_files_are_not_diagnosed(tmp_path):
         path.write_bytes(data.encode() if isinstance(data, str) else data)
         assert tetrace.io.unreadable_reason(path) is None, name
         assert len(tetrace.io.load_triangles(path)[1]) == 4, name
+
+
+# --- a missing file (issue 36) ---------------------------------------------------------
+
+
+def test_missing_file_prints_a_sentence(tmp_path, monkeypatch):
+    """It printed as a tuple, ``(2, 'mesh file not found: ...', '...')``: now a sentence that
+    names the path (and the directory a relative path is looked up in), with
+    FileNotFoundError's errno and filename, also after pickling (Dask sends errors so)."""
+    import errno
+    import pickle
+    import traceback
+
+    path = tmp_path / "absent.obj"
+    with pytest.raises(tetrace.MeshFileNotFoundError) as info:
+        tetrace.Scene.from_mesh(path)
+    err = info.value
+    assert str(err) == f"mesh file not found: {path}"
+    shown = traceback.format_exception_only(type(err), err)[-1]
+    assert shown == f"tetrace.errors.MeshFileNotFoundError: mesh file not found: {path}\n"
+    assert isinstance(err, FileNotFoundError) and isinstance(err, MeshingError)
+    assert (err.errno, err.filename) == (errno.ENOENT, str(path))
+    back = pickle.loads(pickle.dumps(err))
+    assert type(back) is type(err) and str(back) == str(err)
+    assert (back.errno, back.filename) == (errno.ENOENT, str(path))
+
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(FileNotFoundError) as info:
+        tetrace.io.load_triangles("absent.obj")
+    assert str(info.value) == f"mesh file not found: absent.obj (relative to {tmp_path})"
+    # a directory exists: it is not a mesh file, and no FileNotFoundError
+    with pytest.raises(MeshingError) as info:
+        tetrace.io.load_triangles(tmp_path)
+    assert str(info.value) == f"{tmp_path} is a directory, not a mesh file"
+    assert not isinstance(info.value, FileNotFoundError)
+    # a missing scene file the same way
+    with pytest.raises(tetrace.SceneFileNotFoundError) as info:
+        tetrace.Scene.load(tmp_path / "absent.tetrace")
+    err = info.value
+    assert str(err) == f"{tmp_path / 'absent.tetrace'}: no such scene file"
+    assert (err.errno, err.filename) == (errno.ENOENT, str(tmp_path / "absent.tetrace"))

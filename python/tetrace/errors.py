@@ -15,15 +15,18 @@ The hierarchy (the built-in base each one also is, so ``except ValueError`` keep
     └── GpuError                no GPU adapter can run the kernels, or the device failed
 
 Bad mesh input (``tests/test_bad_mesh.py``): a missing path raises
-:class:`MeshFileNotFoundError`; a directory, a file trimesh cannot read or reads no
-triangles from (empty, corrupt, truncated), NaN/inf vertices or coordinates beyond
-``tetrace.io.MAX_COORDINATE``, negative or out-of-range indices, faces not of shape
-``(F, 3)``, no faces, or only degenerate triangles raise :class:`MeshingError`, the message
-naming the file (or the argument) and the problem; faces that are not integers raise
-``TypeError``. Needles that TetGen takes for self-intersections are named as needles in
-the failure's message; needles narrower than ``tetrace.mesh.clean.DEGENERATE_WIDTH`` of
-their longest edge (collinear up to rounding) are dropped by cleaning like zero-area ones
-(``tetrahedralization.clean.triangle_ids`` lacks them).
+:class:`MeshFileNotFoundError` (``str``: ``mesh file not found: PATH``, with the working
+directory when ``PATH`` is relative); a directory, a file trimesh cannot read or reads no
+triangles from (empty, corrupt, truncated: the message says what the bytes show, such as a
+binary STL shorter than its triangle count, :func:`tetrace.io.unreadable_reason`), NaN/inf
+vertices or coordinates beyond ``tetrace.io.MAX_COORDINATE``, negative or out-of-range
+indices, faces not of shape ``(F, 3)``, no faces, or only degenerate triangles raise
+:class:`MeshingError`, the message naming the file (or the argument) and the problem; faces
+that are not integers raise ``TypeError``. Needles that TetGen takes for self-intersections
+are named as needles in the failure's message; needles narrower than
+``tetrace.mesh.clean.DEGENERATE_WIDTH`` of their longest edge (collinear up to rounding)
+are dropped by cleaning like zero-area ones (``tetrahedralization.clean.triangle_ids``
+lacks them).
 
 ``MeshError``, ``TooLargeError`` and ``GpuError`` are defined by the compiled core
 (``tetrace._native``) and re-exported here unchanged.
@@ -54,6 +57,9 @@ the caller: they become :class:`MeshingError`.
 
 from __future__ import annotations
 
+import errno
+import os
+
 from . import _native
 
 __all__ = [
@@ -67,12 +73,44 @@ __all__ = [
 ]
 
 
+class _MissingFile:
+    """Mixin (first in the bases) of a missing file that is also a ``ValueError`` and a
+    ``FileNotFoundError``: ``FileNotFoundError``'s attributes (``errno`` ENOENT,
+    ``strerror``, ``filename``) and a sentence for its ``str``.
+
+    With ``ValueError`` before ``FileNotFoundError`` in the bases (``except ValueError``
+    catches them), ``OSError``'s constructor, which fills the attributes, never runs, and
+    its ``__str__`` printed the arguments as a tuple: both are done here.
+    """
+
+    def __init__(self, message: str, filename) -> None:
+        super().__init__(message)
+        self.errno = errno.ENOENT
+        self.strerror = os.strerror(errno.ENOENT)
+        self.filename = os.fspath(filename)
+
+    def __str__(self) -> str:
+        return str(self.args[0]) if self.args else ""
+
+    def __reduce__(self):
+        # OSError's would rebuild from (errno, strerror, filename): not this signature.
+        return type(self), (str(self), self.filename)
+
+
 class MeshingError(ValueError):
     """A scene cannot be loaded or tetrahedralized; the message names the cause."""
 
 
-class MeshFileNotFoundError(MeshingError, FileNotFoundError):
-    """The mesh file does not exist (both a :class:`MeshingError` and a ``FileNotFoundError``)."""
+class MeshFileNotFoundError(_MissingFile, MeshingError, FileNotFoundError):
+    """The mesh file does not exist (both a :class:`MeshingError` and a ``FileNotFoundError``).
+
+    Parameters
+    ----------
+    message : str
+        The sentence ``str(error)`` gives; it names the path.
+    filename : str or os.PathLike
+        The path asked for (``error.filename``); ``error.errno`` is ``errno.ENOENT``.
+    """
 
 
 class SceneFileError(ValueError):
@@ -81,9 +119,9 @@ class SceneFileError(ValueError):
     and what is wrong."""
 
 
-class SceneFileNotFoundError(SceneFileError, FileNotFoundError):
+class SceneFileNotFoundError(_MissingFile, SceneFileError, FileNotFoundError):
     """The scene file does not exist (both a :class:`SceneFileError` and a
-    ``FileNotFoundError``)."""
+    ``FileNotFoundError``; parameters as :class:`MeshFileNotFoundError`'s)."""
 
 
 #: The compiled core rejects a tetrahedralization (a ``ValueError``).

@@ -16,7 +16,13 @@ import numpy as np
 
 from .errors import MeshFileNotFoundError, MeshingError
 
-__all__ = ["load_triangles", "weld", "is_trimesh_scene", "trimesh_scene_meshes"]
+__all__ = [
+    "load_triangles",
+    "weld",
+    "is_trimesh_scene",
+    "trimesh_scene_meshes",
+    "unreadable_reason",
+]
 
 
 def _mesh_name(mesh) -> str:
@@ -156,9 +162,13 @@ def load_triangles(mesh) -> tuple[np.ndarray, np.ndarray]:
     """
     if isinstance(mesh, (str, os.PathLike)):
         path = Path(mesh)
+        if path.is_dir():
+            raise MeshingError(f"{path} is a directory, not a mesh file")
         if not path.is_file():
-            what = "is a directory, not a mesh file" if path.is_dir() else "not found"
-            raise MeshFileNotFoundError(2, f"mesh file {what}: {path}", str(path))
+            # A relative path is looked up from the working directory: name it, since
+            # that is where a newcomer's path usually goes wrong.
+            where = "" if path.is_absolute() else f" (relative to {Path.cwd()})"
+            raise MeshFileNotFoundError(f"mesh file not found: {path}{where}", path)
         import trimesh
 
         try:

@@ -298,7 +298,7 @@ def read_bytes(source):
         with open(path, "rb") as f:
             return f.read(), path
     except FileNotFoundError:
-        raise SceneFileNotFoundError(f"{path}: no such scene file") from None
+        raise SceneFileNotFoundError(f"{path}: no such scene file", path) from None
     except IsADirectoryError:
         raise SceneFileError(f"{path}: is a directory, not a scene file") from None
     except OSError as exc:
