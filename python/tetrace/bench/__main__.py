@@ -1,7 +1,11 @@
 """Command line of the benchmarks (see ``python -m tetrace.bench --help``)."""
 
 import argparse
+import difflib
+import importlib
+import os
 import sys
+import textwrap
 
 from .scene_bench import run_scene_bench
 
@@ -167,54 +171,92 @@ def queries_main(argv):
     return 0
 
 
+def _lazy(module, function):
+    """The ``main(argv)`` of a subcommand in another module, imported when it runs (each
+    pulls in its own peers and scenes)."""
+
+    def run(argv):
+        return getattr(importlib.import_module(f"{__package__}.{module}"), function)(argv)
+
+    return run
+
+
+#: Every subcommand: name -> (one line for ``--help``, its ``main(argv)``). The dispatch and
+#: the help both read this table, so a subcommand cannot run without being listed.
+SUBCOMMANDS = {
+    "agreement": (
+        "tetrace and embreex judged by the exact referee on the acceptance rays",
+        agreement_main,
+    ),
+    "bvh": (
+        "Reshetov's BVH and its packets: SAH-ratio sweep, tree size against speed",
+        _lazy("bvh", "bvh_main"),
+    ),
+    "dask": (
+        "casting throughput on a Dask LocalCluster of 1, 2, ... worker processes",
+        _lazy("dask_scale", "dask_main"),
+    ),
+    "deform": (
+        "moving the tetrahedralization over N frames against re-meshing and embreex",
+        _lazy("deform", "deform_main"),
+    ),
+    "exitface": (
+        "exit-face micro-benchmark: ns per exit-face decision on random tets",
+        exitface_main,
+    ),
+    "growth": (
+        "local complexity: one object and one camera in ever bigger worlds",
+        _lazy("growth", "growth_main"),
+    ),
+    "matrix": (
+        "speed against accuracy: scenes x meshers x methods x layouts x precisions",
+        _lazy("matrix", "matrix_main"),
+    ),
+    "octree": (
+        "Portalez & Duguet's octree, with and without 2:1 balance, beside the walk",
+        _lazy("octree", "octree_main"),
+    ),
+    "queries": (
+        "every query kind timed against the peers and judged by the exact referee",
+        queries_main,
+    ),
+    "scenes": (
+        "build every shared scene; mesher, tets, build time, agreement with embreex",
+        scenes_main,
+    ),
+    "secondary": (
+        "shadow and bounce rays from a camera's hits (start=hits) against relocating",
+        _lazy("secondary", "secondary_main"),
+    ),
+    "stability": ("outcomes of every method on the stress families", stability_main),
+}
+
+_DESCRIPTION = (
+    "Full-scene benchmark: a pinhole camera cast by tetrace, by embreex and by the peers "
+    "that import (Open3D, warp-lang, mitsuba scalar_rgb and llvm_ad_rgb) on the same rays, "
+    "with build times, structure size and hit agreement. A subcommand runs another "
+    "benchmark instead."
+)
+
+
+def _epilog():
+    width = max(len(name) for name in SUBCOMMANDS)
+    lines = [f"  {name:<{width}}  {line}" for name, (line, _) in SUBCOMMANDS.items()]
+    return "\n".join(
+        ["subcommands (python -m tetrace.bench SUBCOMMAND --help for their options):", *lines]
+    )
+
+
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
-    if argv[:1] == ["matrix"]:
-        from .matrix import matrix_main
-
-        return matrix_main(argv[1:])
-    if argv[:1] == ["growth"]:
-        from .growth import growth_main
-
-        return growth_main(argv[1:])
-    if argv[:1] == ["stability"]:
-        return stability_main(argv[1:])
-    if argv[:1] == ["agreement"]:
-        return agreement_main(argv[1:])
-    if argv[:1] == ["exitface"]:
-        return exitface_main(argv[1:])
-    if argv[:1] == ["scenes"]:
-        return scenes_main(argv[1:])
-    if argv[:1] == ["queries"]:
-        return queries_main(argv[1:])
-    if argv[:1] == ["octree"]:
-        from .octree import octree_main
-
-        return octree_main(argv[1:])
-    if argv[:1] == ["secondary"]:
-        from .secondary import secondary_main
-
-        return secondary_main(argv[1:])
-    if argv[:1] == ["deform"]:
-        from .deform import deform_main
-
-        return deform_main(argv[1:])
-    if argv[:1] == ["bvh"]:
-        from .bvh import bvh_main
-
-        return bvh_main(argv[1:])
-    if argv[:1] == ["dask"]:
-        from .dask_scale import dask_main
-
-        return dask_main(argv[1:])
+    if argv[:1] and argv[0] in SUBCOMMANDS:
+        return SUBCOMMANDS[argv[0]][1](argv[1:])
     p = argparse.ArgumentParser(
         prog="python -m tetrace.bench",
-        description="Full-scene benchmark: a pinhole camera cast by tetrace, by embreex and by "
-        "the peers that import (Open3D, warp-lang, mitsuba scalar_rgb and llvm_ad_rgb) on "
-        "the same rays, with build times, structure size and hit agreement. "
-        "'python -m tetrace.bench agreement [mesh ...]' reports agreement on the "
-        "acceptance rays instead; 'python -m tetrace.bench scenes' builds every "
-        "shared scene and reports mesher, tets, build time and agreement.",
+        usage="%(prog)s SUBCOMMAND [options]\n       %(prog)s [options] [scene]",
+        description="\n".join(textwrap.wrap(_DESCRIPTION, 88)),
+        epilog=_epilog(),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument(
         "scene", nargs="?", default=None, help="mesh file (default: the bundled scene, Spot)"
@@ -261,6 +303,15 @@ def main(argv=None):
         "Mrays/s, upload and readback timed apart); both",
     )
     args = p.parse_args(argv)
+    scene = args.scene
+    if scene is not None and not os.path.exists(scene) and not os.path.splitext(scene)[1]:
+        # A word that is no file and has no extension is a mistyped subcommand, not a mesh.
+        near = difflib.get_close_matches(scene, SUBCOMMANDS, n=1)
+        hint = f"did you mean {near[0]!r}? " if near else ""
+        p.error(
+            f"{scene!r} is neither a subcommand nor a mesh file; {hint}"
+            f"subcommands: {', '.join(SUBCOMMANDS)}"
+        )
     both = lambda x, pair: pair if x == "both" else (x,)
     run_scene_bench(
         args.scene,
