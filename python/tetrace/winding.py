@@ -13,14 +13,19 @@ clusters replaced by a 2nd-order Taylor expansion; the Python binding's triangle
 no accuracy parameter and uses libigl's default) was off from the exact sum by at most 0.0044
 over 10^4 points in the bounding box and 8 x 10^4 points within 10^-6 to 10^-2 of the
 diagonal from the surface. So each point gets the fast value first, and points whose fast value
-lies within :data:`RECHECK` (0.05, eleven times that error) of 1/2 get the exact one:
-``igl.winding_number``, Jacobson et al.'s hierarchical sum of solid angles, which replaces a
-far subtree by a cap of its boundary (the same value in exact arithmetic), so its only error is
-floating-point rounding. The inside test (winding number >= 1/2) then answers as the exact sum
-would unless the fast error exceeds 0.05 somewhere: no bound proves it cannot, but none was
-seen. Exact for 10^4 bunny points took about 1.1 s on 2 cores against 0.2 s for the fast one
-(with a fixed ~0.6 s and ~0.15 s of tree building per call); ``python -m
-tetrace.bench.occupancy`` measures both.
+lies within :data:`RECHECK` (0.05, eleven times that error) of 1/2 get the exact one: the
+direct sum of every triangle's solid angle (:func:`solid_angle_sum`) for up to
+:data:`DIRECT_MAX` points, else ``igl.winding_number``, Jacobson et al.'s hierarchical sum,
+which replaces a far subtree by a cap of its boundary (the same value in exact arithmetic).
+Either's only error is floating-point rounding (they agreed to 3e-16 on the bunny). The inside
+test (winding number >= 1/2) then answers as the exact sum would unless the fast error exceeds
+0.05 somewhere: no bound proves it cannot, but none was seen.
+
+Why not the exact sum everywhere: on the bunny (2 cores), 20,000 points took 2.1 s exact
+(``igl.winding_number``: ~0.6 s to build its hierarchy, then ~0.1 ms a point) against 0.28 s
+fast (~0.15 s of tree building per call); with the recheck, 7 of them were near 1/2 and the
+call took about 0.4 to 0.8 s (a loaded machine). ``python -m tetrace.bench.occupancy`` measures
+these and trimesh's and Open3D's answers on the same points (docs/queries.md).
 """
 
 from __future__ import annotations
@@ -32,6 +37,12 @@ import numpy as np
 #: Points whose fast winding number is within this of 1/2 are evaluated exactly: 11x the
 #: largest fast-method error measured on the bunny (0.0044).
 RECHECK = 0.05
+#: Up to this many such points are summed directly, triangle by triangle (about 20 ms a point
+#: on the bunny); more pay for libigl's hierarchy instead (about 0.6 s to build there, as
+#: much as 30 direct sums).
+DIRECT_MAX = 16
+#: Triangles per numpy pass of the direct sum (bounds its temporaries to a few MB).
+_CHUNK = 1 << 15
 
 
 @dataclasses.dataclass(frozen=True)
@@ -149,6 +160,50 @@ def winding_numbers(vertices, faces, points) -> np.ndarray:
         return np.zeros(len(q))
     w = np.array(igl.fast_winding_number(v, f, q), dtype=np.float64)
     near = np.flatnonzero(~(np.abs(w - 0.5) >= RECHECK))  # NaN counts as near
-    if len(near):
+    if 0 < len(near) <= DIRECT_MAX:
+        w[near] = solid_angle_sum(v, f, q[near])
+    elif len(near):
         w[near] = igl.winding_number(v, f, np.ascontiguousarray(q[near]))
     return w
+
+
+def solid_angle_sum(vertices, faces, points) -> np.ndarray:
+    """The winding number by the direct sum of solid angles over every triangle.
+
+    Each triangle's signed solid angle is ``2 atan2(a . (b x c), |a||b||c| + (a . b)|c| +
+    (b . c)|a| + (c . a)|b|)`` with ``a, b, c`` its corners relative to the point (Van
+    Oosterom & Strackee 1983), the formula libigl's exact evaluation uses; the winding
+    number is their sum over 4 pi. O(triangles) per point.
+
+    Parameters
+    ----------
+    vertices : array_like
+        ``(V, 3)`` float64.
+    faces : array_like
+        ``(F, 3)`` integer indices.
+    points : array_like
+        ``(N, 3)`` float64.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(N,)`` float64.
+    """
+    v = np.asarray(vertices, np.float64)
+    f = np.asarray(faces, np.int64).reshape(-1, 3)
+    q = np.asarray(points, np.float64).reshape(-1, 3)
+    total = np.zeros(len(q))
+    for start in range(0, len(f), _CHUNK):
+        corners = v[f[start : start + _CHUNK]]  # (k, 3, 3)
+        for i, p in enumerate(q):
+            a, b, c = (corners[:, j] - p for j in range(3))
+            la, lb, lc = (np.sqrt(np.einsum("ij,ij->i", x, x)) for x in (a, b, c))
+            det = np.einsum("ij,ij->i", a, np.cross(b, c))
+            den = (
+                la * lb * lc
+                + np.einsum("ij,ij->i", a, b) * lc
+                + np.einsum("ij,ij->i", b, c) * la
+                + np.einsum("ij,ij->i", c, a) * lb
+            )
+            total[i] += 2.0 * np.arctan2(det, den).sum()
+    return total / (4.0 * np.pi)
