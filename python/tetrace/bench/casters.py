@@ -25,7 +25,11 @@ its flags) and how it was scheduled (:meth:`schedule`); the benchmarks print and
 
 from __future__ import annotations
 
+import contextlib
 import functools
+import os
+import sys
+import tempfile
 import time
 
 import numpy as np
@@ -305,16 +309,51 @@ class Open3DCaster:
         return _peer_hits(origins, directions, prim, t, uv[:, 0], uv[:, 1])
 
 
+#: The line warp's native library prints on stderr when it finds no CUDA driver: the
+#: benches use warp's CPU device only, so a machine without NVIDIA's driver is expected.
+WARP_NO_CUDA_LINE = "Warp CUDA warning: Could not find or load the NVIDIA CUDA driver."
+
+
+@contextlib.contextmanager
+def _without_stderr_line(prefix):
+    """Drop the lines starting with ``prefix`` that native code writes to file descriptor 2
+    in the block; every other line goes to stderr as it would have.
+
+    warp-lang (1.19) prints :data:`WARP_NO_CUDA_LINE` with C's ``fprintf(stderr, ...)`` in
+    ``wp.init()``, whatever ``wp.config`` says (``log_level`` governs its Python messages
+    only), so the descriptor itself is caught for the call.
+    """
+    sys.stderr.flush()
+    saved = os.dup(2)
+    with tempfile.TemporaryFile() as caught:
+        os.dup2(caught.fileno(), 2)
+        try:
+            yield
+        finally:
+            sys.stderr.flush()  # Python's own writes in the block, into the file too
+            os.dup2(saved, 2)
+            os.close(saved)
+            caught.seek(0)
+            text = caught.read().decode("utf-8", "replace")
+            kept = [ln for ln in text.splitlines(keepends=True) if not ln.startswith(prefix)]
+            if kept:
+                sys.stderr.write("".join(kept))
+                sys.stderr.flush()
+
+
 def warp_module():
     """The ``warp`` module (warp-lang), initialised, or None with the reason it cannot be.
 
-    Its log level is set to warnings: no greeting and no module-load lines on stdout.
+    Its log level is set to warnings: no greeting and no module-load lines on stdout; the
+    native library's "no CUDA driver" line (:data:`WARP_NO_CUDA_LINE`) is dropped, since
+    the benches run warp on its CPU device. Any other line it prints is kept.
     """
     try:
         import warp as wp
 
         wp.config.log_level = wp.LOG_WARNING
-        wp.init()
+        with _without_stderr_line(WARP_NO_CUDA_LINE):
+            wp.init()
     except Exception as exc:
         return None, f"warp-lang not available ({type(exc).__name__}: {exc})"
     return wp, None
