@@ -173,7 +173,9 @@ def run_occupancy(path=None, *, n=20_000, seed=0, repeat=3, exact=True, out=prin
     list of dict
         One row per caster: ``caster``, ``seconds`` (best), ``first`` (first call),
         ``inside`` (fraction), ``agree`` and ``agree_outside_band`` (fractions of points
-        answering as the reference), ``points``, ``band``.
+        answering as the reference), ``wrong`` (points that do not), ``wrong_farthest``
+        (the largest distance from such a point to the scan, in bounding-box diagonals),
+        ``points``, ``band``.
     """
     import igl
     import trimesh
@@ -248,6 +250,9 @@ def run_occupancy(path=None, *, n=20_000, seed=0, repeat=3, exact=True, out=prin
             )
     rows = []
     keep = ~ref["band"]
+    # How far each point is from the scan, in diagonals: wrong answers near the surface or a
+    # hole are a matter of resolution; far ones are not.
+    far = scene.distance(p) / float(np.linalg.norm(hi - lo))
     for name, fn in casters:
         best, first, got = _best(fn, repeat)
         got = np.asarray(got, bool).reshape(-1)
@@ -261,6 +266,7 @@ def run_occupancy(path=None, *, n=20_000, seed=0, repeat=3, exact=True, out=prin
                 agree=float(same.mean()),
                 agree_outside_band=float(same[keep].mean()) if keep.any() else 1.0,
                 wrong=int((~same).sum()),
+                wrong_farthest=float(far[~same].max()) if (~same).any() else 0.0,
                 points=n,
                 band=int(ref["band"].sum()),
             )
@@ -286,10 +292,19 @@ def _format(rows):
             f"{r['inside']:.2%}",
             f"{r['agree']:.2%} ({r['wrong']:,} wrong)",
             f"{r['agree_outside_band']:.2%}",
+            f"{r['wrong_farthest']:.2g}",
         ]
         for r in rows
     ]
-    head = ["caster", "best ms", "first ms", "inside", "agrees with closed copy", "outside band"]
+    head = [
+        "caster",
+        "best ms",
+        "first ms",
+        "inside",
+        "agrees with closed copy",
+        "outside band",
+        "farthest wrong (diagonals)",
+    ]
     return _table(table, head)
 
 
