@@ -19,9 +19,9 @@ closest and any hit, ``crossings`` (every distinct exact point where the ray mee
 triangle, not one whose plane holds the ray) for all hits and counts, and for containment the
 parity of the crossings along a ray from the point in a random direction that meets the
 surface only inside triangles (re-drawn until it does); points exactly on the surface (the
-mesh's vertices) are inside by tetrace's contract. Containment is judged on closed surfaces
-only (every edge shared by an even number of triangles): on open ones tetrace's rule (the
-fewest crossings to the outside) has no peer.
+mesh's vertices) are inside by tetrace's contract. Containment is judged here on closed
+surfaces only (every edge shared by an even number of triangles: exact parity); open ones take
+the winding number, benchmarked against a closed copy by ``python -m tetrace.bench.occupancy``.
 
 The rays: a pinhole camera (``res``^2, from outside), random rays in and around the scene,
 shadow rays from a point light to the camera's hits (``tmax`` short of the hit, so the rays
