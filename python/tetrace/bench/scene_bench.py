@@ -9,9 +9,12 @@ import time
 
 import numpy as np
 
-from ..dev.camera import orbit_views, pinhole
+from ..dev.camera import orbit_view, pinhole
 from ..dev.compare import agreement
 from ..scene import LAYOUT_BYTES, Scene, default_scene_path, simd_levels
+
+#: Vertical field of view of the bench's pinhole camera, in degrees.
+FOV_DEG = 40.0
 
 
 def configurations(methods, layouts, precisions, threads):
@@ -127,6 +130,8 @@ def run_scene_bench(
     height=1024,
     repeat=3,
     distance=1.6,
+    azimuth=30.0,
+    elevation=25.0,
     image=None,
     json_path=None,
     methods=None,
@@ -152,7 +157,10 @@ def run_scene_bench(
     repeat : int
         Timed repetitions per configuration; the best time is reported.
     distance : float
-        Camera distance from the scene centre in bounding radii (the first orbit view).
+        Camera distance from the scene centre in bounding radii.
+    azimuth, elevation : float
+        Camera direction from the scene centre in degrees (:func:`tetrace.dev.camera.orbit_view`;
+        the defaults are the first of :func:`~tetrace.dev.camera.orbit_views`).
     image : str, optional
         Write a shaded PNG of tetrace's float32 hits there.
     json_path : str, optional
@@ -205,8 +213,10 @@ def run_scene_bench(
     bt = scene.build_times
     v, f = scene.vertices, scene.faces
     bounds = np.array([v.min(0), v.max(0)])
-    eye, target, up = orbit_views(bounds, n=1, distance=distance)[0]
-    o64, d64 = pinhole(eye, target, up, fov_deg=40.0, width=width, height=height, dtype=np.float64)
+    eye, target, up = orbit_view(bounds, azimuth, elevation, distance)
+    o64, d64 = pinhole(
+        eye, target, up, fov_deg=FOV_DEG, width=width, height=height, dtype=np.float64
+    )
     n = len(o64)
     # Every caster gets these float32 rays (float64 walks: the same values, widened exactly).
     o32, d32 = o64.astype(np.float32), d64.astype(np.float32)

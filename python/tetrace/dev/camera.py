@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["pinhole", "orbit_views", "random_rays"]
+__all__ = ["pinhole", "orbit_views", "orbit_view", "random_rays"]
 
 
 def _unit(v, name):
@@ -101,24 +101,44 @@ def orbit_views(bounds, n=3, distance=2.0):
         raise ValueError(f"bounds must have shape (2, 3), got {bounds.shape}")
     if n < 1:
         raise ValueError(f"n must be at least 1, got {n}")
+    return [
+        orbit_view(bounds, 30.0 + 360.0 * k / n, 25.0 if k % 2 == 0 else -15.0, distance)
+        for k in range(n)
+    ]
+
+
+def orbit_view(bounds, azimuth=30.0, elevation=25.0, distance=2.0):
+    """One viewpoint on a sphere about a bounding box's centre, looking at the centre.
+
+    Parameters
+    ----------
+    bounds : array_like
+        ``(2, 3)`` ``[min, max]`` corners.
+    azimuth : float, optional
+        Degrees about the +y axis, from +z towards +x.
+    elevation : float, optional
+        Degrees above the xz plane.
+    distance : float, optional
+        Eye distance from the centre, in bounding radii (half the box diagonal). With a
+        pinhole's vertical field of view ``fov``, the whole box is in a square frame when
+        ``distance >= 1 / sin(fov / 2)`` (2.92 for 40 degrees).
+
+    Returns
+    -------
+    tuple
+        ``(eye, target, up)`` of ``(3,)`` float64 arrays for ``pinhole(*view, ...)``;
+        ``up`` is +y.
+    """
+    bounds = np.asarray(bounds, dtype=np.float64)
+    if bounds.shape != (2, 3):
+        raise ValueError(f"bounds must have shape (2, 3), got {bounds.shape}")
     centre = bounds.mean(axis=0)
     radius = 0.5 * np.linalg.norm(bounds[1] - bounds[0])
     if not radius > 0.0:
         radius = 1.0
-    up = np.array([0.0, 1.0, 0.0])
-    views = []
-    for k in range(n):
-        azimuth = np.radians(30.0 + 360.0 * k / n)
-        elevation = np.radians(25.0 if k % 2 == 0 else -15.0)
-        direction = np.array(
-            [
-                np.cos(elevation) * np.sin(azimuth),
-                np.sin(elevation),
-                np.cos(elevation) * np.cos(azimuth),
-            ]
-        )
-        views.append((centre + distance * radius * direction, centre.copy(), up.copy()))
-    return views
+    a, e = np.radians(azimuth), np.radians(elevation)
+    direction = np.array([np.cos(e) * np.sin(a), np.sin(e), np.cos(e) * np.cos(a)])
+    return centre + distance * radius * direction, centre.copy(), np.array([0.0, 1.0, 0.0])
 
 
 def random_rays(bounds, n, seed, grow=0.25, dtype=np.float64):
