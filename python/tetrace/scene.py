@@ -310,7 +310,9 @@ class Scene:
     Build one with :meth:`Scene.from_mesh` (one mesh) or :meth:`Scene.from_meshes`
     (several); cast with :meth:`Scene.cast` (closest hits), :meth:`Scene.occluded` (any
     hit), :meth:`Scene.intersections` (all hits), :meth:`Scene.count_intersections`;
-    test points with :meth:`Scene.contains`.
+    test points with :meth:`Scene.contains` (exact parity on a closed mesh, the generalized
+    winding number on an open one: :attr:`Scene.is_closed`) and measure distances with
+    :meth:`Scene.closest_points`, :meth:`Scene.distance`, :meth:`Scene.signed_distance`.
 
     The ray queries share one contract: a ray hits a triangle when it meets the closed
     triangle (edges and vertices included) at one point at ``t`` in ``[tmin, tmax]``; a
