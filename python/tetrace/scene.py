@@ -1203,8 +1203,8 @@ class Scene:
         mode : {None, "parity", "winding"}
             None (the default): ``"parity"`` when :attr:`is_closed`, else ``"winding"``.
         threads : int, optional
-            Worker threads of the parity mode; None uses all cores. The winding number runs
-            on libigl's own threads (all cores).
+            Worker threads of the parity mode (the GIL released); None uses all cores. The
+            winding number runs on libigl's own threads (all cores), holding the GIL.
 
         Returns
         -------
