@@ -1074,9 +1074,10 @@ class Scene:
             ``mode`` is not one of the above, a point has a NaN or infinite coordinate, or
             ``points`` is not ``(..., 3)``.
         """
-        mode = self._contains_mode(mode)
-        d = self.distance(points, threads=threads)
         flat, shape = _query_points(points)
+        _check_threads(threads)
+        mode = self._contains_mode(mode)
+        d = self.distance(flat, threads=threads).reshape(shape)
         inside = self._inside(flat, mode, threads).reshape(shape)
         return np.where(inside, -d, d)
 
@@ -1222,9 +1223,9 @@ class Scene:
         UserWarning
             ``mode="parity"`` on a scene that is not closed (once per scene).
         """
-        mode = self._contains_mode(mode)
         flat, shape = _query_points(points)
         _check_threads(threads)
+        mode = self._contains_mode(mode)
         return self._inside(flat, mode, threads).reshape(shape)
 
     @property
