@@ -23,9 +23,10 @@ test (winding number >= 1/2) then answers as the exact sum would unless the fast
 
 Why not the exact sum everywhere: on the bunny (2 cores), 20,000 points took 2.1 s exact
 (``igl.winding_number``: ~0.6 s to build its hierarchy, then ~0.1 ms a point) against 0.28 s
-fast (~0.15 s of tree building per call); with the recheck, 7 of them were near 1/2 and the
-call took about 0.4 to 0.8 s (a loaded machine). ``python -m tetrace.bench.occupancy`` measures
-these and trimesh's and Open3D's answers on the same points (docs/queries.md).
+fast (~0.15 s of tree building per call); with the recheck, 7 of them were near 1/2 and
+``Scene.contains`` took 0.34 to 0.37 s (a machine shared with other jobs: +-30%).
+``python -m tetrace.bench.occupancy`` measures these and trimesh's and Open3D's answers on the
+same points (docs/queries.md).
 """
 
 from __future__ import annotations
