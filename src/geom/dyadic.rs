@@ -164,6 +164,53 @@ impl Ord for Dyadic {
     }
 }
 
+impl Dyadic {
+    /// a / b rounded to the nearest float64 (ties to even; subnormal and infinite results
+    /// included), b nonzero: where a rounded quotient must be faithful and the float
+    /// evaluation could not certify it (`geom::rounded`).
+    pub fn quotient(a: &Dyadic, b: &Dyadic) -> f64 {
+        assert!(!b.is_zero(), "Dyadic::quotient: zero denominator");
+        if a.is_zero() {
+            return 0.0;
+        }
+        let negative = a.m.is_negative() != b.m.is_negative();
+        let (n, d) = (a.m.magnitude(), b.m.magnitude());
+        // q = floor(n 2^k / d) has 55 or 56 bits: two more than float64's 53, and a sticky
+        // bit for what the division left.
+        let k = d.bits() as i64 - n.bits() as i64 + 55;
+        let (nn, dd) = if k >= 0 {
+            (n << k as usize, d.clone())
+        } else {
+            (n.clone(), d << (-k) as usize)
+        };
+        let q_big = &nn / &dd;
+        let sticky = !(&nn - &q_big * &dd).is_zero();
+        let q = q_big.iter_u64_digits().next().unwrap_or(0);
+        let qb = 64 - q.leading_zeros() as i64;
+        // The value is (q + frac) 2^(shift), floor(log2) = qb - 1 + shift.
+        let shift = a.e - b.e - k;
+        let top = qb - 1 + shift;
+        let signed = |x: f64| if negative { -x } else { x };
+        if top > 1023 {
+            return signed(f64::INFINITY);
+        }
+        // Significant bits at that exponent (fewer for subnormals), and the bits dropped.
+        let p = if top >= -1022 { 53 } else { 53 - (-1022 - top) };
+        let drop = qb - p;
+        let m = if drop >= 64 {
+            0
+        } else {
+            let m = q >> drop;
+            let rest = q & ((1u64 << drop) - 1);
+            let half = 1u64 << (drop - 1);
+            let up = rest > half || (rest == half && (sticky || m & 1 == 1));
+            m + up as u64
+        };
+        // m 2^(drop + shift) is a float (m fits the bits available there): exact.
+        signed(super::real::times_pow2(m as f64, (drop + shift) as i32))
+    }
+}
+
 /// The comparison of two fractions a/b and c/d with nonzero denominators.
 pub fn cmp_fractions(a: &Dyadic, b: &Dyadic, c: &Dyadic, d: &Dyadic) -> Ordering {
     let s = (a * d - c * b).signum() * b.signum() * d.signum();

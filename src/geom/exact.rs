@@ -7,6 +7,7 @@
 use super::dyadic::{cmp_fractions, Dyadic};
 use super::predicates::expansion_safe;
 use super::real::{exponent, times_pow2, V3};
+use super::rounded::{rounded_hit, RoundedHit};
 use std::cmp::Ordering;
 
 const EPS: f64 = f64::EPSILON * 0.5;
@@ -102,8 +103,9 @@ pub fn in_plane(d: V3<f64>, a: V3<f64>, b: V3<f64>, c: V3<f64>) -> bool {
 }
 
 /// Where the line o + t d crosses the plane of (a, b, c): t = num / den with
-/// num = det(a − o, b − o, c − o) and den = d · ((b − a) × (c − a)), evaluated in float64
-/// (the evaluation whose forward error the referee bounds), and that error bound.
+/// num = det(a − o, b − a, c − a) and den = d · ((b − a) × (c − a)), evaluated in float64,
+/// and a certified bound on its error (what the exact comparisons filter with; the t a query
+/// reports is [`triangle_hit`]'s, faithfully rounded).
 ///
 /// d is first scaled by a power of two to a largest component in [1, 2) (exact, and t scales
 /// back exactly), so that a tiny or huge direction (1e-300, a denormal, 1e300) neither
@@ -126,21 +128,25 @@ fn unit_direction(d: V3<f64>) -> (V3<f64>, i32) {
     (d.map(|x| times_pow2(x, -e)), e)
 }
 
-/// [`plane_t`] without the scaling.
+/// [`plane_t`] without the scaling. Anchored at the triangle: num = det(a − o, b − a, c − a),
+/// whose permanent is |a − o| |edges|², not |a − o|³ as for det(a − o, b − o, c − o), so an
+/// origin far from a small triangle leaves the bound (relative to t) near ε over the cosine of
+/// the ray's angle to the plane, instead of growing as the distance squared. Each row is one
+/// rounded difference of inputs, as in Shewchuk's orient3d: the same bound holds.
 fn plane_t_scaled(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3]) -> (f64, f64) {
     let [a, b, c] = *tri;
-    let (av, bv, cv) = (
+    let (w, e1, e2) = (
         [0, 1, 2].map(|k| a[k] - o[k]),
-        [0, 1, 2].map(|k| b[k] - o[k]),
-        [0, 1, 2].map(|k| c[k] - o[k]),
-    );
-    let (num, pnum) = det_perm(av, bv, cv);
-    let (e1, e2) = (
         [0, 1, 2].map(|k| b[k] - a[k]),
         [0, 1, 2].map(|k| c[k] - a[k]),
     );
+    let (num, pnum) = det_perm(w, e1, e2);
     let (den, pden) = det_perm(d, e1, e2);
     let t = num / den;
+    if !(pnum > TINY && pden > TINY) {
+        // Products may have underflowed (or the origin sits on a vertex): no bound holds.
+        return (t, f64::INFINITY);
+    }
     let err = (DET_BOUND * pnum + t.abs() * DET_BOUND * pden) / den.abs() + 4.0 * EPS * t.abs();
     (t, err)
 }
@@ -230,22 +236,17 @@ pub fn beyond(
     }
 }
 
-/// The ray's hit on one of the caller's triangles: t and its error bound (as [`plane_t`]), and
-/// barycentrics (u, v) of b and c, from the Plücker side products (each a sum of the others'
-/// share of den).
-pub fn triangle_hit(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3]) -> (f64, f64, f64, f64) {
-    let (t, err) = plane_t(o, d, tri);
-    // u and v do not change with d's length: take it to unit scale (no underflow).
-    let d = unit_direction(d).0;
-    let [a, b, c] = *tri;
-    let sub = |x: V3<f64>| [0, 1, 2].map(|k| x[k] - o[k]);
-    let (av, bv, cv) = (sub(a), sub(b), sub(c));
-    // S_ca weighs b, S_ab weighs c (their sum with S_bc is den).
-    let s_bc = det_perm(d, bv, cv).0;
-    let s_ca = det_perm(d, cv, av).0;
-    let s_ab = det_perm(d, av, bv).0;
-    let den = s_bc + s_ca + s_ab;
-    (t, err, s_ca / den, s_ab / den)
+/// The ray's hit on one of the caller's triangles, which its line meets at one point: t, u, v
+/// and the point, each within one ulp of the exact value ([`super::rounded`]). NaN everywhere
+/// should the line be parallel to the triangle's plane after all (no caller reaches that).
+pub fn triangle_hit(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3]) -> RoundedHit {
+    rounded_hit(o, d, tri).unwrap_or(RoundedHit {
+        t: f64::NAN,
+        t_err: f64::INFINITY,
+        u: f64::NAN,
+        v: f64::NAN,
+        point: [f64::NAN; 3],
+    })
 }
 
 /// Where point x lies against the plane of (a, b, c): the exact sign of orient (tetrace's
@@ -461,9 +462,11 @@ mod tests {
         assert_eq!(cmp_t(o, d, &tri, third), expect);
         assert_eq!(cmp_t(o, d, &tri, 0.5), Ordering::Less);
         assert_eq!(cmp_t(o, d, &tri, 0.2), Ordering::Greater);
-        let (t, err, u, v) = triangle_hit(o, d, &tri);
-        assert_eq!((t, err), plane_t(o, d, &tri));
-        assert!((t - third).abs() <= 1e-16 && (u - 0.25).abs() < 1e-15 && (v - 0.25).abs() < 1e-15);
+        // 1/3 rounded either way is faithful; u = v = 1/4 and the point are floats: exact.
+        let h = triangle_hit(o, d, &tri);
+        assert!(h.t == third || h.t == third.next_down() || h.t == third.next_up());
+        assert!(h.t_err <= third.next_up() - third);
+        assert_eq!((h.u, h.v, h.point), (0.25, 0.25, [1.0, 0.25, 0.25]));
     }
 
     /// `cmp_t` against 0 (its predicate path) and `beyond` agree with rationals where the

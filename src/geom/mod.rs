@@ -7,4 +7,5 @@ pub mod onb;
 pub mod predicates;
 pub mod ray;
 pub mod real;
+pub mod rounded;
 pub mod triangle;

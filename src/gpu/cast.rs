@@ -141,7 +141,7 @@ impl DeviceScene {
                     gpu_walk(kernel, o)
                 };
                 let r = scene.finish(s, &w);
-                chunk.set(*j as usize, &r, &rays.ray(k * CHUNK + *j as usize));
+                chunk.set(*j as usize, &r);
             }
         })?;
         timings.deferred = deferred.into_inner();
@@ -166,7 +166,7 @@ fn locate_chunk(
     for j in 0..chunk.len() {
         let i = k * CHUNK + j;
         match scene.locate_one(rays, i, settle, &mut st) {
-            Start::Done(status) => chunk.set(j, &RayHit::nothing(status), &rays.ray(i)),
+            Start::Done(status) => chunk.set(j, &RayHit::nothing(status)),
             Start::Walk(s) => {
                 prepared.push((kernel.prepare)(&s, &scene.mesh));
                 starts.push((j as u32, s));

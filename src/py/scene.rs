@@ -205,8 +205,9 @@ impl PyScene {
     }
 
     /// Every point where each ray meets the surface in [tmin, tmax] (the exact walk): a dict
-    /// of flat arrays "offsets" (N + 1), "t", "triangle", "u", "v" sorted by exact t within
-    /// each ray, and "status" (N). `method` must be None or "exact"; `layout` is ignored.
+    /// of flat arrays "offsets" (N + 1), "t", "triangle", "u", "v", "point" (M, 3) sorted by
+    /// exact t within each ray (each value within a float64 ulp of the exact one), and
+    /// "status" (N). `method` must be None or "exact"; `layout` is ignored.
     #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packet=true, accel=None, start=None, progress=None))]
     #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
     fn intersections<'py>(
@@ -246,6 +247,7 @@ impl PyScene {
             try_capacity(total, what)?,
             try_capacity(total, what)?,
         );
+        let mut point = try_capacity(3 * total, what)?;
         let mut status = try_capacity(n, "the statuses")?;
         offsets.push(0i64);
         for l in &listed {
@@ -254,6 +256,7 @@ impl PyScene {
                 tri.push(m.triangle as i32);
                 u.push(m.u);
                 v.push(m.v);
+                point.extend(m.point);
             }
             offsets.push(t.len() as i64);
             status.push(l.status);
@@ -264,6 +267,7 @@ impl PyScene {
         out.set_item("triangle", tri.into_pyarray(py))?;
         out.set_item("u", u.into_pyarray(py))?;
         out.set_item("v", v.into_pyarray(py))?;
+        out.set_item("point", point.into_pyarray(py).reshape([total, 3])?)?;
         out.set_item("status", status.into_pyarray(py))?;
         Ok(out)
     }

@@ -4,6 +4,7 @@
 use super::contact::{ExactRay, Meet, Range};
 use super::gather::{Line, Nearest};
 use super::{Crossing, Decision, Query, QueryKind};
+use crate::geom::rounded::RoundedHit;
 use crate::geom::triangle::{intersect_triangle, on_triangle};
 use crate::locate::WalkStart;
 use crate::mesh::{Incidence, Surface, TetMesh};
@@ -17,6 +18,8 @@ pub struct RayHit {
     pub t: f64,
     pub u: f64,
     pub v: f64,
+    /// The hit point, each coordinate within one ulp of the exact point's.
+    pub point: [f64; 3],
     pub triangle: i32,
     pub tet: i32,
     pub steps: u32,
@@ -30,6 +33,7 @@ impl RayHit {
             t: f64::INFINITY,
             u: f64::NAN,
             v: f64::NAN,
+            point: [f64::NAN; 3],
             triangle: -1,
             tet: -1,
             steps: 0,
@@ -133,7 +137,7 @@ impl<'a> QueryKind for ClosestHit<'a> {
         };
         if let Some(m) = g.meet() {
             r.status = HIT;
-            (r.t, r.u, r.v, r.triangle) = (m.t, m.u, m.v, m.triangle as i32);
+            (r.t, r.u, r.v, r.point, r.triangle) = (m.t, m.u, m.v, m.point, m.triangle as i32);
         }
         r
     }
@@ -180,7 +184,7 @@ impl ClosestHit<'_> {
         match best {
             Some(m) => {
                 r.status = HIT;
-                (r.t, r.u, r.v, r.triangle) = (m.t, m.u, m.v, m.triangle as i32);
+                (r.t, r.u, r.v, r.point, r.triangle) = (m.t, m.u, m.v, m.point, m.triangle as i32);
             }
             None if w.end == WalkEnd::StepLimit => r.status = FAILED,
             None => {}
@@ -209,13 +213,14 @@ impl ClosestHit<'_> {
                     w.face
                 };
                 let face = || ids.map(|v| mesh.points[v as usize]);
-                let (tri, (t, u, v)) = self.hit_triangle(s, named, face);
-                if t <= s.tmax {
+                let (tri, h) = self.hit_triangle(s, named, face);
+                if h.t <= s.tmax {
                     r = RayHit {
                         status: HIT,
-                        t: t.max(s.tmin),
-                        u,
-                        v,
+                        t: h.t.max(s.tmin),
+                        u: h.u,
+                        v: h.v,
+                        point: h.point,
                         triangle: tri as i32,
                         ..r
                     };
@@ -233,7 +238,7 @@ impl ClosestHit<'_> {
         s: &WalkStart,
         named: u32,
         face: impl Fn() -> [[f64; 3]; 3],
-    ) -> (u32, (f64, f64, f64)) {
+    ) -> (u32, RoundedHit) {
         let triangles = &self.surface.triangles;
         let on_named = intersect_triangle(s.o, s.d, &triangles[named as usize], &face);
         let alternatives = self.surface.alternatives.of(named);
@@ -248,8 +253,8 @@ impl ClosestHit<'_> {
         let n = (b - a).cross(c - a);
         let t_face = n.dot(a - o) / n.dot(d);
         let mut best = (named, on_named);
-        let mut best_gap = if on_triangle(on_named) {
-            (on_named.0 - t_face).abs()
+        let mut best_gap = if on_triangle(&on_named) {
+            (on_named.t - t_face).abs()
         } else {
             f64::INFINITY
         };
@@ -261,8 +266,8 @@ impl ClosestHit<'_> {
         }
         for &alt in alternatives {
             let hit = intersect_triangle(s.o, s.d, &triangles[alt as usize], &face);
-            let gap = (hit.0 - t_face).abs();
-            if on_triangle(hit) && gap < best_gap {
+            let gap = (hit.t - t_face).abs();
+            if on_triangle(&hit) && gap < best_gap {
                 (best, best_gap) = ((alt, hit), gap);
             }
         }

@@ -13,13 +13,15 @@ use std::cmp::Ordering;
 /// One point where a ray meets the surface.
 #[derive(Clone, Copy, Debug)]
 pub struct Meet {
-    /// t evaluated in float64 on `triangle` ([`meet_at`]), as the closest hit's.
+    /// t on `triangle` ([`meet_at`]), within one ulp of the exact t.
     pub t: f64,
-    /// A bound on |t − the exact t| (`plane_t`'s certified error): meets farther apart than
-    /// their bounds are ordered by t, nearer ones exactly ([`cmp_meets`]).
+    /// A bound on |t − the exact t| (at most an ulp of t): meets farther apart than their
+    /// bounds are ordered by t, nearer ones exactly ([`cmp_meets`]).
     pub err: f64,
     pub u: f64,
     pub v: f64,
+    /// The point, each coordinate within one ulp of the exact point's.
+    pub point: [f64; 3],
     /// The caller's triangle (of those met at this point, the smallest id).
     pub triangle: u32,
     /// The mesh feature the point lies in: sorted point ids of a vertex, edge or face, padded
@@ -332,7 +334,8 @@ pub fn meet_at(
     triangle: u32,
     key: [u32; 3],
 ) -> Meet {
-    let (mut t, t_err, u, v) = triangle_hit(o, d, tri);
+    let hit = triangle_hit(o, d, tri);
+    let (mut t, t_err) = (hit.t, hit.t_err);
     // A touch at the origin (a ray starting on the surface) is at t = 0 exactly, which the
     // quotient may miss by an ulp of nothing: decide it exactly when t is that close.
     if t.abs() <= t_err && cmp_t(o, d, tri, 0.0).is_eq() {
@@ -343,8 +346,9 @@ pub fn meet_at(
     Meet {
         t: if t == 0.0 { 0.0 } else { t },
         err: t_err,
-        u,
-        v,
+        u: hit.u,
+        v: hit.v,
+        point: hit.point,
         triangle,
         key,
     }

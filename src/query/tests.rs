@@ -238,14 +238,14 @@ fn exact_walk_is_right_where_float_walks_fail() {
                     let ray = if f32_rays { r32.ray(i) } else { r64.ray(i) };
                     let v = referee::first_hit(ray.o, ray.d, ray.tmin.max(0.0), ray.tmax, &g.tris);
                     touched += v.as_ref().is_some_and(|v| v.ties.len() > 1) as usize;
-                    let ulp = if f32_rays {
-                        referee::ulp_f32(t)
+                    let precision = if f32_rays {
+                        referee::Precision::F32
                     } else {
-                        referee::ulp_f64(t)
+                        referee::Precision::F64
                     };
                     let hit = (status == HIT).then_some((tri as usize, t));
                     let outcome =
-                        referee::judge(v.as_ref(), status == crate::status::FAILED, hit, ulp);
+                        referee::judge(v.as_ref(), status == crate::status::FAILED, hit, precision);
                     assert_eq!(
                         outcome,
                         referee::Outcome::Right,
@@ -345,17 +345,14 @@ fn all_hits_counts_and_occlusion_agree_with_the_referee() {
             assert_eq!(got.status, if groups.is_empty() { MISS } else { HIT });
             assert_eq!(occluded[i], got.status, "ray {i}: occluded");
             // Each listed point is a distinct referee point with a triangle met there and t
-            // within the bound (two points whose exact t round to one float64 may come in
-            // either order).
+            // within an ulp of its exact t (two points whose exact t round to one float64 may
+            // come in either order).
             let mut used = vec![false; groups.len()];
             for m in &got.meets {
                 let found = groups.iter().enumerate().position(|(k, grp)| {
-                    let tri = &g.tris[grp[0].1];
-                    let bound =
-                        referee::t_bound(ray.o, ray.d, tri, grp[0].0.t()) + referee::ulp_f64(m.t);
                     !used[k]
                         && grp.iter().any(|c| c.1 == m.triangle as usize)
-                        && (m.t - grp[0].0.t()).abs() <= bound
+                        && grp[0].0.within_ulp(m.t, referee::Precision::F64)
                 });
                 let Some(k) = found else {
                     panic!(
@@ -744,7 +741,7 @@ fn all_hits_in_exact_order_just_past_a_vertex() {
         let (t, triangle) = (closest.t[0], closest.triangle[0]);
         let got = (closest.status[0] == HIT).then_some((triangle as usize, t));
         assert_eq!(
-            referee::judge(verdict.as_ref(), false, got, referee::ulp_f64(t)),
+            referee::judge(verdict.as_ref(), false, got, referee::Precision::F64),
             referee::Outcome::Right,
             "{accel:?}: closest hit {got:?}"
         );
@@ -766,10 +763,9 @@ fn all_hits_in_exact_order_just_past_a_vertex() {
                     panic!("{accel:?}: {shown:?} out of the referee's order {ids:?}")
                 })
                 .0;
-            let bound = referee::t_bound(o, d, &tris[k], c.t()) + referee::ulp_f64(m.t);
             assert!(
-                (m.t - c.t()).abs() <= bound,
-                "{accel:?}: triangle {k} at t {} exact {} bound {bound:e}",
+                c.within_ulp(m.t, referee::Precision::F64),
+                "{accel:?}: triangle {k} at t {} exact {}",
                 m.t,
                 c.t()
             );

@@ -116,9 +116,10 @@ impl<'a, R> HitsOut<'a, R> {
         self.t.is_empty()
     }
 
-    /// Writes entry j: the hit of `ray` (the point is o + t d in f64, then rounded).
+    /// Writes entry j: the hit of `ray` (its values rounded to the rays' precision: from
+    /// float64 values within an ulp of the exact ones, still within an ulp).
     #[inline]
-    pub fn set(&mut self, j: usize, r: &RayHit, ray: &Ray)
+    pub fn set(&mut self, j: usize, r: &RayHit)
     where
         R: Real,
     {
@@ -135,7 +136,7 @@ impl<'a, R> HitsOut<'a, R> {
         self.v[j] = R::from_f64(r.v);
         for a in 0..3 {
             self.point[3 * j + a] = R::from_f64(if status == HIT {
-                ray.o[a] + r.t * ray.d[a]
+                r.point[a]
             } else {
                 f64::NAN
             });
@@ -194,8 +195,8 @@ impl<R: Real + Send> Sink<RayHit> for HitsOut<'_, R> {
         HitsOut::split_at(self, n)
     }
     #[inline]
-    fn put(&mut self, j: usize, r: RayHit, ray: &Ray) {
-        self.set(j, &r, ray);
+    fn put(&mut self, j: usize, r: RayHit, _ray: &Ray) {
+        self.set(j, &r);
         if !self.audit.is_empty() {
             self.audit[2 * j..2 * j + 2].copy_from_slice(&r.audit);
         }

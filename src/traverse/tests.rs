@@ -53,10 +53,10 @@ pub(crate) fn tally<R: Real>(
     tri: &[i32],
     t: &[R],
 ) -> Tally {
-    let ulp = if R::NAME == "f32" {
-        referee::ulp_f32
+    let precision = if R::NAME == "f32" {
+        referee::Precision::F32
     } else {
-        referee::ulp_f64
+        referee::Precision::F64
     };
     let mut c = Tally::default();
     for (k, v) in verdicts.iter().enumerate() {
@@ -65,7 +65,7 @@ pub(crate) fn tally<R: Real>(
             v.as_ref(),
             status[k] == FAILED,
             hit,
-            v.as_ref().map_or(0.0, |v| ulp(v.t)),
+            precision,
         );
         match out {
             Outcome::Right => c.right += 1,
@@ -611,13 +611,15 @@ pub(crate) fn assert_between_touch_and_inside<R: Real>(
             .unwrap_or_else(|| panic!("ray {k}: its line does not cross triangle {tri:?}"));
         let tc = c.t();
         if let Some(t) = t.map(R::to_f64) {
-            let ulp = if R::NAME == "f32" {
-                referee::ulp_f32(tc)
+            let precision = if R::NAME == "f32" {
+                referee::Precision::F32
             } else {
-                referee::ulp_f64(tc)
+                referee::Precision::F64
             };
-            let tol = ulp + referee::t_bound(o, d, &tri, tc);
-            assert!((t - tc).abs() <= tol, "ray {k}: t {t} vs crossing {tc}");
+            assert!(
+                c.within_ulp(t, precision),
+                "ray {k}: t {t} vs crossing {tc}"
+            );
         }
         let touch = touch.unwrap_or_else(|| panic!("ray {k}: hit at {tc}, no triangle touched"));
         assert!(

@@ -96,13 +96,13 @@ fn bvh_agrees(accel: AccelKind) {
                 for i in 0..n {
                     let ray = if f32_rays { r32.ray(i) } else { r64.ray(i) };
                     let v = referee::first_hit(ray.o, ray.d, ray.tmin.max(0.0), ray.tmax, &g.tris);
-                    let ulp = if f32_rays {
-                        referee::ulp_f32(bt[i])
+                    let precision = if f32_rays {
+                        referee::Precision::F32
                     } else {
-                        referee::ulp_f64(bt[i])
+                        referee::Precision::F64
                     };
                     let got = (bs[i] == HIT).then_some((btri[i] as usize, bt[i]));
-                    let outcome = referee::judge(v.as_ref(), false, got, ulp);
+                    let outcome = referee::judge(v.as_ref(), false, got, precision);
                     assert_eq!(
                         outcome,
                         referee::Outcome::Right,

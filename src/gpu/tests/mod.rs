@@ -71,9 +71,9 @@ fn verdicts32(
 }
 
 /// Judges a cast by the referee and prints the outcome counts. Asserted for every kernel:
-/// no `t_off` (a tied triangle with `t` beyond `ulp_f32(t*) + B`: `t` is the float64
-/// Möller–Trumbore quotient on the caller's triangle, rounded to float32, which B and the
-/// rounding bound; derived in docs/referee.md).
+/// no `t_off` (a tied triangle with `t` more than a float32 ulp from `t*`: the CPU finishes
+/// every GPU hit with `t` within a float64 ulp of the exact value on the caller's triangle,
+/// which rounds to within a float32 ulp).
 fn judged(test: &str, want: &[Option<crate::referee::Verdict>], out: &Out) -> Tally {
     let c = tally(test, want, &out.status, &out.tri, &out.t);
     eprintln!("{test}: referee {c:?}");
