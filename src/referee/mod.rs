@@ -86,6 +86,48 @@ impl Crossing {
     pub fn cmp_t_of(&self, other: &Crossing) -> Ordering {
         (&self.num * &other.den).cmp(&(&other.num * &self.den))
     }
+
+    /// Whether `|x − t| ≤ ulp(t)` exactly, `ulp(t)` the spacing of `precision` in the binade
+    /// of the exact `t` (its smallest subnormal spacing at 0 and below the normal range): the
+    /// contract's one-ulp rule. False for a non-finite `x`.
+    pub fn within_ulp(&self, x: f64, precision: Precision) -> bool {
+        if !x.is_finite() {
+            return false;
+        }
+        let (bits, emin) = match precision {
+            Precision::F32 => (24, -126),
+            Precision::F64 => (53, -1022),
+        };
+        // floor(log2 |t|): |num| / den lies in [2^(b-1), 2^(b+1)), b the bit lengths' gap.
+        let k = if self.num.is_zero() {
+            emin - (bits - 1)
+        } else {
+            let n = self.num.magnitude();
+            let d = self.den.magnitude();
+            let b = n.bits() as i64 - d.bits() as i64;
+            let at_least = if b >= 0 {
+                n >= &(d << b as usize)
+            } else {
+                &(n << (-b) as usize) >= d
+            };
+            let e = if at_least { b } else { b - 1 };
+            e.max(emin) - (bits - 1)
+        };
+        // |m 2^ex den − num| ≤ 2^k den, all scaled by 2^-z to integers.
+        let (m, ex) = decode(x);
+        let z = ex.min(k).min(0);
+        let shift = |v: &BigInt, s: i64| v << (s - z) as usize;
+        let lhs = (shift(&(&self.den * BigInt::from(m)), ex) - shift(&self.num, 0)).magnitude().clone();
+        let rhs = shift(&self.den, k).magnitude().clone();
+        lhs <= rhs
+    }
+}
+
+/// The float type a caster reports `t` in: the ulp the contract allows is that type's.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Precision {
+    F32,
+    F64,
 }
 
 /// A ray's exact answer.
@@ -97,7 +139,8 @@ pub struct Verdict {
     pub ties: Vec<usize>,
     /// Zero side products of the first tie's crossing (1: on an edge, 2: at a vertex).
     pub zero_signs: u8,
-    /// `B` of docs/referee.md on the first tie ([`t_bound`]).
+    /// `B` of docs/referee.md on the first tie ([`t_bound`]): information only (how far a
+    /// plain float64 evaluation could stray); judging uses the exact `t*`.
     pub bound: f64,
     /// The first tie's crossing: `t*` exactly.
     pub exact: Crossing,
@@ -113,17 +156,17 @@ impl Verdict {
 /// How a cast of one ray compares with the referee (docs/referee.md), in order of precedence.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Outcome {
-    /// Hit exactly when the referee hits, on a tied triangle, `t` within `ulp(t*) + B`.
+    /// Hit exactly when the referee hits, on a tied triangle, `|t − t*| ≤ ulp(t*)` exactly.
     Right,
     /// The caster gave up.
     Failed,
     /// The referee hits, the caster reports a miss.
     Leaked,
-    /// Both hit; the caster's triangle is not tied and its `t` is past `t*` (beyond the bound):
-    /// the walk went through the first hit.
+    /// Both hit; the caster's triangle is not tied and its `t` is past `t*` (by more than an
+    /// ulp): the walk went through the first hit.
     Late,
     /// Anything else: a hit where the referee misses, another triangle before (or at) `t*`, or
-    /// `t` outside the bound.
+    /// `t` more than an ulp from `t*`.
     Wrong,
 }
 
@@ -292,12 +335,12 @@ pub fn t_bound(o: P3, d: P3, tri: &Tri, t_star: f64) -> f64 {
 
 /// Judges one cast of a ray against the referee's verdict (`None`: the referee misses).
 /// `failed`: the caster gave up; `hit`: its triangle and `t` (as float64), `None` for a miss;
-/// `ulp`: the spacing of the caster's output float type at `t*` ([`ulp_f32`], [`ulp_f64`]).
+/// `precision`: the float type the caster reports `t` in (its ulp is the one allowed).
 pub fn judge(
     verdict: Option<&Verdict>,
     failed: bool,
     hit: Option<(usize, f64)>,
-    ulp: f64,
+    precision: Precision,
 ) -> Outcome {
     if failed {
         return Outcome::Failed;
@@ -307,14 +350,14 @@ pub fn judge(
         (Some(_), None) => Outcome::Leaked,
         (None, Some(_)) => Outcome::Wrong,
         (Some(v), Some((tri, t))) => {
-            let tol = ulp + v.bound;
+            let close = v.exact.within_ulp(t, precision);
             if v.ties_with(tri) {
-                if (t - v.t).abs() <= tol {
+                if close {
                     Outcome::Right
                 } else {
                     Outcome::Wrong
                 }
-            } else if t > v.t + tol {
+            } else if !close && v.exact.cmp_t(t) == Ordering::Less {
                 Outcome::Late
             } else {
                 Outcome::Wrong

@@ -316,10 +316,18 @@ fn judge_precedence() {
         },
     };
     let u = ulp_f64(2.0);
-    let j = |failed, h| judge(Some(&v), failed, h, u);
+    let j = |failed, h| judge(Some(&v), failed, h, Precision::F64);
     assert_eq!(j(false, Some((5, 2.0))), Outcome::Right);
     assert_eq!(j(false, Some((3, 2.0 + u))), Outcome::Right);
-    assert_eq!(j(false, Some((3, 2.0 + 1e-12))), Outcome::Wrong); // t outside the bound
+    // One ulp below 2 is half of one above: two of those are still within ulp(2).
+    assert_eq!(j(false, Some((3, 2.0 - u))), Outcome::Right);
+    assert_eq!(j(false, Some((3, 2.0 + 2.0 * u))), Outcome::Wrong); // two ulps off
+    assert_eq!(j(false, Some((3, 2.0 + 1e-12))), Outcome::Wrong);
+    // In float32, 2 + a float32 ulp is right, 2 + two is not.
+    let u32 = ulp_f32(2.0);
+    let j32 = |h| judge(Some(&v), false, h, Precision::F32);
+    assert_eq!(j32(Some((3, 2.0 + u32))), Outcome::Right);
+    assert_eq!(j32(Some((3, 2.0 + 2.0 * u32))), Outcome::Wrong);
     assert_eq!(j(true, Some((3, 2.0))), Outcome::Failed);
     assert_eq!(j(true, None), Outcome::Failed);
     assert_eq!(j(false, None), Outcome::Leaked);
@@ -327,9 +335,9 @@ fn judge_precedence() {
     assert_eq!(j(false, Some((4, 1.5))), Outcome::Wrong); // another triangle before t*
     assert_eq!(j(false, Some((4, 2.0))), Outcome::Wrong); // another triangle at t*
     assert_eq!(j(false, Some((3, f64::NAN))), Outcome::Wrong);
-    assert_eq!(judge(None, false, None, 0.0), Outcome::Right);
-    assert_eq!(judge(None, false, Some((0, 1.0)), 0.0), Outcome::Wrong);
-    assert_eq!(judge(None, true, None, 0.0), Outcome::Failed);
+    assert_eq!(judge(None, false, None, Precision::F64), Outcome::Right);
+    assert_eq!(judge(None, false, Some((0, 1.0)), Precision::F64), Outcome::Wrong);
+    assert_eq!(judge(None, true, None, Precision::F64), Outcome::Failed);
     assert_eq!(ulp_f32(1.0), f32::EPSILON as f64);
     assert_eq!(ulp_f64(1.0), f64::EPSILON);
     assert_eq!(ulp_f64(0.0), f64::from_bits(1));
