@@ -1,7 +1,22 @@
-# Developer and CI entry points. `make test` is what .ci/run calls.
-PY ?= python3
+# Developer and CI entry points. `make demo` and `make test` are the README's two commands;
+# .ci/run calls `make lint` and `make test` with CI=true, so CI runs what the README says.
+#
+# Python: a virtual environment in .venv, made from $(PYTHON) on first use (Python >= 3.10).
+# `make test PY=/path/to/python` uses that interpreter as it is instead (no venv is made).
+PYTHON ?= python3
+VENV ?= .venv
+PY ?= $(VENV)/bin/python
 PIP ?= $(PY) -m pip
 CARGO ?= cargo
+# Cargo profile of the extension (passed to maturin): the tests and lint build `quick`
+# (Cargo.toml: release without fat LTO, parallel codegen; they check answers, not speed), the
+# demo `release` (fat LTO: its throughput is the point). Each keeps its own target/ folder.
+TEST_PROFILE ?= quick
+DEMO_PROFILE ?= release
+# The Debian packages the tests need (.ci/system-packages): `install` installs the missing
+# ones when run as root (otherwise names them and fails), `check` names them and fails,
+# `skip` does neither (a system that is not Debian, with the equivalents installed).
+SYSTEM_PACKAGES ?= install
 # pytest-xdist workers (CI has 2 cores).
 PYTEST_WORKERS ?= 2
 # Extra pytest arguments, e.g. `make test PYTEST_EXTRA="-k reference -x"`.
@@ -9,17 +24,80 @@ PYTEST_EXTRA ?=
 # Notebooks run as tests through nbmake; the folder is passed only if it exists.
 NOTEBOOKS := $(wildcard notebooks)
 
+REPO := $(patsubst %/,%,$(dir $(abspath $(lastword $(MAKEFILE_LIST)))))
+RUST_VERSION := $(shell sed -n 's/^rust-version *= *"\(.*\)"/\1/p' $(REPO)/Cargo.toml)
+
+# The shared test scenes (not in the repository): ../shared/scenes beside the checkout,
+# unless TETRACE_SCENES points elsewhere. Without them the tests that need them skip, and
+# pytest says so once (tests/conftest.py); under CI=true they fail.
+ifeq ($(origin TETRACE_SCENES),undefined)
+ifneq ($(wildcard $(REPO)/../shared/scenes),)
+export TETRACE_SCENES := $(abspath $(REPO)/../shared/scenes)
+endif
+endif
+
 # rustup installs cargo in ~/.cargo/bin, which non-login shells often lack.
 export PATH := $(HOME)/.cargo/bin:$(PATH)
 
-.PHONY: setup demo lint test test-rust test-python
+.PHONY: venv toolchain system-packages setup setup-demo demo lint test test-rust test-python
+
+# The venv (unless PY names another interpreter), and a check of the Python version.
+venv:
+	@if [ "$(PY)" = "$(VENV)/bin/python" ] && [ ! -x "$(PY)" ]; then \
+	    if ! $(PYTHON) -c 'import sys; sys.exit(sys.version_info < (3, 10))' 2>/dev/null; then \
+	        echo "error: tetrace needs Python >= 3.10 to make $(VENV); $(PYTHON) is" \
+	             "'$$($(PYTHON) --version 2>&1)'. Name another: make PYTHON=python3.11 ..." >&2; \
+	        exit 1; \
+	    fi; \
+	    echo "+ $(PYTHON) -m venv $(VENV)"; \
+	    if ! $(PYTHON) -m venv $(VENV); then \
+	        rm -rf $(VENV); \
+	        echo "error: $(PYTHON) cannot make a virtual environment (Debian's own python3" \
+	             "needs: apt-get install python3-venv)" >&2; \
+	        exit 1; \
+	    fi; \
+	    $(PY) -m pip install -q --upgrade pip; \
+	fi
+	@$(PY) -c 'import sys; sys.exit(sys.version_info < (3, 10))' || { \
+	    echo "error: tetrace needs Python >= 3.10; $(PY) is '$$($(PY) --version 2>&1)'" >&2; \
+	    exit 1; }
+
+# Rust (Cargo.toml's rust-version or newer) and the C linker it needs.
+toolchain:
+	@command -v $(CARGO) >/dev/null || { \
+	    echo "error: cargo not found: tetrace's core is Rust ($(RUST_VERSION) or newer)." \
+	         "Install it with rustup: curl --proto '=https' --tlsv1.2 -sSf" \
+	         "https://sh.rustup.rs | sh -s -- -y" >&2; \
+	    exit 1; }
+	@have=$$(rustc --version | cut -d' ' -f2); \
+	if [ "$$(printf '%s\n' "$(RUST_VERSION)" "$$have" | sort -V | head -n1)" != "$(RUST_VERSION)" ]; then \
+	    echo "error: Rust $$have is older than $(RUST_VERSION) (Cargo.toml rust-version):" \
+	         "rustup update stable" >&2; \
+	    exit 1; \
+	fi
+	@command -v cc >/dev/null || { \
+	    echo "error: no C compiler (cc), which Rust links with (Debian: apt-get install gcc)" >&2; \
+	    exit 1; }
+
+system-packages:
+	@$(if $(filter skip,$(SYSTEM_PACKAGES)),:,$(REPO)/.ci/system-packages $(SYSTEM_PACKAGES))
 
 # Editable install: maturin builds the Rust extension (tetrace._native) into python/tetrace/.
-setup:
-	$(PIP) install -q -e ".[test]"
+# The first build compiles every crate (wgpu and naga are most of it): minutes; later ones
+# rebuild what changed.
+setup: venv toolchain
+	@echo "+ $(PIP) install -e '.[test]'  (Rust extension, profile $(TEST_PROFILE))"
+	@MATURIN_PEP517_ARGS="--profile $(TEST_PROFILE)" $(PIP) install -q -e ".[test]"
 
-demo: setup
-	$(PY) -m tetrace.dev.demo
+# The demo needs only embreex beside tetrace (peers already installed are timed too).
+setup-demo: venv toolchain
+	@echo "+ $(PIP) install -e '.[reference]'  (Rust extension, profile $(DEMO_PROFILE))"
+	@MATURIN_PEP517_ARGS="--profile $(DEMO_PROFILE)" $(PIP) install -q -e ".[reference]"
+
+# Builds the bundled scene (Spot), casts a 1024x1024 camera, writes tetrace_demo.png and
+# prints Mrays/s against Embree (python -m tetrace.demo --help).
+demo: setup-demo
+	$(PY) -m tetrace.demo
 
 # Style and static checks, all of which must pass in CI: rustfmt, clippy with warnings as
 # errors (every allow is named, with its reason beside it), the CPU-only build (no wgpu/naga),
@@ -40,7 +118,7 @@ lint: setup
 # Runs the Rust tests and the Python tests (and notebooks) even if the first part
 # fails, so one run reports everything; exits non-zero if either failed. pytest's
 # exit code 5 (no tests collected) counts as a failure.
-test: setup
+test: system-packages setup
 	@status=0; \
 	echo "+ $(CARGO) test"; \
 	$(CARGO) test || status=1; \
