@@ -2,10 +2,12 @@
 
 The scenes are not in the repository. They sit in ``shared/scenes`` beside the
 checkout (``<repo>/../shared/scenes``) or wherever ``TETRACE_SCENES`` points.
-Locally a missing folder skips the tests that need it; under CI (``CI=true``)
-it fails them, so CI cannot pass by skipping.
+Locally a missing folder skips the tests that need it, said once in the report's
+header and once at its end; under CI (``CI=true``) it fails them, so CI cannot pass
+by skipping.
 
-GPU tests are stricter: without a GPU adapter (Mesa's lavapipe counts) they fail,
+GPU tests are stricter: without a GPU adapter (Mesa's software drivers count: lavapipe
+through Vulkan, llvmpipe through OpenGL) they fail,
 locally too, unless ``TETRACE_SKIP_GPU=1`` says to skip them (:func:`gpu_device`).
 """
 
@@ -65,14 +67,39 @@ def gpu_device() -> dict:
             pytest.skip(f"{reason} ({SKIP_GPU_VARIABLE}=1)")
         pytest.fail(
             f"{reason}. Install a Vulkan driver (Mesa's lavapipe: apt-get install "
-            f"mesa-vulkan-drivers libvulkan1), or set {SKIP_GPU_VARIABLE}=1 to skip "
-            f"the GPU tests",
+            f"mesa-vulkan-drivers libvulkan1; `make test` does, as root), or set "
+            f"{SKIP_GPU_VARIABLE}=1 to skip the GPU tests",
             pytrace=False,
         )
 
 
+def _scenes_missing_line() -> str:
+    """The one line that says the shared scenes are missing, where, and what to do."""
+    effect = "fail (CI=true)" if in_ci() else "skip"
+    return (
+        f"{SCENES_NOT_FOUND} at {_scenes_dir()}: the tests that need it {effect}. Set "
+        f"TETRACE_SCENES to the folder (README.md, Tests; `make test` looks in ../shared/scenes)"
+    )
+
+
 def pytest_report_header(config):
-    return [f"tetrace: {TETRACE_IMPORT}", f"tetrace scenes: {_scenes_dir()}"]
+    scenes = _scenes_dir()
+    where = (
+        f"tetrace scenes: {scenes}"
+        if scenes.is_dir()
+        else f"tetrace scenes: {_scenes_missing_line()}"
+    )
+    return [f"tetrace: {TETRACE_IMPORT}", where]
+
+
+def pytest_terminal_summary(terminalreporter, exitstatus, config):
+    """Missing scenes are said once at the end, with how many tests skipped for them (their
+    skips share one reason, so ``-ra`` folds them into one line too)."""
+    skipped = terminalreporter.stats.get("skipped", [])
+    n = sum(SCENES_NOT_FOUND in str(getattr(r, "longrepr", "")) for r in skipped)
+    if n:
+        terminalreporter.write_sep("-", "tetrace scenes")
+        terminalreporter.write_line(f"{n} test{'s' * (n != 1)} skipped: {_scenes_missing_line()}")
 
 
 def _scenes_dir() -> Path:
@@ -99,7 +126,8 @@ def scene_path(scenes_dir):
 
     def get(name: str) -> Path:
         if not scenes_dir.is_dir():
-            skip_or_fail(f"{name}: {SCENES_NOT_FOUND} at {scenes_dir}; set TETRACE_SCENES")
+            # One reason for every test (not naming the file), so -ra folds them into one line.
+            skip_or_fail(f"{SCENES_NOT_FOUND} at {scenes_dir}; set TETRACE_SCENES")
         path = scenes_dir / name
         if not path.is_file():
             pytest.fail(f"{name}: not in the shared scenes folder {scenes_dir}", pytrace=False)
