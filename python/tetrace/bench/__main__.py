@@ -216,6 +216,10 @@ SUBCOMMANDS = {
         "Portalez & Duguet's octree, with and without 2:1 balance, beside the walk",
         _lazy("octree", "octree_main"),
     ),
+    "occupancy": (
+        "inside/outside of a scan with holes: tetrace's winding number against trimesh and Open3D",
+        _lazy("occupancy", "occupancy_main"),
+    ),
     "queries": (
         "every query kind timed against the peers and judged by the exact referee",
         queries_main,

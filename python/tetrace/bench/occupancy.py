@@ -1,5 +1,6 @@
-"""``python -m tetrace.bench.occupancy``: inside/outside of a scan with holes (the Stanford
-bunny by default), tetrace against trimesh and Open3D, judged against a closed copy.
+"""``python -m tetrace.bench occupancy`` (or ``python -m tetrace.bench.occupancy``):
+inside/outside of a scan with holes (the Stanford bunny by default), tetrace against trimesh
+and Open3D, judged against a closed copy.
 
 The reference: the scan's holes closed by :func:`close_holes` (a fan of triangles from each
 boundary loop to the loop's centroid), checked closed, edge-manifold and consistently oriented,
@@ -310,7 +311,7 @@ def _format(rows):
 
 def occupancy_main(argv=None):
     p = argparse.ArgumentParser(
-        prog="python -m tetrace.bench.occupancy",
+        prog="python -m tetrace.bench occupancy",
         description="Inside/outside of points in a scan with holes (default: the shared "
         "scenes' bunny.obj): tetrace's contains (winding number, and parity), libigl's exact "
         "and fast winding numbers, trimesh's contains and Open3D's compute_occupancy, timed "
