@@ -244,7 +244,7 @@ def test_judge_lists_finds_missing_extra_and_wrong_hits(cube):
     tri[a] = far[0]
     assert judged(r.t, tri, counts) == {"wrong"}
     t = r.t.copy()
-    t[b - 1] = np.nextafter(t[b - 1], np.inf) * (1 + 2.0**-40)  # past ulp + B
+    t[b - 1] = np.nextafter(np.nextafter(t[b - 1], np.inf), np.inf)  # two ulps: past one
     assert judged(t, r.triangle, counts) == {"wrong"}
     swapped_t, swapped_tri = r.t.copy(), r.triangle.copy()
     swapped_t[a:b], swapped_tri[a:b] = r.t[a:b][::-1], r.triangle[a:b][::-1]
@@ -270,8 +270,8 @@ def test_reference_containment_is_the_cube(cube):
 
 
 def _check_intersections(result, bf, o, d, crossings):
-    """``result`` lists the brute force's points; each ``t`` within the referee's bound
-    (the exact value's float64 ulp plus ``B`` of docs/referee.md on the named triangle)."""
+    """``result`` lists the brute force's points; each ``t`` and point within one float64 ulp
+    of the exact values (``|x - x*| <= ulp(x*)``, decided exactly)."""
     assert isinstance(result, Intersections)
     counts = [len(h) for h in bf]
     assert result.counts.reshape(-1).tolist() == counts
@@ -290,11 +290,20 @@ def _check_intersections(result, bf, o, d, crossings):
             at = crossings.point_ptr[p] + crossings.triangles_at(p).tolist().index(
                 int(mine.triangle[k])
             )
-            bound = referee.ulp(float(t), np.float64) + crossings.t_bound[at]
-            assert abs(mine.t[k] - float(t)) <= bound, (i, k, mine.t[k], float(t), bound)
-        np.testing.assert_array_equal(
-            mine.point, o[i] + mine.t[:, None] * d[i]
-        )  # the same float64 sum
+            assert at >= 0
+            # t and each coordinate of the exact point o + t d within one float64 ulp.
+            exact = [t] + [
+                Fraction(float(o[i][j])) + t * Fraction(float(d[i][j])) for j in range(3)
+            ]
+            got = [mine.t[k], *mine.point[k]]
+            ok = referee.within_ulp(
+                got,
+                [float(x) for x in exact],
+                np.array([x.numerator for x in exact], dtype=object),
+                np.array([x.denominator for x in exact], dtype=object),
+                np.float64,
+            )
+            assert ok.all(), (i, k, got, [float(x) for x in exact])
 
 
 def test_intersections_match_brute_force(case):
@@ -584,12 +593,13 @@ class FakeNative:
         assert isinstance(packet, bool) and accel is None and start is None and progress is None
         bf, status = self._check(o, d, tmin, tmax, method, layout)
         tri = self.v[self.f]
-        t, ids, u, w = [], [], [], []
+        t, ids, u, w, points = [], [], [], [], []
         for i, hits in enumerate(bf):
             for tt, tris in hits:
                 t.append(float(tt))
                 ids.append(tris[0])
                 p = o[i] + float(tt) * d[i]
+                points.append(p)
                 a, b, c = tri[tris[0]]
                 m = np.array([b - a, c - a]).T
                 uv = np.linalg.lstsq(m, p - a, rcond=None)[0]
@@ -602,6 +612,7 @@ class FakeNative:
             "triangle": np.array(ids, np.int32),
             "u": np.array(u, np.float64),
             "v": np.array(w, np.float64),
+            "point": np.array(points, np.float64).reshape(-1, 3),
             "status": status,
         }
 

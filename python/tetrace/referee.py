@@ -32,6 +32,8 @@ __all__ = [
     "judge_lists",
     "JUDGEMENTS",
     "ulp",
+    "within_ulp",
+    "judge_values",
 ]
 
 EPS = 2.0**-53
@@ -75,8 +77,12 @@ class Verdict:
         ``(N,)`` uint8: of the first tie's crossing, how many side products are exactly zero
         (1: the ray crosses exactly on an edge, 2: exactly through a vertex).
     t_bound : numpy.ndarray
-        ``(N,)`` float64: ``B`` of ``docs/referee.md``, the forward error bound of a float64
-        evaluation of the ray-plane quotient on the first tie (``0`` on a miss).
+        ``(N,)`` float64: ``B`` of ``docs/referee.md``, the forward error bound of a plain
+        float64 evaluation of the ray-plane quotient on the first tie (``0`` on a miss).
+        Information only: :func:`judge` compares ``t`` with the exact ``t*``.
+    t_num, t_den : numpy.ndarray
+        ``(N,)`` object arrays of Python ints: ``t* = t_num / t_den`` exactly (``t_den > 0``);
+        ``None`` on a miss.
     invalid : numpy.ndarray
         ``(N,)`` bool: a NaN or infinite component, a zero direction or NaN bounds.
     exact_pairs : int
@@ -91,7 +97,14 @@ class Verdict:
     zero_signs: np.ndarray
     t_bound: np.ndarray
     invalid: np.ndarray
+    t_num: np.ndarray = None
+    t_den: np.ndarray = None
     exact_pairs: int = 0
+
+    def __post_init__(self):
+        if self.t_num is None:
+            self.t_num = np.full(len(self.hit), None, object)
+            self.t_den = np.full(len(self.hit), None, object)
 
     def __len__(self):
         return len(self.hit)
@@ -137,7 +150,11 @@ class Crossings:
     triangle, zero_signs, t_bound : numpy.ndarray
         Per (point, triangle) pair: the triangle id, the number of its side products that
         are exactly zero (1: through an edge, 2: through a vertex) and ``B`` of
-        ``docs/referee.md`` for a float64 evaluation of ``t`` on that triangle.
+        ``docs/referee.md`` for a plain float64 evaluation of ``t`` on that triangle
+        (information only).
+    t_num, t_den : numpy.ndarray
+        ``(P,)`` object arrays of Python ints: each point's exact ``t = t_num / t_den``
+        (``t_den > 0``).
     invalid : numpy.ndarray
         ``(N,)`` bool: rays the referee refuses (as :attr:`Verdict.invalid`).
     """
@@ -149,6 +166,8 @@ class Crossings:
     zero_signs: np.ndarray
     t_bound: np.ndarray
     invalid: np.ndarray
+    t_num: np.ndarray = None
+    t_den: np.ndarray = None
 
     def __len__(self):
         return len(self.ray_ptr) - 1
@@ -357,6 +376,49 @@ class Referee:
             levels.append((l.reshape(-1, 2, 3).min(1), h.reshape(-1, 2, 3).max(1)))
         self.levels = levels[::-1]  # levels[k] has 2^k boxes
 
+    def hit_values(self, origins, directions, triangle):
+        """The exact ``t``, barycentrics and point where each ray's line crosses the plane
+        of a given triangle: what a caster's ``t``, ``u``, ``v`` and ``point`` for a hit on
+        that triangle are judged against (:func:`judge_values`).
+
+        Parameters
+        ----------
+        origins, directions : array_like
+            ``(K, 3)`` float32 or float64 (taken exactly).
+        triangle : array_like
+            ``(K,)`` triangle ids (in the caller's faces); ``-1`` for none.
+
+        Returns
+        -------
+        dict of numpy.ndarray
+            Object arrays of :class:`fractions.Fraction`: ``t``, ``u`` (the weight of the
+            triangle's second vertex), ``v`` (of its third) ``(K,)`` and ``point``
+            ``(K, 3)`` (``o + t d``); ``None`` where no triangle is given or the line is
+            parallel to its plane.
+        """
+        o = np.asarray(origins, np.float64).reshape(-1, 3)
+        d = np.asarray(directions, np.float64).reshape(-1, 3)
+        tri = np.asarray(triangle, np.int64).reshape(-1)
+        k = len(tri)
+        out = {name: np.full(k, None, object) for name in ("t", "u", "v")}
+        out["point"] = np.full((k, 3), None, object)
+        for i in np.flatnonzero(tri >= 0):
+            oq = [Fraction(float(x)) for x in o[i]]
+            dq = [Fraction(float(x)) for x in d[i]]
+            a, b, c = ([Fraction(float(x)) for x in p] for p in self.tris[tri[i]])
+            w = [a[j] - oq[j] for j in range(3)]
+            e1 = [b[j] - a[j] for j in range(3)]
+            e2 = [c[j] - a[j] for j in range(3)]
+            den = _fdet(dq, e1, e2)
+            if den == 0:
+                continue
+            t = _fdet(w, e1, e2) / den
+            out["t"][i] = t
+            out["u"][i] = _fdet(dq, e2, w) / den
+            out["v"][i] = _fdet(dq, w, e1) / den
+            out["point"][i] = [oq[j] + t * dq[j] for j in range(3)]
+        return out
+
     def _candidates(self, o, d, tmin, tmax):
         """Every (ray, triangle) pair whose grown box the ray's [tmin, tmax] part may meet."""
         rays = np.arange(len(o))
@@ -439,6 +501,8 @@ class Referee:
         out_tri = np.full(n, -1, np.int64)
         zeros = np.zeros(n, np.uint8)
         bound = np.zeros(n)
+        t_num = np.full(n, None, object)
+        t_den = np.full(n, None, object)
         ties = []  # per chunk: (rays, triangles) of every tie
         exact_pairs = 0
         for s in range(0, n, chunk):
@@ -447,7 +511,19 @@ class Referee:
             if not len(idx):
                 continue
             exact_pairs += self._chunk(
-                o, d, tmin, tmax, idx, hint, out_t, out_tri, zeros, bound, ties, leaving
+                o,
+                d,
+                tmin,
+                tmax,
+                idx,
+                hint,
+                out_t,
+                out_tri,
+                zeros,
+                bound,
+                ties,
+                leaving,
+                (t_num, t_den),
             )
         rays = np.concatenate([x[0] for x in ties] + [np.zeros(0, np.int64)])
         ids = np.concatenate([x[1] for x in ties] + [np.zeros(0, np.int64)]).astype(np.int64)
@@ -464,6 +540,8 @@ class Referee:
             zero_signs=zeros,
             t_bound=bound,
             invalid=invalid,
+            t_num=t_num,
+            t_den=t_den,
             exact_pairs=exact_pairs,
         )
 
@@ -486,13 +564,15 @@ class Referee:
         o, d, tmin, tmax, invalid = _prepare(origins, directions, tmin, tmax)
         n = len(o)
         leaving = self._leaving(leaving, n)
-        parts = []  # per chunk: (ray, point key within the ray, t, triangle, zeros, bound)
+        parts = []  # per chunk: (ray, new point, t, triangle, zeros, bound, num, den)
         for s in range(0, n, chunk):
             idx = np.arange(s, min(s + chunk, n))
             idx = idx[~invalid[idx]]
             if len(idx):
                 parts.append(self._crossings_chunk(o, d, tmin, tmax, idx, leaving))
         cols = [np.concatenate([p[k] for p in parts] + [np.zeros(0)]) for k in range(6)]
+        nums = np.concatenate([p[6] for p in parts] + [np.zeros(0, object)])
+        dens = np.concatenate([p[7] for p in parts] + [np.zeros(0, object)])
         ray = cols[0].astype(np.int64)
         new_point = cols[1].astype(bool)
         tri, zeros, bound = cols[3].astype(np.int64), cols[4].astype(np.uint8), cols[5]
@@ -508,6 +588,8 @@ class Referee:
             zero_signs=zeros,
             t_bound=bound,
             invalid=invalid,
+            t_num=nums[starts],
+            t_den=dens[starts],
         )
 
     def _leaving(self, leaving, n):
@@ -546,7 +628,7 @@ class Referee:
     def _crossings_chunk(self, o, d, tmin, tmax, idx, leaving=None):
         """The (ray, triangle) pairs of ``idx``'s rays met in ``[tmin, tmax]``, ordered by ray
         and exact ``t``, with a flag on each pair that starts a new point."""
-        empty = tuple(np.zeros(0) for _ in range(6))
+        empty = tuple(np.zeros(0) for _ in range(6)) + (np.zeros(0, object),) * 2
         r, f = self._candidates(o[idx], d[idx], tmin[idx], tmax[idx])
         r = idx[r]
         if not len(r):
@@ -580,9 +662,12 @@ class Referee:
             new_point[a:b] = [k == 0 or keyed[k][0] != keyed[k - 1][0] for k in range(b - a)]
         zeros = (pairs.sign[h] == 0).sum(1)
         bound = _t_bound(pairs.O[h], pairs.D[h], pairs.A[h], pairs.B[h], pairs.C[h], te)
-        return r[h], new_point, te, f[h], zeros, bound
+        num, den = _positive_den(pairs.num[h], pairs.den[h])
+        return r[h], new_point, te, f[h], zeros, bound, num, den
 
-    def _chunk(self, o, d, tmin, tmax, idx, hint, out_t, out_tri, zeros, bound, ties, leaving):
+    def _chunk(
+        self, o, d, tmin, tmax, idx, hint, out_t, out_tri, zeros, bound, ties, leaving, exact
+    ):
         prune = tmax.copy()
         exact_pairs = 0
         if hint is not None:
@@ -642,6 +727,7 @@ class Referee:
         out_tri[rays] = f[first]
         zeros[rays] = (esign[first] == 0).sum(1)
         bound[rays] = _t_bound(O[first], D[first], A[first], B[first], C[first], out_t[rays])
+        exact[0][rays], exact[1][rays] = _positive_den(enum[first], eden_[first])
         return exact_pairs + int(pairs.have.sum())
 
 
@@ -730,6 +816,147 @@ def _exact_t(num, den):
     return out
 
 
+def _fdet(a, b, c):
+    """det(a, b, c) of three 3-vectors (exact for Fractions)."""
+    return (
+        a[0] * (b[1] * c[2] - b[2] * c[1])
+        - a[1] * (b[0] * c[2] - b[2] * c[0])
+        + a[2] * (b[0] * c[1] - b[1] * c[0])
+    )
+
+
+def judge_values(hits, values, dtype=None):
+    """Whether each hit's ``t``, ``u``, ``v`` and ``point`` are within one ulp of the exact
+    values on its triangle (:meth:`Referee.hit_values` for the hits' own triangles).
+
+    Parameters
+    ----------
+    hits : Hits or Intersections
+        Flat ``t``, ``u``, ``v`` ``(K,)`` and ``point`` ``(K, 3)`` (rows without an exact
+        value, ``None`` in ``values``, are not judged).
+    values : dict
+        :meth:`Referee.hit_values` of the same rays and triangles.
+    dtype : numpy.dtype, optional
+        The output type whose ulp is allowed (default: that of ``hits.t``).
+
+    Returns
+    -------
+    dict of numpy.ndarray
+        ``(K,)`` bool masks ``judged`` (rows with exact values) and ``t_off``, ``u_off``,
+        ``v_off``, ``point_off`` (judged rows more than an ulp away, exactly).
+    """
+    dtype = np.asarray(hits.t).dtype if dtype is None else np.dtype(dtype)
+    judged = np.array([x is not None for x in values["t"]], bool)
+    out = {"judged": judged}
+    cols = {
+        "t": (np.asarray(hits.t, np.float64).reshape(-1), values["t"]),
+        "u": (np.asarray(hits.u, np.float64).reshape(-1), values["u"]),
+        "v": (np.asarray(hits.v, np.float64).reshape(-1), values["v"]),
+    }
+    point = np.asarray(hits.point, np.float64).reshape(-1, 3)
+    for k in range(3):
+        cols[f"point{k}"] = (point[:, k], values["point"][:, k])
+    j = np.flatnonzero(judged)
+    for name, (got, exact) in cols.items():
+        off = np.zeros(len(judged), bool)
+        if len(j):
+            fr = exact[j]
+            num = np.array([x.numerator for x in fr], dtype=object)
+            den = np.array([x.denominator for x in fr], dtype=object)
+            rounded = np.array([_to_float(x) for x in fr])
+            off[j] = ~within_ulp(got[j], rounded, num, den, dtype)
+        key = "point_off" if name.startswith("point") else f"{name}_off"
+        out[key] = out.get(key, np.zeros(len(judged), bool)) | off
+    return out
+
+
+def _to_float(x):
+    """A Fraction rounded to the nearest float64 (CPython divides ints correctly rounded);
+    beyond float64: an infinity."""
+    try:
+        return float(x)
+    except OverflowError:
+        return np.inf if x > 0 else -np.inf
+
+
+def _positive_den(num, den):
+    """``num / den`` as object arrays of ints with ``den > 0`` (the same quotients)."""
+    num = np.array([-n if dn < 0 else n for n, dn in zip(num, den)], dtype=object)
+    den = np.array([-dn if dn < 0 else dn for dn in den], dtype=object)
+    return num, den
+
+
+#: Significant bits and the smallest normal binade of each output type.
+_FORMAT = {np.dtype(np.float32): (24, -126), np.dtype(np.float64): (53, -1022)}
+
+
+def _ulp_exponent(num, den, dtype):
+    """k with ``2^k = ulp(num / den)`` in ``dtype``: the spacing in the binade of the exact
+    quotient (``den > 0``), the smallest subnormal spacing at zero and below the normal
+    range."""
+    bits, emin = _FORMAT[np.dtype(dtype)]
+    if num == 0:
+        return emin - (bits - 1)
+    n = abs(num)
+    b = n.bit_length() - den.bit_length()
+    # floor(log2(n / den)) is b or b - 1.
+    at_least = n >= (den << b) if b >= 0 else (n << -b) >= den
+    e = b if at_least else b - 1
+    return max(e, emin) - (bits - 1)
+
+
+def _within_ulp_exact(t, num, den, dtype):
+    """``|t - num/den| <= ulp(num/den)`` in ``dtype``, in exact arithmetic."""
+    if not np.isfinite(t):
+        return False
+    k = _ulp_exponent(num, den, dtype)
+    x = Fraction(float(t)) - Fraction(num, den)
+    ulp_ = Fraction(2) ** k
+    return abs(x) <= ulp_
+
+
+def within_ulp(t, t_star, num, den, dtype):
+    """Whether each ``t`` is within one ulp of the exact ``t* = num / den``.
+
+    The contract's rule: ``|t - t*| <= ulp(t*)``, with ``ulp(t*)`` the spacing of ``dtype``
+    (the caster's output type) in the binade of the exact ``t*``. Decided exactly: float64
+    sure cases first (``t_star``, the exact value rounded to the nearest float64, is within
+    half a float64 spacing of it), the rest in rationals.
+
+    Parameters
+    ----------
+    t, t_star : array_like
+        ``(K,)`` the caster's values (as float64) and the rounded exact ones.
+    num, den : array_like
+        ``(K,)`` object arrays of ints, ``den > 0``.
+    dtype : numpy.dtype
+        float32 or float64.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(K,)`` bool.
+    """
+    t = np.asarray(t, np.float64)
+    r = np.asarray(t_star, np.float64)
+    bits, emin = _FORMAT[np.dtype(dtype)]
+    with np.errstate(invalid="ignore", over="ignore"):
+        diff = np.abs(t - r)
+        half64 = np.spacing(np.abs(r)) / 2  # >= |r - t*|
+        mant, exp = np.frexp(r)
+        e = np.maximum(exp - 1, emin)
+        u_hi = np.ldexp(1.0, e - (bits - 1))
+        # At a power of two t* may lie in the binade below, whose spacing is half.
+        u_lo = np.where(np.abs(mant) == 0.5, u_hi / 2, u_hi)
+        u_lo = np.where(r == 0, np.ldexp(1.0, emin - (bits - 1)), u_lo)
+        sure = np.isfinite(t) & np.isfinite(r) & (diff + half64 <= u_lo) & (r != 0)
+        sure_not = ~np.isfinite(t) | (np.isfinite(r) & (r != 0) & (diff - half64 > u_hi))
+    out = sure.copy()
+    for i in np.flatnonzero(~sure & ~sure_not):
+        out[i] = _within_ulp_exact(t[i], num[i], den[i], dtype)
+    return out
+
+
 def _t_bound(o, d, a, b, c, t):
     """``B`` of docs/referee.md for ``(K, 3)`` rays and triangles: the forward error bound of a
     float64 evaluation of t on the triangle, anchored at the ray's origin or at the triangle's
@@ -766,13 +993,12 @@ def judge(hits, verdict, arithmetic="f64"):
     ----------
     hits : Hits
         The cast (tetrace or a baseline) of the rays the verdict is for; ``t`` in the dtype
-        it reports (its ulp is part of the bound).
+        it reports, whose ulp at ``t*`` is the one allowed.
     verdict : Verdict
     arithmetic : {"f64", "f32"}
-        The precision the caster evaluates ``t`` in: tetrace evaluates it in float64 on the
-        caller's triangle whatever the rays' precision; Embree in float32. For ``"f32"``
-        the bound ``B`` is the same derivation with float32's unit roundoff (``2^-24``
-        instead of ``2^-53``); rounding float64 inputs to float32 is not excused.
+        The precision the caster computes ``t`` in: ``"f32"`` (Embree) judges its ``t`` by
+        float32's ulp whatever container it returns it in. Nothing else is excused: neither
+        the rounding of float64 inputs to float32 nor a formula's own error.
 
     Returns
     -------
@@ -780,8 +1006,9 @@ def judge(hits, verdict, arithmetic="f64"):
         Boolean masks ``right``, ``failed``, ``leaked``, ``late``, ``wrong`` (exactly one holds
         per valid ray) and the parts of ``wrong``: ``phantom`` (a hit where the referee has
         none), ``early`` (a triangle not in the tie set, before ``t*``), ``other_triangle``
-        (not in the tie set, at ``t*`` within the bound), ``t_off`` (the right triangle, ``t``
-        outside the bound), and ``invalid`` (rays the referee refuses; in no other mask).
+        (not in the tie set, within an ulp of ``t*``), ``t_off`` (the right triangle, ``t``
+        more than an ulp from ``t*``: ``|t - t*| > ulp(t*)``, exactly), and ``invalid`` (rays
+        the referee refuses; in no other mask).
     """
     from .hits import FAILED, HIT
 
@@ -794,12 +1021,18 @@ def judge(hits, verdict, arithmetic="f64"):
     phantom = c_hit & ~r_hit
     both = c_hit & r_hit
     t = np.asarray(hits.t, np.float64)
-    scale = {"f64": 1.0, "f32": 2.0**29}[arithmetic]  # ratio of the unit roundoffs
-    tol = ulp(verdict.t, out_dtype(hits, arithmetic)) + scale * verdict.t_bound
+    if arithmetic not in ("f64", "f32"):
+        raise ValueError(f"arithmetic must be 'f64' or 'f32', got {arithmetic!r}")
+    close = np.zeros(len(t), bool)
+    k = np.flatnonzero(both)
+    close[k] = within_ulp(
+        t[k], verdict.t[k], verdict.t_num[k], verdict.t_den[k], out_dtype(hits, arithmetic)
+    )
+    # Not within an ulp of t*: then t is on the same side of t* as of its float64 rounding.
+    off = ~close
     with np.errstate(invalid="ignore"):
-        off = np.abs(t - verdict.t) > tol
-        after = t > verdict.t + tol
-        before = t < verdict.t - tol
+        after = off & (t > verdict.t)
+        before = off & ~after
     in_ties = verdict.in_ties(np.where(both, hits.triangle, -1))
     late = both & ~in_ties & after
     early = both & ~in_ties & before
@@ -842,7 +1075,8 @@ def judge_lists(offsets, t, triangle, crossings, arithmetic="f64", status=None):
     dict of numpy.ndarray
         ``(N,)`` boolean masks: ``right`` (one listed hit per exact point, in order up to
         points whose exact ``t`` round alike, each naming a triangle met there, ``t`` within
-        ``ulp + B``), ``failed``, ``missing`` (fewer hits listed than points), ``extra``
+        an ulp of the point's exact ``t``), ``failed``, ``missing`` (fewer hits listed than
+        points), ``extra``
         (more: a point listed twice, or a hit the referee has not), ``wrong`` (as many, but
         a triangle or ``t`` that is not the point's), and ``invalid``.
     """
@@ -863,7 +1097,6 @@ def judge_lists(offsets, t, triangle, crossings, arithmetic="f64", status=None):
     extra = judged & (listed > exact)
     same = judged & (listed == exact)
     dtype = np.float32 if arithmetic == "f32" else np.float64
-    scale = {"f64": 1.0, "f32": 2.0**29}[arithmetic]
     # Listed hit j of a ray with as many hits as points is checked against point j first.
     ray_of = np.repeat(np.arange(n), listed)
     rank = np.arange(len(t)) - offsets[ray_of]
@@ -879,11 +1112,9 @@ def judge_lists(offsets, t, triangle, crossings, arithmetic="f64", status=None):
         at = np.clip(np.searchsorted(keys[order], probe), 0, max(len(keys) - 1, 0))
         found = len(keys) > 0
         member = keys[order][at] == probe if found else np.zeros(len(sel), bool)
-        bound = crossings.t_bound[order][at] if found else np.zeros(len(sel))
-        t_star = crossings.t[point[sel]]
-        with np.errstate(invalid="ignore"):
-            tol = ulp(t_star, dtype) + scale * bound
-            ok[sel] = member & (np.abs(t[sel] - t_star) <= tol)
+        p = point[sel]
+        close = within_ulp(t[sel], crossings.t[p], crossings.t_num[p], crossings.t_den[p], dtype)
+        ok[sel] = member & close
     bad_rays = np.unique(ray_of[~ok & same[ray_of]])
     right = same.copy()
     for i in bad_rays:  # points whose exact t round alike may be listed in either order
@@ -898,13 +1129,11 @@ def judge_lists(offsets, t, triangle, crossings, arithmetic="f64", status=None):
                 if p in used:
                     continue
                 tris = crossings.triangles_at(p)
-                k = np.flatnonzero(tris == triangle[j])
-                if len(k):
-                    b = crossings.t_bound[crossings.point_ptr[p] + k[0]]
-                    tol = ulp(crossings.t[p], dtype) + scale * b
-                    if abs(t[j] - crossings.t[p]) <= tol:
-                        match = p
-                        break
+                if (tris == triangle[j]).any() and _within_ulp_exact(
+                    t[j], crossings.t_num[p], crossings.t_den[p], dtype
+                ):
+                    match = p
+                    break
             if match is None:
                 right[i] = False
                 break

@@ -882,8 +882,9 @@ class Scene:
             Flat arrays of the ``M`` hits (``ray``, ``t``, ``triangle``, ``u``, ``v``,
             ``point``, ``geometry``, ``scene_triangle``), ``offsets`` into them per ray,
             and each ray's ``status`` (``HIT`` if it hit anything; a ``FAILED`` ray lists
-            no hit). ``t``, ``u``, ``v`` are float64, evaluated on the caller's triangle;
-            ``point`` is ``origin + t * direction`` in float64.
+            no hit). ``t``, ``u``, ``v`` and ``point`` are float64, each within one ulp of
+            its exact value on the caller's triangle (the exact point
+            ``origin + t* direction``, rounded).
         """
         q = _Query(
             origins,
@@ -909,7 +910,7 @@ class Scene:
         t = np.asarray(r["t"], np.float64)
         scene_triangle = np.asarray(r["triangle"]).astype(np.int32, copy=False)
         geometry, triangle = self._locate(scene_triangle)
-        point = q.o[ray].astype(np.float64) + t[:, None] * q.d[ray].astype(np.float64)
+        point = np.asarray(r["point"], np.float64).reshape(-1, 3)
         return Intersections(
             offsets=offsets,
             ray=ray,

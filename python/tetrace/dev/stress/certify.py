@@ -143,6 +143,8 @@ def _subset_verdict(ver, keep):
         zero_signs=ver.zero_signs[idx],
         t_bound=ver.t_bound[idx],
         invalid=ver.invalid[idx],
+        t_num=ver.t_num[idx],
+        t_den=ver.t_den[idx],
         exact_pairs=ver.exact_pairs,
     )
 
