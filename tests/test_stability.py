@@ -381,6 +381,11 @@ def _claim(case, v):
         return ok & np.where(inside, v.hit & on_side, ~v.hit)
     if f in REAL_FAMILIES:
         return one  # checked in _check_family with the certified per-ray claims
+    if f.startswith("origin"):
+        # From far away: up to 1e4 the rays aimed inside a face hit it; the rest claim
+        # nothing (edge and vertex aims, and every ray beyond 1e4, are judged by the referee).
+        face = (kind == "face") & (float(f[6:]) <= 1e4)
+        return ~face | (v.hit & v.in_ties(np.where(face, c["in_tie"], -1)))
     # tiny, huge, flat, terrain, dirscale, far*: every ray hits; aimed rays at their point
     t_aim = np.ones(len(case))
     if f == "dirscale":

@@ -622,6 +622,49 @@ def fam_long(rng, n, distance=2**13):
     )
 
 
+def fam_distance(rng, n, distance, name):
+    """Rays from ``distance`` (1e2 to 1e8) away from the unit sphere, outside the domain, aimed
+    at points of it: face interiors (weights >= 2/16), edge points and vertices, a third each
+    (issue 32: the float64 formula ``det(a - o, b - o, c - o) / den`` lost up to twelve digits
+    of ``t`` at 1e6). The aimed-at point is rounded into the direction, so edge and vertex rays
+    are judged by the referee alone. Up to 1e4 the interior rays claim a hit on the aimed face:
+    rounding to float32 moves their line by about ``distance x 2^-23`` (1e-3 at 1e4), well
+    inside the face; farther, float32 rounding moves it by more than a face (an origin 1e8
+    away moves by up to 4), so no ray claims anything and the referee judges them all."""
+    v, f = _ball()
+    u = rng.standard_normal((n, 3))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    o = u * distance
+    fi = rng.integers(0, len(f), n)
+    w = np.empty((n, 3))
+    for i in range(n):
+        while True:
+            a, b = rng.integers(2, 13, 2)
+            if 16 - a - b >= 2:
+                w[i] = (a, b, 16 - a - b)
+                break
+    tri = v[f[fi]]
+    r = _Rays()
+    for kind, sel in zip(("face", "edge", "vertex"), np.array_split(np.arange(n), 3)):
+        ww = w[sel] / 16.0
+        if kind == "edge":
+            ww = np.column_stack([ww[:, 0], 1 - ww[:, 0], np.zeros(len(sel))])
+        elif kind == "vertex":
+            ww = np.tile([1.0, 0.0, 0.0], (len(sel), 1))
+        p = np.einsum("ij,ijk->ik", ww, tri[sel])
+        claims = dict(hit=1, in_tie=fi[sel]) if kind == "face" and distance <= 1e4 else {}
+        r.add(kind, o[sel], p - o[sel], **claims)
+    return r.case(
+        name,
+        v,
+        f,
+        f"from {name[6:]} away, outside the domain, at face interiors (up to 1e4: hit on "
+        "that face), edges and vertices (judged only); float32: the rays rounded",
+        contain=False,
+        exact32=False,
+    )
+
+
 def fam_dirscale(rng, n):
     """From inside the convex sphere through vertices, edges, faces and in random directions,
     directions scaled by 2^-100, 2^-33, 2^33 or 2^100 (exact): t scales inversely."""
