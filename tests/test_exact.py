@@ -188,3 +188,34 @@ def test_answers_do_not_depend_on_the_batch_or_threads(sphere):
             full.triangle[i],
         )
     assert not (full.status == FAILED).any()
+
+
+def test_a_touch_kept_out_of_order_wins_over_a_later_crossing():
+    """A line in a floor triangle's plane meets a tilted neighbour on the floor's edge (t = 2,
+    one point of that triangle: a hit), then crosses a wall through its interior (t = 6). The
+    floor's boundary points are met in its plane, out of walk order, so the walk keeps the
+    touch and goes on; the crossing must not replace it (issue 37's hand-planted survivor:
+    ``ClosestPolicy::crossed`` taking the crossing instead of the earlier of the two)."""
+    v = np.array(
+        [
+            [0, 0, 0],
+            [2, 0, 0],
+            [0, 2, 0],  # floor F, z = 0
+            [-1, 1, 1],  # G: F's edge x = 0 with this apex (plane x + z = 0)
+            [4, -1, -1],
+            [4, 3, -1],
+            [4, 1, 2],  # wall W, x = 4, across z = 0
+        ],
+        np.float64,
+    )
+    f = np.array([[0, 1, 2], [0, 2, 3], [4, 5, 6]])
+    scene = _scene(v, f)
+    # In the floor's plane, at heights y of 1/16 .. 15/16 of the shared edge.
+    y = np.arange(1, 16) / 8.0
+    o = np.column_stack([np.full_like(y, -2.0), y, np.zeros_like(y)])
+    d = np.tile([1.0, 0.0, 0.0], (len(y), 1))
+    for kw in ({}, {"packet": False}, {"accel": "reshetov_bvh"}, {"accel": "portalez_octree"}):
+        bad, hits, verdict = _bad_counts(scene, v, f, o, d, **kw)
+        assert bad == dict.fromkeys(BAD, 0), (kw, bad)
+        assert (verdict.t == 2.0).all() and (verdict.triangle == 1).all()
+        assert (hits.t == 2.0).all() and (hits.triangle == 1).all(), (kw, hits.t, hits.triangle)
