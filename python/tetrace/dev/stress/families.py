@@ -624,7 +624,8 @@ def fam_long(rng, n, distance=2**13):
 
 def fam_distance(rng, n, distance, name):
     """Rays from ``distance`` (1e2 to 1e8) away from the unit sphere, outside the domain, aimed
-    at points of it: face interiors (weights >= 2/16), edge points and vertices, a third each
+    at points of faces that face them: interiors (weights >= 2/16), edge points and vertices,
+    a third each
     (issue 32: the float64 formula ``det(a - o, b - o, c - o) / den`` lost up to twelve digits
     of ``t`` at 1e6). The aimed-at point is rounded into the direction, so edge and vertex rays
     are judged by the referee alone. Up to 1e4 the interior rays claim a hit on the aimed face:
@@ -632,10 +633,13 @@ def fam_distance(rng, n, distance, name):
     inside the face; farther, float32 rounding moves it by more than a face (an origin 1e8
     away moves by up to 4), so no ray claims anything and the referee judges them all."""
     v, f = _ball()
+    c = v[f].mean(1)
     u = rng.standard_normal((n, 3))
     u /= np.linalg.norm(u, axis=1, keepdims=True)
     o = u * distance
-    fi = rng.integers(0, len(f), n)
+    # Faces that face the origin (as fam_long's): nothing of the sphere hides them.
+    facing = (c / np.linalg.norm(c, axis=1, keepdims=True)) @ u.T > 0.5
+    fi = np.argmax(facing * rng.random(facing.shape), axis=0)
     w = np.empty((n, 3))
     for i in range(n):
         while True:
