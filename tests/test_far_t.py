@@ -183,3 +183,15 @@ def test_the_referee_catches_the_old_formula(ball):
     two = hits[:]
     two.t[:] = np.where(hit, hits.t + 2 * np.spacing(hits.t), np.inf)
     assert judge(two, verdict)["t_off"][hit].all()
+
+
+def test_distance_bench_rows():
+    """``python -m tetrace.bench distance`` (issue 32's table) finds no ``t`` off, every ray
+    right, and reports the old bound ``B`` past ``t`` itself at 1e6."""
+    from tetrace.bench.distance import rows
+
+    (row64, row32) = rows([1e6], 60, ["tetwalk"], subdivisions=1)
+    for row in (row64, row32):
+        assert row["wrong"] == 0 and row["t_off"] == 0 and row["hits"] > 30, row
+        assert row["max"] <= 2.0**-23, row
+    assert row64["max"] <= 2.0**-52 and row64["bound"] > 1.0, row64

@@ -200,6 +200,10 @@ SUBCOMMANDS = {
         "moving the tetrahedralization over N frames against re-meshing and embreex",
         _lazy("deform", "deform_main"),
     ),
+    "distance": (
+        "t against its exact value as the origin moves away (1e0..1e8), every accelerator",
+        _lazy("distance", "distance_main"),
+    ),
     "exitface": (
         "exit-face micro-benchmark: ns per exit-face decision on random tets",
         exitface_main,
