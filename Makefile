@@ -132,3 +132,14 @@ test-rust:
 
 test-python:
 	$(PY) -m pytest -n $(PYTEST_WORKERS) -ra tests $(if $(NOTEBOOKS),--nbmake $(NOTEBOOKS)) $(PYTEST_EXTRA)
+
+# Mutation testing of the exact core (issue 37; not in CI: hours on 2 cores). cargo-mutants
+# changes one function at a time in the files below and runs the Rust library tests against
+# each change; a mutant no test catches is a path no test reaches (docs/testing.md).
+# MUTANTS_SHARD=k/n runs the k-th of n parts (a session can take one part).
+MUTANTS_FILES ?= src/query/*.rs src/traverse/exact.rs src/traverse/walk.rs src/traverse/packet.rs src/geom/*.rs src/locate/*.rs src/accel/*.rs
+MUTANTS_SHARD ?= 0/1
+.PHONY: mutants
+mutants: toolchain
+	@$(CARGO) mutants --version >/dev/null 2>&1 || $(CARGO) install --locked cargo-mutants
+	$(CARGO) mutants $(foreach f,$(MUTANTS_FILES),--file '$(f)') --shard $(MUTANTS_SHARD) --timeout 600 -- --lib
