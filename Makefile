@@ -89,10 +89,11 @@ setup: venv toolchain
 	@echo "+ $(PIP) install -e '.[test]'  (Rust extension, profile $(TEST_PROFILE))"
 	@MATURIN_PEP517_ARGS="--profile $(TEST_PROFILE)" $(PIP) install -q -e ".[test]"
 
-# The demo needs only embreex beside tetrace (peers already installed are timed too).
+# The demo needs only embreex and matplotlib beside tetrace (the `demo` extra; peers already
+# installed, as by `make test`, are timed too).
 setup-demo: venv toolchain
-	@echo "+ $(PIP) install -e '.[reference]'  (Rust extension, profile $(DEMO_PROFILE))"
-	@MATURIN_PEP517_ARGS="--profile $(DEMO_PROFILE)" $(PIP) install -q -e ".[reference]"
+	@echo "+ $(PIP) install -e '.[demo]'  (Rust extension, profile $(DEMO_PROFILE))"
+	@MATURIN_PEP517_ARGS="--profile $(DEMO_PROFILE)" $(PIP) install -q -e ".[demo]"
 
 # Builds the bundled scene (Spot), casts a 1024x1024 camera, writes tetrace_demo.png and
 # prints Mrays/s against Embree (python -m tetrace.demo --help).

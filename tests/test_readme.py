@@ -55,6 +55,10 @@ def test_makefile_targets_and_profiles():
     test_profile = re.search(r"^TEST_PROFILE \?= (\S+)$", make, re.M).group(1)
     demo_profile = re.search(r"^DEMO_PROFILE \?= (\S+)$", make, re.M).group(1)
     assert demo_profile == "release"
+    # the demo's extra holds what python -m tetrace.demo imports beyond tetrace's dependencies
+    demo_extra = _toml("pyproject.toml")["project"]["optional-dependencies"]["demo"]
+    assert {re.split(r"[<>=]", d)[0] for d in demo_extra} == {"embreex", "matplotlib"}
+    assert re.search(r'install -q -e "\.\[demo\]"', make)
     assert profiles[test_profile]["inherits"] == "release"
     assert profiles[test_profile]["lto"] is False
 
