@@ -227,7 +227,8 @@ fn cross_dd<const FMA: bool>(x: &[Dd; 3], y: &[Dd; 3]) -> ([Dd; 3], [f64; 3]) {
         let (p, pe) = two_prod::<FMA>(x[j].hi, y[k].hi);
         let (m, me) = two_prod::<FMA>(x[k].hi, y[j].hi);
         let (s, se) = two_sum(p, -m);
-        let lo = se + (pe - me)
+        let lo = se
+            + (pe - me)
             + ((x[j].hi * y[k].lo + x[j].lo * y[k].hi) - (x[k].hi * y[j].lo + x[k].lo * y[j].hi));
         out[i] = Dd { hi: s, lo };
         mag[i] = p.abs() + m.abs();
@@ -284,7 +285,13 @@ impl<const FMA: bool> Filtered<FMA> {
         let e1 = [0, 1, 2].map(|k| Dd::diff(b[k], a[k]));
         let e2 = [0, 1, 2].map(|k| Dd::diff(c[k], a[k]));
         let ok = |x: f64| x == 0.0 || (x.abs() >= OPERAND_MIN && x.abs() <= OPERAND_MAX);
-        let in_range = o.iter().chain(&a).chain(&b).chain(&c).chain(&d).all(|&x| ok(x))
+        let in_range = o
+            .iter()
+            .chain(&a)
+            .chain(&b)
+            .chain(&c)
+            .chain(&d)
+            .all(|&x| ok(x))
             && w.iter().chain(&e1).chain(&e2).all(|x| ok(x.hi));
         if !in_range {
             return None;

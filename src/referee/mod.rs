@@ -117,7 +117,9 @@ impl Crossing {
         let (m, ex) = decode(x);
         let z = ex.min(k).min(0);
         let shift = |v: &BigInt, s: i64| v << (s - z) as usize;
-        let lhs = (shift(&(&self.den * BigInt::from(m)), ex) - shift(&self.num, 0)).magnitude().clone();
+        let lhs = (shift(&(&self.den * BigInt::from(m)), ex) - shift(&self.num, 0))
+            .magnitude()
+            .clone();
         let rhs = shift(&self.den, k).magnitude().clone();
         lhs <= rhs
     }

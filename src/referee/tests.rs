@@ -336,7 +336,10 @@ fn judge_precedence() {
     assert_eq!(j(false, Some((4, 2.0))), Outcome::Wrong); // another triangle at t*
     assert_eq!(j(false, Some((3, f64::NAN))), Outcome::Wrong);
     assert_eq!(judge(None, false, None, Precision::F64), Outcome::Right);
-    assert_eq!(judge(None, false, Some((0, 1.0)), Precision::F64), Outcome::Wrong);
+    assert_eq!(
+        judge(None, false, Some((0, 1.0)), Precision::F64),
+        Outcome::Wrong
+    );
     assert_eq!(judge(None, true, None, Precision::F64), Outcome::Failed);
     assert_eq!(ulp_f32(1.0), f32::EPSILON as f64);
     assert_eq!(ulp_f64(1.0), f64::EPSILON);

@@ -135,11 +135,7 @@ impl<'a, R> HitsOut<'a, R> {
         self.u[j] = R::from_f64(r.u);
         self.v[j] = R::from_f64(r.v);
         for a in 0..3 {
-            self.point[3 * j + a] = R::from_f64(if status == HIT {
-                r.point[a]
-            } else {
-                f64::NAN
-            });
+            self.point[3 * j + a] = R::from_f64(if status == HIT { r.point[a] } else { f64::NAN });
         }
         self.triangle[j] = if status == r.status { r.triangle } else { -1 };
         self.tet[j] = r.tet;

@@ -61,12 +61,7 @@ pub(crate) fn tally<R: Real>(
     let mut c = Tally::default();
     for (k, v) in verdicts.iter().enumerate() {
         let hit = (status[k] == HIT).then(|| (tri[k] as usize, t[k].to_f64()));
-        let out = referee::judge(
-            v.as_ref(),
-            status[k] == FAILED,
-            hit,
-            precision,
-        );
+        let out = referee::judge(v.as_ref(), status[k] == FAILED, hit, precision);
         match out {
             Outcome::Right => c.right += 1,
             Outcome::Failed => c.failed += 1,

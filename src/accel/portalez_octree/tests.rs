@@ -485,7 +485,8 @@ fn octree_answers_are_the_referees_and_the_walks() {
                         assert_eq!(st.guards, 0, "config {c} ray {i}: the guard fired");
                         fixes += st.entry_fixes;
                         let got = (h.status == HIT).then_some((h.triangle as usize, h.t));
-                        let outcome = referee::judge(v.as_ref(), false, got, referee::Precision::F64);
+                        let outcome =
+                            referee::judge(v.as_ref(), false, got, referee::Precision::F64);
                         assert_eq!(
                             outcome,
                             referee::Outcome::Right,

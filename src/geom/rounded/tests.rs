@@ -71,7 +71,11 @@ fn check(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3], what: &str) -> Option<Round
     let got = rounded_hit(o, d, tri);
     let want = exact(o, d, tri);
     // The two ways of splitting products give the same bits.
-    assert_eq!(got, rounded_hit_with::<false>(o, d, tri), "{what}: FMA vs Dekker");
+    assert_eq!(
+        got,
+        rounded_hit_with::<false>(o, d, tri),
+        "{what}: FMA vs Dekker"
+    );
     match (got, want) {
         (None, None) => None,
         (Some(h), Some((t, u, v, p))) => {
@@ -160,7 +164,12 @@ fn tiny_and_offset_triangles_are_faithful() {
             let dir = unit(&mut rng);
             let o = [0, 1, 2].map(|k| target[k] + r * dir[k]);
             let d = [0, 1, 2].map(|k| target[k] - o[k]);
-            check(o, d, &tri, &format!("centre {centre:?} size {size} case {i}"));
+            check(
+                o,
+                d,
+                &tri,
+                &format!("centre {centre:?} size {size} case {i}"),
+            );
         }
     }
 }
@@ -189,7 +198,12 @@ fn degenerate_and_extreme_inputs_are_exact() {
     // A t beyond float64 is infinite (the caller marks such a ray INVALID).
     let far = rounded_hit([1e299, 1e299, 1e300], [1e-300, 0.0, -1e-300], &huge).unwrap();
     assert_eq!(far.t, f64::INFINITY);
-    check([0.5, 0.5, 1.0], [5e-324, 0.0, -1e-300], &floor, "denormal direction");
+    check(
+        [0.5, 0.5, 1.0],
+        [5e-324, 0.0, -1e-300],
+        &floor,
+        "denormal direction",
+    );
     // The origin on the plane: t = 0 exactly.
     let h = check([0.5, 0.5, 0.0], [0.0, 1.0, 1.0], &floor, "origin on plane").unwrap();
     assert_eq!(h.t, 0.0);
