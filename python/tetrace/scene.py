@@ -424,8 +424,9 @@ class Scene:
             TetGen settings (``tetrace.mesh.PRESETS``): ``"quality"`` (radius-edge
             bound 5, the default), ``"quality3"``, ``"quality2"``, ``"quality1.5"`` or any
             ``"quality<r>"`` (tighter bounds, more tets), ``"constrained"`` (constrained
-            Delaunay without refinement, fewest tets, more tets per ray), ``"graded"``
-            (quality plus tets that grow away from the surface).
+            Delaunay without refinement: the fewest points and the fastest build, but not
+            the fewest tets, bunny 228,894 against ``"quality"``'s 215,821, and more tets
+            per ray), ``"graded"`` (quality plus tets that grow away from the surface).
         mesher : {"tetgen", "ftetwild", "fallback", "auto"}
             ``"tetgen"``: exact, hits name the caller's triangles exactly. ``"ftetwild"``:
             fTetWild (``pip install 'pytetwild<0.3'``) remeshes the surface within
