@@ -44,7 +44,9 @@ class Hits:
     ----------
     t : numpy.ndarray
         ``(N,)`` float32 or float64. Ray parameter of the hit, in units of the
-        direction's length (``point = origin + t * direction``). ``inf`` on miss.
+        direction's length (``point = origin + t * direction``), within one ulp of the
+        exact value for the numbers passed in (tetrace's casts; a baseline's ``t`` is
+        its own). ``inf`` on miss.
     triangle : numpy.ndarray
         ``(N,)`` int32. Index of the hit triangle in the caller's face array
         (not in any cleaned or merged copy). In a scene of several meshes
@@ -53,9 +55,12 @@ class Hits:
     u, v : numpy.ndarray
         ``(N,)`` float. Barycentric coordinates on that triangle, so that
         ``point = (1 - u - v) * p0 + u * p1 + v * p2`` with ``p0, p1, p2`` the
-        triangle's vertices in the caller's face order. ``nan`` on miss.
+        triangle's vertices in the caller's face order; each within one ulp of its
+        exact value. ``nan`` on miss.
     point : numpy.ndarray
-        ``(N, 3)`` float. Hit point. ``nan`` on miss.
+        ``(N, 3)`` float. Hit point: the exact point ``origin + t* direction`` rounded,
+        each coordinate within one ulp of it (not ``origin + t * direction`` evaluated in
+        floating point). ``nan`` on miss.
     tet : numpy.ndarray
         ``(N,)`` int32. Tetrahedron where the walk ended, ``-1`` if none (always
         ``-1`` for casters that do not walk tetrahedra, such as Embree).
