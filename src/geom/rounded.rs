@@ -90,7 +90,7 @@ pub fn rounded_hit_with<const FMA: bool>(
         return exact.all();
     };
     // D's sign is certain, else D may be 0: decide it exactly.
-    if !(f.den.hi.abs() > 2.0 * f.den_err) && exact.den().is_zero() {
+    if !exceeds(f.den.hi.abs(), 2.0 * f.den_err) && exact.den().is_zero() {
         return None;
     }
     let t = match f.quotient(f.num, f.num_err) {
@@ -129,6 +129,13 @@ pub fn rounded_hit_with<const FMA: bool>(
         v: v_val,
         point,
     })
+}
+
+/// Whether `x > bound`: false for a NaN, so a value that is not a number is never taken as
+/// certainly nonzero.
+#[inline(always)]
+fn exceeds(x: f64, bound: f64) -> bool {
+    x > bound
 }
 
 /// `q + c` rounded to float64, when the rounding's error plus `err` (a bound on
@@ -328,7 +335,7 @@ impl<const FMA: bool> Filtered<FMA> {
     fn quotient(&self, n: Dd, n_err: f64) -> Option<(f64, f64, f64)> {
         let (d, d_err) = (self.den, self.den_err);
         let small = |x: f64| x != 0.0 && x.abs() < QUOTIENT_MIN;
-        if !(d.hi.abs() > 2.0 * d_err) || small(d.hi) || small(n.hi) {
+        if !exceeds(d.hi.abs(), 2.0 * d_err) || small(d.hi) || small(n.hi) {
             return None;
         }
         let q = n.hi / d.hi;

@@ -87,13 +87,8 @@ fn check(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3], what: &str) -> Option<Round
             );
             assert!(within_ulp(h.u, &u), "{what}: u {} vs {}", h.u, u);
             assert!(within_ulp(h.v, &v), "{what}: v {} vs {}", h.v, v);
-            for k in 0..3 {
-                assert!(
-                    within_ulp(h.point[k], &p[k]),
-                    "{what}: point[{k}] {} vs {}",
-                    h.point[k],
-                    p[k]
-                );
+            for (k, (got, want)) in h.point.iter().zip(&p).enumerate() {
+                assert!(within_ulp(*got, want), "{what}: point[{k}] {got} vs {want}");
             }
             Some(h)
         }
