@@ -193,9 +193,8 @@ def test_answers_do_not_depend_on_the_batch_or_threads(sphere):
 def test_a_touch_kept_out_of_order_wins_over_a_later_crossing():
     """A line in a floor triangle's plane meets a tilted neighbour on the floor's edge (t = 2,
     one point of that triangle: a hit), then crosses a wall through its interior (t = 6). The
-    floor's boundary points are met in its plane, out of walk order, so the walk keeps the
-    touch and goes on; the crossing must not replace it (issue 37's hand-planted survivor:
-    ``ClosestPolicy::crossed`` taking the crossing instead of the earlier of the two)."""
+    answer is the touch on the neighbour, not the wall. Meant for issue 37's hand-planted
+    survivor in ``ClosestPolicy::crossed``, which it does not reach (docs/testing.md)."""
     v = np.array(
         [
             [0, 0, 0],
