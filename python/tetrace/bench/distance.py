@@ -49,6 +49,20 @@ def _exact_t(v, f, tri, o, d):
     return _det([a[k] - o[k] for k in range(3)], e1, e2) / _det(d, e1, e2)
 
 
+def aimed_rays(rng, v, f, distance, n):
+    """``n`` rays from a sphere of radius ``distance`` around the origin, each aimed at a
+    random point of a random triangle of ``(v, f)``: float64 ``(n, 3)`` origins and
+    directions (the aimed-at point rounded into the direction)."""
+    u = rng.standard_normal((n, 3))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    fi = rng.integers(0, len(f), n)
+    w = rng.random((n, 2))
+    w = np.where(w.sum(1, keepdims=True) > 1, 1 - w, w)
+    a, b, c = (v[f[fi, k]] for k in range(3))
+    o = distance * u
+    return o, a + w[:, :1] * (b - a) + w[:, 1:] * (c - a) - o
+
+
 def rows(distances, rays, accels, subdivisions=3, seed=7):
     """One row per (distance, precision, accelerator): counts and relative errors."""
     import trimesh
@@ -62,15 +76,7 @@ def rows(distances, rays, accels, subdivisions=3, seed=7):
     ref = Referee(v, f)
     out = []
     for r in distances:
-        rng = np.random.default_rng([seed, int(np.log10(r) * 8)])
-        u = rng.standard_normal((rays, 3))
-        u /= np.linalg.norm(u, axis=1, keepdims=True)
-        fi = rng.integers(0, len(f), rays)
-        w = rng.random((rays, 2))
-        w = np.where(w.sum(1, keepdims=True) > 1, 1 - w, w)
-        a, b, c = (v[f[fi, k]] for k in range(3))
-        o = r * u
-        d = a + w[:, :1] * (b - a) + w[:, 1:] * (c - a) - o
+        o, d = aimed_rays(np.random.default_rng([seed, int(np.log10(r) * 8)]), v, f, r, rays)
         for precision in ("f64", "f32"):
             dt = np.float32 if precision == "f32" else np.float64
             oo, dd = o.astype(dt), d.astype(dt)

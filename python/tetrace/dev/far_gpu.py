@@ -15,6 +15,7 @@ import numpy as np
 
 def main(argv=None):
     import tetrace
+    from tetrace.bench.distance import aimed_rays
     from tetrace.referee import Referee, judge, judge_values
 
     argv = sys.argv[1:] if argv is None else argv
@@ -23,16 +24,8 @@ def main(argv=None):
     ref = Referee(v, f)
     print("adapter:", tetrace.gpu.device())
     for r in (1e2, 1e4, 1e6, 1e8):
-        rng = np.random.default_rng(int(np.log10(r)))
         n = 20000
-        u = rng.standard_normal((n, 3))
-        u /= np.linalg.norm(u, axis=1, keepdims=True)
-        fi = rng.integers(0, len(f), n)
-        w = rng.random((n, 2))
-        w = np.where(w.sum(1, keepdims=True) > 1, 1 - w, w)
-        a, b, c = (v[f[fi, k]] for k in range(3))
-        o = r * u
-        d = a + w[:, :1] * (b - a) + w[:, 1:] * (c - a) - o
+        o, d = aimed_rays(np.random.default_rng(int(np.log10(r))), v, f, r, n)
         o, d = o.astype(np.float32), d.astype(np.float32)
         h = scene.cast(o, d, device="gpu")
         j = judge(h, ref.first_hits(o, d))

@@ -587,14 +587,10 @@ def fam_terrain(rng, n, k=33):
     )
 
 
-def fam_long(rng, n, distance=2**13):
-    """Rays from ``distance`` (about 1e4) sphere radii away, outside the domain, aimed at points
-    well inside faces that face them (weights >= 2/16): they enter through the domain box after
-    a very long way and hit the aimed-at face. The float64 rays are exact; the float32 rays are
-    them rounded (24 bits cannot hold both the origin and the target): rounding moves the line
-    by about 2^-24 x 8192 = 5e-4 at the sphere, far less than the 1/8 of a face (about 0.02)
-    between the target and the face's border, so both claim the hit on the aimed-at face."""
-    v, f = _ball()
+def _facing_aims(rng, v, f, n):
+    """``n`` unit directions ``u`` from the sphere's centre, for each a face ``fi`` that faces
+    it (nothing of the convex sphere hides it from far along ``u``) and integer weights ``w``
+    (sixteenths, each >= 2: well inside the face)."""
     c = v[f].mean(1)
     u = rng.standard_normal((n, 3))
     u /= np.linalg.norm(u, axis=1, keepdims=True)
@@ -607,6 +603,18 @@ def fam_long(rng, n, distance=2**13):
             if 16 - a - b >= 2:
                 w[i] = (a, b, 16 - a - b)
                 break
+    return u, fi, w
+
+
+def fam_long(rng, n, distance=2**13):
+    """Rays from ``distance`` (about 1e4) sphere radii away, outside the domain, aimed at points
+    well inside faces that face them (weights >= 2/16): they enter through the domain box after
+    a very long way and hit the aimed-at face. The float64 rays are exact; the float32 rays are
+    them rounded (24 bits cannot hold both the origin and the target): rounding moves the line
+    by about 2^-24 x 8192 = 5e-4 at the sphere, far less than the 1/8 of a face (about 0.02)
+    between the target and the face's border, so both claim the hit on the aimed-at face."""
+    v, f = _ball()
+    u, fi, w = _facing_aims(rng, v, f, n)
     p = np.einsum("ij,ijk->ik", w / 16.0, v[f[fi]])
     o = np.round(u * distance)
     r = _Rays()
@@ -633,20 +641,8 @@ def fam_distance(rng, n, distance, name):
     inside the face; farther, float32 rounding moves it by more than a face (an origin 1e8
     away moves by up to 4), so no ray claims anything and the referee judges them all."""
     v, f = _ball()
-    c = v[f].mean(1)
-    u = rng.standard_normal((n, 3))
-    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    u, fi, w = _facing_aims(rng, v, f, n)
     o = u * distance
-    # Faces that face the origin (as fam_long's): nothing of the sphere hides them.
-    facing = (c / np.linalg.norm(c, axis=1, keepdims=True)) @ u.T > 0.5
-    fi = np.argmax(facing * rng.random(facing.shape), axis=0)
-    w = np.empty((n, 3))
-    for i in range(n):
-        while True:
-            a, b = rng.integers(2, 13, 2)
-            if 16 - a - b >= 2:
-                w[i] = (a, b, 16 - a - b)
-                break
     tri = v[f[fi]]
     r = _Rays()
     for kind, sel in zip(("face", "edge", "vertex"), np.array_split(np.arange(n), 3)):
