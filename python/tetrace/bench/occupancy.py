@@ -34,6 +34,8 @@ import warnings
 
 import numpy as np
 
+from .queries import _best
+
 #: Open3D's ``nsamples`` values timed (odd: its vote needs a majority).
 NSAMPLES = (1, 5, 11)
 #: Slack on the patches' exact winding number for the band (rounding of the sums).
@@ -139,20 +141,6 @@ def closed_reference(vertices, faces, points):
         band_distance=band_distance,
         seconds=time.perf_counter() - t0,
     )
-
-
-def _best(fn, repeat):
-    """``(best seconds, first seconds, answer)``: one call timed apart, then the best of
-    ``repeat``."""
-    t0 = time.perf_counter()
-    out = fn()
-    first = time.perf_counter() - t0
-    best = np.inf
-    for _ in range(max(int(repeat), 1)):
-        t0 = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t0)
-    return best, first, out
 
 
 def run_occupancy(path=None, *, n=20_000, seed=0, repeat=3, exact=True, out=print):
