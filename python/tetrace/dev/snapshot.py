@@ -1,6 +1,8 @@
 """Before/after check for refactors: hashes of every output field of every CPU method x layout x
 precision and every GPU kernel, on the bundled scene and (if found) bunny, for random rays,
-camera rays from outside and from inside the domain.
+camera rays from outside and from inside the domain; and of every other query kind (any hit,
+all hits, counts, ``start=hits`` secondary rays, containment, closest points) on every
+accelerator in both precisions.
 
     python -m tetrace.dev.snapshot before.json                      # on the old build
     python -m tetrace.dev.snapshot after.json --compare before.json # on the new one
@@ -77,7 +79,54 @@ def snapshot(scenes_dir=None) -> dict[str, dict[str, str]]:
                 for m, lay in tetrace.gpu.kernels():
                     hits = scene.cast(oo, dd, method=m, layout=lay, device="gpu", invalid="mark")
                     record(f"{sname}/{rname}/gpu/{m}/{lay}", hits)
+            _queries(scene, f"{sname}/{rname}", o, d, out)
+        pts = _points(scene)
+        for mode in ("parity", "winding"):
+            out[f"{sname}/contains/{mode}"] = {
+                "inside": _digest(scene.contains(pts, mode=mode, threads=2))
+            }
+        cp = scene.closest_points(pts, threads=2)
+        out[f"{sname}/closest_points"] = {
+            f: _digest(getattr(cp, f)) for f in ("point", "distance", "triangle", "u", "v")
+        }
     return out
+
+
+def _points(scene, n=5_000, seed=2):
+    """Points in and around the domain box, a few on the scene's vertices."""
+    lo, hi = (np.asarray(x, dtype=np.float64) for x in scene.domain)
+    rng = np.random.default_rng(seed)
+    p = lo - 0.1 * (hi - lo) + rng.random((n, 3)) * 1.2 * (hi - lo)
+    v = np.asarray(scene.points(), dtype=np.float64)
+    p[: min(200, len(v))] = v[rng.integers(0, len(v), min(200, len(v)))]
+    return p
+
+
+def _queries(scene, key, o, d, out, n=4_000):
+    """The ray queries other than closest hit, on every accelerator and in both precisions,
+    and the secondary rays started from a closest-hit cast's hits."""
+    import tetrace
+
+    o, d = o[:n], d[:n]
+    for prec, dt in (("f32", np.float32), ("f64", np.float64)):
+        oo, dd = np.ascontiguousarray(o, dt), np.ascontiguousarray(d, dt)
+        for accel in tetrace.accels():
+            kw = dict(accel=accel, invalid="mark", threads=2)
+            k = f"{key}/{prec}/{accel}"
+            out[f"{k}/cast"] = {
+                f: _digest(getattr(scene.cast(oo, dd, **kw), f)) for f in FIELDS[:5] + ("status",)
+            }
+            out[f"{k}/occluded"] = {"occluded": _digest(scene.occluded(oo, dd, **kw))}
+            out[f"{k}/count"] = {"count": _digest(scene.count_intersections(oo, dd, **kw))}
+            ix = scene.intersections(oo, dd, **kw)
+            out[f"{k}/intersections"] = {
+                f: _digest(getattr(ix, f))
+                for f in ("ray", "offsets", "t", "triangle", "u", "v", "point", "status")
+                if getattr(ix, f, None) is not None
+            }
+            first = scene.cast(oo, dd, invalid="mark", threads=2)
+            second = scene.cast(start=first, directions=-dd, accel=accel, invalid="mark", threads=2)
+            out[f"{k}/start_hits"] = {f: _digest(getattr(second, f)) for f in ("t", "triangle", "status")}
 
 
 def main(argv=None) -> int:
