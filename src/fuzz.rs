@@ -814,7 +814,7 @@ impl Batch<'_> {
         // The exact accelerators agree on hit or miss, ray by ray.
         for accel in [
             AccelKind::ReshetovBvh,
-            AccelKind::ReshetovBvhPackets(16),
+            AccelKind::ReshetovBvhPackets,
             AccelKind::PortalezOctree,
         ] {
             let opts = CastOptions { accel, ..self.opts };

@@ -9,8 +9,11 @@ import numpy.typing as npt
 
 __all__ = [
     "NativeScene",
+    "RayRequest",
     "methods",
     "accels",
+    "queries",
+    "structure_defaults",
     "layouts",
     "simd_levels",
     "exitface_bench",
@@ -29,6 +32,7 @@ __all__ = [
     "HIT",
     "FAILED",
     "INVALID",
+    "STATUS_NAMES",
     "__version__",
 ]
 
@@ -36,6 +40,7 @@ MISS: int
 HIT: int
 FAILED: int
 INVALID: int
+STATUS_NAMES: list[str]
 __version__: str
 
 DEFAULT_METHOD: str
@@ -44,6 +49,8 @@ MAX_THREADS: int
 
 def methods() -> list[str]: ...
 def accels() -> list[str]: ...
+def queries() -> list[str]: ...
+def structure_defaults() -> dict[str, dict[str, Any]]: ...
 def layouts() -> list[tuple[str, int]]: ...
 def simd_levels() -> tuple[list[str], str]: ...
 def exitface_bench(
@@ -71,6 +78,32 @@ class TooLargeError(ValueError): ...
 class GpuError(RuntimeError): ...
 
 @final
+class RayRequest:
+    # One ray query's arguments, checked once: origins, directions (N, 3) C-contiguous in the
+    # named precision; tmin, tmax float64 (1 or N); names None for the core's defaults; start:
+    # per ray the scene triangle it leaves and the tet its hit's walk ended in (int32, -1: none).
+    def __new__(
+        cls,
+        origins: npt.NDArray[np.floating],
+        directions: npt.NDArray[np.floating],
+        tmin: npt.NDArray[np.float64],
+        tmax: npt.NDArray[np.float64],
+        *,
+        precision: str,
+        threads: int | None = None,
+        max_steps: int | None = None,
+        method: str | None = None,
+        layout: str | None = None,
+        accel: str | None = None,
+        packet: bool | None = None,
+        start: tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]] | None = None,
+        audit: bool = False,
+    ) -> RayRequest: ...
+    def __len__(self) -> int: ...
+    @property
+    def precision(self) -> str: ...
+
+@final
 class NativeScene:
     def __new__(
         cls,
@@ -84,92 +117,21 @@ class NativeScene:
         # face naming it may lie on instead (fTetWild); the ray's crossing nearest the face wins.
         alternatives: tuple[npt.NDArray[np.uint32], npt.NDArray[np.uint32]] | None = None,
     ) -> NativeScene: ...
-    def cast(
+    # One binding for every ray query of the table (queries()): "closest" -> the Hits fields
+    # ("t", "u", "v", "point" (N, 3), "triangle", "tet", "steps", "status", and "audit" (N, 2)
+    # when the request audits); "any" -> "status" (HIT: something lies in [tmin, tmax]);
+    # "all" -> "offsets" int64 (N+1,), "t", "triangle", "u", "v", "point" (M, 3), "status":
+    # every point where a ray meets the surface once, sorted by t per ray; "count" -> "count"
+    # int32 (N,), "status". progress is called as progress(chunks_done, chunks) every 50 ms.
+    def query(
         self,
-        origins: npt.NDArray[np.floating],
-        directions: npt.NDArray[np.floating],
-        tmin: npt.NDArray[np.float64],
-        tmax: npt.NDArray[np.float64],
-        threads: int | None = None,
-        max_steps: int | None = None,
-        # None: the core's defaults (DEFAULT_METHOD, DEFAULT_LAYOUT).
-        method: str | None = None,
-        layout: str | None = None,
-        audit: bool = False,
-        # False: no packets for rays sharing an origin (same answers, bit for bit).
-        packet: bool = True,
-        # None: the tet walk; "reshetov_bvh": the BVH (same answers).
-        accel: str | None = None,
-        # Rays started from hits: per ray the scene triangle it leaves and the tet its hit's
-        # walk ended in (int32, -1: none).
-        start: tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]] | None = None,
-        # Called as progress(chunks_done, chunks) every 50 ms while the query runs.
+        kind: str,
+        request: RayRequest,
         progress: Callable[[int, int], object] | None = None,
     ) -> dict[str, np.ndarray]: ...
-    def cast_gpu(
-        self,
-        origins: npt.NDArray[np.float32],
-        directions: npt.NDArray[np.float32],
-        tmin: npt.NDArray[np.float64],
-        tmax: npt.NDArray[np.float64],
-        threads: int | None = None,
-        max_steps: int | None = None,
-        method: str | None = None,
-        layout: str | None = None,
-    ) -> tuple[dict[str, np.ndarray], dict[str, float]]: ...
-    # The query kinds beside cast (src/query/): statuses MISS/HIT/FAILED/INVALID per ray.
-    # HIT: the ray meets the surface at t in [tmin, tmax] (the walk may stop at the first).
-    def occluded(
-        self,
-        origins: npt.NDArray[np.floating],
-        directions: npt.NDArray[np.floating],
-        tmin: npt.NDArray[np.float64],
-        tmax: npt.NDArray[np.float64],
-        threads: int | None = None,
-        max_steps: int | None = None,
-        method: str | None = None,
-        layout: str | None = None,
-        packet: bool = True,
-        accel: str | None = None,
-        start: tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]] | None = None,
-        # Called as progress(chunks_done, chunks) every 50 ms while the query runs.
-        progress: Callable[[int, int], object] | None = None,
-    ) -> npt.NDArray[np.uint8]: ...
-    # "offsets" int64 (N+1,), "t" float64 (M,), "triangle" int32 (M,), "u", "v" float64 (M,),
-    # "status" uint8 (N,): every point where a ray meets the surface once, sorted by t per ray.
-    def intersections(
-        self,
-        origins: npt.NDArray[np.floating],
-        directions: npt.NDArray[np.floating],
-        tmin: npt.NDArray[np.float64],
-        tmax: npt.NDArray[np.float64],
-        threads: int | None = None,
-        max_steps: int | None = None,
-        method: str | None = None,
-        layout: str | None = None,
-        packet: bool = True,
-        accel: str | None = None,
-        start: tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]] | None = None,
-        # Called as progress(chunks_done, chunks) every 50 ms while the query runs.
-        progress: Callable[[int, int], object] | None = None,
-    ) -> dict[str, np.ndarray]: ...
-    # "count" int32 (N,), "status" uint8 (N,).
-    def count_intersections(
-        self,
-        origins: npt.NDArray[np.floating],
-        directions: npt.NDArray[np.floating],
-        tmin: npt.NDArray[np.float64],
-        tmax: npt.NDArray[np.float64],
-        threads: int | None = None,
-        max_steps: int | None = None,
-        method: str | None = None,
-        layout: str | None = None,
-        packet: bool = True,
-        accel: str | None = None,
-        start: tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]] | None = None,
-        # Called as progress(chunks_done, chunks) every 50 ms while the query runs.
-        progress: Callable[[int, int], object] | None = None,
-    ) -> dict[str, np.ndarray]: ...
+    # A closest-hit cast of the request's float32 rays on the GPU: the fields, and the seconds
+    # of each phase.
+    def cast_gpu(self, request: RayRequest) -> tuple[dict[str, np.ndarray], dict[str, float]]: ...
     # (N, 3) float64 points -> (N,) bool: inside (on the surface counts as inside).
     def contains(
         self, points: npt.NDArray[np.float64], threads: int | None = None
@@ -178,14 +140,21 @@ class NativeScene:
     def closest_points(
         self, points: npt.NDArray[np.float64], threads: int | None = None
     ) -> dict[str, np.ndarray]: ...
+    # None: the core's default (structure_defaults()).
     def build_bvh(
-        self, cost_ratio: float = 1.0, max_leaf: int = 8, bins: int = 16, aperture: bool = True
+        self,
+        cost_ratio: float | None = None,
+        max_leaf: int | None = None,
+        bins: int | None = None,
+        aperture: bool | None = None,
     ) -> dict[str, Any]: ...
     def bvh_info(self) -> dict[str, Any] | None: ...
     def build_octree(
-        self, max_depth: int = 8, leaf_size: int = 12, balance: bool = True
+        self, max_depth: int | None = None, leaf_size: int | None = None, balance: bool | None = None
     ) -> dict[str, Any]: ...
     def octree_info(self) -> dict[str, Any] | None: ...
+    # Takes over what `other` built (a scene meshed again): non-default structures rebuilt now.
+    def adopt_structures(self, other: NativeScene) -> None: ...
     def update_points(
         self, points: npt.NDArray[np.float64], triangles: npt.NDArray[np.float64]
     ) -> tuple[bool, int, int]: ...

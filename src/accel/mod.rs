@@ -2,12 +2,14 @@
 //! time, with per-chunk state it may carry between neighbouring rays. The tet walk answers
 //! through the query's walk policy; Reshetov's BVH (one ray at a time or in culling packets)
 //! and Portalez & Duguet's octree test triangles and answer through the query's gatherer
-//! (`query::gather`). One file each; all are listed in [`ACCELS`], so a cast and the
+//! (`query::gather`). One file each; all are rows of the accelerator table (`table.rs`:
+//! [`AccelKind`], [`ACCELS`], the structures they read and the dispatch), so a cast and the
 //! benchmarks drive them all the same way.
 
 pub mod portalez_octree;
 pub mod reshetov_bvh;
 pub mod reshetov_bvh_packets;
+pub mod table;
 pub mod tetwalk;
 
 use crate::geom::ray::Ray;
@@ -17,64 +19,8 @@ use crate::query::{QueryKind, Sink};
 pub use portalez_octree::{OctreeParams, PortalezOctree};
 pub use reshetov_bvh::{BvhParams, ReshetovBvh};
 pub use reshetov_bvh_packets::{BvhPackets, CullCounters};
+pub use table::{AccelKind, AccelVisitor, Built, Structure, Structures, ACCELS};
 pub use tetwalk::TetWalk;
-
-/// The acceleration structures there are, by name.
-pub const ACCELS: [&str; 5] = [
-    "tetwalk",
-    "reshetov_bvh",
-    "reshetov_bvh_packets",
-    "reshetov_bvh_packets8",
-    "portalez_octree",
-];
-
-/// Which acceleration structure a cast runs.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum AccelKind {
-    /// The tet walk through the constrained tetrahedralization (with the exit method and
-    /// layout asked for).
-    #[default]
-    TetWalk,
-    /// Reshetov's BVH (`reshetov_bvh`), built on first use with [`BvhParams::default`].
-    ReshetovBvh,
-    /// The same BVH walked by packets of this many rays with Reshetov's frustum vertex
-    /// culling (`reshetov_bvh_packets`: 16, a 4×4 tile; `reshetov_bvh_packets8`: 64, 8×8).
-    ReshetovBvhPackets(u8),
-    /// Portalez & Duguet's neighbour-linked octree (`portalez_octree`), built on first use
-    /// with [`OctreeParams::default`].
-    PortalezOctree,
-}
-
-impl AccelKind {
-    /// Its name in [`ACCELS`].
-    pub fn name(self) -> &'static str {
-        match self {
-            AccelKind::TetWalk => ACCELS[0],
-            AccelKind::ReshetovBvh => ACCELS[1],
-            AccelKind::ReshetovBvhPackets(64) => ACCELS[3],
-            AccelKind::ReshetovBvhPackets(_) => ACCELS[2],
-            AccelKind::PortalezOctree => ACCELS[4],
-        }
-    }
-
-    /// Whether it tests the caller's triangles (a BVH, the octree) rather than walking tets.
-    pub fn tests_triangles(self) -> bool {
-        self != AccelKind::TetWalk
-    }
-
-    pub fn from_name(name: &str) -> crate::Result<AccelKind> {
-        match name {
-            "tetwalk" => Ok(AccelKind::TetWalk),
-            "reshetov_bvh" => Ok(AccelKind::ReshetovBvh),
-            "reshetov_bvh_packets" => Ok(AccelKind::ReshetovBvhPackets(16)),
-            "reshetov_bvh_packets8" => Ok(AccelKind::ReshetovBvhPackets(64)),
-            "portalez_octree" => Ok(AccelKind::PortalezOctree),
-            _ => Err(crate::Error::InvalidOption(format!(
-                "unknown accel {name:?}; expected one of {ACCELS:?}"
-            ))),
-        }
-    }
-}
 
 /// When a chunk of rays is walked in interleaved lanes (`tetwalk`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -146,9 +92,10 @@ mod tests {
     #[test]
     fn accel_names_round_trip() {
         for name in ACCELS {
-            assert_eq!(AccelKind::from_name(name).unwrap().name(), name);
+            assert_eq!(AccelKind::from_name(name).unwrap().name(), *name);
         }
         assert!(AccelKind::from_name("kdtree").is_err());
+        assert_eq!(ACCELS.len(), AccelKind::ALL.len());
         assert!(!AccelKind::TetWalk.tests_triangles());
         assert!(AccelKind::PortalezOctree.tests_triangles());
     }

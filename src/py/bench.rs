@@ -103,17 +103,21 @@ pub(crate) fn referee_first_hit<'py>(
         }
     }
     let tris: Vec<crate::referee::Tri> = f.iter().map(|t| t.map(|i| v[i as usize])).collect();
+    // In tetrace's pool (`threads.rs`: fork-safe, the one rule for every parallel call), not
+    // rayon's global one.
     let verdicts = py.detach(|| {
         guarded(|| {
             let at = |b: &[f64], i: usize| b[if b.len() == 1 { 0 } else { i }];
-            Ok((0..n)
-                .into_par_iter()
-                .map(|i| {
-                    let p = |x: &[f64]| [x[3 * i], x[3 * i + 1], x[3 * i + 2]];
-                    crate::referee::first_hit(p(o), p(d), at(lo, i), at(hi, i), &tris)
-                        .map(|v| (v.t, v.ties[0] as i64, v.ties.len() as i64))
-                })
-                .collect::<Vec<_>>())
+            crate::threads::install(None, || {
+                (0..n)
+                    .into_par_iter()
+                    .map(|i| {
+                        let p = |x: &[f64]| [x[3 * i], x[3 * i + 1], x[3 * i + 2]];
+                        crate::referee::first_hit(p(o), p(d), at(lo, i), at(hi, i), &tris)
+                            .map(|v| (v.t, v.ties[0] as i64, v.ties.len() as i64))
+                    })
+                    .collect::<Vec<_>>()
+            })
         })
     })?;
     let out = PyDict::new(py);

@@ -6,6 +6,8 @@ mod bench;
 mod errors;
 mod gpu;
 mod names;
+mod query;
+mod request;
 mod scene;
 
 use pyo3::prelude::*;
@@ -13,8 +15,11 @@ use pyo3::prelude::*;
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<scene::PyScene>()?;
+    m.add_class::<request::PyRayRequest>()?;
     m.add_function(wrap_pyfunction!(names::methods, m)?)?;
     m.add_function(wrap_pyfunction!(names::accels, m)?)?;
+    m.add_function(wrap_pyfunction!(names::queries, m)?)?;
+    m.add_function(wrap_pyfunction!(names::structure_defaults, m)?)?;
     m.add_function(wrap_pyfunction!(names::layouts, m)?)?;
     m.add_function(wrap_pyfunction!(names::simd_levels, m)?)?;
     m.add_function(wrap_pyfunction!(bench::exitface_bench, m)?)?;
@@ -33,6 +38,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("HIT", crate::HIT)?;
     m.add("FAILED", crate::FAILED)?;
     m.add("INVALID", crate::INVALID)?;
+    m.add("STATUS_NAMES", crate::status::STATUS_NAMES.to_vec())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -1,17 +1,21 @@
 //! `NativeScene`: building a scene and casting through it (CPU and GPU).
 
 use super::arrays::{check_cols, rows, slice};
-use super::errors::{guarded, interruptible, interruptible_with_progress};
-use super::names::{AccelArg, LayoutArg, MethodArg};
+use super::errors::{guarded, interruptible};
+use super::names::{LayoutArg, QueryArg};
+#[cfg(feature = "gpu")]
+use super::query::columns_dict;
+use super::query::Job;
+use super::request::PyRayRequest;
 use crate::accel::reshetov_bvh::nearest::NearestPoint;
 use crate::accel::{BvhParams, OctreeParams, PortalezOctree, ReshetovBvh};
 use crate::error::try_vec;
 use crate::geom::real::Real;
-use crate::layout::LayoutKind;
-use crate::query::Listed;
-use crate::scene::buffers::LeavingRays;
-use crate::scene::{AccelKind, CastOptions, HitBuffers, HitsOut, Packets, Rays, Scene};
-use crate::traverse::Method;
+#[cfg(feature = "gpu")]
+use crate::scene::queries::{Closest, RayJob};
+#[cfg(feature = "gpu")]
+use crate::scene::CastOptions;
+use crate::scene::{AccelKind, Scene};
 use numpy::{
     Element, IntoPyArray, PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
     PyReadonlyArray3, PyUntypedArrayMethods,
@@ -111,244 +115,74 @@ impl PyScene {
         })
     }
 
-    /// Casts rays: origins and directions both float32 (the walk runs in float32) or both
-    /// float64. Returns a dict of the Hits fields, in that precision; with `audit`, also
-    /// "audit": (N, 2) uint32, per ray the exit faces taken that exact predicates reject and
-    /// the steps where the method found no exit face. `method`, `layout`: None for the core's
-    /// defaults.
-    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, audit=false, packet=true, accel=None, start=None, progress=None))]
-    #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
-    fn cast<'py>(
+    /// Answers the query named `kind` (one of `queries()`) for the rays of `request`: a dict
+    /// of the query's columns (flat arrays, in the request's precision where they hold t, u,
+    /// v or points). `progress`: called with (rays done, rays) as chunks finish.
+    #[pyo3(signature = (kind, request, progress=None))]
+    fn query<'py>(
         &self,
         py: Python<'py>,
-        origins: &Bound<'py, PyAny>,
-        directions: &Bound<'py, PyAny>,
-        tmin: PyReadonlyArray1<'py, f64>,
-        tmax: PyReadonlyArray1<'py, f64>,
-        threads: Option<usize>,
-        max_steps: Option<u32>,
-        method: Option<MethodArg>,
-        layout: Option<LayoutArg>,
-        audit: bool,
-        packet: bool,
-        accel: Option<AccelArg>,
-        start: Option<StartArrays<'py>>,
+        kind: QueryArg,
+        request: &PyRayRequest,
         progress: Option<Py<PyAny>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let loaded = self.loaded();
-        let scene = &loaded.scene;
-        let opts = cast_options(threads, max_steps, packet, accel);
-        let method = method.map_or(Method::DEFAULT, |m| m.0);
-        let layout = layout.map_or(LayoutKind::DEFAULT, |l| l.0);
-        let f32s = (
-            origins.extract::<PyReadonlyArray2<'py, f32>>(),
-            directions.extract::<PyReadonlyArray2<'py, f32>>(),
-        );
-        if let (Ok(o), Ok(d)) = f32s {
-            let rays = RayArrays::new(o, d, tmin, tmax, start);
-            return cast_impl(py, scene, rays, &opts, audit, progress, |r, out, opts| {
-                scene.cast_with(method, layout, r, out, opts)
-            });
-        }
-        match (
-            origins.extract::<PyReadonlyArray2<'py, f64>>(),
-            directions.extract::<PyReadonlyArray2<'py, f64>>(),
-        ) {
-            (Ok(o), Ok(d)) => {
-                let rays = RayArrays::new(o, d, tmin, tmax, start);
-                cast_impl(py, scene, rays, &opts, audit, progress, |r, out, opts| {
-                    scene.cast_with(method, layout, r, out, opts)
-                })
-            }
-            _ => Err(pyo3::exceptions::PyTypeError::new_err(
-                "origins and directions must be 2-D arrays, both float32 or both float64",
-            )),
-        }
-    }
-
-    /// Any hit (occlusion) per ray: status HIT when a scene triangle lies on the ray within
-    /// [tmin, tmax], else MISS (FAILED, INVALID as for casts). Arguments as for `cast`.
-    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packet=true, accel=None, start=None, progress=None))]
-    #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
-    fn occluded<'py>(
-        &self,
-        py: Python<'py>,
-        origins: &Bound<'py, PyAny>,
-        directions: &Bound<'py, PyAny>,
-        tmin: PyReadonlyArray1<'py, f64>,
-        tmax: PyReadonlyArray1<'py, f64>,
-        threads: Option<usize>,
-        max_steps: Option<u32>,
-        method: Option<MethodArg>,
-        layout: Option<LayoutArg>,
-        packet: bool,
-        accel: Option<AccelArg>,
-        start: Option<StartArrays<'py>>,
-        progress: Option<Py<PyAny>>,
-    ) -> PyResult<Bound<'py, numpy::PyArray1<u8>>> {
-        let job = Occluded {
-            method: method.map_or(Method::DEFAULT, |m| m.0),
-            layout: layout.map_or(LayoutKind::DEFAULT, |l| l.0),
+        let job = Job {
+            py,
+            scene: &loaded.scene,
+            request,
+            progress,
         };
-        let opts = cast_options(threads, max_steps, packet, accel);
-        let bounds = (tmin, tmax);
-        let out = query_rays(
-            py,
-            &self.loaded().scene,
-            (origins, directions),
-            bounds,
-            (start, progress),
-            &opts,
-            job,
-        )?;
-        Ok(out.into_pyarray(py))
+        kind.0.visit(job)
     }
 
-    /// Every point where each ray meets the surface in [tmin, tmax] (the exact walk): a dict
-    /// of flat arrays "offsets" (N + 1), "t", "triangle", "u", "v", "point" (M, 3) sorted by
-    /// exact t within each ray (each value within a float64 ulp of the exact one), and
-    /// "status" (N). `method` must be None or "exact"; `layout` is ignored.
-    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packet=true, accel=None, start=None, progress=None))]
-    #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
-    fn intersections<'py>(
-        &self,
-        py: Python<'py>,
-        origins: &Bound<'py, PyAny>,
-        directions: &Bound<'py, PyAny>,
-        tmin: PyReadonlyArray1<'py, f64>,
-        tmax: PyReadonlyArray1<'py, f64>,
-        threads: Option<usize>,
-        max_steps: Option<u32>,
-        method: Option<MethodArg>,
-        layout: Option<LayoutArg>,
-        packet: bool,
-        accel: Option<AccelArg>,
-        start: Option<StartArrays<'py>>,
-        progress: Option<Py<PyAny>>,
-    ) -> PyResult<Bound<'py, PyDict>> {
-        let _ = layout;
-        let opts = cast_options(threads, max_steps, packet, accel);
-        let listed = all_hits(
-            py,
-            &self.loaded().scene,
-            (origins, directions),
-            (tmin, tmax),
-            (start, progress),
-            &opts,
-            method,
-        )?;
-        let n = listed.len();
-        let total: usize = listed.iter().map(|l| l.meets.len()).sum();
-        let mut offsets = try_capacity(n + 1, "the offsets of the intersections")?;
-        let what = "the intersections";
-        let (mut t, mut tri, mut u, mut v) = (
-            try_capacity(total, what)?,
-            try_capacity(total, what)?,
-            try_capacity(total, what)?,
-            try_capacity(total, what)?,
-        );
-        let mut point = try_capacity(3 * total, what)?;
-        let mut status = try_capacity(n, "the statuses")?;
-        offsets.push(0i64);
-        for l in &listed {
-            for m in &l.meets {
-                t.push(m.t);
-                tri.push(m.triangle as i32);
-                u.push(m.u);
-                v.push(m.v);
-                point.extend(m.point);
-            }
-            offsets.push(t.len() as i64);
-            status.push(l.status);
-        }
-        let out = PyDict::new(py);
-        out.set_item("offsets", offsets.into_pyarray(py))?;
-        out.set_item("t", t.into_pyarray(py))?;
-        out.set_item("triangle", tri.into_pyarray(py))?;
-        out.set_item("u", u.into_pyarray(py))?;
-        out.set_item("v", v.into_pyarray(py))?;
-        out.set_item("point", point.into_pyarray(py).reshape([total, 3])?)?;
-        out.set_item("status", status.into_pyarray(py))?;
-        Ok(out)
-    }
-
-    /// The number of points where each ray meets the surface in [tmin, tmax] (as
-    /// `intersections`): a dict of "count" (int32, N) and "status" (N).
-    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None, packet=true, accel=None, start=None, progress=None))]
-    #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
-    fn count_intersections<'py>(
-        &self,
-        py: Python<'py>,
-        origins: &Bound<'py, PyAny>,
-        directions: &Bound<'py, PyAny>,
-        tmin: PyReadonlyArray1<'py, f64>,
-        tmax: PyReadonlyArray1<'py, f64>,
-        threads: Option<usize>,
-        max_steps: Option<u32>,
-        method: Option<MethodArg>,
-        layout: Option<LayoutArg>,
-        packet: bool,
-        accel: Option<AccelArg>,
-        start: Option<StartArrays<'py>>,
-        progress: Option<Py<PyAny>>,
-    ) -> PyResult<Bound<'py, PyDict>> {
-        let _ = layout;
-        let opts = cast_options(threads, max_steps, packet, accel);
-        let listed = all_hits(
-            py,
-            &self.loaded().scene,
-            (origins, directions),
-            (tmin, tmax),
-            (start, progress),
-            &opts,
-            method,
-        )?;
-        let count: Vec<i32> = listed.iter().map(|l| l.meets.len() as i32).collect();
-        let status: Vec<u8> = listed.iter().map(|l| l.status).collect();
-        let out = PyDict::new(py);
-        out.set_item("count", count.into_pyarray(py))?;
-        out.set_item("status", status.into_pyarray(py))?;
-        Ok(out)
-    }
-
-    /// Casts float32 rays on the GPU (start location and hits on the CPU, the walk on the
-    /// device). Returns the Hits fields and the seconds of each phase.
-    #[pyo3(signature = (origins, directions, tmin, tmax, threads=None, max_steps=None, method=None, layout=None))]
-    #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
+    /// Casts the float32 rays of `request` on the GPU (start location and hits on the CPU,
+    /// the walk on the device). Returns the closest-hit columns and the seconds of each phase.
     fn cast_gpu<'py>(
         &self,
         py: Python<'py>,
-        origins: PyReadonlyArray2<'py, f32>,
-        directions: PyReadonlyArray2<'py, f32>,
-        tmin: PyReadonlyArray1<'py, f64>,
-        tmax: PyReadonlyArray1<'py, f64>,
-        threads: Option<usize>,
-        max_steps: Option<u32>,
-        method: Option<MethodArg>,
-        layout: Option<LayoutArg>,
+        request: &PyRayRequest,
     ) -> PyResult<(Bound<'py, PyDict>, Bound<'py, PyDict>)> {
+        if request.has_start() {
+            return Err(PyValueError::new_err(
+                "start=hits runs on the CPU: the exact walk decides where a ray leaves the \
+                 surface (device=\"cpu\")",
+            ));
+        }
+        if request.opts.accel != AccelKind::TetWalk {
+            return Err(PyValueError::new_err(format!(
+                "device=\"gpu\" walks the tetrahedralization; accel {:?} is CPU only",
+                request.opts.accel.name()
+            )));
+        }
         #[cfg(not(feature = "gpu"))]
         {
-            let _ = (py, origins, directions, tmin, tmax, threads, max_steps);
-            let _ = (method, layout);
+            let _ = (py, request);
             Err(super::gpu::not_built())
         }
         #[cfg(feature = "gpu")]
         {
             let loaded = self.loaded();
             let scene = &loaded.scene;
+            let rays = request.f32_rays(py)?;
+            let rays = rays.rays(scene)?;
             let opts = CastOptions {
-                threads,
-                max_steps,
+                threads: request.opts.threads,
+                max_steps: request.opts.max_steps,
                 ..Default::default()
             };
-            let (method, layout) = (method.map(|m| m.0.name()), layout.map(|l| l.0.name()));
-            let mut timings = crate::gpu::GpuTimings::default();
-            let rays = RayArrays::new(origins, directions, tmin, tmax, None);
-            let hits = cast_impl(py, scene, rays, &opts, false, None, |r, out, opts| {
-                timings = loaded.device.cast(scene, method, layout, r, out, opts)?;
-                Ok(())
+            let ask = request.ask;
+            let (method, layout) = (ask.method.map(|m| m.name()), ask.layout.map(|l| l.name()));
+            let mut out = Closest::output::<f32>(rays.len(), &ask)?;
+            // In tetrace's pool, as every parallel call (the upload and the CPU phases).
+            let timings = interruptible(py, || {
+                crate::threads::install(opts.threads, || {
+                    loaded
+                        .device
+                        .cast(scene, method, layout, &rays, out.out(), &opts)
+                })?
             })?;
+            let hits = columns_dict(py, Closest::columns(out)?)?;
             Ok((hits, super::gpu::timings_dict(py, &timings)?))
         }
     }
@@ -419,20 +253,22 @@ impl PyScene {
     /// Builds Reshetov's BVH with these parameters for the casts that follow (a cast with
     /// `accel="reshetov_bvh"` builds one with the defaults when none is built); returns what
     /// `bvh_info` returns.
-    #[pyo3(signature = (cost_ratio=1.0, max_leaf=8, bins=16, aperture=true))]
+    /// None for a parameter: the core's default (`structure_defaults()["bvh"]`).
+    #[pyo3(signature = (cost_ratio=None, max_leaf=None, bins=None, aperture=None))]
     fn build_bvh<'py>(
         &self,
         py: Python<'py>,
-        cost_ratio: f64,
-        max_leaf: u32,
-        bins: u32,
-        aperture: bool,
+        cost_ratio: Option<f64>,
+        max_leaf: Option<u32>,
+        bins: Option<u32>,
+        aperture: Option<bool>,
     ) -> PyResult<Bound<'py, PyDict>> {
+        let d = BvhParams::default();
         let params = BvhParams {
-            cost_ratio,
-            max_leaf,
-            bins,
-            aperture,
+            cost_ratio: cost_ratio.unwrap_or(d.cost_ratio),
+            max_leaf: max_leaf.unwrap_or(d.max_leaf),
+            bins: bins.unwrap_or(d.bins),
+            aperture: aperture.unwrap_or(d.aperture),
         };
         let bvh = py.detach(|| guarded(|| self.loaded().scene.build_bvh(params)))?;
         bvh_info(py, &bvh)
@@ -450,18 +286,20 @@ impl PyScene {
 
     /// Builds Portalez & Duguet's octree with these parameters for the casts that follow;
     /// returns what `octree_info` returns.
-    #[pyo3(signature = (max_depth=8, leaf_size=12, balance=true))]
+    /// None for a parameter: the core's default (`structure_defaults()["octree"]`).
+    #[pyo3(signature = (max_depth=None, leaf_size=None, balance=None))]
     fn build_octree<'py>(
         &self,
         py: Python<'py>,
-        max_depth: u32,
-        leaf_size: u32,
-        balance: bool,
+        max_depth: Option<u32>,
+        leaf_size: Option<u32>,
+        balance: Option<bool>,
     ) -> PyResult<Bound<'py, PyDict>> {
+        let d = OctreeParams::default();
         let params = OctreeParams {
-            max_depth,
-            leaf_size,
-            balance,
+            max_depth: max_depth.unwrap_or(d.max_depth),
+            leaf_size: leaf_size.unwrap_or(d.leaf_size),
+            balance: balance.unwrap_or(d.balance),
         };
         let octree = py.detach(|| guarded(|| self.loaded().scene.build_octree(params)))?;
         octree_info(py, &octree)
@@ -471,10 +309,35 @@ impl PyScene {
     fn octree_info<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
         self.loaded()
             .scene
+            .structures
             .octree
             .get()
             .map(|o| octree_info(py, &o))
             .transpose()
+    }
+
+    /// Takes over the structures `other` built (a scene meshed again from moved vertices):
+    /// the rule of a move (`Structures::moved`) over this scene's triangles, so a structure
+    /// built with other than the default parameters is built again now with them.
+    fn adopt_structures(&self, py: Python<'_>, other: &PyScene) -> PyResult<()> {
+        let (this, from) = (self.loaded(), other.loaded());
+        let moved = py.detach(|| {
+            guarded(|| {
+                crate::threads::install(None, || {
+                    from.scene.structures.moved(&this.scene.surface.triangles)
+                })?
+            })
+        })?;
+        let mut slot = self.state.write().unwrap_or_else(|e| e.into_inner());
+        match Arc::get_mut(&mut slot) {
+            Some(loaded) => loaded.scene.structures = moved,
+            None => {
+                return Err(PyValueError::new_err(
+                    "adopt_structures: the scene is in use by a cast on another thread",
+                ))
+            }
+        }
+        Ok(())
     }
 
     /// Moves the scene's points to `points` ((P, 3) float64, in the order they were given to
@@ -595,173 +458,6 @@ fn contains_impl<'py, R: Real + Element>(
     Ok(out.into_pyarray(py))
 }
 
-/// Per ray, the hit a ray starts from (`start=hits`): the caller's triangle it leaves and the
-/// tet that hit's walk ended in, −1 for none.
-type StartArrays<'py> = (PyReadonlyArray1<'py, i32>, PyReadonlyArray1<'py, i32>);
-
-/// A cast's ray arrays as numpy passed them.
-struct RayArrays<'py, R: Element> {
-    origins: PyReadonlyArray2<'py, R>,
-    directions: PyReadonlyArray2<'py, R>,
-    tmin: PyReadonlyArray1<'py, f64>,
-    tmax: PyReadonlyArray1<'py, f64>,
-    start: Option<StartArrays<'py>>,
-}
-
-impl<'py, R: Element + Real> RayArrays<'py, R> {
-    fn new(
-        origins: PyReadonlyArray2<'py, R>,
-        directions: PyReadonlyArray2<'py, R>,
-        tmin: PyReadonlyArray1<'py, f64>,
-        tmax: PyReadonlyArray1<'py, f64>,
-        start: Option<StartArrays<'py>>,
-    ) -> Self {
-        RayArrays {
-            origins,
-            directions,
-            tmin,
-            tmax,
-            start,
-        }
-    }
-
-    /// The rays as slices over `scene` (the number of rays, checked against the directions).
-    fn slices<'a>(&'a self, scene: &'a Scene) -> PyResult<(usize, Rays<'a, R>)> {
-        let n = check_cols(&self.origins, 3, "origins")?;
-        if check_cols(&self.directions, 3, "directions")? != n {
-            return Err(PyValueError::new_err(
-                "origins and directions must have the same number of rows",
-            ));
-        }
-        let leaving = match &self.start {
-            Some((triangle, tet)) => Some(LeavingRays {
-                triangles: &scene.surface.triangles,
-                triangle: slice(triangle, "start triangles")?,
-                tet: slice(tet, "start tets")?,
-            }),
-            None => None,
-        };
-        let rays = Rays {
-            origins: slice(&self.origins, "origins")?,
-            directions: slice(&self.directions, "directions")?,
-            tmin: slice(&self.tmin, "tmin")?,
-            tmax: slice(&self.tmax, "tmax")?,
-            leaving,
-        };
-        Ok((n, rays))
-    }
-}
-
-/// Validates, allocates the outputs (with `audit`, two counts per ray), runs `cast` with the
-/// GIL released, returns the fields (the vectors become numpy arrays without a copy).
-fn cast_impl<'py, R: Real + Element>(
-    py: Python<'py>,
-    scene: &Scene,
-    rays: RayArrays<'py, R>,
-    opts: &CastOptions,
-    audit: bool,
-    progress: Option<Py<PyAny>>,
-    cast: impl FnOnce(&Rays<R>, HitsOut<R>, &CastOptions) -> crate::Result<()> + Send,
-) -> PyResult<Bound<'py, PyDict>> {
-    let (n, rays) = rays.slices(scene)?;
-    opts.check()?;
-    let mut buffers = HitBuffers::<R>::try_new(n, audit)?;
-    interruptible_with_progress(py, progress, || cast(&rays, buffers.out(), opts))?;
-    let out = PyDict::new(py);
-    out.set_item("t", buffers.t.into_pyarray(py))?;
-    out.set_item("u", buffers.u.into_pyarray(py))?;
-    out.set_item("v", buffers.v.into_pyarray(py))?;
-    out.set_item("point", buffers.point.into_pyarray(py).reshape([n, 3])?)?;
-    out.set_item("triangle", buffers.triangle.into_pyarray(py))?;
-    out.set_item("tet", buffers.tet.into_pyarray(py))?;
-    out.set_item("steps", buffers.steps.into_pyarray(py))?;
-    out.set_item("status", buffers.status.into_pyarray(py))?;
-    if audit {
-        out.set_item("audit", buffers.audit.into_pyarray(py).reshape([n, 2])?)?;
-    }
-    Ok(out)
-}
-
-/// An empty vector with room for `n`, or `MemoryError` naming `what` and the bytes.
-fn try_capacity<T>(n: usize, what: &str) -> crate::Result<Vec<T>> {
-    let mut v = Vec::new();
-    v.try_reserve_exact(n)
-        .map_err(|_| crate::Error::OutOfMemory {
-            bytes: n.saturating_mul(std::mem::size_of::<T>()),
-            what: what.to_string(),
-        })?;
-    Ok(v)
-}
-
-/// A query over rays of either precision: what the query bindings share.
-trait RayQuery: Sync {
-    type Out: Send;
-    fn output(&self, n: usize) -> crate::Result<Self::Out>;
-    fn run<R: Real>(
-        &self,
-        scene: &Scene,
-        rays: &Rays<R>,
-        out: &mut Self::Out,
-        opts: &CastOptions,
-    ) -> crate::Result<()>;
-}
-
-struct Occluded {
-    method: Method,
-    layout: LayoutKind,
-}
-
-impl RayQuery for Occluded {
-    type Out = Vec<u8>;
-    fn output(&self, n: usize) -> crate::Result<Vec<u8>> {
-        try_vec(n, 0, "the answers of occluded")
-    }
-    fn run<R: Real>(
-        &self,
-        scene: &Scene,
-        rays: &Rays<R>,
-        out: &mut Vec<u8>,
-        opts: &CastOptions,
-    ) -> crate::Result<()> {
-        scene.occluded(self.method, self.layout, rays, out, opts)
-    }
-}
-
-struct AllHitsJob;
-
-impl RayQuery for AllHitsJob {
-    type Out = Vec<Listed>;
-    fn output(&self, n: usize) -> crate::Result<Vec<Listed>> {
-        try_vec(n, Listed::default(), "the hits of each ray")
-    }
-    fn run<R: Real>(
-        &self,
-        scene: &Scene,
-        rays: &Rays<R>,
-        out: &mut Vec<Listed>,
-        opts: &CastOptions,
-    ) -> crate::Result<()> {
-        scene.intersections(rays, out, opts)
-    }
-}
-
-/// The options the bindings share (`packet=False`: never walk rays as packets; `accel`: None
-/// for the tet walk).
-fn cast_options(
-    threads: Option<usize>,
-    max_steps: Option<u32>,
-    packet: bool,
-    accel: Option<AccelArg>,
-) -> CastOptions {
-    CastOptions {
-        threads,
-        max_steps,
-        packets: if packet { Packets::Auto } else { Packets::Off },
-        accel: accel.map_or(AccelKind::TetWalk, |a| a.0),
-        ..Default::default()
-    }
-}
-
 fn octree_info<'py>(py: Python<'py>, octree: &PortalezOctree) -> PyResult<Bound<'py, PyDict>> {
     let (stats, memory) = (octree.stats(), octree.memory());
     let d = PyDict::new(py);
@@ -804,87 +500,4 @@ fn bvh_info<'py>(py: Python<'py>, bvh: &ReshetovBvh) -> PyResult<Bound<'py, PyDi
     d.set_item("packet_leaves_lone", lone)?;
     d.set_item("packet_leaves_frustum", frusta)?;
     Ok(d)
-}
-
-fn all_hits<'py>(
-    py: Python<'py>,
-    scene: &Scene,
-    (origins, directions): (&Bound<'py, PyAny>, &Bound<'py, PyAny>),
-    (tmin, tmax): (PyReadonlyArray1<'py, f64>, PyReadonlyArray1<'py, f64>),
-    (start, progress): (Option<StartArrays<'py>>, Option<Py<PyAny>>),
-    opts: &CastOptions,
-    method: Option<MethodArg>,
-) -> PyResult<Vec<Listed>> {
-    if let Some(m) = method {
-        if m.0 != Method::Exact {
-            return Err(PyValueError::new_err(format!(
-                "all hits and counts need the exact method, not {:?}",
-                m.0.name()
-            )));
-        }
-    }
-    query_rays(
-        py,
-        scene,
-        (origins, directions),
-        (tmin, tmax),
-        (start, progress),
-        opts,
-        AllHitsJob,
-    )
-}
-
-/// Validates rays of either precision and runs `query` with the GIL released.
-fn query_rays<'py, Q: RayQuery>(
-    py: Python<'py>,
-    scene: &Scene,
-    (origins, directions): (&Bound<'py, PyAny>, &Bound<'py, PyAny>),
-    (tmin, tmax): (PyReadonlyArray1<'py, f64>, PyReadonlyArray1<'py, f64>),
-    (start, progress): (Option<StartArrays<'py>>, Option<Py<PyAny>>),
-    opts: &CastOptions,
-    query: Q,
-) -> PyResult<Q::Out> {
-    fn go<'py, R: Real + Element, Q: RayQuery>(
-        py: Python<'py>,
-        scene: &Scene,
-        rays: RayArrays<'py, R>,
-        progress: Option<Py<PyAny>>,
-        opts: &CastOptions,
-        query: Q,
-    ) -> PyResult<Q::Out> {
-        let (n, rays) = rays.slices(scene)?;
-        opts.check()?;
-        let mut out = query.output(n)?;
-        interruptible_with_progress(py, progress, || query.run(scene, &rays, &mut out, opts))?;
-        Ok(out)
-    }
-    if let (Ok(o), Ok(d)) = (
-        origins.extract::<PyReadonlyArray2<'py, f32>>(),
-        directions.extract::<PyReadonlyArray2<'py, f32>>(),
-    ) {
-        return go(
-            py,
-            scene,
-            RayArrays::new(o, d, tmin, tmax, start),
-            progress,
-            opts,
-            query,
-        );
-    }
-    match (
-        origins.extract::<PyReadonlyArray2<'py, f64>>(),
-        directions.extract::<PyReadonlyArray2<'py, f64>>(),
-    ) {
-        (Ok(o), Ok(d)) => go(
-            py,
-            scene,
-            RayArrays::new(o, d, tmin, tmax, start),
-            progress,
-            opts,
-            query,
-        ),
-        _ => Err(pyo3::exceptions::PyTypeError::new_err(
-            "origins and directions must be 2-D arrays, both float32 or both float64",
-        )),
-    }
 }

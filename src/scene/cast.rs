@@ -2,7 +2,7 @@
 //! monomorphized walk, run over 4096-ray chunks on the threads asked for.
 
 use super::{check_lengths, HitsOut, Rays, Scene};
-use crate::accel::{Accel, BvhPackets, TetWalk};
+use crate::accel::{Accel, AccelVisitor, TetWalk};
 pub use crate::accel::{AccelKind, Lanes, Packets};
 use crate::error::{Error, Result};
 use crate::geom::real::Real;
@@ -153,9 +153,21 @@ impl Scene {
     }
 
     /// Every point where each ray meets the surface in [tmin, tmax], sorted by t, each once
-    /// (the exact walk only: the points at vertices and edges are its touches).
+    /// (the exact walk only: the points at vertices and edges are its touches), walking the
+    /// default layout.
     pub fn intersections<R: Real>(
         &self,
+        rays: &Rays<R>,
+        out: &mut [Listed],
+        opts: &CastOptions,
+    ) -> Result<()> {
+        self.intersections_in(LayoutKind::DEFAULT, rays, out, opts)
+    }
+
+    /// [`Scene::intersections`] walking `layout` (the same answers on every layout).
+    pub fn intersections_in<R: Real>(
+        &self,
+        layout: LayoutKind,
         rays: &Rays<R>,
         out: &mut [Listed],
         opts: &CastOptions,
@@ -168,13 +180,7 @@ impl Scene {
                 rays.directions.len()
             )));
         }
-        self.dispatch(
-            Method::Exact,
-            LayoutKind::DEFAULT,
-            rays,
-            Job::All(out),
-            opts,
-        )
+        self.dispatch(Method::Exact, layout, rays, Job::All(out), opts)
     }
 
     fn dispatch<R: Real>(
@@ -226,17 +232,15 @@ impl Scene {
                 method.name()
             )));
         }
-        match opts.accel {
-            AccelKind::ReshetovBvhPackets(size) => {
-                let packets = BvhPackets {
-                    bvh: &*self.bvh()?,
-                    size: size as usize,
-                };
-                self.cast_job(&packets, rays, job, opts)
-            }
-            AccelKind::PortalezOctree => self.cast_job(&*self.octree()?, rays, job, opts),
-            _ => self.cast_job(&*self.bvh()?, rays, job, opts),
-        }
+        let visit = CastOn {
+            scene: self,
+            rays,
+            job,
+            opts,
+        };
+        opts.accel
+            .visit(&self.structures, &self.surface.triangles, visit)
+            .unwrap_or_else(|| unreachable!("the tet walk tests no triangles"))?
     }
 
     /// Every query kind on an accelerator that answers in float64 (the BVH's ways).
@@ -315,6 +319,21 @@ impl Scene {
             .with_lanes(opts.lanes, opts.packets)
             .with_simd(opts.simd_level()?);
         cast_accel(&walk, query, rays, out, opts.threads)
+    }
+}
+
+/// A cast on the accelerator the table hands over (`AccelKind::visit`).
+struct CastOn<'a, R> {
+    scene: &'a Scene,
+    rays: &'a Rays<'a, R>,
+    job: Job<'a, R>,
+    opts: &'a CastOptions,
+}
+
+impl<R: Real> AccelVisitor for CastOn<'_, R> {
+    type Out = Result<()>;
+    fn visit<A: Accel<f64>>(self, accel: &A) -> Result<()> {
+        self.scene.cast_job(accel, self.rays, self.job, self.opts)
     }
 }
 

@@ -13,8 +13,7 @@
 //! records hold positions, the BVH and the octree. The boundary locator reads the box's points
 //! only (they do not move); the parity and the topological layouts stay as they are.
 
-use super::{split, Built, Scene};
-use crate::accel::{BvhParams, OctreeParams};
+use super::{split, Scene};
 use crate::error::{Error, Result};
 use crate::geom::predicates::orient;
 use crate::layout::LayoutKind;
@@ -22,7 +21,7 @@ use crate::locate::GridLocator;
 use crate::mesh::build::{on_box, snap_to_box};
 use crate::mesh::surface::check_finite;
 use rayon::prelude::*;
-use std::sync::{OnceLock, RwLock};
+use std::sync::OnceLock;
 
 /// What [`Scene::update_points`] found, and whether it moved the scene.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -137,8 +136,7 @@ impl Scene {
                 let _ = cell.set(p);
                 cell
             }),
-            bvh: Built(RwLock::new(self.bvh.get())),
-            octree: Built(RwLock::new(self.octree.get())),
+            structures: self.structures.share(),
             input_index: self.input_index.clone(),
         };
         copy.take_points(new, triangles)?;
@@ -165,17 +163,8 @@ impl Scene {
         self.incidence.split = split(&self.mesh, &self.incidence, &self.surface.triangles);
         self.locator = GridLocator::build(&self.mesh);
         self.layouts.forget_points();
-        let bvh = self.bvh.get().map(|b| b.params);
-        let octree = self.octree.get().map(|o| o.params);
-        self.bvh = Built::default();
-        self.octree = Built::default();
         self.layouts.prepare(LayoutKind::DEFAULT, &self.mesh)?;
-        if let Some(p) = bvh.filter(|p| *p != BvhParams::default()) {
-            self.build_bvh(p)?;
-        }
-        if let Some(p) = octree.filter(|p| *p != OctreeParams::default()) {
-            self.build_octree(p)?;
-        }
+        self.structures = self.structures.moved(&self.surface.triangles)?;
         Ok(())
     }
 }
@@ -183,6 +172,7 @@ impl Scene {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::accel::BvhParams;
     use crate::scene::{CastOptions, HitBuffers, Rays};
     use crate::testing::{grid_scene_inside, Rng};
 
@@ -378,7 +368,7 @@ mod tests {
                 assert_eq!(bvh.triangles[k], s.surface.triangles[i as usize]);
             }
             assert_eq!(s.surface.triangles, triangles(&pts, &g.faces));
-            assert!(s.octree.get().is_none());
+            assert!(s.structures.octree.get().is_none());
         }
     }
 }

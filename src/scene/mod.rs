@@ -5,9 +5,11 @@
 pub mod buffers;
 pub mod cast;
 pub mod deform;
+pub mod queries;
 
 use crate::accel::reshetov_bvh::nearest::NearestPoint;
-use crate::accel::{BvhParams, OctreeParams, PortalezOctree, ReshetovBvh};
+pub use crate::accel::Built;
+use crate::accel::{BvhParams, OctreeParams, PortalezOctree, ReshetovBvh, Structures};
 use crate::error::{Error, Result};
 use crate::geom::real::Real;
 use crate::layout::{LayoutKind, Layouts};
@@ -22,45 +24,11 @@ use crate::query::RayHit;
 use crate::threads::{checkpoint, run_pieces};
 #[cfg(feature = "gpu")]
 use crate::traverse::Walk;
-use std::sync::{Arc, OnceLock, RwLock};
+use std::sync::{Arc, OnceLock};
 
 pub use buffers::{check_lengths, HitBuffers, HitsOut, Rays};
 pub use cast::{AccelKind, CastOptions, Lanes, Packets, CHUNK};
 pub use deform::Moved;
-
-/// A structure built on first use, or again with other parameters: casts hold the `Arc` they
-/// started with, so a rebuild never changes a cast under way.
-pub struct Built<T>(RwLock<Option<Arc<T>>>);
-
-impl<T> Default for Built<T> {
-    fn default() -> Self {
-        Built(RwLock::new(None))
-    }
-}
-
-impl<T> Built<T> {
-    /// The one built last, if any.
-    pub fn get(&self) -> Option<Arc<T>> {
-        self.0.read().unwrap_or_else(|e| e.into_inner()).clone()
-    }
-
-    /// The one built last, else `build()`'s (kept).
-    pub fn get_or_build(&self, build: impl FnOnce() -> Result<T>) -> Result<Arc<T>> {
-        if let Some(b) = self.get() {
-            return Ok(b);
-        }
-        let built = Arc::new(build()?);
-        let mut slot = self.0.write().unwrap_or_else(|e| e.into_inner());
-        Ok(slot.get_or_insert(built).clone())
-    }
-
-    /// Keeps `built` for what follows.
-    pub fn set(&self, built: T) -> Result<Arc<T>> {
-        let built = Arc::new(built);
-        *self.0.write().unwrap_or_else(|e| e.into_inner()) = Some(built.clone());
-        Ok(built)
-    }
-}
 
 pub struct Scene {
     pub mesh: TetMesh,
@@ -75,12 +43,10 @@ pub struct Scene {
     pub incidence: Incidence,
     /// Containment's parity of each tet's region, built by the first `contains`.
     pub parity: OnceLock<Parity>,
-    /// Reshetov's BVH over the caller's triangles: built by the first cast that asks for it,
-    /// or again with other parameters by [`Scene::build_bvh`].
-    pub bvh: Built<ReshetovBvh>,
-    /// Portalez & Duguet's octree over the same triangles (`accel="portalez_octree"`), built
-    /// on first use with the default parameters or again by [`Scene::build_octree`].
-    pub octree: Built<PortalezOctree>,
+    /// The structures the triangle-testing accelerators read (Reshetov's BVH, Portalez &
+    /// Duguet's octree, as the structure table lists them): each built by the first cast
+    /// that asks for it with the default parameters, or again with others.
+    pub structures: Structures,
     /// Where each point came from: scene point k is point `input_index[k]` of those given to
     /// [`Scene::build_with`] (the Hilbert order renumbers them); [`Scene::update_points`]
     /// takes new points in the order given.
@@ -187,8 +153,7 @@ impl Scene {
             },
             incidence,
             parity: OnceLock::new(),
-            bvh: Built::default(),
-            octree: Built::default(),
+            structures: Structures::default(),
             input_index,
         };
         scene.layouts.prepare(LayoutKind::DEFAULT, &scene.mesh)?;
@@ -220,15 +185,8 @@ impl Scene {
                 "parity".to_string(),
                 self.parity.get().map_or(0, |p| p.bytes()),
             ),
-            (
-                "bvh".to_string(),
-                self.built_bvh().map_or(0, |b| b.memory()),
-            ),
-            (
-                "octree".to_string(),
-                self.octree.get().map_or(0, |o| o.memory().total),
-            ),
         ];
+        m.extend(self.structures.memory());
         m.extend(
             self.layouts
                 .built()
@@ -255,33 +213,28 @@ impl Scene {
     /// The closest-hit query over this scene's triangles.
     /// Reshetov's BVH: the one built last, else one with the default parameters (built now).
     pub fn bvh(&self) -> Result<Arc<ReshetovBvh>> {
-        self.bvh
-            .get_or_build(|| ReshetovBvh::build(&self.surface.triangles, BvhParams::default()))
+        self.structures.get(&self.surface.triangles)
     }
 
     /// The BVH if one is built.
     pub fn built_bvh(&self) -> Option<Arc<ReshetovBvh>> {
-        self.bvh.get()
+        self.structures.bvh.get()
     }
 
     /// Builds Reshetov's BVH with `params`, for the casts that follow (casts running now keep
     /// the tree they started with).
     pub fn build_bvh(&self, params: BvhParams) -> Result<Arc<ReshetovBvh>> {
-        self.bvh
-            .set(ReshetovBvh::build(&self.surface.triangles, params)?)
+        self.structures.build(&self.surface.triangles, params)
     }
 
     /// Portalez & Duguet's octree: the one built last, else one with the default parameters.
     pub fn octree(&self) -> Result<Arc<PortalezOctree>> {
-        self.octree.get_or_build(|| {
-            PortalezOctree::build(&self.surface.triangles, OctreeParams::default())
-        })
+        self.structures.get(&self.surface.triangles)
     }
 
     /// Builds the octree with `params`, for the casts that follow.
     pub fn build_octree(&self, params: OctreeParams) -> Result<Arc<PortalezOctree>> {
-        self.octree
-            .set(PortalezOctree::build(&self.surface.triangles, params)?)
+        self.structures.build(&self.surface.triangles, params)
     }
 
     pub fn closest(&self) -> ClosestHit<'_> {

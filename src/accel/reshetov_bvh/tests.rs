@@ -28,8 +28,8 @@ fn flat(rays: &[([f64; 3], [f64; 3])]) -> (Vec<f64>, Vec<f64>) {
 fn bvh_answers_are_the_referees_and_the_walks() {
     for accel in [
         AccelKind::ReshetovBvh,
-        AccelKind::ReshetovBvhPackets(16),
-        AccelKind::ReshetovBvhPackets(64),
+        AccelKind::ReshetovBvhPackets,
+        AccelKind::ReshetovBvhPackets8,
     ] {
         bvh_agrees(accel);
     }
@@ -184,7 +184,10 @@ fn bvh_agrees(accel: AccelKind) {
                 );
             }
         }
-        if let AccelKind::ReshetovBvhPackets(_) = accel {
+        if matches!(
+            accel,
+            AccelKind::ReshetovBvhPackets | AccelKind::ReshetovBvhPackets8
+        ) {
             let [tests, culled, aperture, _, lone, frusta] =
                 g.scene.built_bvh().unwrap().culling.read();
             eprintln!(
