@@ -118,6 +118,7 @@ def test_import_tetrace_loads_only_the_library():
         "tetrace.errors",
         "tetrace.gpu",
         "tetrace.hits",
+        "tetrace.names",
         "tetrace.rays",
         "tetrace.scene",
     }
