@@ -115,6 +115,7 @@ def test_import_tetrace_loads_only_the_library():
     allowed = {
         "tetrace",
         "tetrace._native",
+        "tetrace.deform",
         "tetrace.errors",
         "tetrace.gpu",
         "tetrace.hits",

@@ -11,7 +11,8 @@ from importlib import resources
 
 import numpy as np
 
-from . import _native
+from . import _native, deform
+from .deform import Deformation
 from .hits import FAILED, HIT, INVALID, ClosestPoints, Hits, Intersections
 from .names import (  # noqa: F401  (the public names stay where they were: tetrace.scene.methods)
     LAYOUT_BYTES,
@@ -37,40 +38,6 @@ __all__ = [
     "LAYOUT_BYTES",
     "MAX_THREADS",
 ]
-
-
-@dataclasses.dataclass(frozen=True)
-class Deformation:
-    """What :meth:`Scene.update_vertices` did.
-
-    Attributes
-    ----------
-    action : {"moved", "rebuilt"}
-        ``"moved"``: the tetrahedralization kept its topology and took the new positions
-        (every tet stayed positively oriented, exactly). ``"rebuilt"``: the scene was
-        meshed again from the new vertices, with the options it was built with.
-    inverted : int
-        Tets whose orientation with the proposed positions was not positive (inverted or
-        flat), counted exactly; 0 when the move was not tried (see ``reason``).
-    outside : int
-        Proposed points that left the domain box (or box points that moved).
-    reason : str
-        Why the scene was rebuilt (``""`` when moved).
-    seconds : dict
-        Seconds per stage: ``map`` (how the points follow the vertices: once after each
-        build), ``points`` (the proposed positions), ``update`` (the exact check and the
-        swap in the core), ``rebuild`` (meshing again; 0 when moved), ``total``.
-    frames : int
-        Updates since the scene was last built or rebuilt, this one included (0 when this
-        one rebuilt it).
-    """
-
-    action: str
-    inverted: int
-    outside: int
-    reason: str
-    seconds: dict
-    frames: int
 
 
 class Scene:
@@ -1088,113 +1055,7 @@ class Scene:
             The move needs a rebuild and meshing the new vertices fails; the scene is
             unchanged.
         """
-        t_start = time.perf_counter()
-        V = self._check_new_vertices(vertices)
-        seconds = dict(map=0.0, points=0.0, update=0.0, rebuild=0.0, total=0.0)
-        if self._point_map is None:
-            from .mesh.deform import PointMap
-
-            t = time.perf_counter()
-            rest = self._rest or (self.tetrahedralization, self.vertices)
-            self._point_map = PointMap.build(*rest, self.faces)
-            seconds["map"] = time.perf_counter() - t
-        pm = self._point_map
-        inverted = outside = 0
-        reason = pm.reason or pm.check(V)
-        if not reason:
-            t = time.perf_counter()
-            points = pm.points(V)
-            tri = np.ascontiguousarray(V[np.asarray(self.faces)], dtype=np.float64)
-            seconds["points"] = time.perf_counter() - t
-            t = time.perf_counter()
-            applied, inverted, outside = self._native.update_points(points, tri)
-            seconds["update"] = time.perf_counter() - t
-            if applied:
-                tz = self.tetrahedralization
-                if self._rest is None:
-                    self._rest = (tz, self.vertices)
-                cm = tz.clean
-                self.tetrahedralization = dataclasses.replace(
-                    tz,
-                    points=points,
-                    clean=dataclasses.replace(cm, vertices=V[pm.input_src]),
-                    _weight=None,
-                )
-                self._set_vertices(V)
-                self._frames += 1
-                seconds["total"] = time.perf_counter() - t_start
-                return self._report("moved", inverted, outside, "", seconds)
-            reason = (
-                f"{inverted} tets would invert or flatten"
-                if inverted
-                else f"{outside} points would leave the domain box"
-            )
-        t = time.perf_counter()
-        self._rebuild(V)
-        seconds["rebuild"] = time.perf_counter() - t
-        seconds["total"] = time.perf_counter() - t_start
-        return self._report("rebuilt", inverted, outside, reason, seconds)
-
-    def _check_new_vertices(self, vertices):
-        """New vertices as a float64 copy of the scene's shape, or a clear error."""
-        v = np.asarray(vertices)
-        if v.dtype.kind not in "iuf":
-            raise TypeError(f"vertices must be real numbers, got dtype {v.dtype}")
-        shape = np.shape(self.vertices)
-        if v.shape != shape:
-            raise ValueError(
-                f"vertices must have the shape of scene.vertices {shape}, got {v.shape}"
-            )
-        v = np.array(v, dtype=np.float64, order="C", copy=True)
-        bad = ~np.isfinite(v).all(axis=1)
-        if bad.any():
-            k = int(np.argmax(bad))
-            raise ValueError(
-                f"{int(bad.sum())} of {len(v)} vertices have a NaN/inf coordinate "
-                f"(first: vertex {k}, {v[k].tolist()})"
-            )
-        return v
-
-    def _set_vertices(self, V):
-        V.setflags(write=False)
-        self.vertices = V
-        self._normals = None
-        self._surface = None  # moved vertices can merge, or make a triangle zero-area
-        self.gpu_timings = None
-
-    def _report(self, action, inverted, outside, reason, seconds):
-        self.last_deformation = Deformation(
-            action=action,
-            inverted=int(inverted),
-            outside=int(outside),
-            reason=reason,
-            seconds=seconds,
-            frames=self._frames,
-        )
-        return self.last_deformation
-
-    def _rebuild(self, V):
-        """Mesh the scene again from vertices ``V`` with the options it was built with;
-        the BVH and octree are built again with the parameters they had."""
-        bvh, octree = self.bvh_info(), self.octree_info()
-        fresh = Scene.from_mesh(
-            (V, np.asarray(self.faces)), hilbert=self.hilbert, **self._build_options
-        )
-        self.tetrahedralization = fresh.tetrahedralization
-        self._native = fresh._native
-        self.build_times = fresh.build_times
-        self._set_vertices(V)
-        self._point_map = None
-        self._rest = None
-        self._frames = 0
-        # As the core does after a move: a structure built with other than the default
-        # parameters is built again now; a default one on its next use.
-        for info, build in ((bvh, self.build_bvh), (octree, self.build_octree)):
-            if info is not None:
-                defaults = inspect.signature(build).parameters
-                params = {k: info[k] for k in defaults}
-                if any(params[k] != defaults[k].default for k in params):
-                    build(**params)
+        return deform.update_vertices(self, vertices)
 
     def _cast_audited(
         self,
@@ -1423,7 +1284,7 @@ class Scene:
                     f"tetrahedralization ({inverted} tets inverted, {outside} points outside)"
                 )
             scene.tetrahedralization, scene._rest = tz, (rest_tz, rest_vertices)
-            scene._set_vertices(vertices)
+            deform.set_vertices(scene, vertices)
         geometries = dec("geometries")
         if geometries is not None:
             from .meshes import Geometries
