@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
-import inspect
 import time
 import warnings
 from functools import lru_cache
@@ -1173,44 +1171,9 @@ class Scene:
         bytes
             Loaded back by :meth:`from_bytes`; every query answers the same, bit for bit.
         """
-        from . import scenefile
+        from . import persist
 
-        arrays, seen = {}, {}
-
-        def enc(value, path):
-            return scenefile.encode(value, arrays, path, seen)
-
-        rest_tz, rest_vertices = self._rest or (self.tetrahedralization, self.vertices)
-        structures = {}
-        for name, info, build in (
-            ("bvh", self.bvh_info(), self.build_bvh),
-            ("octree", self.octree_info(), self.build_octree),
-        ):
-            if info is not None:
-                structures[name] = {k: info[k] for k in inspect.signature(build).parameters}
-        geometries = self.geometries
-        meta = dict(
-            kind="tetrace.Scene",
-            hilbert=self.hilbert,
-            tetrahedralization=enc(_tz_fields(self.tetrahedralization), "tz"),
-            vertices=enc(np.asarray(self.vertices), "vertices"),
-            faces=enc(np.asarray(self.faces), "faces"),
-            moved=self._rest is not None,
-            rest_tetrahedralization=enc(_tz_fields(rest_tz), "rest_tz"),
-            rest_vertices=enc(np.asarray(rest_vertices), "rest_vertices"),
-            geometries=None
-            if geometries is None
-            else enc(
-                (geometries.triangle_offsets, geometries.vertex_offsets, geometries.names),
-                "geometries",
-            ),
-            build_options=enc(self._build_options, "build_options"),
-            build_times=enc(self.build_times, "build_times"),
-            frames=self._frames,
-            last_deformation=enc(self.last_deformation, "last_deformation"),
-            structures=structures,
-        )
-        return scenefile.pack(arrays, meta, package_version=_native.__version__)
+        return persist.to_bytes(self)
 
     @classmethod
     def from_bytes(cls, data, *, source="<bytes>"):
@@ -1232,74 +1195,9 @@ class Scene:
             Not a scene file, a newer format version, truncated or corrupt data; the
             message names ``source`` and what is wrong.
         """
-        from . import scenefile
-        from .errors import SceneFileError
+        from . import persist
 
-        arrays, meta, _ = scenefile.unpack(data, source=source)
-        # Loaded arrays are views of ``data``: copy them (writable, independent of it) once.
-        arrays = {k: np.array(v) for k, v in arrays.items()}
-        try:
-            return cls._restore(arrays, meta, source)
-        except SceneFileError:
-            raise
-        except (KeyError, TypeError, ValueError, IndexError, AttributeError) as exc:
-            # A header whose checksum holds but whose content is not a scene (written by
-            # something else), or arrays the core rejects (tetrace.MeshError).
-            raise SceneFileError(
-                f"{source}: not a valid scene ({type(exc).__name__}: {exc})"
-            ) from exc
-
-    @classmethod
-    def _restore(cls, arrays, meta, source):
-        """The scene :meth:`to_bytes` described by ``meta`` over ``arrays``."""
-        from . import scenefile
-        from .errors import SceneFileError
-
-        if not isinstance(meta, dict) or meta.get("kind") != "tetrace.Scene":
-            kind = meta.get("kind") if isinstance(meta, dict) else type(meta).__name__
-            raise ValueError(f"holds {kind!r}, not a tetrace.Scene")
-        dec = lambda key: scenefile.decode(meta[key], arrays)  # noqa: E731
-        tz, vertices, faces = (
-            _tz_from_fields(dec("tetrahedralization")),
-            dec("vertices"),
-            dec("faces"),
-        )
-        moved = bool(meta["moved"])
-        rest_tz, rest_vertices = tz, vertices
-        if moved:
-            rest_tz, rest_vertices = (
-                _tz_from_fields(dec("rest_tetrahedralization")),
-                dec("rest_vertices"),
-            )
-        scene = cls(rest_tz, rest_vertices, faces, hilbert=bool(meta["hilbert"]))
-        if moved:
-            tri = np.asarray(vertices)[np.asarray(faces)]
-            applied, inverted, outside = scene._native.update_points(
-                np.ascontiguousarray(tz.points, dtype=np.float64),
-                np.ascontiguousarray(tri, dtype=np.float64),
-            )
-            if not applied:
-                raise SceneFileError(
-                    f"{source}: the saved positions are not a valid move of the saved "
-                    f"tetrahedralization ({inverted} tets inverted, {outside} points outside)"
-                )
-            scene.tetrahedralization, scene._rest = tz, (rest_tz, rest_vertices)
-            deform.set_vertices(scene, vertices)
-        geometries = dec("geometries")
-        if geometries is not None:
-            from .meshes import Geometries
-
-            scene.geometries = Geometries(*geometries)
-        scene._build_options = dec("build_options")
-        scene.build_times = dec("build_times")
-        scene._frames = int(meta["frames"])
-        last = dec("last_deformation")
-        scene.last_deformation = None if last is None else Deformation(**last)
-        structures = meta["structures"]
-        for name, build in (("bvh", scene.build_bvh), ("octree", scene.build_octree)):
-            if name in structures:
-                build(**structures[name])
-        return scene
+        return persist.from_bytes(cls, data, source)
 
     def save(self, path):
         """Write the scene to a file (:meth:`to_bytes`'s format), to load with :meth:`load`.
@@ -1358,24 +1256,9 @@ class Scene:
 
 
 def _scene_from_bytes(data):
-    """Unpickle a :class:`Scene` (its :meth:`Scene.__reduce__`)."""
+    """Unpickle a :class:`Scene` (its :meth:`Scene.__reduce__`). It stays here, not in
+    :mod:`tetrace.persist`: pickles name it as ``tetrace.scene._scene_from_bytes``."""
     return Scene.from_bytes(data, source="<pickle>")
-
-
-def _tz_fields(tz):
-    """A tetrahedralization's fields to save (its cached weight is recomputed)."""
-    fields = {f.name: getattr(tz, f.name) for f in dataclasses.fields(tz) if f.init}
-    fields.pop("_weight", None)
-    fields["clean"] = {f.name: getattr(tz.clean, f.name) for f in dataclasses.fields(tz.clean)}
-    return fields
-
-
-def _tz_from_fields(fields):
-    from .mesh.types import CleanMesh, Tetrahedralization
-
-    fields = dict(fields)
-    fields["clean"] = CleanMesh(**fields["clean"])
-    return Tetrahedralization(**fields)
 
 
 def default_scene_path():
