@@ -1303,43 +1303,10 @@ def cast(rays, scene=None, **kwargs):
 def measure_accuracy(
     tetrahedralization, vertices, faces, *, rays=20_000, seed=0, hit_distance=1e-3
 ):
-    """Fraction of random rays on which a tetrahedralization agrees with Embree.
+    """Fraction of random rays on which a tetrahedralization agrees with Embree: what
+    :func:`tetrace.accuracy.measure_accuracy` documents, cast with :class:`Scene`."""
+    from .accuracy import measure_accuracy
 
-    Parameters
-    ----------
-    tetrahedralization : tetrace.mesh.Tetrahedralization
-    vertices, faces : numpy.ndarray
-        The caller's mesh, which ``tetrahedralization`` was built from.
-    rays : int
-        Random rays, origins uniform in the scene's box grown by a quarter of its size
-        on each side, directions uniform on the sphere.
-    seed : int
-    hit_distance : float
-        Hits on different triangles agree when the hit points are this close, as a
-        fraction of the scene's diagonal (``tetrace.mesh.auto.HIT_DISTANCE``: fTetWild's
-        surface lies within its envelope of the input).
-
-    Returns
-    -------
-    float
-        Rays with the same outcome as Embree (both miss, or both hit the same triangle
-        or points within ``hit_distance``), over all rays.
-
-    Raises
-    ------
-    ImportError
-        embreex is not installed.
-    """
-    from .baselines.embree import embree_scene
-    from .dev.camera import random_rays
-
-    v = np.asarray(vertices, np.float64)
-    o, d = random_rays(np.array([v.min(0), v.max(0)]), int(rays), seed)
-    hits = Scene(tetrahedralization, v, faces).cast(o, d, precision="f64")
-    ref = embree_scene((v, faces)).cast(o, d)
-    diagonal = float(np.linalg.norm(v.max(0) - v.min(0)))
-    near = np.linalg.norm(hits.point - ref.point, axis=1) <= hit_distance * diagonal
-    same = (hits.status == ref.status) & (
-        (hits.status != HIT) | (hits.triangle == ref.triangle) | near
+    return measure_accuracy(
+        Scene, tetrahedralization, vertices, faces, rays=rays, seed=seed, hit_distance=hit_distance
     )
-    return float(same.mean())
