@@ -21,7 +21,7 @@ from .names import (  # noqa: F401  (the public names stay where they were: tetr
     methods,
     simd_levels,
 )
-from .rays import _check_threads, _Query, _query_points, prepare_bounds
+from .rays import _check_threads, _Query, _query_points
 
 __all__ = [
     "Scene",
@@ -1054,40 +1054,6 @@ class Scene:
             unchanged.
         """
         return deform.update_vertices(self, vertices)
-
-    def _cast_audited(
-        self,
-        origins,
-        directions,
-        *,
-        tmin=0.0,
-        tmax=np.inf,
-        method=None,
-        layout=None,
-        precision="f64",
-        threads=None,
-        max_steps=None,
-    ):
-        """Cast with the exact per-step audit (``tetrace.dev.stress.audited_cast``): the Hits
-        and, per ray, ``(N, 2)`` uint32 counts of exit faces the exact predicates reject and
-        of steps where the method found no exit face."""
-        dt = np.float32 if precision == "f32" else np.float64
-        o = np.ascontiguousarray(origins, dtype=dt)
-        d = np.ascontiguousarray(directions, dtype=dt)
-        n = len(o)
-        r = self._native.cast(
-            o,
-            d,
-            prepare_bounds(tmin, n, "tmin"),
-            prepare_bounds(tmax, n, "tmax"),
-            threads=threads,
-            max_steps=max_steps,
-            method=method,
-            layout=layout,
-            audit=True,
-        )
-        audit = r.pop("audit")
-        return self._hits(r), audit
 
     @property
     def n_tets(self):
