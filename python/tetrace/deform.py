@@ -125,7 +125,6 @@ def set_vertices(scene, V):
     scene.vertices = V
     scene._normals = None
     scene._surface = None  # moved vertices can merge, or make a triangle zero-area
-    scene.gpu_timings = None
 
 
 def report(scene, action, inverted, outside, reason, seconds):

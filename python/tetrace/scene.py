@@ -9,7 +9,7 @@ from importlib import resources
 
 import numpy as np
 
-from . import _native, deform
+from . import _native, deform, gpu
 from .deform import Deformation
 from .hits import FAILED, HIT, INVALID, ClosestPoints, Hits, Intersections
 from .names import (  # noqa: F401  (the public names stay where they were: tetrace.scene.methods)
@@ -111,11 +111,6 @@ class Scene:
         # (tetrahedralization, vertices) as last built, once a move has replaced them: the
         # point map and a saved scene start from it.
         self._rest = None
-        #: dict or None: seconds of each phase of the last GPU cast (``locate``,
-        #: ``scene_upload``, ``upload``, ``kernel``, ``readback``, ``finish``) and counts
-        #: (``walked``: rays the GPU walked, ``deferred``: robust rays re-walked on the CPU,
-        #: ``batches``).
-        self.gpu_timings = None
         rust = time.perf_counter() - t0
         self.build_times = dict(tet.timings)
         self.build_times["rust"] = rust
@@ -401,30 +396,15 @@ class Scene:
             Fields of the rays' leading shape, in the walk's precision (hit ``t``, ``u``,
             ``v`` are evaluated in float64 on the caller's triangle, then rounded), with
             the hit triangle's unit ``normal`` and, for a :meth:`from_meshes` scene, the
-            ``geometry`` hit and ``triangle`` within it. After a GPU cast, :attr:`gpu_timings`
-            holds the seconds of each phase.
+            ``geometry`` hit and ``triangle`` within it. After a GPU cast, its
+            ``timings`` hold the seconds of each phase (None after a CPU cast).
 
         Raises
         ------
         tetrace.gpu.GpuError
             ``device="gpu"`` without a usable adapter, or the device failed.
         """
-        if device not in ("cpu", "gpu", "auto"):
-            raise ValueError(f'device must be "cpu", "gpu" or "auto", got {device!r}')
-        if device == "gpu" and accel not in (None, "tetwalk"):
-            raise ValueError(
-                f'device="gpu" walks the tetrahedralization; accel {accel!r} is CPU only'
-            )
-        if device == "gpu" and start is not None:
-            raise ValueError(
-                "start=hits runs on the CPU: the exact walk decides where a ray "
-                'leaves the surface (device="cpu")'
-            )
-        if device == "gpu" and precision == "f64":
-            raise ValueError(
-                'device="gpu" walks in float32 (WGSL has no float64); use '
-                'precision="f32" or device="cpu"'
-            )
+        gpu.check_cast(device, accel, start, precision)
         q = _Query(
             origins,
             directions,
@@ -441,35 +421,19 @@ class Scene:
             progress=progress,
         )
         _names(method, layout, defaults=False)
-        use_gpu = False
-        if device == "gpu":
-            use_gpu = True
-        elif device == "auto" and q.o.dtype == np.float32:
-            from . import gpu
-
-            # Only a float method named explicitly: the exact default has no GPU kernel, and
-            # "auto" must not trade the contract for speed behind the caller's back.
-            use_gpu = (
-                accel in (None, "tetwalk")
-                and start is None
-                and method is not None
-                and gpu.kernel_for(method, layout) is not None
-                and gpu.available()
-            )
+        use_gpu = gpu.wanted(device, q.o.dtype, method, layout, accel, start)
         method, layout = _names(method, layout, defaults=not use_gpu)
+        timings = None
         if use_gpu:
-            o, d = q.o.astype(np.float32, copy=False), q.d.astype(np.float32, copy=False)
-            r, self.gpu_timings = self._native.cast_gpu(
-                o, d, q.lo, q.hi, q.threads, q.max_steps, method, layout
-            )
+            r, timings = gpu.cast(self._native, q, method, layout)
         else:
             r = q.run(self._native.cast, method, layout, "casting")
         q.check(r["status"])
-        return self._hits(r).reshape(q.shape)
+        return self._hits(r, timings).reshape(q.shape)
 
-    def _hits(self, r):
+    def _hits(self, r, timings=None):
         """Hits from the core's flat answer: the triangle split into mesh and triangle in
-        it, and the hit triangle's normal."""
+        it, and the hit triangle's normal (and a GPU cast's ``timings``)."""
         scene_triangle = np.asarray(r["triangle"])
         geometry, triangle = self._locate(scene_triangle)
         hit = scene_triangle >= 0
@@ -480,6 +444,7 @@ class Scene:
             normal=normal,
             geometry=geometry,
             scene_triangle=scene_triangle,
+            timings=timings,
         )
 
     def _locate(self, scene_triangle):
@@ -507,6 +472,18 @@ class Scene:
             n.setflags(write=False)
             self._normals = n
         return self._normals
+
+    @property
+    def gpu_timings(self):
+        """None. Deprecated: a GPU cast's phase timings come back with its result,
+        :attr:`Hits.timings` (kept on the scene, two threads casting at once raced on them)."""
+        warnings.warn(
+            "Scene.gpu_timings is deprecated and always None: read hits.timings of the GPU "
+            "cast's result",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        return None
 
     # ------------------------------------------------------------------ other query kinds
 
