@@ -583,8 +583,13 @@ class Scene:
 
         Parameters
         ----------
-        origins, directions, tmin, tmax, threads, max_steps, invalid, method, layout
+        origins, directions, tmin, tmax, threads, max_steps, invalid
             As for :meth:`cast` (rays of any leading shape, CPU only).
+        method : str, optional
+            ``"exact"`` (the default); the core refuses any other (``ValueError``).
+        layout : str, optional
+            Checked as a name, then ignored: the core's all-hits walk takes no tet layout
+            (the argument is there so that every ray query takes :meth:`cast`'s).
         start, precision, packet, accel, progress
             As for :meth:`cast` (``start=hits``: rays from an earlier cast's hits).
 
@@ -663,8 +668,13 @@ class Scene:
 
         Parameters
         ----------
-        origins, directions, tmin, tmax, threads, max_steps, invalid, method, layout
+        origins, directions, tmin, tmax, threads, max_steps, invalid
             As for :meth:`cast` (rays of any leading shape, CPU only).
+        method : str, optional
+            ``"exact"`` (the default); the core refuses any other (``ValueError``).
+        layout : str, optional
+            Checked as a name, then ignored: the core's all-hits walk takes no tet layout
+            (the argument is there so that every ray query takes :meth:`cast`'s).
         start, precision, packet, accel, progress
             As for :meth:`cast` (``start=hits``: rays from an earlier cast's hits).
         return_status : bool
