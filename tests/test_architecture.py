@@ -121,6 +121,7 @@ def test_import_tetrace_loads_only_the_library():
         "tetrace.gpu",
         "tetrace.hits",
         "tetrace.names",
+        "tetrace.point_queries",
         "tetrace.rays",
         "tetrace.scene",
     }

@@ -9,9 +9,9 @@ from importlib import resources
 
 import numpy as np
 
-from . import _native, deform, gpu
+from . import _native, deform, gpu, point_queries
 from .deform import Deformation
-from .hits import FAILED, HIT, INVALID, ClosestPoints, Hits, Intersections
+from .hits import FAILED, HIT, INVALID, Hits, Intersections
 from .names import (  # noqa: F401  (the public names stay where they were: tetrace.scene.methods)
     LAYOUT_BYTES,
     MAX_THREADS,
@@ -739,18 +739,7 @@ class Scene:
         """
         flat, shape = _query_points(points)
         _check_threads(threads)
-        r = self._native.closest_points(flat, threads)
-        scene_triangle = np.asarray(r["triangle"])
-        geometry, triangle = self._locate(scene_triangle)
-        return ClosestPoints(
-            point=np.asarray(r["point"]).reshape(shape + (3,)),
-            triangle=triangle.reshape(shape),
-            u=np.asarray(r["u"]).reshape(shape),
-            v=np.asarray(r["v"]).reshape(shape),
-            distance=np.asarray(r["distance"]).reshape(shape),
-            geometry=geometry.reshape(shape),
-            scene_triangle=scene_triangle.reshape(shape),
-        )
+        return point_queries.closest_points(self, flat, shape, threads)
 
     def distance(self, points, *, threads=None):
         """Return the distance from each point to the scene's surface (unsigned).
@@ -799,9 +788,9 @@ class Scene:
         """
         flat, shape = _query_points(points)
         _check_threads(threads)
-        mode = self._contains_mode(mode)
+        mode = point_queries.contains_mode(self, mode)
         d = self.distance(flat, threads=threads).reshape(shape)
-        inside = self._inside(flat, mode, threads).reshape(shape)
+        inside = point_queries.inside(self, flat, mode, threads).reshape(shape)
         return np.where(inside, -d, d)
 
     def build_bvh(self, *, cost_ratio=1.0, max_leaf=8, bins=16, aperture=True):
@@ -948,8 +937,8 @@ class Scene:
         """
         flat, shape = _query_points(points)
         _check_threads(threads)
-        mode = self._contains_mode(mode)
-        return self._inside(flat, mode, threads).reshape(shape)
+        mode = point_queries.contains_mode(self, mode)
+        return point_queries.inside(self, flat, mode, threads).reshape(shape)
 
     @property
     def is_closed(self):
@@ -975,36 +964,6 @@ class Scene:
 
             self._surface = surface(self.vertices, self.faces)
         return self._surface
-
-    def _contains_mode(self, mode):
-        """``mode`` checked and resolved (None: by :attr:`is_closed`), warning once per scene
-        when parity is asked of a mesh that is not closed. Called by the public methods
-        directly, so that the warning names their caller's line."""
-        if mode is None:
-            return "parity" if self.is_closed else "winding"
-        if not isinstance(mode, str) or mode not in ("parity", "winding"):
-            raise ValueError(f"mode must be None, 'parity' or 'winding', got {mode!r}")
-        if mode == "parity" and not self._parity_warned and not self.is_closed:
-            self._parity_warned = True
-            warnings.warn(
-                "contains/signed_distance with mode='parity' on a mesh that is not closed ("
-                f"{self._surface_info().describe()}): a point counts as inside only when the "
-                "fewest crossings to outside the domain is odd, so points reachable through a "
-                "hole are outside; mode='winding' (the default for this scene) uses the "
-                "generalized winding number instead",
-                UserWarning,
-                stacklevel=3,
-            )
-        return mode
-
-    def _inside(self, flat, mode, threads):
-        """Containment of the ``(N, 3)`` float64 points by the resolved ``mode``."""
-        if mode == "parity":
-            return np.asarray(self._native.contains(flat, threads), dtype=bool)
-        from .winding import winding_numbers
-
-        s = self._surface_info()
-        return winding_numbers(s.vertices, s.faces, flat) >= 0.5
 
     def update_vertices(self, vertices):
         """Move the scene's vertices, keeping its tetrahedralization when it stays valid.
