@@ -77,7 +77,7 @@ def test_no_adapter_is_a_clear_error():
         "except tetrace.GpuError as e:\n"
         "    print('CAST', e)\n"
         "h = s.cast(o, d, device='auto')\n"
-        "print('AUTO', s.gpu_timings is None, h.t.dtype)\n"
+        "print('AUTO', h.timings is None, h.t.dtype)\n"
     )
     env = dict(os.environ, WGPU_BACKEND="dx12")
     r = subprocess.run(
@@ -136,7 +136,7 @@ def _check(scene, o, d, what, device):
     for method, layout in gpu.kernels():
         cpu = scene.cast(o, d, method=method, layout=layout, precision="f32")
         hits = scene.cast(o, d, method=method, layout=layout, device="gpu")
-        t = scene.gpu_timings
+        t = hits.timings
         g, c = agreement(hits, verdict), agreement(cpu, verdict)
         differ = np.flatnonzero(
             (cpu.triangle != hits.triangle)
@@ -211,16 +211,14 @@ def test_gpu_hits_fields_and_options(spot, device):
         spot.cast(o, d, device="gpu", method="ms06")
     # auto: the GPU for float32 walks of a method named with a kernel, else the CPU (the
     # exact default has no GPU kernel: auto does not trade it away).
-    spot.gpu_timings = None
-    assert spot.cast(o, d, device="auto").t.dtype == np.float32 and spot.gpu_timings is None
-    assert spot.cast(o, d, device="auto", method="aman2022").t.dtype == np.float32
-    assert spot.gpu_timings
-    spot.gpu_timings = None
-    assert (
-        spot.cast(o.astype(np.float64), d.astype(np.float64), device="auto").t.dtype == np.float64
-    )
-    assert spot.cast(o, d, device="auto", layout="tet32").t.dtype == np.float32
-    assert spot.gpu_timings is None
+    h = spot.cast(o, d, device="auto")
+    assert h.t.dtype == np.float32 and h.timings is None
+    h = spot.cast(o, d, device="auto", method="aman2022")
+    assert h.t.dtype == np.float32 and h.timings
+    h64 = spot.cast(o.astype(np.float64), d.astype(np.float64), device="auto")
+    assert h64.t.dtype == np.float64 and h64.timings is None
+    h = spot.cast(o, d, device="auto", layout="tet32")
+    assert h.t.dtype == np.float32 and h.timings is None
     # Per-ray bounds and invalid rays go through the same CPU code as a CPU cast.
     tmax = np.linspace(0.0, 5.0, len(o))
     np.testing.assert_array_equal(
@@ -233,6 +231,28 @@ def test_gpu_hits_fields_and_options(spot, device):
     assert hb.status[3] == tetrace.INVALID
     with pytest.raises(ValueError):
         spot.cast(bad, d, device="gpu")
+
+
+def test_gpu_timings_come_back_with_the_hits(spot, device):
+    """Each GPU cast's phase timings are its own Hits' (issue 33: kept on the scene, two
+    threads casting at once raced on them); reshape keeps them, selecting rays drops them,
+    and the scene's old attribute is a deprecated None."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    lo, hi = spot.vertices.min(0), spot.vertices.max(0)
+    o, d = pinhole(hi + (hi - lo), (lo + hi) / 2, width=16, height=8, dtype=np.float32)
+    keys = {"locate", "scene_upload", "upload", "kernel", "readback", "finish", "walked"}
+    sizes = (16, 128)
+    with ThreadPoolExecutor(2) as pool:
+        runs = list(pool.map(lambda n: spot.cast(o[:n], d[:n], device="gpu"), sizes * 4))
+    for n, h in zip(sizes * 4, runs):
+        assert keys <= set(h.timings) and h.timings["walked"] <= n, h.timings
+    h = spot.cast(o[0], d.reshape(8, 16, 3), device="gpu")
+    assert h.shape == (8, 16) and h.timings and h.reshape((-1,)).timings is h.timings
+    assert h[:2].timings is None and h[h.hit].timings is None
+    assert spot.cast(o, d).timings is None
+    with pytest.warns(DeprecationWarning, match="hits.timings"):
+        assert spot.gpu_timings is None
 
 
 def test_no_adapter_fails_unless_tetrace_skip_gpu(monkeypatch):

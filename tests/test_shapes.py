@@ -120,6 +120,12 @@ def test_hits_reshape_and_validation():
     assert h.shape == (2, 3) and h.point.shape == (2, 3, 3) and h.normal is None
     with pytest.raises(ValueError, match="normal has shape"):
         Hits(**{**h.__dict__, "normal": np.zeros((6, 3))})
+    # A GPU cast's timings: the whole cast's, kept by reshape, dropped by selecting rays.
+    assert h.timings is None
+    timed = Hits(**{**h.__dict__, "timings": {"kernel": 1.0}})
+    assert timed.reshape((6,)).timings == {"kernel": 1.0} and timed[0].timings is None
+    with pytest.raises(TypeError, match="timings"):
+        Hits(**{**h.__dict__, "timings": 1.0})
 
 
 # --- indexing (issue 36): len(hits), hits[mask], hits[:10], hits[idx] ----------------
@@ -149,6 +155,9 @@ def _assert_indexed(h, key, expect_shape):
     sub = h[key]
     assert sub.shape == expect_shape
     for field in dataclasses.fields(Hits):
+        if field.name == "timings":  # not per ray: a GPU cast's; indexing drops it
+            assert sub.timings is None
+            continue
         whole = getattr(h, field.name)
         assert whole is not None, field.name  # the test covers every field
         got = getattr(sub, field.name)

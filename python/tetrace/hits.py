@@ -80,13 +80,19 @@ class Hits:
         ``(N,)`` int32. The hit triangle's index among all the scene's triangles (the
         meshes' faces concatenated in order; equal to ``triangle`` for one mesh), ``-1``
         on miss. None for casters that do not give it.
+    timings : dict or None
+        Not per ray: the seconds of each phase of the GPU cast that made these hits
+        (``locate``, ``scene_upload``, ``upload``, ``kernel``, ``readback``, ``finish``) and
+        counts (``walked``: rays the GPU walked, ``deferred``: robust rays re-walked on the
+        CPU, ``batches``). None for CPU casts and other casters. :meth:`reshape` keeps it;
+        :meth:`__getitem__` drops it (the rays selected are not what was timed).
 
     Notes
     -----
     The class is a frozen dataclass compared by identity (``eq=False``): use
     ``numpy`` on the fields to compare two results. ``len(hits)`` counts the rays along
     the first axis and ``hits[key]`` selects rays with any numpy index of the leading
-    shape, every field alike (:meth:`__getitem__`).
+    shape, every per-ray field alike (:meth:`__getitem__`).
 
     Examples
     --------
@@ -108,12 +114,17 @@ class Hits:
     normal: np.ndarray | None = None
     geometry: np.ndarray | None = None
     scene_triangle: np.ndarray | None = None
+    timings: dict | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.t, np.ndarray):
             raise TypeError(f"Hits.t must be a numpy array, got {type(self.t).__name__}")
+        if self.timings is not None and not isinstance(self.timings, dict):
+            raise TypeError(f"Hits.timings must be a dict or None, got {type(self.timings)}")
         shape = self.t.shape
         for field in dataclasses.fields(self):
+            if field.name == "timings":
+                continue
             arr = getattr(self, field.name)
             if arr is None and field.name in _OPTIONAL:
                 continue
@@ -147,7 +158,7 @@ class Hits:
         fields = {}
         for field in dataclasses.fields(self):
             arr = getattr(self, field.name)
-            if arr is not None:
+            if arr is not None and field.name != "timings":
                 arr = arr.reshape(shape + arr.shape[self.t.ndim :])
             fields[field.name] = arr
         return Hits(**fields)
@@ -194,7 +205,8 @@ class Hits:
     def __getitem__(self, key) -> Hits:
         """Select rays, as numpy indexes the rays' leading shape.
 
-        Every field is indexed alike: ``hits[mask]``, ``hits[:10]``, ``hits[idx]`` (an
+        Every per-ray field is indexed alike (``timings``, the whole cast's, is dropped):
+        ``hits[mask]``, ``hits[:10]``, ``hits[idx]`` (an
         integer array), ``hits[i, j]`` for ``(H, W)`` rays. ``point`` and ``normal`` keep
         their last axis of 3, which the key never reaches.
 
@@ -238,6 +250,8 @@ class Hits:
             rays = vectors = key + (Ellipsis,)
         fields = {}
         for field in dataclasses.fields(self):
+            if field.name == "timings":  # the whole cast's, not the selected rays'
+                continue
             arr = getattr(self, field.name)
             if arr is not None:
                 arr = arr[vectors if field.name in ("point", "normal") else rays]

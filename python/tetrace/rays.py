@@ -6,6 +6,10 @@ from typing import NamedTuple
 
 import numpy as np
 
+from . import _native
+from .hits import HIT, Hits
+from .names import MAX_THREADS
+
 __all__ = ["RayBatch", "prepare_ray_batch", "prepare_rays", "prepare_bounds", "raise_invalid"]
 
 
@@ -194,3 +198,175 @@ def _as_float(a, name):
     if arr.dtype not in (np.float32, np.float64):  # longdouble
         return arr.astype(np.float64)
     return arr
+
+
+# The request every ray query makes of the core: its arguments checked once (moved from
+# tetrace.scene as they were).
+
+
+def _check_threads(threads):
+    """``threads``: None (all cores) or an int in [1, :data:`MAX_THREADS`]; TypeError for
+    other types (bool, float, str), ValueError for counts out of range."""
+    if threads is None:
+        return
+    if isinstance(threads, (bool, np.bool_)) or not isinstance(threads, (int, np.integer)):
+        raise TypeError(f"threads must be an int or None, got {type(threads).__name__} {threads!r}")
+    if not 1 <= threads <= MAX_THREADS:
+        raise ValueError(
+            f"threads must be between 1 and {MAX_THREADS} (4 per core, at least 64) or None "
+            f"for all cores, got {threads}"
+        )
+
+
+def _check_max_steps(max_steps):
+    """``max_steps``: None (the scene's default) or an int in [1, 2**32)."""
+    if max_steps is None:
+        return
+    if isinstance(max_steps, (bool, np.bool_)) or not isinstance(max_steps, (int, np.integer)):
+        raise TypeError(
+            f"max_steps must be an int or None, got {type(max_steps).__name__} {max_steps!r}"
+        )
+    if not 0 < max_steps < 2**32:
+        raise ValueError(f"max_steps must be a positive int below 2**32, got {max_steps!r}")
+
+
+def _query_points(points):
+    """Query points as a flat ``(N, 3)`` float64 array and their leading shape; a clear
+    error for anything else or for a NaN/inf coordinate."""
+    p = np.asarray(points)
+    if p.dtype.kind not in "biuf":
+        raise TypeError(f"points must be real numbers, got dtype {p.dtype}")
+    if p.ndim == 0 or p.shape[-1] != 3:
+        raise ValueError(f"points must have shape (..., 3), got {p.shape}")
+    flat = np.ascontiguousarray(p.reshape(-1, 3), dtype=np.float64)
+    bad = ~np.isfinite(flat).all(axis=1)
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise ValueError(
+            f"{int(bad.sum())} of {len(flat)} points have a NaN/inf coordinate "
+            f"(first: point {k}, {flat[k].tolist()})"
+        )
+    return flat, p.shape[:-1]
+
+
+def _from_hits(start, directions, geometries):
+    """Rays started from a cast's hits (``start=hits``): origins at the hit points, the
+    directions given, and per ray whether its entry was a hit, the scene triangle it leaves
+    and the tet the hit's walk ended in, all broadcast to the rays' leading shape."""
+    if not isinstance(start, Hits):
+        raise TypeError(f"start must be the Hits of a cast of this scene, got {type(start)}")
+    if directions is None:
+        raise TypeError("start=hits needs directions (one per hit, or broadcasting to the hits)")
+    triangle = start.scene_triangle
+    if triangle is None:
+        if geometries is not None:
+            raise TypeError("start must be a tetrace cast's Hits: they name the scene triangle")
+        triangle = start.triangle
+    d = np.asarray(directions)
+    if d.dtype.kind not in "biuf":
+        raise TypeError(f"directions must be real numbers, got dtype {d.dtype}")
+    if d.ndim == 0 or d.shape[-1] != 3:
+        raise ValueError(f"directions must have shape (..., 3), got {d.shape}")
+    try:
+        shape = np.broadcast_shapes(np.shape(start.t), d.shape[:-1])
+    except ValueError:
+        raise ValueError(
+            f"directions {d.shape} must broadcast against the hits' shape {np.shape(start.t)}"
+        ) from None
+    hit = np.broadcast_to(np.asarray(start.status) == HIT, shape)
+    point = np.broadcast_to(np.asarray(start.point), shape + (3,))
+    # A miss has no point to start from: such rays are answered as misses (tmax = -inf), and
+    # their NaN origins and directions are replaced so that they are not taken as invalid.
+    origins = np.where(hit[..., None], point, 0).astype(point.dtype, copy=False)
+    with np.errstate(invalid="ignore"):
+        d = np.where(hit[..., None], np.broadcast_to(d, shape + (3,)), 1).astype(d.dtype)
+    ids = lambda a: np.where(hit, np.broadcast_to(np.asarray(a), shape), -1).astype(np.int32)
+    tet = start.tet if start.tet is not None else np.full(np.shape(start.t), -1)
+    return origins, d, (hit.reshape(-1), ids(triangle).reshape(-1), ids(tet).reshape(-1))
+
+
+class _Query:
+    """The arguments every ray query shares, checked once: flat rays (``o``, ``d``) of
+    leading ``shape``, bounds ``lo``/``hi``, ``threads``, ``max_steps``, ``packet``,
+    ``accel``, and for rays started from hits, ``start`` (the scene triangle each leaves
+    and the tet its hit's walk ended in, as the core takes them)."""
+
+    def __init__(
+        self,
+        origins,
+        directions,
+        tmin,
+        tmax,
+        threads,
+        max_steps,
+        invalid,
+        precision,
+        packet,
+        accel=None,
+        start=None,
+        geometries=None,
+        progress=None,
+    ):
+        from .progress import enabled
+
+        enabled(progress)  # a TypeError for anything but None/True/False, before any work
+        self.progress = progress
+        leaving = None
+        if start is not None:
+            if origins is not None:
+                raise TypeError("give origins or start=hits, not both")
+            origins, directions, leaving = _from_hits(start, directions, geometries)
+        elif origins is None:
+            raise TypeError("rays need origins (or start=hits)")
+        batch = prepare_ray_batch(origins, directions, invalid=invalid)
+        o, d = batch.origins, batch.directions
+        if precision is not None:
+            if precision not in ("f32", "f64"):
+                raise ValueError(f'precision must be "f32" or "f64", got {precision!r}')
+            want = np.float32 if precision == "f32" else np.float64
+            o, d = o.astype(want, copy=False), d.astype(want, copy=False)
+        self.o, self.d, self.shape, self.invalid = o, d, batch.shape, invalid
+        self.lo = prepare_bounds(tmin, len(o), "tmin", batch.shape)
+        self.hi = prepare_bounds(tmax, len(o), "tmax", batch.shape)
+        self.start = None
+        if leaving is not None:
+            hit, triangle, tet = leaving
+            self.hi = np.broadcast_to(self.hi, (len(o),)).copy()
+            self.hi[~hit] = -np.inf  # below tmin: the core answers MISS
+            self.start = (triangle, tet)
+        _check_threads(threads)
+        _check_max_steps(max_steps)
+        self.threads = None if threads is None else int(threads)
+        self.max_steps = None if max_steps is None else int(max_steps)
+        if not isinstance(packet, (bool, np.bool_)):
+            raise TypeError(f"packet must be True or False, got {packet!r}")
+        self.packet = bool(packet)
+        if accel is not None and accel not in _native.accels():
+            raise ValueError(f"unknown accel {accel!r}; expected one of {_native.accels()}")
+        self.accel = accel
+
+    def run(self, query, method, layout, description):
+        """Call the core's ``query`` on these rays (its arguments shared by every ray query),
+        with a progress bar when progress is on."""
+        from . import progress
+
+        with progress.rays(self.progress, len(self.o), description) as report:
+            return query(
+                self.o,
+                self.d,
+                self.lo,
+                self.hi,
+                self.threads,
+                self.max_steps,
+                method,
+                layout,
+                packet=self.packet,
+                accel=self.accel,
+                start=self.start,
+                progress=report,
+            )
+
+    def check(self, status):
+        """Raise for rays the core marked INVALID, unless ``invalid="mark"``."""
+        if self.invalid == "raise":
+            raise_invalid(np.asarray(status).reshape(-1), self.o, self.d, self.shape)

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
-import inspect
 import time
 import warnings
 from functools import lru_cache
@@ -11,9 +9,19 @@ from importlib import resources
 
 import numpy as np
 
-from . import _native
-from .hits import FAILED, HIT, INVALID, ClosestPoints, Hits, Intersections
-from .rays import prepare_bounds, prepare_ray_batch, raise_invalid
+from . import _native, deform, gpu, point_queries
+from .deform import Deformation
+from .hits import FAILED, HIT, INVALID, Hits, Intersections
+from .names import (  # noqa: F401  (the public names stay where they were: tetrace.scene.methods)
+    LAYOUT_BYTES,
+    MAX_THREADS,
+    _names,
+    accels,
+    layouts,
+    methods,
+    simd_levels,
+)
+from .rays import _check_threads, _Query, _query_points
 
 __all__ = [
     "Scene",
@@ -28,280 +36,6 @@ __all__ = [
     "LAYOUT_BYTES",
     "MAX_THREADS",
 ]
-
-#: Bytes per tet of each layout's record.
-LAYOUT_BYTES = dict(_native.layouts())
-
-
-def methods():
-    """Return the names of the exit-face methods, in the order of the papers.
-
-    Returns
-    -------
-    list of str
-    """
-    return list(_native.methods())
-
-
-def accels():
-    """Return the names of the acceleration structures, the default (``tetwalk``) first.
-
-    Returns
-    -------
-    list of str
-    """
-    return list(_native.accels())
-
-
-def layouts():
-    """Return the names of the tet layouts (bytes per tet in :data:`LAYOUT_BYTES`).
-
-    Returns
-    -------
-    list of str
-    """
-    return list(LAYOUT_BYTES)
-
-
-def simd_levels():
-    """Return the SIMD levels this CPU runs and the one casts use now.
-
-    Kernels with a vector version (the packets' per-ray exits) run at the highest level the
-    CPU has; the environment variable ``TETRACE_SIMD`` (``"scalar"`` or ``"avx2"``) caps it,
-    read at every cast. Answers are the same at every level, bit for bit.
-
-    Returns
-    -------
-    levels : list of str
-        Lowest first: ``"scalar"``, then ``"avx2"`` on x86-64 CPUs that have AVX2.
-    current : str
-        The level a cast runs at now.
-
-    Raises
-    ------
-    ValueError
-        If ``TETRACE_SIMD`` names no level.
-    """
-    levels, current = _native.simd_levels()
-    return list(levels), current
-
-
-#: The most worker threads a call may ask for: 4 per core, and at least 64. More only adds
-#: switching, and a typo (``threads=10**9``) would otherwise try to start them all.
-MAX_THREADS = _native.MAX_THREADS
-
-
-def _check_threads(threads):
-    """``threads``: None (all cores) or an int in [1, :data:`MAX_THREADS`]; TypeError for
-    other types (bool, float, str), ValueError for counts out of range."""
-    if threads is None:
-        return
-    if isinstance(threads, (bool, np.bool_)) or not isinstance(threads, (int, np.integer)):
-        raise TypeError(f"threads must be an int or None, got {type(threads).__name__} {threads!r}")
-    if not 1 <= threads <= MAX_THREADS:
-        raise ValueError(
-            f"threads must be between 1 and {MAX_THREADS} (4 per core, at least 64) or None "
-            f"for all cores, got {threads}"
-        )
-
-
-def _check_max_steps(max_steps):
-    """``max_steps``: None (the scene's default) or an int in [1, 2**32)."""
-    if max_steps is None:
-        return
-    if isinstance(max_steps, (bool, np.bool_)) or not isinstance(max_steps, (int, np.integer)):
-        raise TypeError(
-            f"max_steps must be an int or None, got {type(max_steps).__name__} {max_steps!r}"
-        )
-    if not 0 < max_steps < 2**32:
-        raise ValueError(f"max_steps must be a positive int below 2**32, got {max_steps!r}")
-
-
-def _names(method, layout, *, defaults=True):
-    """Check method and layout names; None becomes the core's default (CPU walks)."""
-    for what, value in (("method", method), ("layout", layout)):
-        if value is not None and not isinstance(value, str):
-            raise TypeError(f"{what} must be a name (str), got {type(value).__name__}")
-    if defaults:
-        method = _native.DEFAULT_METHOD if method is None else method
-        layout = _native.DEFAULT_LAYOUT if layout is None else layout
-    return method, layout
-
-
-def _query_points(points):
-    """Query points as a flat ``(N, 3)`` float64 array and their leading shape; a clear
-    error for anything else or for a NaN/inf coordinate."""
-    p = np.asarray(points)
-    if p.dtype.kind not in "biuf":
-        raise TypeError(f"points must be real numbers, got dtype {p.dtype}")
-    if p.ndim == 0 or p.shape[-1] != 3:
-        raise ValueError(f"points must have shape (..., 3), got {p.shape}")
-    flat = np.ascontiguousarray(p.reshape(-1, 3), dtype=np.float64)
-    bad = ~np.isfinite(flat).all(axis=1)
-    if bad.any():
-        k = int(np.argmax(bad))
-        raise ValueError(
-            f"{int(bad.sum())} of {len(flat)} points have a NaN/inf coordinate "
-            f"(first: point {k}, {flat[k].tolist()})"
-        )
-    return flat, p.shape[:-1]
-
-
-def _from_hits(start, directions, geometries):
-    """Rays started from a cast's hits (``start=hits``): origins at the hit points, the
-    directions given, and per ray whether its entry was a hit, the scene triangle it leaves
-    and the tet the hit's walk ended in, all broadcast to the rays' leading shape."""
-    if not isinstance(start, Hits):
-        raise TypeError(f"start must be the Hits of a cast of this scene, got {type(start)}")
-    if directions is None:
-        raise TypeError("start=hits needs directions (one per hit, or broadcasting to the hits)")
-    triangle = start.scene_triangle
-    if triangle is None:
-        if geometries is not None:
-            raise TypeError("start must be a tetrace cast's Hits: they name the scene triangle")
-        triangle = start.triangle
-    d = np.asarray(directions)
-    if d.dtype.kind not in "biuf":
-        raise TypeError(f"directions must be real numbers, got dtype {d.dtype}")
-    if d.ndim == 0 or d.shape[-1] != 3:
-        raise ValueError(f"directions must have shape (..., 3), got {d.shape}")
-    try:
-        shape = np.broadcast_shapes(np.shape(start.t), d.shape[:-1])
-    except ValueError:
-        raise ValueError(
-            f"directions {d.shape} must broadcast against the hits' shape {np.shape(start.t)}"
-        ) from None
-    hit = np.broadcast_to(np.asarray(start.status) == HIT, shape)
-    point = np.broadcast_to(np.asarray(start.point), shape + (3,))
-    # A miss has no point to start from: such rays are answered as misses (tmax = -inf), and
-    # their NaN origins and directions are replaced so that they are not taken as invalid.
-    origins = np.where(hit[..., None], point, 0).astype(point.dtype, copy=False)
-    with np.errstate(invalid="ignore"):
-        d = np.where(hit[..., None], np.broadcast_to(d, shape + (3,)), 1).astype(d.dtype)
-    ids = lambda a: np.where(hit, np.broadcast_to(np.asarray(a), shape), -1).astype(np.int32)
-    tet = start.tet if start.tet is not None else np.full(np.shape(start.t), -1)
-    return origins, d, (hit.reshape(-1), ids(triangle).reshape(-1), ids(tet).reshape(-1))
-
-
-class _Query:
-    """The arguments every ray query shares, checked once: flat rays (``o``, ``d``) of
-    leading ``shape``, bounds ``lo``/``hi``, ``threads``, ``max_steps``, ``packet``,
-    ``accel``, and for rays started from hits, ``start`` (the scene triangle each leaves
-    and the tet its hit's walk ended in, as the core takes them)."""
-
-    def __init__(
-        self,
-        origins,
-        directions,
-        tmin,
-        tmax,
-        threads,
-        max_steps,
-        invalid,
-        precision,
-        packet,
-        accel=None,
-        start=None,
-        geometries=None,
-        progress=None,
-    ):
-        from .progress import enabled
-
-        enabled(progress)  # a TypeError for anything but None/True/False, before any work
-        self.progress = progress
-        leaving = None
-        if start is not None:
-            if origins is not None:
-                raise TypeError("give origins or start=hits, not both")
-            origins, directions, leaving = _from_hits(start, directions, geometries)
-        elif origins is None:
-            raise TypeError("rays need origins (or start=hits)")
-        batch = prepare_ray_batch(origins, directions, invalid=invalid)
-        o, d = batch.origins, batch.directions
-        if precision is not None:
-            if precision not in ("f32", "f64"):
-                raise ValueError(f'precision must be "f32" or "f64", got {precision!r}')
-            want = np.float32 if precision == "f32" else np.float64
-            o, d = o.astype(want, copy=False), d.astype(want, copy=False)
-        self.o, self.d, self.shape, self.invalid = o, d, batch.shape, invalid
-        self.lo = prepare_bounds(tmin, len(o), "tmin", batch.shape)
-        self.hi = prepare_bounds(tmax, len(o), "tmax", batch.shape)
-        self.start = None
-        if leaving is not None:
-            hit, triangle, tet = leaving
-            self.hi = np.broadcast_to(self.hi, (len(o),)).copy()
-            self.hi[~hit] = -np.inf  # below tmin: the core answers MISS
-            self.start = (triangle, tet)
-        _check_threads(threads)
-        _check_max_steps(max_steps)
-        self.threads = None if threads is None else int(threads)
-        self.max_steps = None if max_steps is None else int(max_steps)
-        if not isinstance(packet, (bool, np.bool_)):
-            raise TypeError(f"packet must be True or False, got {packet!r}")
-        self.packet = bool(packet)
-        if accel is not None and accel not in _native.accels():
-            raise ValueError(f"unknown accel {accel!r}; expected one of {_native.accels()}")
-        self.accel = accel
-
-    def run(self, query, method, layout, description):
-        """Call the core's ``query`` on these rays (its arguments shared by every ray query),
-        with a progress bar when progress is on."""
-        from . import progress
-
-        with progress.rays(self.progress, len(self.o), description) as report:
-            return query(
-                self.o,
-                self.d,
-                self.lo,
-                self.hi,
-                self.threads,
-                self.max_steps,
-                method,
-                layout,
-                packet=self.packet,
-                accel=self.accel,
-                start=self.start,
-                progress=report,
-            )
-
-    def check(self, status):
-        """Raise for rays the core marked INVALID, unless ``invalid="mark"``."""
-        if self.invalid == "raise":
-            raise_invalid(np.asarray(status).reshape(-1), self.o, self.d, self.shape)
-
-
-@dataclasses.dataclass(frozen=True)
-class Deformation:
-    """What :meth:`Scene.update_vertices` did.
-
-    Attributes
-    ----------
-    action : {"moved", "rebuilt"}
-        ``"moved"``: the tetrahedralization kept its topology and took the new positions
-        (every tet stayed positively oriented, exactly). ``"rebuilt"``: the scene was
-        meshed again from the new vertices, with the options it was built with.
-    inverted : int
-        Tets whose orientation with the proposed positions was not positive (inverted or
-        flat), counted exactly; 0 when the move was not tried (see ``reason``).
-    outside : int
-        Proposed points that left the domain box (or box points that moved).
-    reason : str
-        Why the scene was rebuilt (``""`` when moved).
-    seconds : dict
-        Seconds per stage: ``map`` (how the points follow the vertices: once after each
-        build), ``points`` (the proposed positions), ``update`` (the exact check and the
-        swap in the core), ``rebuild`` (meshing again; 0 when moved), ``total``.
-    frames : int
-        Updates since the scene was last built or rebuilt, this one included (0 when this
-        one rebuilt it).
-    """
-
-    action: str
-    inverted: int
-    outside: int
-    reason: str
-    seconds: dict
-    frames: int
 
 
 class Scene:
@@ -377,11 +111,6 @@ class Scene:
         # (tetrahedralization, vertices) as last built, once a move has replaced them: the
         # point map and a saved scene start from it.
         self._rest = None
-        #: dict or None: seconds of each phase of the last GPU cast (``locate``,
-        #: ``scene_upload``, ``upload``, ``kernel``, ``readback``, ``finish``) and counts
-        #: (``walked``: rays the GPU walked, ``deferred``: robust rays re-walked on the CPU,
-        #: ``batches``).
-        self.gpu_timings = None
         rust = time.perf_counter() - t0
         self.build_times = dict(tet.timings)
         self.build_times["rust"] = rust
@@ -667,30 +396,15 @@ class Scene:
             Fields of the rays' leading shape, in the walk's precision (hit ``t``, ``u``,
             ``v`` are evaluated in float64 on the caller's triangle, then rounded), with
             the hit triangle's unit ``normal`` and, for a :meth:`from_meshes` scene, the
-            ``geometry`` hit and ``triangle`` within it. After a GPU cast, :attr:`gpu_timings`
-            holds the seconds of each phase.
+            ``geometry`` hit and ``triangle`` within it. After a GPU cast, its
+            ``timings`` hold the seconds of each phase (None after a CPU cast).
 
         Raises
         ------
         tetrace.gpu.GpuError
             ``device="gpu"`` without a usable adapter, or the device failed.
         """
-        if device not in ("cpu", "gpu", "auto"):
-            raise ValueError(f'device must be "cpu", "gpu" or "auto", got {device!r}')
-        if device == "gpu" and accel not in (None, "tetwalk"):
-            raise ValueError(
-                f'device="gpu" walks the tetrahedralization; accel {accel!r} is CPU only'
-            )
-        if device == "gpu" and start is not None:
-            raise ValueError(
-                "start=hits runs on the CPU: the exact walk decides where a ray "
-                'leaves the surface (device="cpu")'
-            )
-        if device == "gpu" and precision == "f64":
-            raise ValueError(
-                'device="gpu" walks in float32 (WGSL has no float64); use '
-                'precision="f32" or device="cpu"'
-            )
+        gpu.check_cast(device, accel, start, precision)
         q = _Query(
             origins,
             directions,
@@ -707,35 +421,19 @@ class Scene:
             progress=progress,
         )
         _names(method, layout, defaults=False)
-        use_gpu = False
-        if device == "gpu":
-            use_gpu = True
-        elif device == "auto" and q.o.dtype == np.float32:
-            from . import gpu
-
-            # Only a float method named explicitly: the exact default has no GPU kernel, and
-            # "auto" must not trade the contract for speed behind the caller's back.
-            use_gpu = (
-                accel in (None, "tetwalk")
-                and start is None
-                and method is not None
-                and gpu.kernel_for(method, layout) is not None
-                and gpu.available()
-            )
+        use_gpu = gpu.wanted(device, q.o.dtype, method, layout, accel, start)
         method, layout = _names(method, layout, defaults=not use_gpu)
+        timings = None
         if use_gpu:
-            o, d = q.o.astype(np.float32, copy=False), q.d.astype(np.float32, copy=False)
-            r, self.gpu_timings = self._native.cast_gpu(
-                o, d, q.lo, q.hi, q.threads, q.max_steps, method, layout
-            )
+            r, timings = gpu.cast(self._native, q, method, layout)
         else:
             r = q.run(self._native.cast, method, layout, "casting")
         q.check(r["status"])
-        return self._hits(r).reshape(q.shape)
+        return self._hits(r, timings).reshape(q.shape)
 
-    def _hits(self, r):
+    def _hits(self, r, timings=None):
         """Hits from the core's flat answer: the triangle split into mesh and triangle in
-        it, and the hit triangle's normal."""
+        it, and the hit triangle's normal (and a GPU cast's ``timings``)."""
         scene_triangle = np.asarray(r["triangle"])
         geometry, triangle = self._locate(scene_triangle)
         hit = scene_triangle >= 0
@@ -746,6 +444,7 @@ class Scene:
             normal=normal,
             geometry=geometry,
             scene_triangle=scene_triangle,
+            timings=timings,
         )
 
     def _locate(self, scene_triangle):
@@ -773,6 +472,18 @@ class Scene:
             n.setflags(write=False)
             self._normals = n
         return self._normals
+
+    @property
+    def gpu_timings(self):
+        """None. Deprecated: a GPU cast's phase timings come back with its result,
+        :attr:`Hits.timings` (kept on the scene, two threads casting at once raced on them)."""
+        warnings.warn(
+            "Scene.gpu_timings is deprecated and always None: read hits.timings of the GPU "
+            "cast's result",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        return None
 
     # ------------------------------------------------------------------ other query kinds
 
@@ -872,8 +583,13 @@ class Scene:
 
         Parameters
         ----------
-        origins, directions, tmin, tmax, threads, max_steps, invalid, method, layout
+        origins, directions, tmin, tmax, threads, max_steps, invalid
             As for :meth:`cast` (rays of any leading shape, CPU only).
+        method : str, optional
+            ``"exact"`` (the default); the core refuses any other (``ValueError``).
+        layout : str, optional
+            Checked as a name, then ignored: the core's all-hits walk takes no tet layout
+            (the argument is there so that every ray query takes :meth:`cast`'s).
         start, precision, packet, accel, progress
             As for :meth:`cast` (``start=hits``: rays from an earlier cast's hits).
 
@@ -952,8 +668,13 @@ class Scene:
 
         Parameters
         ----------
-        origins, directions, tmin, tmax, threads, max_steps, invalid, method, layout
+        origins, directions, tmin, tmax, threads, max_steps, invalid
             As for :meth:`cast` (rays of any leading shape, CPU only).
+        method : str, optional
+            ``"exact"`` (the default); the core refuses any other (``ValueError``).
+        layout : str, optional
+            Checked as a name, then ignored: the core's all-hits walk takes no tet layout
+            (the argument is there so that every ray query takes :meth:`cast`'s).
         start, precision, packet, accel, progress
             As for :meth:`cast` (``start=hits``: rays from an earlier cast's hits).
         return_status : bool
@@ -1018,18 +739,7 @@ class Scene:
         """
         flat, shape = _query_points(points)
         _check_threads(threads)
-        r = self._native.closest_points(flat, threads)
-        scene_triangle = np.asarray(r["triangle"])
-        geometry, triangle = self._locate(scene_triangle)
-        return ClosestPoints(
-            point=np.asarray(r["point"]).reshape(shape + (3,)),
-            triangle=triangle.reshape(shape),
-            u=np.asarray(r["u"]).reshape(shape),
-            v=np.asarray(r["v"]).reshape(shape),
-            distance=np.asarray(r["distance"]).reshape(shape),
-            geometry=geometry.reshape(shape),
-            scene_triangle=scene_triangle.reshape(shape),
-        )
+        return point_queries.closest_points(self, flat, shape, threads)
 
     def distance(self, points, *, threads=None):
         """Return the distance from each point to the scene's surface (unsigned).
@@ -1078,9 +788,9 @@ class Scene:
         """
         flat, shape = _query_points(points)
         _check_threads(threads)
-        mode = self._contains_mode(mode)
+        mode = point_queries.contains_mode(self, mode)
         d = self.distance(flat, threads=threads).reshape(shape)
-        inside = self._inside(flat, mode, threads).reshape(shape)
+        inside = point_queries.inside(self, flat, mode, threads).reshape(shape)
         return np.where(inside, -d, d)
 
     def build_bvh(self, *, cost_ratio=1.0, max_leaf=8, bins=16, aperture=True):
@@ -1227,8 +937,8 @@ class Scene:
         """
         flat, shape = _query_points(points)
         _check_threads(threads)
-        mode = self._contains_mode(mode)
-        return self._inside(flat, mode, threads).reshape(shape)
+        mode = point_queries.contains_mode(self, mode)
+        return point_queries.inside(self, flat, mode, threads).reshape(shape)
 
     @property
     def is_closed(self):
@@ -1254,36 +964,6 @@ class Scene:
 
             self._surface = surface(self.vertices, self.faces)
         return self._surface
-
-    def _contains_mode(self, mode):
-        """``mode`` checked and resolved (None: by :attr:`is_closed`), warning once per scene
-        when parity is asked of a mesh that is not closed. Called by the public methods
-        directly, so that the warning names their caller's line."""
-        if mode is None:
-            return "parity" if self.is_closed else "winding"
-        if not isinstance(mode, str) or mode not in ("parity", "winding"):
-            raise ValueError(f"mode must be None, 'parity' or 'winding', got {mode!r}")
-        if mode == "parity" and not self._parity_warned and not self.is_closed:
-            self._parity_warned = True
-            warnings.warn(
-                "contains/signed_distance with mode='parity' on a mesh that is not closed ("
-                f"{self._surface_info().describe()}): a point counts as inside only when the "
-                "fewest crossings to outside the domain is odd, so points reachable through a "
-                "hole are outside; mode='winding' (the default for this scene) uses the "
-                "generalized winding number instead",
-                UserWarning,
-                stacklevel=3,
-            )
-        return mode
-
-    def _inside(self, flat, mode, threads):
-        """Containment of the ``(N, 3)`` float64 points by the resolved ``mode``."""
-        if mode == "parity":
-            return np.asarray(self._native.contains(flat, threads), dtype=bool)
-        from .winding import winding_numbers
-
-        s = self._surface_info()
-        return winding_numbers(s.vertices, s.faces, flat) >= 0.5
 
     def update_vertices(self, vertices):
         """Move the scene's vertices, keeping its tetrahedralization when it stays valid.
@@ -1319,147 +999,7 @@ class Scene:
             The move needs a rebuild and meshing the new vertices fails; the scene is
             unchanged.
         """
-        t_start = time.perf_counter()
-        V = self._check_new_vertices(vertices)
-        seconds = dict(map=0.0, points=0.0, update=0.0, rebuild=0.0, total=0.0)
-        if self._point_map is None:
-            from .mesh.deform import PointMap
-
-            t = time.perf_counter()
-            rest = self._rest or (self.tetrahedralization, self.vertices)
-            self._point_map = PointMap.build(*rest, self.faces)
-            seconds["map"] = time.perf_counter() - t
-        pm = self._point_map
-        inverted = outside = 0
-        reason = pm.reason or pm.check(V)
-        if not reason:
-            t = time.perf_counter()
-            points = pm.points(V)
-            tri = np.ascontiguousarray(V[np.asarray(self.faces)], dtype=np.float64)
-            seconds["points"] = time.perf_counter() - t
-            t = time.perf_counter()
-            applied, inverted, outside = self._native.update_points(points, tri)
-            seconds["update"] = time.perf_counter() - t
-            if applied:
-                tz = self.tetrahedralization
-                if self._rest is None:
-                    self._rest = (tz, self.vertices)
-                cm = tz.clean
-                self.tetrahedralization = dataclasses.replace(
-                    tz,
-                    points=points,
-                    clean=dataclasses.replace(cm, vertices=V[pm.input_src]),
-                    _weight=None,
-                )
-                self._set_vertices(V)
-                self._frames += 1
-                seconds["total"] = time.perf_counter() - t_start
-                return self._report("moved", inverted, outside, "", seconds)
-            reason = (
-                f"{inverted} tets would invert or flatten"
-                if inverted
-                else f"{outside} points would leave the domain box"
-            )
-        t = time.perf_counter()
-        self._rebuild(V)
-        seconds["rebuild"] = time.perf_counter() - t
-        seconds["total"] = time.perf_counter() - t_start
-        return self._report("rebuilt", inverted, outside, reason, seconds)
-
-    def _check_new_vertices(self, vertices):
-        """New vertices as a float64 copy of the scene's shape, or a clear error."""
-        v = np.asarray(vertices)
-        if v.dtype.kind not in "iuf":
-            raise TypeError(f"vertices must be real numbers, got dtype {v.dtype}")
-        shape = np.shape(self.vertices)
-        if v.shape != shape:
-            raise ValueError(
-                f"vertices must have the shape of scene.vertices {shape}, got {v.shape}"
-            )
-        v = np.array(v, dtype=np.float64, order="C", copy=True)
-        bad = ~np.isfinite(v).all(axis=1)
-        if bad.any():
-            k = int(np.argmax(bad))
-            raise ValueError(
-                f"{int(bad.sum())} of {len(v)} vertices have a NaN/inf coordinate "
-                f"(first: vertex {k}, {v[k].tolist()})"
-            )
-        return v
-
-    def _set_vertices(self, V):
-        V.setflags(write=False)
-        self.vertices = V
-        self._normals = None
-        self._surface = None  # moved vertices can merge, or make a triangle zero-area
-        self.gpu_timings = None
-
-    def _report(self, action, inverted, outside, reason, seconds):
-        self.last_deformation = Deformation(
-            action=action,
-            inverted=int(inverted),
-            outside=int(outside),
-            reason=reason,
-            seconds=seconds,
-            frames=self._frames,
-        )
-        return self.last_deformation
-
-    def _rebuild(self, V):
-        """Mesh the scene again from vertices ``V`` with the options it was built with;
-        the BVH and octree are built again with the parameters they had."""
-        bvh, octree = self.bvh_info(), self.octree_info()
-        fresh = Scene.from_mesh(
-            (V, np.asarray(self.faces)), hilbert=self.hilbert, **self._build_options
-        )
-        self.tetrahedralization = fresh.tetrahedralization
-        self._native = fresh._native
-        self.build_times = fresh.build_times
-        self._set_vertices(V)
-        self._point_map = None
-        self._rest = None
-        self._frames = 0
-        # As the core does after a move: a structure built with other than the default
-        # parameters is built again now; a default one on its next use.
-        for info, build in ((bvh, self.build_bvh), (octree, self.build_octree)):
-            if info is not None:
-                defaults = inspect.signature(build).parameters
-                params = {k: info[k] for k in defaults}
-                if any(params[k] != defaults[k].default for k in params):
-                    build(**params)
-
-    def _cast_audited(
-        self,
-        origins,
-        directions,
-        *,
-        tmin=0.0,
-        tmax=np.inf,
-        method=None,
-        layout=None,
-        precision="f64",
-        threads=None,
-        max_steps=None,
-    ):
-        """Cast with the exact per-step audit (``tetrace.dev.stress.audited_cast``): the Hits
-        and, per ray, ``(N, 2)`` uint32 counts of exit faces the exact predicates reject and
-        of steps where the method found no exit face."""
-        dt = np.float32 if precision == "f32" else np.float64
-        o = np.ascontiguousarray(origins, dtype=dt)
-        d = np.ascontiguousarray(directions, dtype=dt)
-        n = len(o)
-        r = self._native.cast(
-            o,
-            d,
-            prepare_bounds(tmin, n, "tmin"),
-            prepare_bounds(tmax, n, "tmax"),
-            threads=threads,
-            max_steps=max_steps,
-            method=method,
-            layout=layout,
-            audit=True,
-        )
-        audit = r.pop("audit")
-        return self._hits(r), audit
+        return deform.update_vertices(self, vertices)
 
     @property
     def n_tets(self):
@@ -1543,44 +1083,9 @@ class Scene:
         bytes
             Loaded back by :meth:`from_bytes`; every query answers the same, bit for bit.
         """
-        from . import scenefile
+        from . import persist
 
-        arrays, seen = {}, {}
-
-        def enc(value, path):
-            return scenefile.encode(value, arrays, path, seen)
-
-        rest_tz, rest_vertices = self._rest or (self.tetrahedralization, self.vertices)
-        structures = {}
-        for name, info, build in (
-            ("bvh", self.bvh_info(), self.build_bvh),
-            ("octree", self.octree_info(), self.build_octree),
-        ):
-            if info is not None:
-                structures[name] = {k: info[k] for k in inspect.signature(build).parameters}
-        geometries = self.geometries
-        meta = dict(
-            kind="tetrace.Scene",
-            hilbert=self.hilbert,
-            tetrahedralization=enc(_tz_fields(self.tetrahedralization), "tz"),
-            vertices=enc(np.asarray(self.vertices), "vertices"),
-            faces=enc(np.asarray(self.faces), "faces"),
-            moved=self._rest is not None,
-            rest_tetrahedralization=enc(_tz_fields(rest_tz), "rest_tz"),
-            rest_vertices=enc(np.asarray(rest_vertices), "rest_vertices"),
-            geometries=None
-            if geometries is None
-            else enc(
-                (geometries.triangle_offsets, geometries.vertex_offsets, geometries.names),
-                "geometries",
-            ),
-            build_options=enc(self._build_options, "build_options"),
-            build_times=enc(self.build_times, "build_times"),
-            frames=self._frames,
-            last_deformation=enc(self.last_deformation, "last_deformation"),
-            structures=structures,
-        )
-        return scenefile.pack(arrays, meta, package_version=_native.__version__)
+        return persist.to_bytes(self)
 
     @classmethod
     def from_bytes(cls, data, *, source="<bytes>"):
@@ -1602,74 +1107,9 @@ class Scene:
             Not a scene file, a newer format version, truncated or corrupt data; the
             message names ``source`` and what is wrong.
         """
-        from . import scenefile
-        from .errors import SceneFileError
+        from . import persist
 
-        arrays, meta, _ = scenefile.unpack(data, source=source)
-        # Loaded arrays are views of ``data``: copy them (writable, independent of it) once.
-        arrays = {k: np.array(v) for k, v in arrays.items()}
-        try:
-            return cls._restore(arrays, meta, source)
-        except SceneFileError:
-            raise
-        except (KeyError, TypeError, ValueError, IndexError, AttributeError) as exc:
-            # A header whose checksum holds but whose content is not a scene (written by
-            # something else), or arrays the core rejects (tetrace.MeshError).
-            raise SceneFileError(
-                f"{source}: not a valid scene ({type(exc).__name__}: {exc})"
-            ) from exc
-
-    @classmethod
-    def _restore(cls, arrays, meta, source):
-        """The scene :meth:`to_bytes` described by ``meta`` over ``arrays``."""
-        from . import scenefile
-        from .errors import SceneFileError
-
-        if not isinstance(meta, dict) or meta.get("kind") != "tetrace.Scene":
-            kind = meta.get("kind") if isinstance(meta, dict) else type(meta).__name__
-            raise ValueError(f"holds {kind!r}, not a tetrace.Scene")
-        dec = lambda key: scenefile.decode(meta[key], arrays)  # noqa: E731
-        tz, vertices, faces = (
-            _tz_from_fields(dec("tetrahedralization")),
-            dec("vertices"),
-            dec("faces"),
-        )
-        moved = bool(meta["moved"])
-        rest_tz, rest_vertices = tz, vertices
-        if moved:
-            rest_tz, rest_vertices = (
-                _tz_from_fields(dec("rest_tetrahedralization")),
-                dec("rest_vertices"),
-            )
-        scene = cls(rest_tz, rest_vertices, faces, hilbert=bool(meta["hilbert"]))
-        if moved:
-            tri = np.asarray(vertices)[np.asarray(faces)]
-            applied, inverted, outside = scene._native.update_points(
-                np.ascontiguousarray(tz.points, dtype=np.float64),
-                np.ascontiguousarray(tri, dtype=np.float64),
-            )
-            if not applied:
-                raise SceneFileError(
-                    f"{source}: the saved positions are not a valid move of the saved "
-                    f"tetrahedralization ({inverted} tets inverted, {outside} points outside)"
-                )
-            scene.tetrahedralization, scene._rest = tz, (rest_tz, rest_vertices)
-            scene._set_vertices(vertices)
-        geometries = dec("geometries")
-        if geometries is not None:
-            from .meshes import Geometries
-
-            scene.geometries = Geometries(*geometries)
-        scene._build_options = dec("build_options")
-        scene.build_times = dec("build_times")
-        scene._frames = int(meta["frames"])
-        last = dec("last_deformation")
-        scene.last_deformation = None if last is None else Deformation(**last)
-        structures = meta["structures"]
-        for name, build in (("bvh", scene.build_bvh), ("octree", scene.build_octree)):
-            if name in structures:
-                build(**structures[name])
-        return scene
+        return persist.from_bytes(cls, data, source)
 
     def save(self, path):
         """Write the scene to a file (:meth:`to_bytes`'s format), to load with :meth:`load`.
@@ -1728,24 +1168,9 @@ class Scene:
 
 
 def _scene_from_bytes(data):
-    """Unpickle a :class:`Scene` (its :meth:`Scene.__reduce__`)."""
+    """Unpickle a :class:`Scene` (its :meth:`Scene.__reduce__`). It stays here, not in
+    :mod:`tetrace.persist`: pickles name it as ``tetrace.scene._scene_from_bytes``."""
     return Scene.from_bytes(data, source="<pickle>")
-
-
-def _tz_fields(tz):
-    """A tetrahedralization's fields to save (its cached weight is recomputed)."""
-    fields = {f.name: getattr(tz, f.name) for f in dataclasses.fields(tz) if f.init}
-    fields.pop("_weight", None)
-    fields["clean"] = {f.name: getattr(tz.clean, f.name) for f in dataclasses.fields(tz.clean)}
-    return fields
-
-
-def _tz_from_fields(fields):
-    from .mesh.types import CleanMesh, Tetrahedralization
-
-    fields = dict(fields)
-    fields["clean"] = CleanMesh(**fields["clean"])
-    return Tetrahedralization(**fields)
 
 
 def default_scene_path():
@@ -1790,43 +1215,10 @@ def cast(rays, scene=None, **kwargs):
 def measure_accuracy(
     tetrahedralization, vertices, faces, *, rays=20_000, seed=0, hit_distance=1e-3
 ):
-    """Fraction of random rays on which a tetrahedralization agrees with Embree.
+    """Fraction of random rays on which a tetrahedralization agrees with Embree: what
+    :func:`tetrace.accuracy.measure_accuracy` documents, cast with :class:`Scene`."""
+    from .accuracy import measure_accuracy
 
-    Parameters
-    ----------
-    tetrahedralization : tetrace.mesh.Tetrahedralization
-    vertices, faces : numpy.ndarray
-        The caller's mesh, which ``tetrahedralization`` was built from.
-    rays : int
-        Random rays, origins uniform in the scene's box grown by a quarter of its size
-        on each side, directions uniform on the sphere.
-    seed : int
-    hit_distance : float
-        Hits on different triangles agree when the hit points are this close, as a
-        fraction of the scene's diagonal (``tetrace.mesh.auto.HIT_DISTANCE``: fTetWild's
-        surface lies within its envelope of the input).
-
-    Returns
-    -------
-    float
-        Rays with the same outcome as Embree (both miss, or both hit the same triangle
-        or points within ``hit_distance``), over all rays.
-
-    Raises
-    ------
-    ImportError
-        embreex is not installed.
-    """
-    from .baselines.embree import embree_scene
-    from .dev.camera import random_rays
-
-    v = np.asarray(vertices, np.float64)
-    o, d = random_rays(np.array([v.min(0), v.max(0)]), int(rays), seed)
-    hits = Scene(tetrahedralization, v, faces).cast(o, d, precision="f64")
-    ref = embree_scene((v, faces)).cast(o, d)
-    diagonal = float(np.linalg.norm(v.max(0) - v.min(0)))
-    near = np.linalg.norm(hits.point - ref.point, axis=1) <= hit_distance * diagonal
-    same = (hits.status == ref.status) & (
-        (hits.status != HIT) | (hits.triangle == ref.triangle) | near
+    return measure_accuracy(
+        Scene, tetrahedralization, vertices, faces, rays=rays, seed=seed, hit_distance=hit_distance
     )
-    return float(same.mean())

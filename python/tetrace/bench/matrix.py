@@ -315,9 +315,7 @@ def run_scene_settings(
                         layout=layout,
                         precision="f32",
                         device="gpu",
-                        kernel_mrays=scene.gpu_timings["walked"]
-                        / scene.gpu_timings["kernel"]
-                        / 1e6,
+                        kernel_mrays=hits.timings["walked"] / hits.timings["kernel"] / 1e6,
                         tets_per_ray=float(hits.steps.mean()),
                     )
                 )

@@ -39,7 +39,8 @@ def audited_cast(
     threads=None,
     max_steps=None,
 ):
-    """Cast with the exact per-step audit.
+    """Cast with the exact per-step audit (the core's ``audit=True``, a developer's check that
+    ``tetrace.Scene`` does not offer: its flat rays go straight to the core).
 
     Returns
     -------
@@ -49,17 +50,25 @@ def audited_cast(
         with exact orientation predicates on the points the walk read), and steps where the
         method's own tests found no exit face.
     """
-    return scene._cast_audited(
-        origins,
-        directions,
-        tmin=tmin,
-        tmax=tmax,
-        method=method,
-        layout=layout,
-        precision=precision,
+    from ...rays import prepare_bounds
+
+    dt = np.float32 if precision == "f32" else np.float64
+    o = np.ascontiguousarray(origins, dtype=dt)
+    d = np.ascontiguousarray(directions, dtype=dt)
+    n = len(o)
+    r = scene._native.cast(
+        o,
+        d,
+        prepare_bounds(tmin, n, "tmin"),
+        prepare_bounds(tmax, n, "tmax"),
         threads=threads,
         max_steps=max_steps,
+        method=method,
+        layout=layout,
+        audit=True,
     )
+    audit = r.pop("audit")
+    return scene._hits(r), audit
 
 
 def judge_cast(hits, audit, verdict):

@@ -1,0 +1,66 @@
+"""The point queries' work (:meth:`tetrace.Scene.contains`, :meth:`~tetrace.Scene.closest_points`
+and the methods built on them): the inside rule a ``mode`` resolves to, containment by exact
+parity or the winding number, and the closest points' answer.
+
+The functions take the scene as an argument (this module does not import
+:mod:`tetrace.scene`); :mod:`tetrace.winding` is loaded when the winding number is first asked.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from .hits import ClosestPoints
+
+__all__ = ["contains_mode", "inside", "closest_points"]
+
+
+def contains_mode(scene, mode):
+    """``mode`` checked and resolved (None: by ``scene.is_closed``), warning once per scene
+    when parity is asked of a mesh that is not closed. Called by the public methods
+    directly, so that the warning names their caller's line."""
+    if mode is None:
+        return "parity" if scene.is_closed else "winding"
+    if not isinstance(mode, str) or mode not in ("parity", "winding"):
+        raise ValueError(f"mode must be None, 'parity' or 'winding', got {mode!r}")
+    if mode == "parity" and not scene._parity_warned and not scene.is_closed:
+        scene._parity_warned = True
+        warnings.warn(
+            "contains/signed_distance with mode='parity' on a mesh that is not closed ("
+            f"{scene._surface_info().describe()}): a point counts as inside only when the "
+            "fewest crossings to outside the domain is odd, so points reachable through a "
+            "hole are outside; mode='winding' (the default for this scene) uses the "
+            "generalized winding number instead",
+            UserWarning,
+            stacklevel=3,
+        )
+    return mode
+
+
+def inside(scene, flat, mode, threads):
+    """Containment of the ``(N, 3)`` float64 points by the resolved ``mode``."""
+    if mode == "parity":
+        return np.asarray(scene._native.contains(flat, threads), dtype=bool)
+    from .winding import winding_numbers
+
+    s = scene._surface_info()
+    return winding_numbers(s.vertices, s.faces, flat) >= 0.5
+
+
+def closest_points(scene, flat, shape, threads):
+    """:meth:`tetrace.Scene.closest_points` of the checked ``(N, 3)`` float64 points, given
+    back in their leading ``shape``."""
+    r = scene._native.closest_points(flat, threads)
+    scene_triangle = np.asarray(r["triangle"])
+    geometry, triangle = scene._locate(scene_triangle)
+    return ClosestPoints(
+        point=np.asarray(r["point"]).reshape(shape + (3,)),
+        triangle=triangle.reshape(shape),
+        u=np.asarray(r["u"]).reshape(shape),
+        v=np.asarray(r["v"]).reshape(shape),
+        distance=np.asarray(r["distance"]).reshape(shape),
+        geometry=geometry.reshape(shape),
+        scene_triangle=scene_triangle.reshape(shape),
+    )
