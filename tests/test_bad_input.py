@@ -118,7 +118,14 @@ ERRORS = [
     ("threads-closest", lambda s, o, d: s.closest_points(o, threads=0), ValueError, "threads"),
     (
         "threads-native",
-        lambda s, o, d: s._native.cast(o, d, np.zeros(1), np.full(1, np.inf), threads=10**9),
+        lambda s, o, d: tetrace._native.RayRequest(
+            np.asarray(o, np.float64).reshape(-1, 3),
+            np.asarray(d, np.float64).reshape(-1, 3),
+            np.zeros(1),
+            np.full(1, np.inf),
+            precision="f64",
+            threads=10**9,
+        ),
         ValueError,
         "threads",
     ),

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import tetrace
-from tetrace import progress
+from tetrace import _native, progress
 
 V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], np.float64)
 F = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]], np.int64)
@@ -108,9 +108,11 @@ def _many_rays(scene, n):
     return lo + (hi - lo) * rng.random((n, 3)), rng.normal(size=(n, 3))
 
 
-def _native_args(o, d):
+def _request(o, d, threads):
     n = len(o)
-    return o, d, np.zeros(n), np.full(n, np.inf)
+    return _native.RayRequest(
+        o, d, np.zeros(n), np.full(n, np.inf), precision="f64", threads=threads
+    )
 
 
 def test_the_core_reports_chunks_done_while_a_query_runs(spot):
@@ -118,13 +120,14 @@ def test_the_core_reports_chunks_done_while_a_query_runs(spot):
     never past their number; answers are those of a query without it."""
     o, d = _many_rays(spot, 300_000)
     chunks = -(-len(o) // 4096)
-    for query in (spot._native.cast, spot._native.count_intersections):
+    for kind in ("closest", "count"):
         calls = []
-        r = query(*_native_args(o, d), 1, progress=lambda *p, log=calls: log.append(p))
+        report = lambda *p, log=calls: log.append(p)  # noqa: E731
+        r = spot._native.query(kind, _request(o, d, 1), report)
         assert calls, "a query of over a second on one thread reported nothing"
         assert all(total == chunks and 0 <= done < total for done, total in calls), calls
         assert all(a[0] <= b[0] for a, b in zip(calls, calls[1:])), calls
-        plain = query(*_native_args(o, d), 1)
+        plain = spot._native.query(kind, _request(o, d, 1))
         np.testing.assert_array_equal(r["status"], plain["status"])
 
 
@@ -136,7 +139,7 @@ def test_an_error_in_the_progress_callback_stops_the_query(spot):
 
     for threads in (1, 2):
         with pytest.raises(ValueError, match="stop at"):
-            spot._native.cast(*_native_args(o, d), threads, progress=stop)
+            spot._native.query("closest", _request(o, d, threads), stop)
     assert spot.cast(o[:10], d[:10]).status.shape == (10,)
 
 

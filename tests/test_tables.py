@@ -14,8 +14,12 @@ from tetrace import _native, hits
 
 def test_status_codes_are_the_cores():
     py = {"miss": hits.MISS, "hit": hits.HIT, "failed": hits.FAILED, "invalid": hits.INVALID}
-    core = {"miss": _native.MISS, "hit": _native.HIT, "failed": _native.FAILED,
-            "invalid": _native.INVALID}
+    core = {
+        "miss": _native.MISS,
+        "hit": _native.HIT,
+        "failed": _native.FAILED,
+        "invalid": _native.INVALID,
+    }
     assert py == core
     assert list(hits.STATUS_NAMES) == list(_native.STATUS_NAMES)
     for name, code in core.items():
@@ -57,8 +61,9 @@ def test_every_query_kind_answers_on_every_accel(accel, precision):
     o, d = _rays(scene)
     dt = np.float32 if precision == "f32" else np.float64
     o, d = o.astype(dt), d.astype(dt)
-    req = _native.RayRequest(o, d, np.array([0.0]), np.array([np.inf]), precision=precision,
-                             accel=accel, threads=2)
+    req = _native.RayRequest(
+        o, d, np.array([0.0]), np.array([np.inf]), precision=precision, accel=accel, threads=2
+    )
     assert len(req) == len(o) and req.precision == precision
     out = {k: scene._native.query(k, req) for k in _native.queries()}
     closest, anyhit = out["closest"], out["any"]
@@ -94,16 +99,19 @@ def test_the_request_checks_each_argument_once(kwargs, error, match):
 
 def test_a_request_with_rows_that_disagree_is_refused():
     with pytest.raises(ValueError, match="same number of rows"):
-        _native.RayRequest(np.zeros((4, 3)), np.ones((5, 3)), np.array([0.0]),
-                           np.array([np.inf]), precision="f64")
+        _native.RayRequest(
+            np.zeros((4, 3)), np.ones((5, 3)), np.array([0.0]), np.array([np.inf]), precision="f64"
+        )
     with pytest.raises(ValueError, match=r"shape \(N, 3\)"):
-        _native.RayRequest(np.zeros((4, 2)), np.ones((4, 2)), np.array([0.0]),
-                           np.array([np.inf]), precision="f64")
+        _native.RayRequest(
+            np.zeros((4, 2)), np.ones((4, 2)), np.array([0.0]), np.array([np.inf]), precision="f64"
+        )
 
 
 def test_unknown_query_is_named():
     scene = tetrace.default_scene()
-    req = _native.RayRequest(np.zeros((1, 3)), np.ones((1, 3)), np.array([0.0]),
-                             np.array([np.inf]), precision="f64")
+    req = _native.RayRequest(
+        np.zeros((1, 3)), np.ones((1, 3)), np.array([0.0]), np.array([np.inf]), precision="f64"
+    )
     with pytest.raises(ValueError, match="unknown query"):
         scene._native.query("nearest", req)

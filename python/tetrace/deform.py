@@ -8,7 +8,6 @@ The functions take the scene as an argument (this module does not import
 from __future__ import annotations
 
 import dataclasses
-import inspect
 import time
 
 import numpy as np
@@ -143,10 +142,10 @@ def report(scene, action, inverted, outside, reason, seconds):
 def rebuild(scene, V):
     """Mesh the scene again from vertices ``V`` with the options it was built with;
     the BVH and octree are built again with the parameters they had."""
-    bvh, octree = scene.bvh_info(), scene.octree_info()
     fresh = type(scene).from_mesh(
         (V, np.asarray(scene.faces)), hilbert=scene.hilbert, **scene._build_options
     )
+    old = scene._native
     scene.tetrahedralization = fresh.tetrahedralization
     scene._native = fresh._native
     scene.build_times = fresh.build_times
@@ -154,11 +153,6 @@ def rebuild(scene, V):
     scene._point_map = None
     scene._rest = None
     scene._frames = 0
-    # As the core does after a move: a structure built with other than the default
-    # parameters is built again now; a default one on its next use.
-    for info, build in ((bvh, scene.build_bvh), (octree, scene.build_octree)):
-        if info is not None:
-            defaults = inspect.signature(build).parameters
-            params = {k: info[k] for k in defaults}
-            if any(params[k] != defaults[k].default for k in params):
-                build(**params)
+    # The core's rule of a move (a structure built with other than the default parameters
+    # is built again now, a default one on its next use), over the new scene.
+    fresh._native.adopt_structures(old)

@@ -23,9 +23,8 @@ from . import _native
 
 __all__ = ["GpuError", "info", "device", "available", "kernels", "DEFAULT_KERNEL"]
 
-# How ``Scene.cast`` routes a cast to the GPU (:func:`check_cast`, :func:`wanted`,
-# :func:`cast`): functions of the cast's arguments and the scene's core, so that this module
-# imports nothing of tetrace.scene.
+# How ``Scene.cast`` routes a cast to the GPU (:func:`check_cast`, :func:`wanted`):
+# functions of the cast's arguments, so that this module imports nothing of tetrace.scene.
 
 #: Raised when no adapter can run the kernels, the device fails, or the extension was built
 #: without GPU support.
@@ -122,34 +121,21 @@ def available():
     return True
 
 
-def check_cast(device, accel, start, precision):
-    """Refuse what ``device`` rules out (``Scene.cast``'s arguments), before the rays are
-    checked: a ValueError naming the conflict."""
+def check_cast(device):
+    """Refuse a ``device`` that does not exist (``Scene.cast``'s argument), before the rays
+    are checked. What a GPU cast cannot take (another accel, ``start=hits``, float64) the
+    core refuses as it is asked (``NativeScene.cast_gpu``)."""
     if device not in ("cpu", "gpu", "auto"):
         raise ValueError(f'device must be "cpu", "gpu" or "auto", got {device!r}')
-    if device == "gpu" and accel not in (None, "tetwalk"):
-        raise ValueError(f'device="gpu" walks the tetrahedralization; accel {accel!r} is CPU only')
-    if device == "gpu" and start is not None:
-        raise ValueError(
-            "start=hits runs on the CPU: the exact walk decides where a ray "
-            'leaves the surface (device="cpu")'
-        )
-    if device == "gpu" and precision == "f64":
-        raise ValueError(
-            'device="gpu" walks in float32 (WGSL has no float64); use '
-            'precision="f32" or device="cpu"'
-        )
 
 
-def wanted(device, dtype, method, layout, accel, start):
-    """Whether a cast of rays of ``dtype`` (the walk's precision) runs on the GPU: always for
-    ``device="gpu"``; for ``"auto"``, when a float32 walk of an explicitly named method has a
-    kernel and a device opens."""
-    import numpy as np
-
+def wanted(device, precision, method, layout, accel, start):
+    """Whether a cast of rays of ``precision`` (``"f32"`` or ``"f64"``, the walk's) runs on
+    the GPU: always for ``device="gpu"``; for ``"auto"``, when a float32 walk of an
+    explicitly named method has a kernel and a device opens."""
     if device == "gpu":
         return True
-    if device == "auto" and dtype == np.float32:
+    if device == "auto" and precision == "f32":
         # Only a float method named explicitly: the exact default has no GPU kernel, and
         # "auto" must not trade the contract for speed behind the caller's back.
         return (
@@ -160,22 +146,3 @@ def wanted(device, dtype, method, layout, accel, start):
             and available()
         )
     return False
-
-
-def cast(native, q, method, layout):
-    """Walk the rays of ``q`` (``tetrace.rays._Query``) on the GPU with the scene's core
-    ``native``, in float32.
-
-    Returns
-    -------
-    r : dict
-        The core's flat Hits fields.
-    timings : dict
-        Seconds of each phase of this cast (``locate``, ``scene_upload``, ``upload``,
-        ``kernel``, ``readback``, ``finish``) and counts (``walked``: rays the GPU walked,
-        ``deferred``: robust rays re-walked on the CPU, ``batches``): ``Hits.timings``.
-    """
-    import numpy as np
-
-    o, d = q.o.astype(np.float32, copy=False), q.d.astype(np.float32, copy=False)
-    return native.cast_gpu(o, d, q.lo, q.hi, q.threads, q.max_steps, method, layout)

@@ -218,18 +218,6 @@ def _check_threads(threads):
         )
 
 
-def _check_max_steps(max_steps):
-    """``max_steps``: None (the scene's default) or an int in [1, 2**32)."""
-    if max_steps is None:
-        return
-    if isinstance(max_steps, (bool, np.bool_)) or not isinstance(max_steps, (int, np.integer)):
-        raise TypeError(
-            f"max_steps must be an int or None, got {type(max_steps).__name__} {max_steps!r}"
-        )
-    if not 0 < max_steps < 2**32:
-        raise ValueError(f"max_steps must be a positive int below 2**32, got {max_steps!r}")
-
-
 def _query_points(points):
     """Query points as a flat ``(N, 3)`` float64 array and their leading shape; a clear
     error for anything else or for a NaN/inf coordinate."""
@@ -285,27 +273,54 @@ def _from_hits(start, directions, geometries):
     return origins, d, (hit.reshape(-1), ids(triangle).reshape(-1), ids(tet).reshape(-1))
 
 
-class _Query:
-    """The arguments every ray query shares, checked once: flat rays (``o``, ``d``) of
-    leading ``shape``, bounds ``lo``/``hi``, ``threads``, ``max_steps``, ``packet``,
-    ``accel``, and for rays started from hits, ``start`` (the scene triangle each leaves
-    and the tet its hit's walk ended in, as the core takes them)."""
+class RayRequest:
+    """One ray query's arguments, checked once, as every ray query of a :class:`Scene` takes
+    them: the rays (``origins``/``directions`` of any leading shape, or ``start=hits``), the
+    bounds, the threads, the precision (named, not guessed by the core), the packets, the
+    accelerator, the walk's method and layout, and the progress bar.
+
+    Python does what only Python can (broadcasting leading shapes, ``start=hits``, the dtype
+    the inputs ask for); the core's :class:`tetrace._native.RayRequest` checks every rule
+    (threads, step guard, names, shapes) once, as it is built.
+    """
+
+    #: The public ray queries' keyword arguments that make a request.
+    ARGS = (
+        "origins",
+        "directions",
+        "start",
+        "tmin",
+        "tmax",
+        "threads",
+        "max_steps",
+        "invalid",
+        "precision",
+        "packet",
+        "accel",
+        "method",
+        "layout",
+        "progress",
+    )
 
     def __init__(
         self,
         origins,
         directions,
-        tmin,
-        tmax,
-        threads,
-        max_steps,
-        invalid,
-        precision,
-        packet,
-        accel=None,
+        *,
         start=None,
+        tmin=0.0,
+        tmax=np.inf,
+        threads=None,
+        max_steps=None,
+        invalid="raise",
+        precision=None,
+        packet=True,
+        accel=None,
+        method=None,
+        layout=None,
         geometries=None,
         progress=None,
+        audit=False,
     ):
         from .progress import enabled
 
@@ -320,51 +335,51 @@ class _Query:
             raise TypeError("rays need origins (or start=hits)")
         batch = prepare_ray_batch(origins, directions, invalid=invalid)
         o, d = batch.origins, batch.directions
-        if precision is not None:
-            if precision not in ("f32", "f64"):
-                raise ValueError(f'precision must be "f32" or "f64", got {precision!r}')
-            want = np.float32 if precision == "f32" else np.float64
+        if precision is None:
+            # The inputs' precision: float32 when both are (prepare_ray_batch made them one).
+            precision = "f32" if o.dtype == np.float32 else "f64"
+        want = {"f32": np.float32, "f64": np.float64}.get(precision)
+        if want is not None:
             o, d = o.astype(want, copy=False), d.astype(want, copy=False)
         self.o, self.d, self.shape, self.invalid = o, d, batch.shape, invalid
-        self.lo = prepare_bounds(tmin, len(o), "tmin", batch.shape)
-        self.hi = prepare_bounds(tmax, len(o), "tmax", batch.shape)
-        self.start = None
+        lo = prepare_bounds(tmin, len(o), "tmin", batch.shape)
+        hi = prepare_bounds(tmax, len(o), "tmax", batch.shape)
+        start_ids = None
         if leaving is not None:
             hit, triangle, tet = leaving
-            self.hi = np.broadcast_to(self.hi, (len(o),)).copy()
-            self.hi[~hit] = -np.inf  # below tmin: the core answers MISS
-            self.start = (triangle, tet)
-        _check_threads(threads)
-        _check_max_steps(max_steps)
-        self.threads = None if threads is None else int(threads)
-        self.max_steps = None if max_steps is None else int(max_steps)
-        if not isinstance(packet, (bool, np.bool_)):
-            raise TypeError(f"packet must be True or False, got {packet!r}")
-        self.packet = bool(packet)
-        if accel is not None and accel not in _native.accels():
-            raise ValueError(f"unknown accel {accel!r}; expected one of {_native.accels()}")
-        self.accel = accel
+            hi = np.broadcast_to(hi, (len(o),)).copy()
+            hi[~hit] = -np.inf  # below tmin: the core answers MISS
+            start_ids = (triangle, tet)
+        self.method, self.layout = method, layout
+        self.native = _native.RayRequest(
+            o,
+            d,
+            np.ascontiguousarray(lo),
+            np.ascontiguousarray(hi),
+            precision=precision,
+            threads=threads,
+            max_steps=max_steps,
+            method=method,
+            layout=layout,
+            accel=accel,
+            packet=packet,
+            start=start_ids,
+            audit=audit,
+        )
 
-    def run(self, query, method, layout, description):
-        """Call the core's ``query`` on these rays (its arguments shared by every ray query),
-        with a progress bar when progress is on."""
+    @property
+    def precision(self):
+        """``"f32"`` or ``"f64"``."""
+        return self.native.precision
+
+    def run(self, scene, kind, description):
+        """The core's answer to query ``kind`` (one of ``tetrace._native.queries()``) on
+        ``scene``'s core, as a dict of flat columns, with a progress bar when progress is
+        on."""
         from . import progress
 
         with progress.rays(self.progress, len(self.o), description) as report:
-            return query(
-                self.o,
-                self.d,
-                self.lo,
-                self.hi,
-                self.threads,
-                self.max_steps,
-                method,
-                layout,
-                packet=self.packet,
-                accel=self.accel,
-                start=self.start,
-                progress=report,
-            )
+            return scene.query(kind, self.native, report)
 
     def check(self, status):
         """Raise for rays the core marked INVALID, unless ``invalid="mark"``."""

@@ -21,7 +21,7 @@ from .names import (  # noqa: F401  (the public names stay where they were: tetr
     methods,
     simd_levels,
 )
-from .rays import _check_threads, _Query, _query_points
+from .rays import RayRequest, _check_threads, _query_points
 
 __all__ = [
     "Scene",
@@ -36,6 +36,11 @@ __all__ = [
     "LAYOUT_BYTES",
     "MAX_THREADS",
 ]
+
+
+#: Each structure's default parameters, owned by the core (its structure table): the
+#: signatures of :meth:`Scene.build_bvh` and :meth:`Scene.build_octree` read them.
+_DEFAULTS = _native.structure_defaults()
 
 
 class Scene:
@@ -404,32 +409,24 @@ class Scene:
         tetrace.gpu.GpuError
             ``device="gpu"`` without a usable adapter, or the device failed.
         """
-        gpu.check_cast(device, accel, start, precision)
-        q = _Query(
-            origins,
-            directions,
-            tmin,
-            tmax,
-            threads,
-            max_steps,
-            invalid,
-            precision,
-            packet,
-            accel,
-            start=start,
-            geometries=self.geometries,
-            progress=progress,
-        )
-        _names(method, layout, defaults=False)
-        use_gpu = gpu.wanted(device, q.o.dtype, method, layout, accel, start)
-        method, layout = _names(method, layout, defaults=not use_gpu)
+        gpu.check_cast(device)
+        if device == "gpu" and precision is None:
+            precision = "f32"  # WGSL has no float64: the GPU walks float32 rays
+        q = self._request(locals())
         timings = None
-        if use_gpu:
-            r, timings = gpu.cast(self._native, q, method, layout)
+        if gpu.wanted(device, q.precision, method, layout, accel, start):
+            r, timings = self._native.cast_gpu(q.native)
         else:
-            r = q.run(self._native.cast, method, layout, "casting")
+            r = q.run(self._native, "closest", "casting")
         q.check(r["status"])
         return self._hits(r, timings).reshape(q.shape)
+
+    def _request(self, args):
+        """The :class:`~tetrace.rays.RayRequest` of a ray query's arguments (the public
+        method's ``locals()``): every query takes the same ones, checked once."""
+        return RayRequest(
+            geometries=self.geometries, **{k: args[k] for k in RayRequest.ARGS if k in args}
+        )
 
     def _hits(self, r, timings=None):
         """Hits from the core's flat answer: the triangle split into mesh and triangle in
@@ -532,23 +529,8 @@ class Scene:
             uint8, the same shape (``return_status=True`` only): ``HIT``, ``MISS``,
             ``FAILED`` or ``INVALID``.
         """
-        q = _Query(
-            origins,
-            directions,
-            tmin,
-            tmax,
-            threads,
-            max_steps,
-            invalid,
-            precision,
-            packet,
-            accel,
-            start=start,
-            geometries=self.geometries,
-            progress=progress,
-        )
-        method, layout = _names(method, layout)
-        status = np.asarray(q.run(self._native.occluded, method, layout, "occluded"))
+        q = self._request(locals())
+        status = q.run(self._native, "any", "occluded")["status"]
         q.check(status)
         status = status.reshape(q.shape)
         hit = status == HIT
@@ -603,23 +585,8 @@ class Scene:
             its exact value on the caller's triangle (the exact point
             ``origin + t* direction``, rounded).
         """
-        q = _Query(
-            origins,
-            directions,
-            tmin,
-            tmax,
-            threads,
-            max_steps,
-            invalid,
-            precision,
-            packet,
-            accel,
-            start=start,
-            geometries=self.geometries,
-            progress=progress,
-        )
-        method, layout = _names(method, layout)
-        r = q.run(self._native.intersections, method, layout, "intersections")
+        q = self._request(locals())
+        r = q.run(self._native, "all", "intersections")
         status = np.asarray(r["status"])
         q.check(status)
         offsets = np.asarray(r["offsets"], np.int64)
@@ -688,23 +655,8 @@ class Scene:
         status : numpy.ndarray
             uint8, the same shape (``return_status=True`` only).
         """
-        q = _Query(
-            origins,
-            directions,
-            tmin,
-            tmax,
-            threads,
-            max_steps,
-            invalid,
-            precision,
-            packet,
-            accel,
-            start=start,
-            geometries=self.geometries,
-            progress=progress,
-        )
-        method, layout = _names(method, layout)
-        r = q.run(self._native.count_intersections, method, layout, "counting")
+        q = self._request(locals())
+        r = q.run(self._native, "count", "counting")
         status = np.asarray(r["status"])
         q.check(status)
         count = np.asarray(r["count"]).astype(np.int32, copy=True)
@@ -793,7 +745,14 @@ class Scene:
         inside = point_queries.inside(self, flat, mode, threads).reshape(shape)
         return np.where(inside, -d, d)
 
-    def build_bvh(self, *, cost_ratio=1.0, max_leaf=8, bins=16, aperture=True):
+    def build_bvh(
+        self,
+        *,
+        cost_ratio=_DEFAULTS["bvh"]["cost_ratio"],
+        max_leaf=_DEFAULTS["bvh"]["max_leaf"],
+        bins=_DEFAULTS["bvh"]["bins"],
+        aperture=_DEFAULTS["bvh"]["aperture"],
+    ):
         """Build Reshetov's BVH over the scene's triangles for ``accel="reshetov_bvh"``.
 
         A query with that accel builds one with the defaults when none is built; this
@@ -819,7 +778,13 @@ class Scene:
         """
         return self._native.build_bvh(cost_ratio, max_leaf, bins, bool(aperture))
 
-    def build_octree(self, *, max_depth=8, leaf_size=12, balance=True):
+    def build_octree(
+        self,
+        *,
+        max_depth=_DEFAULTS["octree"]["max_depth"],
+        leaf_size=_DEFAULTS["octree"]["leaf_size"],
+        balance=_DEFAULTS["octree"]["balance"],
+    ):
         """Build Portalez & Duguet's octree over the scene's triangles for
         ``accel="portalez_octree"``.
 

@@ -126,7 +126,9 @@ def _queries(scene, key, o, d, out, n=4_000):
             }
             first = scene.cast(oo, dd, invalid="mark", threads=2)
             second = scene.cast(start=first, directions=-dd, accel=accel, invalid="mark", threads=2)
-            out[f"{k}/start_hits"] = {f: _digest(getattr(second, f)) for f in ("t", "triangle", "status")}
+            out[f"{k}/start_hits"] = {
+                f: _digest(getattr(second, f)) for f in ("t", "triangle", "status")
+            }
 
 
 def main(argv=None) -> int:

@@ -50,23 +50,22 @@ def audited_cast(
         with exact orientation predicates on the points the walk read), and steps where the
         method's own tests found no exit face.
     """
-    from ...rays import prepare_bounds
+    from ...rays import RayRequest
 
     dt = np.float32 if precision == "f32" else np.float64
-    o = np.ascontiguousarray(origins, dtype=dt)
-    d = np.ascontiguousarray(directions, dtype=dt)
-    n = len(o)
-    r = scene._native.cast(
-        o,
-        d,
-        prepare_bounds(tmin, n, "tmin"),
-        prepare_bounds(tmax, n, "tmax"),
+    q = RayRequest(
+        np.ascontiguousarray(origins, dtype=dt),
+        np.ascontiguousarray(directions, dtype=dt),
+        tmin=tmin,
+        tmax=tmax,
         threads=threads,
         max_steps=max_steps,
         method=method,
         layout=layout,
+        invalid="mark",
         audit=True,
     )
+    r = q.run(scene._native, "closest", "casting")
     audit = r.pop("audit")
     return scene._hits(r), audit
 
