@@ -15,12 +15,14 @@ pub mod kernels;
 pub mod launch;
 pub mod octree;
 pub mod structs;
+pub mod timings;
+pub mod upload;
 
-pub use cast::GpuTimings;
 pub use context::{adapters, gpu, AdapterSummary, Gpu};
 pub use device_scene::DeviceScene;
 pub use kernels::{KernelSpec, GPU_LAYOUTS, KERNELS};
 pub use launch::{Batching, MAX_BATCH};
+pub use timings::GpuTimings;
 
 #[cfg(test)]
 mod tests;

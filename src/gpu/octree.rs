@@ -17,7 +17,7 @@
 //! test and the cube map on the device, as in the paper.
 
 use super::context::Gpu;
-use super::device_scene::check_fits;
+use super::upload::check_fits;
 use crate::accel::portalez_octree::{
     face_of, face_to_neighbor_index, in_plane, out_faces_lookup, PortalezOctree, NODE_TAG,
 };

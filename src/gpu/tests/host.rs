@@ -118,11 +118,11 @@ fn slack_bounds_the_start_point_rounding() {
 #[test]
 fn oversized_scene_is_too_large() {
     let limits = wgpu::Limits::default();
-    let ok = crate::gpu::device_scene::check_fits("tet20 records", 1 << 20, &limits, "test device");
+    let ok = crate::gpu::upload::check_fits("tet20 records", 1 << 20, &limits, "test device");
     assert!(ok.is_ok());
     let big = limits.max_storage_buffer_binding_size + 20;
-    let e = crate::gpu::device_scene::check_fits("tet20 records", big, &limits, "test device")
-        .unwrap_err();
+    let e =
+        crate::gpu::upload::check_fits("tet20 records", big, &limits, "test device").unwrap_err();
     assert!(matches!(e, crate::Error::TooLarge(_)), "{e}");
     let m = e.to_string();
     assert!(
