@@ -23,6 +23,7 @@ use crate::error::Error;
 use crate::layout::LayoutKind;
 use crate::query::contact::Meet;
 use crate::query::Listed;
+pub use crate::rng::{mix, Rng};
 use crate::scene::buffers::LeavingRays;
 use crate::scene::{CastOptions, HitBuffers, Rays, Scene};
 use crate::simd::Simd;
@@ -33,46 +34,6 @@ use std::collections::HashMap;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::Arc;
 use std::time::Instant;
-
-/// xorshift64* seeded through splitmix64 (any seed, 0 included, gives a good stream).
-pub struct Rng(u64);
-
-impl Rng {
-    pub fn new(seed: u64) -> Rng {
-        Rng(mix(seed) | 1)
-    }
-    pub fn u64(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
-    }
-    /// Uniform in [0, n) (0 when n is 0).
-    pub fn below(&mut self, n: usize) -> usize {
-        if n == 0 {
-            0
-        } else {
-            (self.u64() % n as u64) as usize
-        }
-    }
-    pub fn f(&mut self) -> f64 {
-        (self.u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    pub fn chance(&mut self, p: f64) -> bool {
-        self.f() < p
-    }
-    pub fn pick<T: Copy>(&mut self, xs: &[T]) -> T {
-        xs[self.below(xs.len())]
-    }
-}
-
-/// splitmix64: the seed of case `i` of a run seeded `seed` is `mix(seed ^ mix(i))`.
-pub fn mix(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
-}
 
 /// The seed of case `i` of a run seeded `seed`.
 pub fn case_seed(seed: u64, i: u64) -> u64 {

@@ -19,6 +19,7 @@ pub mod locate;
 pub mod mesh;
 pub mod query;
 pub mod referee;
+pub mod rng;
 pub mod scene;
 pub mod simd;
 pub mod status;

@@ -1,6 +1,6 @@
 //! Fixtures shared by the tests of several modules (compiled only for `cargo test`).
 
-pub(crate) use crate::bench::Rng;
+pub(crate) use crate::rng::Rng;
 use crate::scene::Scene;
 
 /// An n³ grid of cubes over [0,1]³, each cut into 6 Kuhn tets (conforming across cubes),

@@ -385,7 +385,7 @@ impl Accel<f64> for BvhPackets<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bench::Rng;
+    use crate::rng::Rng;
 
     fn packet(rays: &[([f64; 3], [f64; 3])]) -> Vec<PacketRay<()>> {
         rays.iter()
@@ -430,7 +430,7 @@ mod tests {
     /// and the corners' err) fails this test at trial 2.
     #[test]
     fn frustum_culls_only_what_no_ray_meets() {
-        let mut rng = Rng(7);
+        let mut rng = Rng::xorshift(7);
         let (mut culled, mut met, mut by_aperture) = (0, 0, 0);
         for trial in 0..20_000 {
             let tri: Tri = [rng.p3(), rng.p3(), rng.p3()];

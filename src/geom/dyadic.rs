@@ -246,7 +246,7 @@ mod tests {
     /// float64's whole range (denormals and 1e±300 beside ordinary values).
     #[test]
     fn agrees_with_rationals() {
-        let mut rng = crate::fuzz::Rng::new(0x2545_f491_4f6c_dd1d);
+        let mut rng = crate::rng::Rng::new(0x2545_f491_4f6c_dd1d);
         let mut next = move || rng.u64();
         let odd = [
             0.0,

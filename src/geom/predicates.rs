@@ -114,7 +114,7 @@ mod tests {
         let odd = [
             0.0, 5e-324, -5e-324, 1e-310, 1e-300, 1e-160, 1e160, 1e300, 0.5, 1.0,
         ];
-        let mut rng = crate::fuzz::Rng::new(0x9e37_79b9_7f4a_7c15);
+        let mut rng = crate::rng::Rng::new(0x9e37_79b9_7f4a_7c15);
         let mut pick = move || rng.pick(&odd);
         let mut differs = 0;
         for _ in 0..20_000 {

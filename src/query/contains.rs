@@ -381,18 +381,20 @@ mod tests {
 
     #[test]
     fn closed_block_holds_its_inside_and_its_surface() {
-        let (pts, tets) = kuhn_grid(4, 0.0, &mut Rng(1));
+        let (pts, tets) = kuhn_grid(4, 0.0, &mut Rng::xorshift(1));
         let faces = block_surface(&pts, &tets, 4, |c| c.iter().all(|&x| (1..3).contains(&x)));
         assert_eq!(faces.len(), 6 * 4 * 2);
         let scene = scene_of(&pts, &tets, &faces);
         let block = Cube(0.25, 0.75);
-        check_all(&scene, &test_points(&mut Rng(2)), |p| block.closed(p));
+        check_all(&scene, &test_points(&mut Rng::xorshift(2)), |p| {
+            block.closed(p)
+        });
     }
 
     #[test]
     fn nested_shells_alternate() {
         // Three shells: [1/8, 7/8]³ ⊃ [2/8, 6/8]³ ⊃ [3/8, 5/8]³.
-        let (pts, tets) = kuhn_grid(8, 0.0, &mut Rng(3));
+        let (pts, tets) = kuhn_grid(8, 0.0, &mut Rng::xorshift(3));
         let shells = [Cube(0.125, 0.875), Cube(0.25, 0.75), Cube(0.375, 0.625)];
         let mut faces = Vec::new();
         for k in 1..=3 {
@@ -402,7 +404,7 @@ mod tests {
             }));
         }
         let scene = scene_of(&pts, &tets, &faces);
-        check_all(&scene, &test_points(&mut Rng(4)), |p| {
+        check_all(&scene, &test_points(&mut Rng::xorshift(4)), |p| {
             shells.iter().any(|s| s.on_side(p))
                 || shells.iter().filter(|s| s.open(p)).count() % 2 == 1
         });
@@ -412,7 +414,7 @@ mod tests {
     fn open_surface_holds_only_itself() {
         // The block's surface without its side at x = 3/4: its inside is reached from outside
         // with no crossing, so only points on the remaining sides are inside.
-        let (pts, tets) = kuhn_grid(4, 0.0, &mut Rng(5));
+        let (pts, tets) = kuhn_grid(4, 0.0, &mut Rng::xorshift(5));
         let faces: Vec<_> =
             block_surface(&pts, &tets, 4, |c| c.iter().all(|&x| (1..3).contains(&x)))
                 .into_iter()
@@ -421,7 +423,7 @@ mod tests {
         assert_eq!(faces.len(), 5 * 4 * 2);
         let scene = scene_of(&pts, &tets, &faces);
         let block = Cube(0.25, 0.75);
-        check_all(&scene, &test_points(&mut Rng(6)), |p| {
+        check_all(&scene, &test_points(&mut Rng::xorshift(6)), |p| {
             block.closed(p)
                 && (p[0] == 0.25 || [1, 2].iter().any(|&a| p[a] == 0.25 || p[a] == 0.75))
         });
@@ -430,10 +432,10 @@ mod tests {
     #[test]
     fn surface_on_the_domain_box_encloses_the_whole_domain() {
         // Scene triangles on the box itself: one crossing from outside to anywhere inside.
-        let (pts, tets) = kuhn_grid(3, 0.0, &mut Rng(7));
+        let (pts, tets) = kuhn_grid(3, 0.0, &mut Rng::xorshift(7));
         let faces = block_surface(&pts, &tets, 3, |_| true);
         let scene = scene_of(&pts, &tets, &faces);
-        check_all(&scene, &test_points(&mut Rng(8)), |p| {
+        check_all(&scene, &test_points(&mut Rng::xorshift(8)), |p| {
             Cube(0.0, 1.0).closed(p)
         });
     }
@@ -469,7 +471,7 @@ mod tests {
         // A jittered grid: the shells' sides are no longer planes. Two shells, so the parity
         // of the winding number is the answer; the surfaces' vertices lie on them (inside).
         let n = 6;
-        let (pts, tets) = kuhn_grid(n, 0.3, &mut Rng(9));
+        let (pts, tets) = kuhn_grid(n, 0.3, &mut Rng::xorshift(9));
         let mut faces = Vec::new();
         for k in [1, 2] {
             let range = k..n - k;
@@ -479,7 +481,7 @@ mod tests {
         }
         let tris: Vec<_> = faces.iter().map(|f| f.map(|v| pts[v as usize])).collect();
         let scene = scene_of(&pts, &tets, &faces);
-        let mut rng = Rng(10);
+        let mut rng = Rng::xorshift(10);
         let sample: Vec<[f64; 3]> = (0..3 * CHUNK)
             .map(|_| rng.p3().map(|x| 1.2 * x - 0.1))
             .collect();
@@ -558,7 +560,7 @@ mod tests {
     #[test]
     fn parity_is_that_of_the_fewest_crossings() {
         for (seed, frac) in [(11, 0.1), (12, 0.3), (13, 0.6)] {
-            let g = grid_scene(&mut Rng(seed), 5, 0.3, frac);
+            let g = grid_scene(&mut Rng::xorshift(seed), 5, 0.3, frac);
             let mesh = &g.scene.mesh;
             let parity = Parity::build(mesh);
             let dist = fewest_crossings(mesh);
@@ -570,7 +572,7 @@ mod tests {
 
     #[test]
     fn settling_corrects_a_wrong_tet() {
-        let g = grid_scene(&mut Rng(14), 4, 0.3, 0.3);
+        let g = grid_scene(&mut Rng::xorshift(14), 4, 0.3, 0.3);
         let scene = &g.scene;
         let parity = Parity::build(&scene.mesh);
         let c = Containment {
@@ -579,7 +581,7 @@ mod tests {
             incidence: &scene.incidence,
             parity: &parity,
         };
-        let mut rng = Rng(15);
+        let mut rng = Rng::xorshift(15);
         let mut state = 1u32;
         for k in 0..500 {
             let p = rng.p3();
@@ -610,7 +612,7 @@ mod tests {
 
     #[test]
     fn float32_points_and_bad_arguments() {
-        let (pts, tets) = kuhn_grid(4, 0.0, &mut Rng(16));
+        let (pts, tets) = kuhn_grid(4, 0.0, &mut Rng::xorshift(16));
         let faces = block_surface(&pts, &tets, 4, |c| c.iter().all(|&x| (1..3).contains(&x)));
         let scene = scene_of(&pts, &tets, &faces);
         let p32: [f32; 12] = [0.5, 0.5, 0.5, 0.25, 0.3, 0.6, 0.1, 0.5, 0.5, 2.0, 0.5, 0.5];

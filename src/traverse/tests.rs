@@ -134,7 +134,7 @@ fn cast<R: Real>(
 
 #[test]
 fn kuhn_grid_is_valid() {
-    let mut rng = Rng(7);
+    let mut rng = Rng::xorshift(7);
     let (pts, tets) = kuhn_grid(4, 0.3, &mut rng);
     let m = crate::mesh::TetMesh::build(pts, &tets, &[], &[]).unwrap();
     let vol: f64 = m
@@ -152,7 +152,7 @@ fn kuhn_grid_is_valid() {
 
 #[test]
 fn onb_is_right_handed() {
-    let mut rng = Rng(3);
+    let mut rng = Rng::xorshift(3);
     for _ in 0..1000 {
         let mut n = [rng.f() - 0.5, rng.f() - 0.5, rng.f() - 0.5];
         if rng.f() < 0.1 {
@@ -255,7 +255,7 @@ pub(crate) fn agreement<R: Real>(
     method: &str,
     f: impl Fn(&Scene, &Rays<R>, HitsOut<R>) -> crate::Result<()> + Copy,
 ) -> Tally {
-    let mut rng = Rng(seed);
+    let mut rng = Rng::xorshift(seed);
     let (scene, tris) = random_scene(&mut rng, 5, 0.08);
     let n = 3000;
     let mut o = Vec::new();
@@ -357,7 +357,7 @@ fn agrees_with_brute_force_f32() {
 
 #[test]
 fn empty_scene_misses_and_counts_steps() {
-    let mut rng = Rng(5);
+    let mut rng = Rng::xorshift(5);
     let (scene, _) = random_scene(&mut rng, 3, 0.0);
     let o = [-1.0, 0.5, 0.5, 0.5, 0.5, 0.5, 2.0, 2.0, 2.0];
     let d = [1.0, 0.01, 0.02, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0];
@@ -507,7 +507,7 @@ fn robust_exact_faces_and_agreement() {
 fn robust_survives_rays_through_vertices_and_edges() {
     use crate::scene::CastOptions;
     use crate::status::FAILED;
-    let mut rng = Rng(99);
+    let mut rng = Rng::xorshift(99);
     let GridScene { scene, tris, .. } = grid_scene(&mut rng, 4, 0.0, 0.15);
     let (mut o, mut d) = (Vec::new(), Vec::new());
     let g = |k: usize| k as f64 / 4.0;
@@ -640,7 +640,7 @@ pub(crate) fn assert_between_touch_and_inside<R: Real>(
 fn robust_rays_from_the_domain_boundary() {
     use crate::scene::CastOptions;
     use crate::status::FAILED;
-    let mut rng = Rng(31);
+    let mut rng = Rng::xorshift(31);
     let GridScene {
         scene,
         tris,
@@ -725,7 +725,7 @@ fn robust_rays_from_the_domain_boundary() {
 /// the right one is among the named triangle's alternatives.
 #[test]
 fn hits_name_the_alternative_the_ray_crosses() {
-    let mut rng = Rng(91);
+    let mut rng = Rng::xorshift(91);
     let (pts, tets) = kuhn_grid(5, 0.3, &mut rng);
     let faces: Vec<[u32; 3]> = all_faces(&tets)
         .into_iter()

@@ -105,7 +105,7 @@ fn unknown_kernel_is_a_clear_error() {
 /// The robust kernel's slack: an upper bound on |s − s̃|₁.
 #[test]
 fn slack_bounds_the_start_point_rounding() {
-    let mut rng = Rng(1);
+    let mut rng = Rng::xorshift(1);
     for _ in 0..10_000 {
         let s = [0, 1, 2].map(|_| (rng.f() - 0.5) * 10f64.powi((rng.f() * 12.0) as i32 - 6));
         let sr = s.map(|x| x as f32);
