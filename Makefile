@@ -21,6 +21,9 @@ SYSTEM_PACKAGES ?= install
 PYTEST_WORKERS ?= 2
 # Extra pytest arguments, e.g. `make test PYTEST_EXTRA="-k reference -x"`.
 PYTEST_EXTRA ?=
+# Cargo features the Rust tests and clippy turn on beyond the default ones: test tooling that
+# stays out of the wheel (Cargo.toml: `fuzz`, the fuzz targets).
+TEST_FEATURES ?= fuzz
 # Notebooks run as tests through nbmake; the folder is passed only if it exists.
 NOTEBOOKS := $(wildcard notebooks)
 
@@ -107,7 +110,7 @@ demo: setup-demo
 lint: setup
 	@status=0; \
 	for cmd in "$(CARGO) fmt --check" \
-	           "$(CARGO) clippy --all-targets --features python -- -D warnings" \
+	           "$(CARGO) clippy --all-targets --features python,$(TEST_FEATURES) -- -D warnings" \
 	           "$(CARGO) check --no-default-features" \
 	           "$(PY) -m ruff check python tests" \
 	           "$(PY) -m ruff format --check python tests" \
@@ -121,15 +124,15 @@ lint: setup
 # exit code 5 (no tests collected) counts as a failure.
 test: system-packages setup
 	@status=0; \
-	echo "+ $(CARGO) test"; \
-	$(CARGO) test || status=1; \
+	echo "+ $(CARGO) test --features $(TEST_FEATURES)"; \
+	$(CARGO) test --features $(TEST_FEATURES) || status=1; \
 	echo "+ $(PY) -m pytest -n $(PYTEST_WORKERS) -ra tests $(if $(NOTEBOOKS),--nbmake $(NOTEBOOKS)) $(PYTEST_EXTRA)"; \
 	$(PY) -m pytest -n $(PYTEST_WORKERS) -ra tests $(if $(NOTEBOOKS),--nbmake $(NOTEBOOKS)) $(PYTEST_EXTRA) || status=1; \
 	exit $$status
 
 # The two halves on their own (no setup step).
 test-rust:
-	$(CARGO) test
+	$(CARGO) test --features $(TEST_FEATURES)
 
 test-python:
 	$(PY) -m pytest -n $(PYTEST_WORKERS) -ra tests $(if $(NOTEBOOKS),--nbmake $(NOTEBOOKS)) $(PYTEST_EXTRA)

@@ -9,12 +9,12 @@ use crate::scene::Scene;
 /// float32, so the float32 walk reads the very mesh whose triangles the referee judges, and
 /// sums like `p − 3 v` of a test's rays stay exact.
 pub(crate) fn kuhn_grid(n: usize, jitter: f64, rng: &mut Rng) -> (Vec<[f64; 3]>, Vec<[u32; 4]>) {
-    crate::fuzz::kuhn_grid(n, jitter, || rng.f())
+    crate::mesh::kuhn::kuhn_grid(n, jitter, || rng.f())
 }
 
 /// The interior faces of the tets (sorted triples).
 pub(crate) fn all_faces(tets: &[[u32; 4]]) -> Vec<[u32; 3]> {
-    let f = crate::fuzz::tet_faces(tets);
+    let f = crate::mesh::kuhn::tet_faces(tets);
     // Interior faces only (listed twice): scene triangles never lie on the domain boundary.
     f.chunk_by(|a, b| a == b)
         .filter(|g| g.len() == 2)

@@ -692,6 +692,8 @@ fn packets_end_on_invalid_origins() {
 /// certified to about 5e-14) fall below the edge's (1 + 2^-52). Judged by the referee: all
 /// hits list its points in order of exact t, the tet walk's and the BVH's alike, each named by
 /// a triangle met there with t within the referee's bound; the first is the closest hit.
+// A fuzz case, on the fuzzer's scene: runs with the `fuzz` feature (`make test`).
+#[cfg(feature = "fuzz")]
 #[test]
 fn all_hits_in_exact_order_just_past_a_vertex() {
     use crate::accel::AccelKind;
@@ -782,6 +784,8 @@ fn all_hits_in_exact_order_just_past_a_vertex() {
 /// 7686576272770016265, ray 444: f64::MAX beside 0.1) cannot be scaled by a power of two
 /// exactly, and the walk answered for a nearby line (a hit where the referee sees none): every
 /// query and accelerator now marks it INVALID, as a NaN direction.
+// A fuzz case, on the fuzzer's scene: runs with the `fuzz` feature (`make test`).
+#[cfg(feature = "fuzz")]
 #[test]
 fn direction_beyond_the_exponent_range_is_invalid() {
     let (scene, _) = crate::fuzz::walk_scene(7686576272770016265 % 48);
