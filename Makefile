@@ -22,8 +22,9 @@ PYTEST_WORKERS ?= 2
 # Extra pytest arguments, e.g. `make test PYTEST_EXTRA="-k reference -x"`.
 PYTEST_EXTRA ?=
 # Cargo features the Rust tests and clippy turn on beyond the default ones: test tooling that
-# stays out of the wheel (Cargo.toml: `fuzz`, the fuzz targets).
-TEST_FEATURES ?= fuzz
+# stays out of the wheel (Cargo.toml: `fuzz`, the fuzz targets; `gpu-octree`, the GPU octree
+# walk its tests measure).
+TEST_FEATURES ?= fuzz,gpu-octree
 # Notebooks run as tests through nbmake; the folder is passed only if it exists.
 NOTEBOOKS := $(wildcard notebooks)
 

@@ -8,6 +8,7 @@
 //! preparation, the kernel table, limits) without a GPU.
 
 mod host;
+#[cfg(feature = "gpu-octree")]
 mod octree;
 mod parity;
 mod shaders;
