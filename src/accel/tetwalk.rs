@@ -10,10 +10,11 @@
 //! from the same state, so every answer is the one-ray walk's, bit for bit.
 //!
 //! A chunk of rays that share an origin (a camera) walks in packets instead
-//! ([`TetWalk::trace_packets`] in `tetwalk/packets.rs`, `traverse::packet`): sorted along a Morton curve of their
-//! directions, 64 at a time, a packet steps once for all its rays while they leave each tet by
-//! one face, and splits into groups by exit where they part; each ray finishes alone from
-//! where its group left it, so again every answer is the one-ray walk's, bit for bit.
+//! ([`TetWalk::trace_packets`] in `tetwalk/packets.rs`, `traverse::packet`): sorted along a
+//! Morton curve of their directions, 64 at a time, a packet steps once for all its rays while
+//! they leave each tet by one face, and splits into groups by exit where they part; each ray
+//! finishes alone from where its group left it, so again every answer is the one-ray walk's,
+//! bit for bit.
 
 use super::Accel;
 use super::{trace_each, Lanes, Packets};
