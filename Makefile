@@ -142,7 +142,7 @@ test-python:
 # changes one function at a time in the files below and runs the Rust library tests against
 # each change; a mutant no test catches is a path no test reaches (docs/testing.md).
 # MUTANTS_SHARD=k/n runs the k-th of n parts (a session can take one part).
-MUTANTS_FILES ?= src/query/*.rs src/traverse/exact.rs src/traverse/walk.rs src/traverse/packet.rs src/geom/*.rs src/locate/*.rs src/accel/*.rs
+MUTANTS_FILES ?= src/query/*.rs src/traverse/exact.rs src/traverse/walk.rs src/traverse/packet.rs src/geom/*.rs src/locate/*.rs src/accel/*.rs src/accel/tetwalk/packets.rs src/accel/portalez_octree/build.rs src/accel/portalez_octree/walk.rs
 MUTANTS_SHARD ?= 0/1
 .PHONY: mutants
 mutants: toolchain

@@ -8,7 +8,9 @@
 //! (hits leaked); trusting the cube map's guess without the exact check (`start`) fails the
 //! answers test on the depth-12 tree (another triangle than the BVH's).
 
+use super::tables::{FACE_AXIS, FACE_POSITIVE};
 use super::*;
+use crate::geom::exact::sign2;
 use crate::layout::LayoutKind;
 use crate::query::gather::Nearest;
 use crate::query::{AllHits, AnyHit, Listed};
