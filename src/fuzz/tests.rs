@@ -1,6 +1,5 @@
 use super::scenes::walk_scene;
 use super::*;
-use crate::accel::AccelKind;
 use crate::status::HIT;
 
 fn bounded(target: Target, cases: u64) {
@@ -125,11 +124,7 @@ fn denormal_origins_match_the_referee() {
         let (scene, _) = walk_scene(seed % 48);
         let tris = &scene.surface.triangles;
         let want = crate::referee::first_hit(o, d, lo, hi, tris);
-        for accel in [
-            AccelKind::TetWalk,
-            AccelKind::ReshetovBvh,
-            AccelKind::PortalezOctree,
-        ] {
+        for accel in crate::testing::ACCEL_KINDS {
             let rays = Rays {
                 origins: &o[..],
                 directions: &d[..],
