@@ -147,4 +147,4 @@ MUTANTS_SHARD ?= 0/1
 .PHONY: mutants
 mutants: toolchain
 	@$(CARGO) mutants --version >/dev/null 2>&1 || $(CARGO) install --locked cargo-mutants
-	$(CARGO) mutants $(foreach f,$(MUTANTS_FILES),--file '$(f)') --shard $(MUTANTS_SHARD) --timeout 600 -- --lib
+	$(CARGO) mutants --features fuzz $(foreach f,$(MUTANTS_FILES),--file '$(f)') --shard $(MUTANTS_SHARD) --timeout 600 -- --lib
