@@ -1,12 +1,12 @@
 //! Fuzzing on stable Rust (issue 18.5): two targets driven by a seed, each case reproducible
 //! from its own seed alone, panics caught per case so a failure names the seed.
 //!
-//! * [`construct_case`]: `Scene::build` / `Scene::build_with` on random point clouds with
+//! * [`construct_case`](crate::fuzz::construct_case): `Scene::build` / `Scene::build_with` on random point clouds with
 //!   random tets, and on valid Kuhn-grid meshes then mutated (indices out of range or
 //!   repeated, flipped, flat and duplicate tets, NaN/inf/huge/denormal coordinates, faces that
 //!   are no tet face, triangle ids out of range, empty inputs, non-box domains). Every case
 //!   must give `Ok` or an [`Error`]; a scene that builds then casts a few rays.
-//! * [`walk_case`]: valid generated scenes, rays with random, NaN, inf, zero, denormal and huge
+//! * [`walk_case`](crate::fuzz::walk_case): valid generated scenes, rays with random, NaN, inf, zero, denormal and huge
 //!   origins and directions, tmin/tmax scalar or per ray (NaN, negative, inverted), every query
 //!   kind (closest, any, all hits), rays started from hits (`leaving`, ids valid and not),
 //!   every accelerator, both precisions. Invariants: every status is MISS/HIT/FAILED/INVALID;

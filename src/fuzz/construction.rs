@@ -173,7 +173,7 @@ fn mutate(rng: &mut Rng, b: &mut BuildInput) {
 }
 
 /// One construction case: must return, with `Ok` or an error of the crate; a scene that builds
-/// must cast. `Err(message)` when an invariant fails (a panic is caught by [`run`]).
+/// must cast. `Err(message)` when an invariant fails (a panic is caught by [`run`](super::run)).
 pub fn construct_case(seed: u64) -> Result<(), String> {
     let mut rng = Rng::new(seed);
     let mut input = if rng.chance(0.3) {

@@ -13,8 +13,8 @@ pub mod context;
 pub mod device_scene;
 pub mod kernels;
 pub mod launch;
-/// Portalez & Duguet's octree walk in float32 on the GPU, measured by its tests only (the
-/// `gpu-octree` feature, which `make test` turns on).
+// Portalez & Duguet's octree walk in float32 on the GPU, measured by its tests only (the
+// `gpu-octree` feature, which `make test` turns on).
 #[cfg(feature = "gpu-octree")]
 pub mod octree;
 pub mod structs;

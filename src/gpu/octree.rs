@@ -1,7 +1,7 @@
 //! Portalez & Duguet's octree walk on the GPU (`shaders/octree/portalez.wgsl`) and its CPU
 //! twin, in float32 as the paper.
 //!
-//! [`OctreeHost`] flattens a balanced [`PortalezOctree`] (its public arrays only) into the
+//! [`OctreeHost`] flattens a balanced [`PortalezOctree`](crate::accel::PortalezOctree) (its public arrays only) into the
 //! kernel's buffers; [`OctreeHost::twin`] is the kernel in Rust, the same float32 operations
 //! in the same order, so that on a driver that neither fuses multiply-adds nor flushes
 //! subnormals (lavapipe, docs/gpu.md) both give the same bits. [`DeviceOctree`] holds the

@@ -1,7 +1,7 @@
 //! Kuhn grids: the valid tet meshes the tests and the fuzzer build their scenes from (a cube
 //! grid, each cube cut into 6 tets that conform across cubes), and the faces of a tet list.
 
-/// An n³ grid of cubes over [0,1]³, each cut into 6 Kuhn tets, interior points jittered by
+/// An n³ grid of cubes over \[0,1\]³, each cut into 6 Kuhn tets, interior points jittered by
 /// `jitter` (0: every face plane is shared by many faces, `uniform` draws in [0, 1)) and
 /// rounded to multiples of 2^-24. The crate's tests build their grids with it too.
 pub fn kuhn_grid(
