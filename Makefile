@@ -21,6 +21,10 @@ SYSTEM_PACKAGES ?= install
 PYTEST_WORKERS ?= 2
 # Extra pytest arguments, e.g. `make test PYTEST_EXTRA="-k reference -x"`.
 PYTEST_EXTRA ?=
+# Cargo features the Rust tests and clippy turn on beyond the default ones: test tooling that
+# stays out of the wheel (Cargo.toml: `fuzz`, the fuzz targets; `gpu-octree`, the GPU octree
+# walk its tests measure).
+TEST_FEATURES ?= fuzz,gpu-octree
 # Notebooks run as tests through nbmake; the folder is passed only if it exists.
 NOTEBOOKS := $(wildcard notebooks)
 
@@ -107,7 +111,7 @@ demo: setup-demo
 lint: setup
 	@status=0; \
 	for cmd in "$(CARGO) fmt --check" \
-	           "$(CARGO) clippy --all-targets --features python -- -D warnings" \
+	           "$(CARGO) clippy --all-targets --features python,$(TEST_FEATURES) -- -D warnings" \
 	           "$(CARGO) check --no-default-features" \
 	           "$(PY) -m ruff check python tests" \
 	           "$(PY) -m ruff format --check python tests" \
@@ -121,15 +125,15 @@ lint: setup
 # exit code 5 (no tests collected) counts as a failure.
 test: system-packages setup
 	@status=0; \
-	echo "+ $(CARGO) test"; \
-	$(CARGO) test || status=1; \
+	echo "+ $(CARGO) test --features $(TEST_FEATURES)"; \
+	$(CARGO) test --features $(TEST_FEATURES) || status=1; \
 	echo "+ $(PY) -m pytest -n $(PYTEST_WORKERS) -ra tests $(if $(NOTEBOOKS),--nbmake $(NOTEBOOKS)) $(PYTEST_EXTRA)"; \
 	$(PY) -m pytest -n $(PYTEST_WORKERS) -ra tests $(if $(NOTEBOOKS),--nbmake $(NOTEBOOKS)) $(PYTEST_EXTRA) || status=1; \
 	exit $$status
 
 # The two halves on their own (no setup step).
 test-rust:
-	$(CARGO) test
+	$(CARGO) test --features $(TEST_FEATURES)
 
 test-python:
 	$(PY) -m pytest -n $(PYTEST_WORKERS) -ra tests $(if $(NOTEBOOKS),--nbmake $(NOTEBOOKS)) $(PYTEST_EXTRA)
@@ -138,9 +142,9 @@ test-python:
 # changes one function at a time in the files below and runs the Rust library tests against
 # each change; a mutant no test catches is a path no test reaches (docs/testing.md).
 # MUTANTS_SHARD=k/n runs the k-th of n parts (a session can take one part).
-MUTANTS_FILES ?= src/query/*.rs src/traverse/exact.rs src/traverse/walk.rs src/traverse/packet.rs src/geom/*.rs src/locate/*.rs src/accel/*.rs
+MUTANTS_FILES ?= src/query/*.rs src/traverse/exact.rs src/traverse/walk.rs src/traverse/packet.rs src/geom/*.rs src/locate/*.rs src/accel/*.rs src/accel/tetwalk/packets.rs src/accel/portalez_octree/build.rs src/accel/portalez_octree/walk.rs
 MUTANTS_SHARD ?= 0/1
 .PHONY: mutants
 mutants: toolchain
 	@$(CARGO) mutants --version >/dev/null 2>&1 || $(CARGO) install --locked cargo-mutants
-	$(CARGO) mutants $(foreach f,$(MUTANTS_FILES),--file '$(f)') --shard $(MUTANTS_SHARD) --timeout 600 -- --lib
+	$(CARGO) mutants --features fuzz $(foreach f,$(MUTANTS_FILES),--file '$(f)') --shard $(MUTANTS_SHARD) --timeout 600 -- --lib

@@ -1,7 +1,7 @@
 //! Long fuzz runs on stable Rust (docs/fuzzing.md):
 //!
 //! ```text
-//! cargo run --release --example fuzz -- --cases 1000000 [--target construct|walk] [--seed S]
+//! cargo run --release --features fuzz --example fuzz -- --cases 1000000 [--target construct|walk] [--seed S]
 //! ```
 //!
 //! Prints, per target, the cases run, panics, invariant violations, seconds and the slowest

@@ -8,8 +8,9 @@
 pub mod accel;
 pub mod bench;
 pub mod error;
-/// Stable-Rust fuzz targets (construction, the walk): `cargo test` runs them bounded,
-/// `examples/fuzz.rs` long (docs/fuzzing.md).
+/// Stable-Rust fuzz targets (construction, the walk): `cargo test --features fuzz` runs them
+/// bounded, `examples/fuzz.rs` long (docs/fuzzing.md). Not in the wheel.
+#[cfg(feature = "fuzz")]
 pub mod fuzz;
 pub mod geom;
 #[cfg(feature = "gpu")]
@@ -19,6 +20,7 @@ pub mod locate;
 pub mod mesh;
 pub mod query;
 pub mod referee;
+pub mod rng;
 pub mod scene;
 pub mod simd;
 pub mod status;

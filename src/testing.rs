@@ -1,7 +1,15 @@
 //! Fixtures shared by the tests of several modules (compiled only for `cargo test`).
 
-pub(crate) use crate::bench::Rng;
-use crate::scene::Scene;
+use crate::accel::AccelKind;
+use crate::geom::ray::Ray;
+use crate::layout::LayoutKind;
+use crate::query::contact::Meet;
+use crate::query::Listed;
+use crate::referee;
+pub(crate) use crate::rng::Rng;
+use crate::scene::{CastOptions, Rays, Scene};
+use crate::traverse::Method;
+use std::cmp::Ordering;
 
 /// An n³ grid of cubes over [0,1]³, each cut into 6 Kuhn tets (conforming across cubes),
 /// interior points jittered so no two faces are coplanar by accident. Every coordinate is a
@@ -9,12 +17,12 @@ use crate::scene::Scene;
 /// float32, so the float32 walk reads the very mesh whose triangles the referee judges, and
 /// sums like `p − 3 v` of a test's rays stay exact.
 pub(crate) fn kuhn_grid(n: usize, jitter: f64, rng: &mut Rng) -> (Vec<[f64; 3]>, Vec<[u32; 4]>) {
-    crate::fuzz::kuhn_grid(n, jitter, || rng.f())
+    crate::mesh::kuhn::kuhn_grid(n, jitter, || rng.f())
 }
 
 /// The interior faces of the tets (sorted triples).
 pub(crate) fn all_faces(tets: &[[u32; 4]]) -> Vec<[u32; 3]> {
-    let f = crate::fuzz::tet_faces(tets);
+    let f = crate::mesh::kuhn::tet_faces(tets);
     // Interior faces only (listed twice): scene triangles never lie on the domain boundary.
     f.chunk_by(|a, b| a == b)
         .filter(|g| g.len() == 2)
@@ -159,4 +167,144 @@ pub(crate) fn windows(rays: &[Ray6], lo: f64) -> (Vec<f64>, Vec<f64>) {
             (lo / l, 1.0 / l)
         })
         .unzip()
+}
+
+// The accelerator-agreement harness: every accelerator run over the same rays, each answer
+// judged by the exact referee and compared with the exact walk's.
+
+/// Every accelerator a cast can run: the accelerator table's rows, so a new accelerator joins
+/// every agreement test.
+pub(crate) const ACCEL_KINDS: &[AccelKind] = AccelKind::ALL;
+
+/// The default cast options on `accel`.
+pub(crate) fn on(accel: AccelKind) -> CastOptions {
+    CastOptions {
+        accel,
+        ..Default::default()
+    }
+}
+
+/// The scene and rays the accelerators are compared on: an unjittered 4³ Kuhn grid (planes
+/// shared by many faces) with about a third of its inner faces as triangles, the stress rays of
+/// [`exact_case_rays`] and a 32×32 fan from one eye outside the box (the packets' case), in
+/// float64 and float32.
+pub(crate) struct Agreement {
+    pub g: GridScene,
+    pub rays: Vec<Ray6>,
+    pub o: Vec<f64>,
+    pub d: Vec<f64>,
+    pub o32: Vec<f32>,
+    pub d32: Vec<f32>,
+}
+
+impl Agreement {
+    pub fn new(seed: u64) -> Agreement {
+        let mut rng = Rng::xorshift(seed);
+        let g = grid_scene_inside(&mut rng, 4, 0.0, 0.35);
+        let mut rays = exact_case_rays(&mut rng, &g.pts, &g.faces, 2500);
+        let eye = [-0.75, 0.3125, 0.4375];
+        rays.extend((0..1024).map(|k| {
+            let (x, y) = ((k % 32) as f64 / 32.0, (k / 32) as f64 / 32.0);
+            (eye, [1.0, x - 0.5, y - 0.5])
+        }));
+        let o: Vec<f64> = rays.iter().flat_map(|r| r.0).collect();
+        let d: Vec<f64> = rays.iter().flat_map(|r| r.1).collect();
+        let o32 = o.iter().map(|&x| x as f32).collect();
+        let d32 = d.iter().map(|&x| x as f32).collect();
+        Agreement {
+            g,
+            rays,
+            o,
+            d,
+            o32,
+            d32,
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.rays.len()
+    }
+
+    /// Every ray's [tmin, tmax]: [0, ∞), or with `window` one that cuts crossings on both
+    /// sides ([`windows`]).
+    pub fn bounds(&self, window: bool) -> (Vec<f64>, Vec<f64>) {
+        if window {
+            windows(&self.rays, 0.25)
+        } else {
+            (vec![0.0; self.len()], vec![f64::INFINITY; self.len()])
+        }
+    }
+
+    pub fn r64<'a>(&'a self, tmin: &'a [f64], tmax: &'a [f64]) -> Rays<'a, f64> {
+        Rays {
+            origins: &self.o,
+            directions: &self.d,
+            tmin,
+            tmax,
+            leaving: None,
+        }
+    }
+
+    pub fn r32<'a>(&'a self, tmin: &'a [f64], tmax: &'a [f64]) -> Rays<'a, f32> {
+        Rays {
+            origins: &self.o32,
+            directions: &self.d32,
+            tmin,
+            tmax,
+            leaving: None,
+        }
+    }
+
+    /// The exact walk's (the default cast's) any hits and all hits of `rays`.
+    pub fn walk_any_all(&self, rays: &Rays<f64>) -> (Vec<u8>, Vec<Listed>) {
+        let n = rays.len();
+        let (mut any, mut all) = (vec![0u8; n], vec![Listed::default(); n]);
+        let opts = CastOptions::default();
+        let scene = &self.g.scene;
+        scene
+            .occluded(Method::DEFAULT, LayoutKind::DEFAULT, rays, &mut any, &opts)
+            .unwrap();
+        scene.intersections(rays, &mut all, &opts).unwrap();
+        (any, all)
+    }
+}
+
+/// `got` lists the points the exact walk lists (`walk`) for `ray` over `tris`: as many, each
+/// one of the walk's at the same exact t (bit for bit where both name the same triangle), in
+/// order of exact t. `what` names the case in messages.
+pub(crate) fn assert_same_points(
+    what: &str,
+    ray: &Ray,
+    tris: &[[[f64; 3]; 3]],
+    got: &[Meet],
+    walk: &[Meet],
+) {
+    let shown = |m: &[Meet]| m.iter().map(|m| (m.t, m.triangle)).collect::<Vec<_>>();
+    assert_eq!(
+        got.len(),
+        walk.len(),
+        "{what}: o {:?} d {:?} points {:?} walk {:?}",
+        ray.o,
+        ray.d,
+        shown(got),
+        shown(walk)
+    );
+    let crossing =
+        |tri: u32| referee::crossing(ray.o, ray.d, &tris[tri as usize]).expect("a met triangle");
+    let mut used = vec![false; walk.len()];
+    for m in got {
+        let cm = crossing(m.triangle);
+        let k = (0..walk.len())
+            .find(|&k| !used[k] && crossing(walk[k].triangle).cmp_t_of(&cm) == Ordering::Equal);
+        let k = k.unwrap_or_else(|| panic!("{what}: point {m:?} not the walk's"));
+        used[k] = true;
+        if walk[k].triangle == m.triangle {
+            assert_eq!(walk[k].t.to_bits(), m.t.to_bits(), "{what}: t of {m:?}");
+        }
+    }
+    assert!(
+        got.windows(2)
+            .all(|p| crossing(p[0].triangle).cmp_t_of(&crossing(p[1].triangle)) == Ordering::Less),
+        "{what}: the points in order of exact t"
+    );
 }

@@ -8,7 +8,6 @@
 //! exactly (`query::gather::Line::meets`), and the query keeps the exact nearest, any, or all.
 //! So a BVH answer is what exact arithmetic gives, as the exact walk's is.
 
-use super::reshetov_bvh_packets::CullCounters;
 use super::Accel;
 use crate::error::{Error, Result};
 use crate::geom::ray::Ray;
@@ -16,6 +15,54 @@ use crate::geom::real::{greater, lesser};
 use crate::mesh::surface::check_finite;
 use crate::query::gather::{Gather, Line, Tri};
 use crate::query::QueryKind;
+use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
+
+/// How many ray–triangle tests packets reached at leaves, and how many of them the frustum
+/// culled (the paper's "> 90% culled"), summed over every packet cast on one tree.
+#[derive(Debug, Default)]
+pub struct CullCounters {
+    pub tests: AtomicU64,
+    /// Culled by the frustum or the aperture test.
+    pub culled: AtomicU64,
+    /// Of those, culled by the aperture test (what the frustum left).
+    pub aperture: AtomicU64,
+    /// Leaves where the packet had no prevalent axis (some active ray's direction is zero
+    /// or not finite on every axis's reciprocal): tested ray by ray, uncut.
+    pub no_axis: AtomicU64,
+    /// Leaves reached with one active ray (tested as the one-ray tree does).
+    pub lone: AtomicU64,
+    /// Leaves reached with two or more active rays (a frustum built).
+    pub frusta: AtomicU64,
+}
+
+impl Clone for CullCounters {
+    fn clone(&self) -> Self {
+        let c = |a: &AtomicU64| AtomicU64::new(a.load(Relaxed));
+        CullCounters {
+            tests: c(&self.tests),
+            culled: c(&self.culled),
+            aperture: c(&self.aperture),
+            no_axis: c(&self.no_axis),
+            lone: c(&self.lone),
+            frusta: c(&self.frusta),
+        }
+    }
+}
+
+impl CullCounters {
+    /// (tests, culled, aperture, no_axis, lone, frusta) so far.
+    pub fn read(&self) -> [u64; 6] {
+        [
+            &self.tests,
+            &self.culled,
+            &self.aperture,
+            &self.no_axis,
+            &self.lone,
+            &self.frusta,
+        ]
+        .map(|a| a.load(Relaxed))
+    }
+}
 
 /// One node, 32 bytes: its box in float32 rounded outward (it holds the float64 box), and
 /// either its two children (`count == 0`: `first` and `first + 1`) or its triangles

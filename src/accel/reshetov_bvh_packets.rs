@@ -13,59 +13,14 @@
 //! X0..X1 slab"). Surviving triangles are tested ray by ray, exactly (`Line::meets`).
 
 use super::reshetov_bvh::{BvhNode, ReshetovBvh, Slab};
+// The counters live with the tree that holds them; this path is `accel`'s re-export.
+pub use super::reshetov_bvh::CullCounters;
 use super::{trace_each, Accel};
 use crate::geom::ray::Ray;
 use crate::query::gather::{Gather, Line, Tri};
 use crate::query::{QueryKind, Sink};
 use crate::traverse::packet::{DirBox, Edge};
-use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
-
-/// How many ray–triangle tests packets reached at leaves, and how many of them the frustum
-/// culled (the paper's "> 90% culled"), summed over every packet cast on one tree.
-#[derive(Debug, Default)]
-pub struct CullCounters {
-    pub tests: AtomicU64,
-    /// Culled by the frustum or the aperture test.
-    pub culled: AtomicU64,
-    /// Of those, culled by the aperture test (what the frustum left).
-    pub aperture: AtomicU64,
-    /// Leaves where the packet had no prevalent axis (some active ray's direction is zero
-    /// or not finite on every axis's reciprocal): tested ray by ray, uncut.
-    pub no_axis: AtomicU64,
-    /// Leaves reached with one active ray (tested as the one-ray tree does).
-    pub lone: AtomicU64,
-    /// Leaves reached with two or more active rays (a frustum built).
-    pub frusta: AtomicU64,
-}
-
-impl Clone for CullCounters {
-    fn clone(&self) -> Self {
-        let c = |a: &AtomicU64| AtomicU64::new(a.load(Relaxed));
-        CullCounters {
-            tests: c(&self.tests),
-            culled: c(&self.culled),
-            aperture: c(&self.aperture),
-            no_axis: c(&self.no_axis),
-            lone: c(&self.lone),
-            frusta: c(&self.frusta),
-        }
-    }
-}
-
-impl CullCounters {
-    /// (tests, culled, aperture, no_axis, lone, frusta) so far.
-    pub fn read(&self) -> [u64; 6] {
-        [
-            &self.tests,
-            &self.culled,
-            &self.aperture,
-            &self.no_axis,
-            &self.lone,
-            &self.frusta,
-        ]
-        .map(|a| a.load(Relaxed))
-    }
-}
+use std::sync::atomic::Ordering::Relaxed;
 
 /// The BVH walked in packets of `size` rays (16: the paper's 4×4 for real scenes; 64: its
 /// 8×8 for synthetic ones).
@@ -430,7 +385,7 @@ impl Accel<f64> for BvhPackets<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bench::Rng;
+    use crate::rng::Rng;
 
     fn packet(rays: &[([f64; 3], [f64; 3])]) -> Vec<PacketRay<()>> {
         rays.iter()
@@ -475,7 +430,7 @@ mod tests {
     /// and the corners' err) fails this test at trial 2.
     #[test]
     fn frustum_culls_only_what_no_ray_meets() {
-        let mut rng = Rng(7);
+        let mut rng = Rng::xorshift(7);
         let (mut culled, mut met, mut by_aperture) = (0, 0, 0);
         for trial in 0..20_000 {
             let tri: Tri = [rng.p3(), rng.p3(), rng.p3()];

@@ -6,12 +6,12 @@
 //! face's data are prepared beforehand, as a walk carries them. Memory effects are kept out:
 //! all cases sit in one array read in order.
 
-use super::Rng;
 use crate::error::{Error, Result};
 use crate::geom::predicates::orient;
 use crate::geom::real::{Real, V3};
 use crate::mesh::build::OUTWARD_FACES;
 use crate::referee;
+use crate::rng::Rng;
 use crate::traverse::{Exit, ExitMethod, Method, MethodVisitor};
 use std::cmp::Ordering;
 use std::hint::black_box;
@@ -59,7 +59,7 @@ fn grid(x: f64, bits: i32) -> f64 {
 /// 28 significant bits (its magnitude is below 5m, its last bit at least min(2^-24,
 /// 2^-20 m)), so b is not rounded.
 pub fn cases(n_tets: usize, rays_per_tet: usize, seed: u64) -> Vec<Case> {
-    let mut rng = Rng(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1);
+    let mut rng = Rng::xorshift(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1);
     let mut out = Vec::with_capacity(n_tets * rays_per_tet);
     while out.len() < n_tets * rays_per_tet {
         let mut v = [0; 4].map(|_| [rng.f(), rng.f(), rng.f()].map(|x| grid(x, 20)));

@@ -217,6 +217,18 @@ pub fn cmp_fractions(a: &Dyadic, b: &Dyadic, c: &Dyadic, d: &Dyadic) -> Ordering
     s.cmp(&0)
 }
 
+/// det(a, b, c), exactly.
+pub fn rdet(a: &[Dyadic; 3], b: &[Dyadic; 3], c: &[Dyadic; 3]) -> Dyadic {
+    &a[0] * (&b[1] * &c[2] - &b[2] * &c[1]) - &a[1] * (&b[0] * &c[2] - &b[2] * &c[0])
+        + &a[2] * (&b[0] * &c[1] - &b[1] * &c[0])
+}
+
+/// A float64 point's exact value (for the callers that evaluate a perturbation: the exact
+/// walk, exact orientation).
+pub fn exact3(v: [f64; 3]) -> [Dyadic; 3] {
+    v.map(Dyadic::from_f64)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -234,7 +246,7 @@ mod tests {
     /// float64's whole range (denormals and 1e±300 beside ordinary values).
     #[test]
     fn agrees_with_rationals() {
-        let mut rng = crate::fuzz::Rng::new(0x2545_f491_4f6c_dd1d);
+        let mut rng = crate::rng::Rng::new(0x2545_f491_4f6c_dd1d);
         let mut next = move || rng.u64();
         let odd = [
             0.0,

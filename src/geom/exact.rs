@@ -4,7 +4,7 @@
 //! exact arithmetic (dyadic numbers, `geom::dyadic`) only when the bound cannot decide
 //! (near-degenerate cases).
 
-use super::dyadic::{cmp_fractions, Dyadic};
+use super::dyadic::{cmp_fractions, exact3, rdet, Dyadic};
 use super::predicates::expansion_safe;
 use super::real::{exponent, times_pow2, V3};
 use super::rounded::{rounded_hit, RoundedHit};
@@ -21,18 +21,8 @@ fn rat(x: f64) -> Dyadic {
     Dyadic::from_f64(x)
 }
 
-fn rat3(v: V3<f64>) -> [Dyadic; 3] {
-    v.map(rat)
-}
-
 fn rsub(a: &[Dyadic; 3], b: &[Dyadic; 3]) -> [Dyadic; 3] {
     [0, 1, 2].map(|k| &a[k] - &b[k])
-}
-
-/// det(a, b, c), exactly.
-pub fn rdet(a: &[Dyadic; 3], b: &[Dyadic; 3], c: &[Dyadic; 3]) -> Dyadic {
-    &a[0] * (&b[1] * &c[2] - &b[2] * &c[1]) - &a[1] * (&b[0] * &c[2] - &b[2] * &c[0])
-        + &a[2] * (&b[0] * &c[1] - &b[1] * &c[0])
 }
 
 fn sign_of(x: &Dyadic) -> i8 {
@@ -67,7 +57,7 @@ pub fn side(d: V3<f64>, s: V3<f64>, p: V3<f64>, q: V3<f64>) -> i8 {
             return -1;
         }
     }
-    let (d, s, p, q) = (rat3(d), rat3(s), rat3(p), rat3(q));
+    let (d, s, p, q) = (exact3(d), exact3(s), exact3(p), exact3(q));
     sign_of(&rdet(&d, &rsub(&p, &s), &rsub(&q, &s)))
 }
 
@@ -180,8 +170,8 @@ pub fn cmp_t(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3], x: f64) -> Ordering {
         }
         return (-(orient_sign(a, b, c, o) as i32) * den as i32).cmp(&0);
     }
-    let (o, d) = (rat3(o), rat3(d));
-    let [a, b, c] = tri.map(rat3);
+    let (o, d) = (exact3(o), exact3(d));
+    let [a, b, c] = tri.map(exact3);
     let num = rdet(&rsub(&a, &o), &rsub(&b, &o), &rsub(&c, &o));
     let den = rdet(&d, &rsub(&b, &a), &rsub(&c, &a));
     if den.is_zero() {
@@ -202,9 +192,9 @@ pub fn cmp_plane_t(o: V3<f64>, d: V3<f64>, tri1: &[V3<f64>; 3], tri2: &[V3<f64>;
             return Ordering::Greater;
         }
     }
-    let (o, d) = (rat3(o), rat3(d));
+    let (o, d) = (exact3(o), exact3(d));
     let exact_t = |tri: &[V3<f64>; 3]| {
-        let [a, b, c] = tri.map(rat3);
+        let [a, b, c] = tri.map(exact3);
         let num = rdet(&rsub(&a, &o), &rsub(&b, &o), &rsub(&c, &o));
         let den = rdet(&d, &rsub(&b, &a), &rsub(&c, &a));
         (num, den)
@@ -260,11 +250,6 @@ pub fn orient_sign(a: V3<f64>, b: V3<f64>, c: V3<f64>, x: V3<f64>) -> i8 {
     } else {
         0
     }
-}
-
-/// Exact values for the callers that evaluate a perturbation (the exact walk).
-pub fn exact3(v: V3<f64>) -> [Dyadic; 3] {
-    rat3(v)
 }
 
 /// The 2×2 filter: (a − b) m − (c − e) n has error below 3 ε (|p| + |q|) (ε = 2^-53).

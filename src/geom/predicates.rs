@@ -38,10 +38,10 @@ pub fn expansion_safe(v: f64) -> bool {
 #[cold]
 #[inline(never)]
 fn exact_orient(a: [f64; 3], b: [f64; 3], c: [f64; 3], d: [f64; 3]) -> i8 {
-    let e = super::exact::exact3;
-    let (a, b, c, d) = (e(a), e(b), e(c), e(d));
-    let sub = |p: &[super::dyadic::Dyadic; 3]| [0, 1, 2].map(|k| &p[k] - &a[k]);
-    super::exact::rdet(&sub(&b), &sub(&c), &sub(&d)).signum()
+    use super::dyadic::{exact3, rdet, Dyadic};
+    let (a, b, c, d) = (exact3(a), exact3(b), exact3(c), exact3(d));
+    let sub = |p: &[Dyadic; 3]| [0, 1, 2].map(|k| &p[k] - &a[k]);
+    rdet(&sub(&b), &sub(&c), &sub(&d)).signum()
 }
 
 #[cfg(test)]
@@ -114,7 +114,7 @@ mod tests {
         let odd = [
             0.0, 5e-324, -5e-324, 1e-310, 1e-300, 1e-160, 1e160, 1e300, 0.5, 1.0,
         ];
-        let mut rng = crate::fuzz::Rng::new(0x9e37_79b9_7f4a_7c15);
+        let mut rng = crate::rng::Rng::new(0x9e37_79b9_7f4a_7c15);
         let mut pick = move || rng.pick(&odd);
         let mut differs = 0;
         for _ in 0..20_000 {

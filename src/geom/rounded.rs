@@ -405,7 +405,7 @@ struct ExactValues {
 }
 
 fn exact_det(a: &[Dyadic; 3], b: &[Dyadic; 3], c: &[Dyadic; 3]) -> Dyadic {
-    super::exact::rdet(a, b, c)
+    super::dyadic::rdet(a, b, c)
 }
 
 impl Exact {

@@ -9,6 +9,7 @@ use super::device_scene::DeviceScene;
 use super::kernels::KernelSpec;
 use super::launch::{Batching, Launch};
 use super::structs::{RayIn, RayOut, END_BOUNDARY, END_DEFERRED, END_HIT};
+use super::timings::GpuTimings;
 use crate::error::{Error, Result};
 use crate::locate::{LocateState, Start, WalkStart};
 use crate::query::RayHit;
@@ -18,29 +19,6 @@ use crate::threads::run_pieces;
 use crate::traverse::{Walk, WalkEnd};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
-
-/// Where the time of a GPU cast went, in seconds (each phase waits for the device before the
-/// next starts, so the phases do not overlap).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct GpuTimings {
-    /// Start-tet location and ray preparation on the CPU.
-    pub locate: f64,
-    /// Uploading the scene's buffers (0 when they were already on the device).
-    pub scene_upload: f64,
-    /// Copying the rays to the device.
-    pub upload: f64,
-    /// The traversal kernel.
-    pub kernel: f64,
-    /// Copying the results back.
-    pub readback: f64,
-    /// Hits on the caller's triangles, and CPU walks of deferred rays.
-    pub finish: f64,
-    /// Rays the GPU walked (rays that miss the box or are invalid are settled on the CPU).
-    pub walked: usize,
-    /// Robust kernel: rays deferred to the CPU robust walk.
-    pub deferred: usize,
-    pub batches: usize,
-}
 
 /// A chunk's rays that walk: their index in the chunk and start, and as the kernel takes them.
 type Located = (Vec<(u32, WalkStart)>, Vec<RayIn>);

@@ -1,7 +1,6 @@
 //! The device: adapters wgpu can see, the one tetrace picks, its device and queue (created
 //! once per process with the adapter's own limits), and the kernels' pipelines.
 
-use super::kernels::KernelSpec;
 use crate::error::{Error, Result};
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
@@ -125,8 +124,8 @@ pub struct Gpu {
     /// The device's limits: the adapter's own, all requested (large scenes need their
     /// max_storage_buffer_binding_size and max_buffer_size, not WebGPU's defaults).
     pub limits: wgpu::Limits,
-    /// Compiled kernels, by (method, layout).
-    pipelines: Mutex<HashMap<(&'static str, &'static str), Arc<wgpu::ComputePipeline>>>,
+    /// Compiled kernels, by (method, layout) (`Gpu::pipeline`, in kernels.rs).
+    pub(super) pipelines: Mutex<HashMap<(&'static str, &'static str), Arc<wgpu::ComputePipeline>>>,
 }
 
 static GPU: Mutex<Option<Arc<Gpu>>> = Mutex::new(None);
@@ -241,38 +240,5 @@ impl Gpu {
         }
         readback.unmap();
         Ok(())
-    }
-
-    /// The kernel's compute pipeline, compiled on first use.
-    pub fn pipeline(&self, kernel: &KernelSpec) -> Result<Arc<wgpu::ComputePipeline>> {
-        let key = (kernel.method, kernel.layout.name);
-        let mut p = self.pipelines.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some(x) = p.get(&key) {
-            return Ok(x.clone());
-        }
-        let source = kernel.source();
-        let label = format!("kernel {}", kernel.name());
-        let files: Vec<&str> = kernel.parts().iter().map(|w| w.path).collect();
-        let what = format!("compiling {label} (shaders/{{{}}})", files.join(", "));
-        let pipeline = self.scoped(&what, || {
-            let module = self
-                .device
-                .create_shader_module(wgpu::ShaderModuleDescriptor {
-                    label: Some(&label),
-                    source: wgpu::ShaderSource::Wgsl(source.into()),
-                });
-            self.device
-                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some(&label),
-                    layout: None,
-                    module: &module,
-                    entry_point: Some("main"),
-                    compilation_options: Default::default(),
-                    cache: None,
-                })
-        })?;
-        let pipeline = Arc::new(pipeline);
-        p.insert(key, pipeline.clone());
-        Ok(pipeline)
     }
 }

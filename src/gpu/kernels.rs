@@ -8,10 +8,10 @@
 //! `shaders/common.wgsl` lists, a [`GpuRay`] impl for the CPU twin's prepared ray (if it is
 //! a new kind of ray), and one row in [`KERNELS`]. Adding a layout: its records file, a walk
 //! (or an existing one, if the layout provides the same accessors), an upload function in
-//! `device_scene.rs`, and one row in [`GPU_LAYOUTS`].
+//! `upload.rs`, and one row in [`GPU_LAYOUTS`].
 
-use super::device_scene::{upload_tet20, upload_tet80, LayoutBuffers};
 use super::structs::{RayIn, NO_ENTRY};
+use super::upload::{upload_tet20, upload_tet80, LayoutBuffers};
 use super::Gpu;
 use crate::error::{Error, Result};
 use crate::locate::WalkStart;
@@ -21,6 +21,7 @@ use crate::traverse::aman2022::BasisRay;
 use crate::traverse::lagae2008_plucker::PluckerRay;
 use crate::traverse::robust::LineRay;
 use crate::traverse::{walk, Aman2022, ExitMethod, Maria2017, Robust, Walk};
+use std::sync::Arc;
 
 /// One WGSL file: its path under `shaders/` and its text, embedded at compile time.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -179,6 +180,41 @@ impl KernelSpec {
 impl std::fmt::Debug for KernelSpec {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "KernelSpec({})", self.name())
+    }
+}
+
+impl Gpu {
+    /// The kernel's compute pipeline, compiled on first use (the device keeps it).
+    pub fn pipeline(&self, kernel: &KernelSpec) -> Result<Arc<wgpu::ComputePipeline>> {
+        let key = (kernel.method, kernel.layout.name);
+        let mut p = self.pipelines.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(x) = p.get(&key) {
+            return Ok(x.clone());
+        }
+        let source = kernel.source();
+        let label = format!("kernel {}", kernel.name());
+        let files: Vec<&str> = kernel.parts().iter().map(|w| w.path).collect();
+        let what = format!("compiling {label} (shaders/{{{}}})", files.join(", "));
+        let pipeline = self.scoped(&what, || {
+            let module = self
+                .device
+                .create_shader_module(wgpu::ShaderModuleDescriptor {
+                    label: Some(&label),
+                    source: wgpu::ShaderSource::Wgsl(source.into()),
+                });
+            self.device
+                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(&label),
+                    layout: None,
+                    module: &module,
+                    entry_point: Some("main"),
+                    compilation_options: Default::default(),
+                    cache: None,
+                })
+        })?;
+        let pipeline = Arc::new(pipeline);
+        p.insert(key, pipeline.clone());
+        Ok(pipeline)
     }
 }
 

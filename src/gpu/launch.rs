@@ -1,10 +1,10 @@
 //! Running a kernel over prepared rays: the ray buffers, the bind group, then per batch an
 //! upload, a dispatch (a 2D grid when one row of workgroups is not enough) and a readback.
 
-use super::cast::GpuTimings;
 use super::context::Gpu;
-use super::device_scene::LayoutBuffers;
 use super::structs::{Params, RayIn, RayOut, WORKGROUP};
+use super::timings::GpuTimings;
+use super::upload::LayoutBuffers;
 use crate::error::Result;
 use std::time::Instant;
 use wgpu::util::DeviceExt;

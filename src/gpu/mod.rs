@@ -13,14 +13,19 @@ pub mod context;
 pub mod device_scene;
 pub mod kernels;
 pub mod launch;
+// Portalez & Duguet's octree walk in float32 on the GPU, measured by its tests only (the
+// `gpu-octree` feature, which `make test` turns on).
+#[cfg(feature = "gpu-octree")]
 pub mod octree;
 pub mod structs;
+pub mod timings;
+pub mod upload;
 
-pub use cast::GpuTimings;
 pub use context::{adapters, gpu, AdapterSummary, Gpu};
 pub use device_scene::DeviceScene;
 pub use kernels::{KernelSpec, GPU_LAYOUTS, KERNELS};
 pub use launch::{Batching, MAX_BATCH};
+pub use timings::GpuTimings;
 
 #[cfg(test)]
 mod tests;

@@ -243,7 +243,7 @@ mod tests {
     /// Every layout answers the same questions the same way on a real mesh.
     #[test]
     fn layouts_agree_with_the_topology() {
-        let mut rng = crate::testing::Rng(17);
+        let mut rng = crate::testing::Rng::xorshift(17);
         let (p, t) = crate::testing::kuhn_grid(3, 0.3, &mut rng);
         let m = TetMesh::build(p, &t, &[], &[]).unwrap();
         let (plain, t32, t20, t16, t80) = (

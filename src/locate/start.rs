@@ -423,7 +423,7 @@ mod tests {
     /// its state from ray to ray starts every ray where a fresh search does, and the shortcut
     /// ran for some of them.
     fn entries_match<R: Real>() {
-        let mut rng = Rng(11);
+        let mut rng = Rng::xorshift(11);
         // No jitter: the box's sides hold whole faces of a regular grid, with collinear edges.
         let g = grid_scene(&mut rng, 3, 0.0, 0.3);
         let (scene, points) = (&g.scene, g.scene.points::<R>());

@@ -105,7 +105,7 @@ mod tests {
     /// and nowhere else.
     #[test]
     fn faces_are_found_at_their_corners_and_edges() {
-        let g = grid_scene(&mut Rng(7), 3, 0.3, 0.5);
+        let g = grid_scene(&mut Rng::xorshift(7), 3, 0.3, 0.5);
         let mesh = &g.scene.mesh;
         let inc = Incidence::build(mesh);
         let n_sides = mesh.constrained.len();

@@ -4,6 +4,7 @@
 pub mod build;
 pub mod hilbert;
 pub mod incidence;
+pub mod kuhn;
 pub mod surface;
 
 pub use build::{Link, TetMesh, BOUNDARY};

@@ -24,6 +24,10 @@ enum Arrays {
 /// Per ray, the hit a ray starts from (`start=hits`): the caller's triangle it leaves and the
 /// tet that hit's walk ended in, −1 for none.
 type Start = (Py<PyArray1<i32>>, Py<PyArray1<i32>>);
+/// The same, as Python passes it.
+type StartArg<'py> = (Bound<'py, PyArray1<i32>>, Bound<'py, PyArray1<i32>>);
+/// The same, borrowed for one call.
+type StartRead<'py> = (PyReadonlyArray1<'py, i32>, PyReadonlyArray1<'py, i32>);
 
 #[pyclass(frozen, name = "RayRequest", module = "tetrace._native")]
 pub struct PyRayRequest {
@@ -59,7 +63,7 @@ impl PyRayRequest {
         layout: Option<LayoutArg>,
         accel: Option<AccelArg>,
         packet: Option<&Bound<'_, PyAny>>,
-        start: Option<(Bound<'_, PyArray1<i32>>, Bound<'_, PyArray1<i32>>)>,
+        start: Option<StartArg<'_>>,
         audit: bool,
     ) -> PyResult<Self> {
         let (arrays, n) = match precision {
@@ -224,7 +228,7 @@ pub(crate) struct Borrowed<'py, R: Element> {
     directions: PyReadonlyArray2<'py, R>,
     tmin: PyReadonlyArray1<'py, f64>,
     tmax: PyReadonlyArray1<'py, f64>,
-    start: Option<(PyReadonlyArray1<'py, i32>, PyReadonlyArray1<'py, i32>)>,
+    start: Option<StartRead<'py>>,
 }
 
 impl<R: Element + Real> Borrowed<'_, R> {

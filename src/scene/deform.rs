@@ -178,7 +178,7 @@ mod tests {
 
     /// Closest hits of `n` random rays from inside the box (status, triangle, t).
     fn cast(scene: &Scene, n: usize, seed: u64) -> Vec<(u8, i32, f64)> {
-        let mut rng = Rng(seed);
+        let mut rng = Rng::xorshift(seed);
         let o: Vec<f64> = (0..3 * n).map(|_| 0.05 + 0.9 * rng.f()).collect();
         let d: Vec<f64> = (0..3 * n).map(|_| rng.f() - 0.5).collect();
         let rays = Rays {
@@ -219,7 +219,7 @@ mod tests {
     /// hits, bit for bit (the walk is exact; only the tet order differs).
     #[test]
     fn moved_scene_answers_as_a_rebuilt_one() {
-        let g = grid_scene_inside(&mut Rng(3), 4, 0.3, 0.3);
+        let g = grid_scene_inside(&mut Rng::xorshift(3), 4, 0.3, 0.3);
         let mut scene = g.scene;
         let before = cast(&scene, 2000, 11);
         let pts = moved(&g.pts, |p| bend(p, 0.02));
@@ -256,7 +256,7 @@ mod tests {
     /// A point pushed through its neighbourhood inverts tets: nothing changes.
     #[test]
     fn an_inverting_move_is_refused() {
-        let g = grid_scene_inside(&mut Rng(5), 3, 0.3, 0.3);
+        let g = grid_scene_inside(&mut Rng::xorshift(5), 3, 0.3, 0.3);
         let mut scene = g.scene;
         let before = cast(&scene, 500, 2);
         let points_before = scene.mesh.points.clone();
@@ -283,7 +283,7 @@ mod tests {
     /// A box point that moves, or an inner point on or past the box, is refused.
     #[test]
     fn the_box_stays() {
-        let g = grid_scene_inside(&mut Rng(8), 3, 0.3, 0.3);
+        let g = grid_scene_inside(&mut Rng::xorshift(8), 3, 0.3, 0.3);
         let mut scene = g.scene;
         let corner = g.pts.iter().position(|p| *p == [1.0, 1.0, 1.0]).unwrap();
         let mut pts = g.pts.clone();
@@ -308,7 +308,7 @@ mod tests {
     /// Bad input is an error, not a panic, and changes nothing.
     #[test]
     fn bad_input_is_an_error() {
-        let g = grid_scene_inside(&mut Rng(9), 3, 0.3, 0.5);
+        let g = grid_scene_inside(&mut Rng::xorshift(9), 3, 0.3, 0.5);
         assert!(!g.faces.is_empty());
         let mut scene = g.scene;
         let tris = triangles(&g.pts, &g.faces);
@@ -340,7 +340,7 @@ mod tests {
     /// The moved copy equals the scene moved in place, and the original keeps its points.
     #[test]
     fn a_moved_copy_leaves_the_original() {
-        let g = grid_scene_inside(&mut Rng(4), 3, 0.3, 0.4);
+        let g = grid_scene_inside(&mut Rng::xorshift(4), 3, 0.3, 0.4);
         let mut scene = g.scene;
         scene
             .build_bvh(BvhParams {

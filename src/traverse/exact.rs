@@ -23,8 +23,8 @@
 
 use super::robust::{certain_side, det2, perturbed_sign, start_delta, FILTER_ULPS};
 use super::{Contact, Exit, ExitMethod};
-use crate::geom::dyadic::Dyadic;
-use crate::geom::exact::{exact3, side};
+use crate::geom::dyadic::{exact3, Dyadic};
+use crate::geom::exact::side;
 use crate::geom::real::{abs, dot3, sub3, Real, V3};
 use crate::mesh::build::OUTWARD_FACES;
 

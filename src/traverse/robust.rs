@@ -160,7 +160,7 @@ const DELTA2: V3<f64> = [-0.2915382917263, 0.8419846213571, 0.4503218740313];
 /// changes sign with p ↔ q, and each is the orientation of a real nearby line, so the signs of
 /// all edges are those of one line in general position: the walk is that line's exact walk.
 fn perturbed_side(s: V3<f64>, b: V3<f64>, p: V3<f64>, q: V3<f64>, delta: V3<f64>) -> bool {
-    use crate::geom::exact::exact3;
+    use crate::geom::dyadic::exact3;
     let (sr, br) = (exact3(s), exact3(b));
     let d = [0, 1, 2].map(|k| &br[k] - &sr[k]);
     perturbed_sign(&sr, &d, p, q, delta)
@@ -175,7 +175,7 @@ pub(crate) fn perturbed_sign(
     q: V3<f64>,
     delta: V3<f64>,
 ) -> bool {
-    use crate::geom::exact::{exact3, rdet};
+    use crate::geom::dyadic::{exact3, rdet};
     let sub = |a: &[_; 3], b: &[_; 3]| [0, 1, 2].map(|k| &a[k] - &b[k]);
     let (p, q) = (exact3(p), exact3(q));
     let (dl, dl2) = (exact3(delta), exact3(DELTA2));

@@ -193,7 +193,7 @@ mod tests {
     /// degenerate ones and points inside the tree's boxes and far away.
     #[test]
     fn nearest_is_the_brute_forces() {
-        let mut rng = Rng(17);
+        let mut rng = Rng::xorshift(17);
         let mut tris: Vec<Tri> = (0..2000)
             .map(|_| {
                 let c = [0, 1, 2].map(|_| rng.f() * 4.0);

@@ -7,18 +7,10 @@ use crate::layout::LayoutKind;
 use crate::query::gather::Nearest;
 use crate::query::Listed;
 use crate::referee;
-use crate::scene::{AccelKind, CastOptions, HitBuffers, Rays};
+use crate::scene::{AccelKind, CastOptions, HitBuffers};
 use crate::status::{HIT, MISS};
-use crate::testing::{exact_case_rays, grid_scene_inside, Rng};
+use crate::testing::{assert_same_points, on, Agreement, Rng, ACCEL_KINDS};
 use crate::traverse::Method;
-use std::cmp::Ordering;
-
-fn flat(rays: &[([f64; 3], [f64; 3])]) -> (Vec<f64>, Vec<f64>) {
-    (
-        rays.iter().flat_map(|r| r.0).collect(),
-        rays.iter().flat_map(|r| r.1).collect(),
-    )
-}
 
 /// Closest hits, any hits and all hits on the BVH: right by the referee for every ray, and
 /// the exact walk's answers ray for ray (the same status; the same triangle and t where no
@@ -26,57 +18,29 @@ fn flat(rays: &[([f64; 3], [f64; 3])]) -> (Vec<f64>, Vec<f64>) {
 /// and without a [tmin, tmax] window.
 #[test]
 fn bvh_answers_are_the_referees_and_the_walks() {
-    for accel in [
-        AccelKind::ReshetovBvh,
-        AccelKind::ReshetovBvhPackets,
-        AccelKind::ReshetovBvhPackets8,
-    ] {
-        bvh_agrees(accel);
+    for &accel in ACCEL_KINDS {
+        if matches!(
+            accel,
+            AccelKind::ReshetovBvh | AccelKind::ReshetovBvhPackets | AccelKind::ReshetovBvhPackets8
+        ) {
+            bvh_agrees(accel);
+        }
     }
 }
 
 /// [`bvh_answers_are_the_referees_and_the_walks`] for one way of walking the tree; with
 /// packets, also that the frustum culled tests (and not all of them: rays hit).
 fn bvh_agrees(accel: AccelKind) {
-    let bvh_opts = CastOptions {
-        accel,
-        ..Default::default()
-    };
+    let bvh_opts = on(accel);
     let walk_opts = CastOptions::default();
     let (mut ties, mut hits, mut points) = (0, 0, 0);
     for seed in [81u64, 82] {
-        let mut rng = Rng(seed);
-        let g = grid_scene_inside(&mut rng, 4, 0.0, 0.35);
-        let mut rays = exact_case_rays(&mut rng, &g.pts, &g.faces, 2500);
-        let eye = [-0.75, 0.3125, 0.4375];
-        rays.extend((0..1024).map(|k| {
-            let (x, y) = ((k % 32) as f64 / 32.0, (k / 32) as f64 / 32.0);
-            (eye, [1.0, x - 0.5, y - 0.5])
-        }));
-        let n = rays.len();
-        let (o, d) = flat(&rays);
-        let o32: Vec<f32> = o.iter().map(|&x| x as f32).collect();
-        let d32: Vec<f32> = d.iter().map(|&x| x as f32).collect();
+        let case = Agreement::new(seed);
+        let (g, n) = (&case.g, case.len());
         for window in [false, true] {
-            let (tmin, tmax): (Vec<f64>, Vec<f64>) = if window {
-                crate::testing::windows(&rays, 0.25)
-            } else {
-                (vec![0.0; n], vec![f64::INFINITY; n])
-            };
-            let r64 = Rays {
-                origins: &o[..],
-                directions: &d[..],
-                tmin: &tmin,
-                tmax: &tmax,
-                leaving: None,
-            };
-            let r32 = Rays {
-                origins: &o32[..],
-                directions: &d32[..],
-                tmin: &tmin,
-                tmax: &tmax,
-                leaving: None,
-            };
+            let (tmin, tmax) = case.bounds(window);
+            let r64 = case.r64(&tmin, &tmax);
+            let r32 = case.r32(&tmin, &tmax);
             // Closest hits, both precisions.
             for f32_rays in [false, true] {
                 let cast = |opts: &CastOptions| {
@@ -130,58 +94,22 @@ fn bvh_agrees(accel: AccelKind) {
             }
             // Any hits and all hits (float64 rays).
             let mut b_any = vec![0u8; n];
-            let mut w_any = vec![0u8; n];
             let default = (Method::DEFAULT, LayoutKind::DEFAULT);
             g.scene
                 .occluded(default.0, default.1, &r64, &mut b_any, &bvh_opts)
                 .unwrap();
-            g.scene
-                .occluded(default.0, default.1, &r64, &mut w_any, &walk_opts)
-                .unwrap();
-            assert_eq!(b_any, w_any, "seed {seed}: any hits, bvh against walk");
             let mut b_all = vec![Listed::default(); n];
-            let mut w_all = vec![Listed::default(); n];
             g.scene.intersections(&r64, &mut b_all, &bvh_opts).unwrap();
-            g.scene.intersections(&r64, &mut w_all, &walk_opts).unwrap();
+            let (w_any, w_all) = case.walk_any_all(&r64);
+            assert_eq!(b_any, w_any, "seed {seed}: any hits, bvh against walk");
             for i in 0..n {
                 let ray = r64.ray(i);
                 let (b, w) = (&b_all[i], &w_all[i]);
                 assert_eq!(b.status, w.status, "seed {seed} ray {i}: all-hits status");
                 assert_eq!(b.status == HIT, b_any[i] == HIT, "ray {i}: all against any");
-                assert_eq!(
-                    b.meets.len(),
-                    w.meets.len(),
-                    "seed {seed} ray {i} (window {window}): o {:?} d {:?} points bvh {:?} walk {:?}",
-                    ray.o,
-                    ray.d,
-                    b.meets.iter().map(|m| (m.t, m.triangle)).collect::<Vec<_>>(),
-                    w.meets.iter().map(|m| (m.t, m.triangle)).collect::<Vec<_>>()
-                );
                 points += b.meets.len();
-                // Each BVH point is one of the walk's: the same exact t (the same point).
-                let crossing = |tri: u32| {
-                    referee::crossing(ray.o, ray.d, &g.tris[tri as usize]).expect("a met triangle")
-                };
-                let mut used = vec![false; w.meets.len()];
-                for m in &b.meets {
-                    let cm = crossing(m.triangle);
-                    let k = (0..w.meets.len()).find(|&k| {
-                        !used[k] && crossing(w.meets[k].triangle).cmp_t_of(&cm) == Ordering::Equal
-                    });
-                    let k = k.unwrap_or_else(|| {
-                        panic!("seed {seed} ray {i}: bvh point {m:?} not the walk's")
-                    });
-                    used[k] = true;
-                    if w.meets[k].triangle == m.triangle {
-                        assert_eq!(w.meets[k].t.to_bits(), m.t.to_bits());
-                    }
-                }
-                assert!(
-                    b.meets.windows(2).all(|p| crossing(p[0].triangle)
-                        .cmp_t_of(&crossing(p[1].triangle))
-                        == Ordering::Less),
-                    "ray {i}: the bvh's points in order of exact t"
-                );
+                let what = format!("seed {seed} ray {i} (window {window}): bvh");
+                assert_same_points(&what, &ray, &g.tris, &b.meets, &w.meets);
             }
         }
         if matches!(
@@ -211,7 +139,7 @@ fn bvh_agrees(accel: AccelKind) {
 /// so no triangle the ray meets is skipped. Judged against the referee on every ray.
 #[test]
 fn bvh_is_exact_far_from_float32() {
-    let mut rng = Rng(7);
+    let mut rng = Rng::xorshift(7);
     for scale in [1e-300, 1e-30, 1.0, 1e30, 1e300] {
         let at = |rng: &mut Rng| [0, 1, 2].map(|_| (rng.f() * 64.0).round() / 64.0 * scale);
         let tris: Vec<Tri> = (0..120)
@@ -269,7 +197,7 @@ fn bvh_is_exact_far_from_float32() {
 /// parameter sets, degenerate triangles included.
 #[test]
 fn bvh_tree_holds_every_triangle_once() {
-    let mut rng = Rng(5);
+    let mut rng = Rng::xorshift(5);
     let mut tris: Vec<Tri> = (0..1500)
         .map(|_| {
             let c = [0, 1, 2].map(|_| rng.f() * 10.0);
@@ -401,7 +329,7 @@ fn bvh_refuses_bad_parameters_and_triangles() {
 /// ratio above max_leaf stops at every node that fits in a leaf.
 #[test]
 fn bvh_cost_ratio_prunes_the_tree() {
-    let mut rng = Rng(5);
+    let mut rng = Rng::xorshift(5);
     let tris: Vec<Tri> = (0..5000)
         .map(|_| {
             let c = [0, 1, 2].map(|_| rng.f() * 10.0);

@@ -3,7 +3,7 @@
 //! angles where the old formula lost digits, and where the filter must hand over.
 
 use super::*;
-use crate::fuzz::Rng;
+use crate::rng::Rng;
 use num_bigint::BigInt;
 use num_rational::BigRational;
 use num_traits::{Signed, Zero};

@@ -105,7 +105,7 @@ fn unknown_kernel_is_a_clear_error() {
 /// The robust kernel's slack: an upper bound on |s − s̃|₁.
 #[test]
 fn slack_bounds_the_start_point_rounding() {
-    let mut rng = Rng(1);
+    let mut rng = Rng::xorshift(1);
     for _ in 0..10_000 {
         let s = [0, 1, 2].map(|_| (rng.f() - 0.5) * 10f64.powi((rng.f() * 12.0) as i32 - 6));
         let sr = s.map(|x| x as f32);
@@ -118,11 +118,11 @@ fn slack_bounds_the_start_point_rounding() {
 #[test]
 fn oversized_scene_is_too_large() {
     let limits = wgpu::Limits::default();
-    let ok = crate::gpu::device_scene::check_fits("tet20 records", 1 << 20, &limits, "test device");
+    let ok = crate::gpu::upload::check_fits("tet20 records", 1 << 20, &limits, "test device");
     assert!(ok.is_ok());
     let big = limits.max_storage_buffer_binding_size + 20;
-    let e = crate::gpu::device_scene::check_fits("tet20 records", big, &limits, "test device")
-        .unwrap_err();
+    let e =
+        crate::gpu::upload::check_fits("tet20 records", big, &limits, "test device").unwrap_err();
     assert!(matches!(e, crate::Error::TooLarge(_)), "{e}");
     let m = e.to_string();
     assert!(

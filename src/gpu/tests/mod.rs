@@ -8,6 +8,7 @@
 //! preparation, the kernel table, limits) without a GPU.
 
 mod host;
+#[cfg(feature = "gpu-octree")]
 mod octree;
 mod parity;
 mod shaders;
@@ -184,7 +185,7 @@ fn assert_robust_bracket(scene: &Scene, o: &[f32], d: &[f32], tris: &[[[f64; 3];
 /// float32 after the move (by at most 2^-21 at offset 10, far below the jitter): the GPU and
 /// the float32 CPU walks then read the very mesh whose triangles the referee judges.
 fn grid_scene(n: usize, frac: f64, offset: f64, seed: u64) -> (Scene, Vec<[[f64; 3]; 3]>) {
-    let mut rng = Rng(seed);
+    let mut rng = Rng::xorshift(seed);
     let (mut pts, tets) = kuhn_grid(n, 0.3, &mut rng);
     for p in &mut pts {
         for x in p.iter_mut() {
@@ -219,7 +220,7 @@ fn grid_scene(n: usize, frac: f64, offset: f64, seed: u64) -> (Scene, Vec<[[f64;
 
 /// Random rays from inside and around the scene, and a pinhole camera from outside the box.
 fn rays(n: usize, offset: f64, seed: u64) -> (Vec<f32>, Vec<f32>) {
-    let mut rng = Rng(seed);
+    let mut rng = Rng::xorshift(seed);
     let (mut o, mut d) = (Vec::new(), Vec::new());
     for _ in 0..n {
         for _ in 0..3 {

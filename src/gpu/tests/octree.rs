@@ -8,18 +8,18 @@
 
 use super::device_or_skip;
 use crate::accel::portalez_octree::{OctreeParams, OctreeState, PortalezOctree, Walked};
-use crate::bench::Rng;
 use crate::geom::ray::Ray;
 use crate::gpu::octree::*;
 use crate::query::gather::{Line, Nearest, Tri};
 use crate::referee;
+use crate::rng::Rng;
 use crate::status::{FAILED, HIT, MISS};
 use std::mem::{offset_of, size_of};
 
 /// `n` random triangles in [0, 1]³ (sides up to ~0.1), corners rounded to float32 so the
 /// float32 kernel reads the very scene the referee judges.
 fn random_tris(n: usize, seed: u64) -> Vec<Tri> {
-    let mut rng = Rng(seed);
+    let mut rng = Rng::xorshift(seed);
     (0..n)
         .map(|_| {
             let c = rng.p3();
@@ -44,7 +44,7 @@ fn build(tris: &[Tri], max_depth: u32, leaf_size: u32) -> PortalezOctree {
 /// makes the box): with leaf size 1 and depth 11 the leaves along that face are finer than
 /// the cube map's 2^10 texels, so rays entering there need the steps within the face.
 fn boundary_tris(n: usize, seed: u64) -> Vec<Tri> {
-    let mut rng = Rng(seed);
+    let mut rng = Rng::xorshift(seed);
     let mut tris = vec![[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0]]];
     for _ in 0..n {
         let c = [rng.f() * 0.01, rng.f() * 0.01, rng.f() * 0.002];
@@ -109,7 +109,7 @@ fn rays(
     sc: f64,
     z: Option<f64>,
 ) -> (Vec<f32>, Vec<f32>, Vec<u8>) {
-    let mut rng = Rng(seed);
+    let mut rng = Rng::xorshift(seed);
     let (mut o, mut d, mut kind) = (Vec::new(), Vec::new(), Vec::new());
     let around = |rng: &mut Rng| {
         let p = [0, 1, 2].map(|k| at[k] + sc * (rng.f() * 2.0 - 0.5));

@@ -266,7 +266,7 @@ fn gpu_prepares_rays_as_the_cpu_cast() {
         return;
     }
     let (scene, tris) = grid_scene(8, 0.05, 0.0, 31);
-    let mut rng = Rng(32);
+    let mut rng = Rng::xorshift(32);
     let (mut o, mut d0) = (Vec::new(), Vec::new());
     // From every mesh vertex (float32, as the walk reads them): the start is on a vertex.
     for p in &scene.points_f32 {

@@ -1,0 +1,24 @@
+//! What a GPU cast reports of its phases (filled by `cast.rs` and `launch.rs`).
+
+/// Where the time of a GPU cast went, in seconds (each phase waits for the device before the
+/// next starts, so the phases do not overlap).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct GpuTimings {
+    /// Start-tet location and ray preparation on the CPU.
+    pub locate: f64,
+    /// Uploading the scene's buffers (0 when they were already on the device).
+    pub scene_upload: f64,
+    /// Copying the rays to the device.
+    pub upload: f64,
+    /// The traversal kernel.
+    pub kernel: f64,
+    /// Copying the results back.
+    pub readback: f64,
+    /// Hits on the caller's triangles, and CPU walks of deferred rays.
+    pub finish: f64,
+    /// Rays the GPU walked (rays that miss the box or are invalid are settled on the CPU).
+    pub walked: usize,
+    /// Robust kernel: rays deferred to the CPU robust walk.
+    pub deferred: usize,
+    pub batches: usize,
+}
