@@ -36,18 +36,12 @@ fn id(x: usize, y: usize, z: usize) -> u32 {
     (x + (N + 1) * (y + (N + 1) * z)) as u32
 }
 
-/// Grid faces covering the right triangle of the plane `axis = level` whose corners are
-/// (lo, lo), (lo, hi), (hi, hi) in the plane's two other axes, taken in increasing order
-/// (`upper`: the part with second ≥ first − lo + lo2, i.e. the half above the Kuhn diagonal) or
-/// (lo, lo), (hi, lo), (hi, hi) (the half below). `first` and `second` are the axes' ranges'
-/// starts; the triangle spans `len` cells.
-fn cover(
-    axis: usize,
-    level: usize,
-    start: [usize; 2],
-    len: usize,
-    upper: bool,
-) -> Vec<[u32; 3]> {
+/// The grid faces covering a right triangle of `len` × `len` cells in the plane
+/// `axis = level`, cells from `start` in the plane's two other axes (u, v, in increasing axis
+/// order): `upper`, the one with corners (u0, v0), (u0, v0 + len), (u0 + len, v0 + len) (cells
+/// above the Kuhn diagonal u − u0 = v − v0, and the upper triangle of each cell on it); else the
+/// one with corners (u0, v0), (u0 + len, v0), (u0 + len, v0 + len).
+fn cover(axis: usize, level: usize, start: [usize; 2], len: usize, upper: bool) -> Vec<[u32; 3]> {
     let (a, b) = match axis {
         0 => (1, 2),
         1 => (0, 2),
@@ -150,7 +144,13 @@ fn a_neighbour_met_out_of_order_wins_over_a_later_crossing() {
         };
         let mut out = HitBuffers::<f64>::new(1, false);
         scene
-            .cast_with(Method::DEFAULT, LayoutKind::DEFAULT, &rays, out.out(), &opts)
+            .cast_with(
+                Method::DEFAULT,
+                LayoutKind::DEFAULT,
+                &rays,
+                out.out(),
+                &opts,
+            )
             .unwrap();
         assert_eq!(
             (out.status[0], out.t[0], out.triangle[0]),
