@@ -1,0 +1,162 @@
+//! Closest hit on a split triangle (issue 37, the hand-planted survivor): the exact walk keeps a
+//! meet found out of walk order, then crosses a constrained face farther on; the answer is the
+//! earlier of the two (`ClosestPolicy::crossed`'s `ray.earlier(self.best, meet)`).
+//!
+//! Where a mesher splits a caller's triangle, its Steiner points sit an ulp off it, so a line
+//! in the triangle's plane can pass its neighbour's edge where no mesh edge is, without a
+//! touch there. The exact queries then look at the caller's triangles around the faces and
+//! touches nearby (`ExactRay::around`): the neighbour met at that edge is found later in the
+//! walk, and kept while the walk goes on to the next point in order. If a constrained face is
+//! crossed before any ordered stop, the kept, earlier meet must win.
+//!
+//! The scene: a Kuhn grid of 8³ cubes (grid units of 1/8), a floor T in the plane z = 4 with
+//! corners (2,2,4), (2,5,4), (5,5,4), a wall W standing on the floor's edge x = 2 with corners
+//! (2,2,4), (2,5,4), (2,5,7), and a wall W2 farther on, one face in the plane x = 6. T and W
+//! are each covered by the grid's faces, whose corners are not their corners (split); the
+//! grid point (2,3,4) on their shared edge, a Steiner point, sits one ulp above it. The grid
+//! points (6,2,4) and (6,3,4) are raised by 1/64 so that the line crosses W2 through its
+//! interior, not at a grid edge.
+//!
+//! The ray lies in the floor's plane: from (0.5, 2.6875, 4) along +x. It meets W at one point,
+//! on its edge, (2, 2.6875, 4): t = 1.5 grid units = 0.1875. The mesh edges there are raised
+//! by the Steiner point, so the walk passes below them without a touch, and finds W only when
+//! it touches the floor's edge (2,2)–(3,3) at x = 2.6875 (`touched`'s `around`). It then walks
+//! on and crosses W2 at t = 5.5 grid units. The answer is W at t = 0.1875, computed here by hand
+//! and confirmed by the exact referee; keeping the crossing instead (`self.best = Some(meet)`)
+//! answers W2 at 0.6875.
+
+use tetrace::layout::LayoutKind;
+use tetrace::scene::{AccelKind, Lanes, Packets};
+use tetrace::traverse::Method;
+use tetrace::{referee, CastOptions, HitBuffers, Rays, Scene, HIT};
+
+const N: usize = 8;
+
+fn id(x: usize, y: usize, z: usize) -> u32 {
+    (x + (N + 1) * (y + (N + 1) * z)) as u32
+}
+
+/// The grid faces covering a right triangle of `len` × `len` cells in the plane
+/// `axis = level`, cells from `start` in the plane's two other axes (u, v, in increasing axis
+/// order): `upper`, the one with corners (u0, v0), (u0, v0 + len), (u0 + len, v0 + len) (cells
+/// above the Kuhn diagonal u − u0 = v − v0, and the upper triangle of each cell on it); else the
+/// one with corners (u0, v0), (u0 + len, v0), (u0 + len, v0 + len).
+fn cover(axis: usize, level: usize, start: [usize; 2], len: usize, upper: bool) -> Vec<[u32; 3]> {
+    let (a, b) = match axis {
+        0 => (1, 2),
+        1 => (0, 2),
+        _ => (0, 1),
+    };
+    let at = |u: usize, v: usize| {
+        let mut c = [0usize; 3];
+        c[axis] = level;
+        c[a] = u;
+        c[b] = v;
+        id(c[0], c[1], c[2])
+    };
+    let mut faces = Vec::new();
+    for i in 0..len {
+        for j in 0..len {
+            let (u, v) = (start[0] + i, start[1] + j);
+            // The two Kuhn triangles of cell (u, v): below the diagonal (u,v)-(u+1,v+1) and above.
+            let below = [at(u, v), at(u + 1, v), at(u + 1, v + 1)];
+            let above = [at(u, v), at(u, v + 1), at(u + 1, v + 1)];
+            let keep = |tri_above: bool| {
+                if upper {
+                    j > i || (j == i && tri_above)
+                } else {
+                    j < i || (j == i && !tri_above)
+                }
+            };
+            if keep(false) {
+                faces.push(below);
+            }
+            if keep(true) {
+                faces.push(above);
+            }
+        }
+    }
+    faces
+}
+
+#[test]
+fn a_neighbour_met_out_of_order_wins_over_a_later_crossing() {
+    let (mut pts, tets) = tetrace::fuzz::kuhn_grid(N, 0.0, || 0.5);
+    let h = 1.0 / N as f64;
+    let g = |x: f64, y: f64, z: f64| [x * h, y * h, z * h];
+    // The Steiner point on the edge T and W share, one ulp above it.
+    let s = id(2, 3, 4) as usize;
+    assert_eq!(pts[s], g(2.0, 3.0, 4.0));
+    pts[s][2] = 0.5 + f64::EPSILON / 2.0;
+    assert!(pts[s][2] > 0.5);
+    // W2's corners raised off the floor's level.
+    for y in [2, 3] {
+        pts[id(6, y, 4) as usize][2] = 0.5 + 1.0 / 64.0;
+    }
+
+    let floor = [g(2.0, 2.0, 4.0), g(2.0, 5.0, 4.0), g(5.0, 5.0, 4.0)];
+    let wall = [g(2.0, 2.0, 4.0), g(2.0, 5.0, 4.0), g(2.0, 5.0, 7.0)];
+    let far = [id(6, 2, 3), id(6, 2, 4), id(6, 3, 4)];
+    let tris = vec![floor, wall, far.map(|v| pts[v as usize])];
+    // T: cells x in [2,5], y in [2,5] of the plane z = 4, the half with y ≥ x (above the
+    // diagonal). W: cells y in [2,5], z in [4,7] of the plane x = 2, the half with z − 4 ≤ y − 2.
+    let t_faces = cover(2, 4, [2, 2], 3, true);
+    let w_faces = cover(0, 2, [2, 4], 3, false);
+    assert_eq!((t_faces.len(), w_faces.len()), (9, 9));
+    let mut faces = Vec::new();
+    let mut face_triangle = Vec::new();
+    for (k, fs) in [t_faces, w_faces, vec![far]].into_iter().enumerate() {
+        for f in fs {
+            faces.push(f);
+            face_triangle.push(k as u32);
+        }
+    }
+    let scene = Scene::build(pts, &tets, &faces, &face_triangle, tris.clone()).unwrap();
+
+    let o = g(0.5, 2.6875, 4.0);
+    let d = [1.0, 0.0, 0.0];
+    // By hand: the line y = 2.6875, z = 4 (grid units) lies in T's plane, so T is never hit;
+    // it meets W's plane x = 2 at y = 2.6875 ∈ [2, 5], z = 4, on W's edge from (2,2,4) to
+    // (2,5,4): W is hit at t = 1.5 / 8. W2 (x = 6) comes later, at t = 5.5 / 8.
+    let (t_w, t_far) = (0.1875, 0.6875);
+    let verdict = referee::first_hit(o, d, 0.0, f64::INFINITY, &tris).expect("the referee hits");
+    assert_eq!((verdict.t, verdict.ties.clone()), (t_w, vec![1]));
+    assert_eq!(
+        referee::crossing(o, d, &tris[2]).map(|c| c.t()),
+        Some(t_far)
+    );
+    assert!(referee::crossing(o, d, &tris[0]).is_none());
+
+    let rays = Rays {
+        origins: &o[..],
+        directions: &d[..],
+        tmin: &[0.0],
+        tmax: &[f64::INFINITY],
+        leaving: None,
+    };
+    for (lanes, packets) in [(Lanes::Auto, Packets::Auto), (Lanes::Off, Packets::Off)] {
+        let opts = CastOptions {
+            threads: Some(1),
+            lanes,
+            packets,
+            accel: AccelKind::TetWalk,
+            ..CastOptions::default()
+        };
+        let mut out = HitBuffers::<f64>::new(1, false);
+        scene
+            .cast_with(
+                Method::DEFAULT,
+                LayoutKind::DEFAULT,
+                &rays,
+                out.out(),
+                &opts,
+            )
+            .unwrap();
+        assert_eq!(
+            (out.status[0], out.t[0], out.triangle[0]),
+            (HIT, t_w, 1),
+            "lanes {lanes:?}, packets {packets:?}: the wall met at its edge (t = {t_w}) comes \
+             before the far wall (t = {t_far})"
+        );
+    }
+}
