@@ -366,6 +366,26 @@ class Intersections:
             raise ValueError(f"Intersections.point has shape {self.point.shape}, expected ({m}, 3)")
 
     @classmethod
+    def from_core(cls, r, shape, locate) -> Intersections:
+        """The core's flat answer ``r`` (``NativeScene.query("all", ...)``) for rays of
+        leading ``shape``; ``locate`` splits scene triangle ids into (geometry, triangle)."""
+        offsets = np.asarray(r["offsets"], np.int64)
+        scene_triangle = np.asarray(r["triangle"]).astype(np.int32, copy=False)
+        geometry, triangle = locate(scene_triangle)
+        return cls(
+            offsets=offsets,
+            ray=np.repeat(np.arange(len(offsets) - 1, dtype=np.int64), np.diff(offsets)),
+            t=np.asarray(r["t"], np.float64),
+            triangle=triangle,
+            u=np.asarray(r["u"], np.float64),
+            v=np.asarray(r["v"], np.float64),
+            point=np.asarray(r["point"], np.float64).reshape(-1, 3),
+            geometry=geometry,
+            scene_triangle=scene_triangle,
+            status=np.asarray(r["status"]).reshape(shape),
+        )
+
+    @classmethod
     def empty(cls, shape) -> Intersections:
         """Return the intersections of rays of leading shape ``shape`` that hit nothing."""
         shape = tuple(shape)

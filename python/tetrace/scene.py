@@ -587,26 +587,8 @@ class Scene:
         """
         q = self._request(locals())
         r = q.run(self._native, "all", "intersections")
-        status = np.asarray(r["status"])
-        q.check(status)
-        offsets = np.asarray(r["offsets"], np.int64)
-        ray = np.repeat(np.arange(len(offsets) - 1, dtype=np.int64), np.diff(offsets))
-        t = np.asarray(r["t"], np.float64)
-        scene_triangle = np.asarray(r["triangle"]).astype(np.int32, copy=False)
-        geometry, triangle = self._locate(scene_triangle)
-        point = np.asarray(r["point"], np.float64).reshape(-1, 3)
-        return Intersections(
-            offsets=offsets,
-            ray=ray,
-            t=t,
-            triangle=triangle,
-            u=np.asarray(r["u"], np.float64),
-            v=np.asarray(r["v"], np.float64),
-            point=point,
-            geometry=geometry,
-            scene_triangle=scene_triangle,
-            status=status.reshape(q.shape),
-        )
+        q.check(r["status"])
+        return Intersections.from_core(r, q.shape, self._locate)
 
     def count_intersections(
         self,
