@@ -81,7 +81,7 @@ fn cover(axis: usize, level: usize, start: [usize; 2], len: usize, upper: bool) 
 
 #[test]
 fn a_neighbour_met_out_of_order_wins_over_a_later_crossing() {
-    let (mut pts, tets) = tetrace::fuzz::kuhn_grid(N, 0.0, || 0.5);
+    let (mut pts, tets) = tetrace::mesh::kuhn::kuhn_grid(N, 0.0, || 0.5);
     let h = 1.0 / N as f64;
     let g = |x: f64, y: f64, z: f64| [x * h, y * h, z * h];
     // The Steiner point on the edge T and W share, one ulp above it.
