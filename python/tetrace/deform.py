@@ -145,7 +145,10 @@ def rebuild(scene, V):
     fresh = type(scene).from_mesh(
         (V, np.asarray(scene.faces)), hilbert=scene.hilbert, **scene._build_options
     )
-    old = scene._native
+    # The core's rule of a move (a structure built with other than the default parameters
+    # is built again now, a default one on its next use), applied to the new scene before
+    # anything else can see it.
+    fresh._native.adopt_structures(scene._native)
     scene.tetrahedralization = fresh.tetrahedralization
     scene._native = fresh._native
     scene.build_times = fresh.build_times
@@ -153,6 +156,3 @@ def rebuild(scene, V):
     scene._point_map = None
     scene._rest = None
     scene._frames = 0
-    # The core's rule of a move (a structure built with other than the default parameters
-    # is built again now, a default one on its next use), over the new scene.
-    fresh._native.adopt_structures(old)

@@ -174,13 +174,12 @@ impl PyScene {
             let ask = request.ask;
             let (method, layout) = (ask.method.map(|m| m.name()), ask.layout.map(|l| l.name()));
             let mut out = Closest::output::<f32>(rays.len(), &ask)?;
-            // In tetrace's pool, as every parallel call (the upload and the CPU phases).
+            // On this thread, as before: its batches stop at `threads::checkpoint`, which
+            // polls here (inside `threads::install` the GPU's waits would not see Ctrl-C).
             let timings = interruptible(py, || {
-                crate::threads::install(opts.threads, || {
-                    loaded
-                        .device
-                        .cast(scene, method, layout, &rays, out.out(), &opts)
-                })?
+                loaded
+                    .device
+                    .cast(scene, method, layout, &rays, out.out(), &opts)
             })?;
             let hits = columns_dict(py, Closest::columns(out)?)?;
             Ok((hits, super::gpu::timings_dict(py, &timings)?))
@@ -328,6 +327,8 @@ impl PyScene {
                 })?
             })
         })?;
+        // Our own clones go before the swap, which needs the only reference.
+        drop((this, from));
         let mut slot = self.state.write().unwrap_or_else(|e| e.into_inner());
         match Arc::get_mut(&mut slot) {
             Some(loaded) => loaded.scene.structures = moved,
