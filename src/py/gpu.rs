@@ -55,7 +55,7 @@ mod built {
         Ok((k.method, k.layout.name))
     }
 
-    /// A GPU cast's timings as the dict `Scene.gpu_timings` holds.
+    /// A GPU cast's timings as the dict `Hits.timings` holds.
     pub(crate) fn timings_dict<'py>(
         py: Python<'py>,
         timings: &crate::gpu::GpuTimings,
