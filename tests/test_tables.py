@@ -115,3 +115,35 @@ def test_unknown_query_is_named():
     )
     with pytest.raises(ValueError, match="unknown query"):
         scene._native.query("nearest", req)
+
+
+@pytest.mark.parametrize("threads", [None, 1, 2, np.int64(2), np.uint8(3), _native.MAX_THREADS])
+def test_thread_counts_the_core_takes(threads):
+    """One rule for every query: the ray request and the point queries' check are the core's
+    (ints and numpy integers in [1, MAX_THREADS], or None)."""
+    assert _native.check_threads(threads) == (None if threads is None else int(threads))
+    o = np.zeros((2, 3))
+    req = _native.RayRequest(
+        o, o + 1, np.zeros(1), np.full(1, np.inf), precision="f64", threads=threads
+    )
+    assert len(req) == 2
+
+
+@pytest.mark.parametrize(
+    "threads, error",
+    [
+        (True, TypeError),
+        (np.True_, TypeError),
+        (2.0, TypeError),
+        ("2", TypeError),
+        (0, ValueError),
+        (-1, ValueError),
+        (_native.MAX_THREADS + 1, ValueError),
+    ],
+)
+def test_thread_counts_the_core_refuses(threads, error):
+    with pytest.raises(error, match="threads"):
+        _native.check_threads(threads)
+    scene = tetrace.default_scene()
+    with pytest.raises(error, match="threads"):
+        scene.contains(np.zeros((1, 3)), threads=threads)

@@ -8,7 +8,6 @@ import numpy as np
 
 from . import _native
 from .hits import HIT, Hits
-from .names import MAX_THREADS
 
 __all__ = ["RayBatch", "prepare_ray_batch", "prepare_rays", "prepare_bounds", "raise_invalid"]
 
@@ -205,17 +204,10 @@ def _as_float(a, name):
 
 
 def _check_threads(threads):
-    """``threads``: None (all cores) or an int in [1, :data:`MAX_THREADS`]; TypeError for
-    other types (bool, float, str), ValueError for counts out of range."""
-    if threads is None:
-        return
-    if isinstance(threads, (bool, np.bool_)) or not isinstance(threads, (int, np.integer)):
-        raise TypeError(f"threads must be an int or None, got {type(threads).__name__} {threads!r}")
-    if not 1 <= threads <= MAX_THREADS:
-        raise ValueError(
-            f"threads must be between 1 and {MAX_THREADS} (4 per core, at least 64) or None "
-            f"for all cores, got {threads}"
-        )
+    """``threads``: None (all cores) or an int in [1, :data:`MAX_THREADS`], by the core's
+    rule (``tetrace._native.check_threads``): TypeError for other types (bool, float, str),
+    ValueError for counts out of range."""
+    _native.check_threads(threads)
 
 
 def _query_points(points):

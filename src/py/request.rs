@@ -13,7 +13,7 @@ use crate::scene::{CastOptions, Packets, Rays, Scene};
 use numpy::{Element, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::PyBool;
+use pyo3::types::{PyBool, PyInt};
 
 /// The rays' arrays in the precision the request names.
 enum Arrays {
@@ -90,8 +90,7 @@ impl PyRayRequest {
                 slice(&a.try_readonly()?, name)?;
             }
         }
-        let threads = int_arg(threads, "threads", "None")?;
-        crate::threads::check_threads(threads)?;
+        let threads = threads_arg(threads)?;
         let max_steps = match int_arg(max_steps, "max_steps", "None")? {
             None => None,
             Some(k) if k > 0 && k <= u32::MAX as usize => Some(k as u32),
@@ -160,13 +159,30 @@ fn is_numpy_bool(obj: &Bound<'_, PyAny>) -> bool {
             .is_ok_and(|m| m.to_cow().is_ok_and(|m| m == "numpy"))
 }
 
+/// A `threads` argument: None (all cores) or an int in [1, MAX_THREADS], by the core's rule
+/// (`threads::check_threads`); a TypeError for a bool, a float or a string.
+pub(crate) fn threads_arg(obj: Option<&Bound<'_, PyAny>>) -> PyResult<Option<usize>> {
+    let threads = int_arg(obj, "threads", "None")?;
+    crate::threads::check_threads(threads)?;
+    Ok(threads)
+}
+
+/// Checks a `threads` argument by the core's rule and returns it (Python's point queries
+/// call this before a query that may not reach the core, such as the winding number).
+#[pyfunction]
+#[pyo3(signature = (threads=None))]
+pub(crate) fn check_threads(threads: Option<&Bound<'_, PyAny>>) -> PyResult<Option<usize>> {
+    threads_arg(threads)
+}
+
 /// An optional count: None, or an int (a Python or numpy integer, not a bool or a float).
 fn int_arg(obj: Option<&Bound<'_, PyAny>>, name: &str, none: &str) -> PyResult<Option<usize>> {
     let Some(obj) = obj else { return Ok(None) };
+    // A Python int or a numpy integer; not a bool (an int subclass), a float or a string.
+    let numpy_integer = obj.py().import("numpy")?.getattr("integer")?;
     let is_int = !obj.is_instance_of::<PyBool>()
         && !is_numpy_bool(obj)
-        && obj.hasattr("__index__")?
-        && !obj.hasattr("is_integer")?; // floats (and numpy floats) have is_integer
+        && (obj.is_instance_of::<PyInt>() || obj.is_instance(&numpy_integer)?);
     if !is_int {
         return Err(PyTypeError::new_err(format!(
             "{name} must be an int or {none}, got {} {}",

@@ -6,7 +6,7 @@ use super::names::{LayoutArg, QueryArg};
 #[cfg(feature = "gpu")]
 use super::query::columns_dict;
 use super::query::Job;
-use super::request::PyRayRequest;
+use super::request::{threads_arg, PyRayRequest};
 use crate::accel::reshetov_bvh::nearest::NearestPoint;
 use crate::accel::{BvhParams, OctreeParams, PortalezOctree, ReshetovBvh};
 use crate::error::try_vec;
@@ -194,8 +194,9 @@ impl PyScene {
         &self,
         py: Python<'py>,
         points: &Bound<'py, PyAny>,
-        threads: Option<usize>,
+        threads: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyArray1<bool>>> {
+        let threads = threads_arg(threads)?;
         if let Ok(p) = points.extract::<PyReadonlyArray2<'py, f32>>() {
             return contains_impl(py, &self.loaded().scene, p, threads);
         }
@@ -225,8 +226,9 @@ impl PyScene {
         &self,
         py: Python<'py>,
         points: PyReadonlyArray2<'py, f64>,
-        threads: Option<usize>,
+        threads: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyDict>> {
+        let threads = threads_arg(threads)?;
         let n = check_cols(&points, 3, "points")?;
         let p = slice(&points, "points")?;
         let mut out = try_vec(n, NearestPoint::NONE, "the closest points")?;
