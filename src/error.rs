@@ -54,13 +54,19 @@ impl Error {
 /// A vector of `n` copies of `value`, or [`Error::OutOfMemory`] naming `what` and the bytes
 /// asked for instead of aborting the process (outputs sized by the caller's ray count).
 pub fn try_vec<T: Clone>(n: usize, value: T, what: &str) -> Result<Vec<T>> {
-    let oom = || Error::OutOfMemory {
+    let mut v = try_with_capacity(n, what)?;
+    v.resize(n, value);
+    Ok(v)
+}
+
+/// An empty vector with room for `n`, or [`Error::OutOfMemory`] naming `what` and the bytes
+/// (outputs whose length the caller's rays decide, filled by pushing).
+pub fn try_with_capacity<T>(n: usize, what: &str) -> Result<Vec<T>> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(n).map_err(|_| Error::OutOfMemory {
         bytes: n.saturating_mul(std::mem::size_of::<T>()),
         what: what.to_string(),
-    };
-    let mut v = Vec::new();
-    v.try_reserve_exact(n).map_err(|_| oom())?;
-    v.resize(n, value);
+    })?;
     Ok(v)
 }
 

@@ -71,14 +71,3 @@ def simd_levels():
 #: The most worker threads a call may ask for: 4 per core, and at least 64. More only adds
 #: switching, and a typo (``threads=10**9``) would otherwise try to start them all.
 MAX_THREADS = _native.MAX_THREADS
-
-
-def _names(method, layout, *, defaults=True):
-    """Check method and layout names; None becomes the core's default (CPU walks)."""
-    for what, value in (("method", method), ("layout", layout)):
-        if value is not None and not isinstance(value, str):
-            raise TypeError(f"{what} must be a name (str), got {type(value).__name__}")
-    if defaults:
-        method = _native.DEFAULT_METHOD if method is None else method
-        layout = _native.DEFAULT_LAYOUT if layout is None else layout
-    return method, layout

@@ -15,7 +15,6 @@ from .hits import FAILED, HIT, INVALID, Hits, Intersections
 from .names import (  # noqa: F401  (the public names stay where they were: tetrace.scene.methods)
     LAYOUT_BYTES,
     MAX_THREADS,
-    _names,
     accels,
     layouts,
     methods,

@@ -103,7 +103,7 @@ impl PyRayRequest {
         // None (the default) is True: packets where rays share an origin.
         let packet = match packet {
             None => true,
-            Some(p) if p.is_instance_of::<PyBool>() || is_numpy_bool(p) => p.is_truthy()?,
+            Some(p) if p.is_instance_of::<PyBool>() || is_numpy(p, "bool_")? => p.is_truthy()?,
             Some(p) => {
                 return Err(PyTypeError::new_err(format!(
                     "packet must be True or False, got {}",
@@ -148,15 +148,9 @@ impl PyRayRequest {
     }
 }
 
-/// A numpy bool scalar (`np.True_`), which is not a Python bool.
-fn is_numpy_bool(obj: &Bound<'_, PyAny>) -> bool {
-    obj.get_type()
-        .name()
-        .is_ok_and(|n| n.to_cow().is_ok_and(|n| n == "bool"))
-        && obj
-            .get_type()
-            .module()
-            .is_ok_and(|m| m.to_cow().is_ok_and(|m| m == "numpy"))
+/// Whether `obj` is an instance of numpy's scalar type `name` (`bool_`, `integer`).
+fn is_numpy(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<bool> {
+    obj.is_instance(&obj.py().import("numpy")?.getattr(name)?)
 }
 
 /// A `threads` argument: None (all cores) or an int in [1, MAX_THREADS], by the core's rule
@@ -179,10 +173,9 @@ pub(crate) fn check_threads(threads: Option<&Bound<'_, PyAny>>) -> PyResult<Opti
 fn int_arg(obj: Option<&Bound<'_, PyAny>>, name: &str, none: &str) -> PyResult<Option<usize>> {
     let Some(obj) = obj else { return Ok(None) };
     // A Python int or a numpy integer; not a bool (an int subclass), a float or a string.
-    let numpy_integer = obj.py().import("numpy")?.getattr("integer")?;
     let is_int = !obj.is_instance_of::<PyBool>()
-        && !is_numpy_bool(obj)
-        && (obj.is_instance_of::<PyInt>() || obj.is_instance(&numpy_integer)?);
+        && !is_numpy(obj, "bool_")?
+        && (obj.is_instance_of::<PyInt>() || is_numpy(obj, "integer")?);
     if !is_int {
         return Err(PyTypeError::new_err(format!(
             "{name} must be an int or {none}, got {} {}",

@@ -6,7 +6,7 @@
 //! is its job type here (over a `query/` policy) and a row.
 
 use super::{CastOptions, HitBuffers, Rays, Scene};
-use crate::error::{try_vec, Error, Result};
+use crate::error::{try_vec, try_with_capacity, Error, Result};
 use crate::geom::real::Real;
 use crate::layout::LayoutKind;
 use crate::query::Listed;
@@ -234,14 +234,14 @@ impl RayJob for All {
         let total: usize = listed.iter().map(|l| l.meets.len()).sum();
         let what = "the intersections";
         let (mut t, mut triangle, mut u, mut v) = (
-            capacity(total, what)?,
-            capacity(total, what)?,
-            capacity(total, what)?,
-            capacity(total, what)?,
+            try_with_capacity(total, what)?,
+            try_with_capacity(total, what)?,
+            try_with_capacity(total, what)?,
+            try_with_capacity(total, what)?,
         );
-        let mut point = capacity(3 * total, what)?;
-        let mut offsets = capacity(listed.len() + 1, "the offsets of the intersections")?;
-        let mut status = capacity(listed.len(), "the statuses")?;
+        let mut point = try_with_capacity(3 * total, what)?;
+        let mut offsets = try_with_capacity(listed.len() + 1, "the offsets of the intersections")?;
+        let mut status = try_with_capacity(listed.len(), "the statuses")?;
         offsets.push(0i64);
         for l in &listed {
             for m in &l.meets {
@@ -266,6 +266,7 @@ impl RayJob for All {
     }
 }
 
+/// The same walk as all hits, counted.
 impl RayJob for Count {
     const NAME: &'static str = "count";
     type Out<R: Real> = Vec<Listed>;
@@ -279,7 +280,7 @@ impl RayJob for Count {
         out: &mut Vec<Listed>,
         opts: &CastOptions,
     ) -> Result<()> {
-        all_hits(scene, ask, rays, out, opts)
+        All::run(scene, ask, rays, out, opts)
     }
     fn columns<R: Real>(listed: Vec<Listed>) -> Result<Vec<Column>> {
         let count: Vec<i32> = listed.iter().map(|l| l.meets.len() as i32).collect();
@@ -289,16 +290,6 @@ impl RayJob for Count {
             Column::new("status", status),
         ])
     }
-}
-
-/// An empty vector with room for `n`, or `OutOfMemory` naming `what` and the bytes.
-fn capacity<T>(n: usize, what: &str) -> Result<Vec<T>> {
-    let mut v = Vec::new();
-    v.try_reserve_exact(n).map_err(|_| Error::OutOfMemory {
-        bytes: n.saturating_mul(std::mem::size_of::<T>()),
-        what: what.to_string(),
-    })?;
-    Ok(v)
 }
 
 #[cfg(test)]
