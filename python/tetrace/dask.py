@@ -1,9 +1,9 @@
 """Scale casts and meshing out on a Dask ``distributed`` cluster (``docs/dask.md``).
 
 :func:`cast_dask` casts a Dask array of rays, chunked along the rays, and returns the hits
-as Dask arrays in the same chunks; the scene is shipped once per worker (scattered with
-``broadcast=True``: each worker unpickles it once, from its scene file bytes, without
-meshing), and every block's task refers to that copy. :func:`mesh_many` meshes scenes in
+as Dask arrays in the same chunks; the scene is scattered to every worker and loaded there
+once (from its scene file bytes, without meshing), and every block's task refers to that
+copy. :func:`mesh_many` meshes scenes in
 parallel, one task per scene. Needs ``dask[array]`` and ``distributed``; ``import tetrace``
 does not import this module.
 
@@ -15,6 +15,10 @@ does not import this module.
 """
 
 from __future__ import annotations
+
+import threading
+import uuid
+from collections import OrderedDict
 
 import numpy as np
 
@@ -46,8 +50,49 @@ def _client(client):
     return client
 
 
+class _Shipped:
+    """A scene scattered to workers, under a token drawn when it was scattered.
+
+    Dask's Active Memory Manager drops the replicas no task waits on yet (every 2 s), and a
+    worker that needs the scene again fetches it again. Unpickling goes through
+    :func:`_arrive`, which looks the token up first: a worker loads each scattered scene
+    once (:meth:`tetrace.Scene.from_bytes`), however often its bytes reach it.
+    """
+
+    __slots__ = ("scene", "token")
+
+    def __init__(self, scene, token):
+        self.scene = scene
+        self.token = token
+
+    def __reduce__(self):
+        return (_arrive, (self.token, self.scene.to_bytes()))
+
+
+#: On a worker: the scenes loaded lately, by token (the last :data:`_KEEP`; a cast reads a
+#: scene and never changes it, so tasks may share one).
+_LOADED = OrderedDict()
+_KEEP = 2
+_LOADED_LOCK = threading.Lock()
+
+
+def _arrive(token, data):
+    """Unpickle a :class:`_Shipped`: the scene this process already loaded, or a new load."""
+    with _LOADED_LOCK:
+        scene = _LOADED.get(token)
+        if scene is not None:
+            _LOADED.move_to_end(token)
+            return _Shipped(scene, token)
+    scene = Scene.from_bytes(data, source="<dask>")
+    with _LOADED_LOCK:
+        scene = _LOADED.setdefault(token, scene)
+        while len(_LOADED) > _KEEP:
+            _LOADED.popitem(last=False)
+    return _Shipped(scene, token)
+
+
 def scatter_scene(scene, client=None):
-    """Ship a scene to every worker of a cluster, once.
+    """Ship a scene to every worker of a cluster, to be loaded there once.
 
     Parameters
     ----------
@@ -58,15 +103,22 @@ def scatter_scene(scene, client=None):
     Returns
     -------
     distributed.Future
-        The scene on every worker (pickled once: :meth:`tetrace.Scene.to_bytes`); pass it
-        to :func:`cast_dask` for several casts without shipping the scene again.
+        The scene on every worker (pickled as :meth:`tetrace.Scene.to_bytes`); pass it to
+        :func:`cast_dask` for several casts. A worker loads it once: when Dask drops a
+        worker's copy and fetches it again, the bytes travel again but the worker keeps
+        its loaded scene (its last two scattered scenes are kept).
     """
-    return _client(client).scatter(scene, broadcast=True, hash=False)
+    return _client(client).scatter(_Shipped(scene, uuid.uuid4().hex), broadcast=True, hash=False)
+
+
+def _scene_of(value):
+    """The scene in a scattered :class:`_Shipped` or in a :func:`mesh_many` future's value."""
+    return value.scene if isinstance(value, _Shipped) else value
 
 
 def _cast_block(block, scene, options, names):
     """One block of rays ``(n, 6)`` cast on the worker's scene: a record array."""
-    hits = scene.cast(block[:, :3], block[:, 3:], **options)
+    hits = _scene_of(scene).cast(block[:, :3], block[:, 3:], **options)
     out = np.empty(len(block), dtype=_record_dtype(hits, names))
     for name in names:
         out[name] = getattr(hits, name)
@@ -150,7 +202,7 @@ def cast_dask(
     if isinstance(scene, Scene):
         local_scene, scene = scene, scatter_scene(scene, client)
     elif local_scene is None:
-        local_scene = scene.result()
+        local_scene = _scene_of(scene.result())
     # The fields' dtypes: one ray cast here with the same options.
     lo, hi = local_scene.domain
     probe = np.concatenate([(lo + hi) / 2, [1.0, 0.0, 0.0]]).astype(rays.dtype)[None]
