@@ -640,7 +640,7 @@ def test_accuracy_counts_nearby_hits_on_neighbouring_triangles(embree):
     renamed = dataclasses.replace(tz, face_triangle=shifted.astype(np.uint32))
     n = 4000
     strict, loose, anywhere = (
-        tetrace.scene.measure_accuracy(renamed, v, f, rays=n, hit_distance=h)
+        tetrace.accuracy.measure_accuracy(tetrace.Scene, renamed, v, f, rays=n, hit_distance=h)
         for h in (0.0, 1e-3, 1.0)
     )
     # The same rays (measure_accuracy's: seed 0), cast here: each value is an exact count.

@@ -4,6 +4,7 @@ codes of ``tetrace.hits``, the lists ``tetrace`` shows, the defaults in the sign
 the tables list must answer through the one request binding."""
 
 import inspect
+import re
 
 import numpy as np
 import pytest
@@ -147,3 +148,35 @@ def test_thread_counts_the_core_refuses(threads, error):
     scene = tetrace.default_scene()
     with pytest.raises(error, match="threads"):
         scene.contains(np.zeros((1, 3)), threads=threads)
+
+
+_ENTRY = re.compile(r"^(\*{0,2}\w+(?:, \*{0,2}\w+)*)(?: :|$)", re.M)
+
+
+def _documented_parameters(doc):
+    """The names a numpydoc Parameters section lists (``a, b : ...`` lists two)."""
+    section = re.search(
+        r"^Parameters\n-+\n(.*?)(?=^\w+\n-+\n|\Z)", inspect.cleandoc(doc or ""), re.M | re.S
+    )
+    if section is None:
+        return []
+    return [n.lstrip("*") for m in _ENTRY.finditer(section.group(1)) for n in m[1].split(", ")]
+
+
+def _public_callables():
+    for name, f in inspect.getmembers(tetrace.Scene):
+        if not name.startswith("_") and callable(f):
+            yield f"Scene.{name}", f
+    for name in tetrace.__all__:
+        if inspect.isfunction(getattr(tetrace, name)):
+            yield name, getattr(tetrace, name)
+
+
+@pytest.mark.parametrize("name, f", list(_public_callables()), ids=lambda x: str(x)[:40])
+def test_every_argument_is_documented_once(name, f):
+    # The ray queries' argument docs are written once (rays.ARG_DOCS) and put into each
+    # query's docstring by rays.documented: a query that takes an argument must list it
+    # once, and list nothing it does not take.
+    takes = [p for p in inspect.signature(f).parameters if p not in ("self", "cls")]
+    listed = _documented_parameters(f.__doc__)
+    assert sorted(listed) == sorted(takes), (name, takes, listed)

@@ -10,6 +10,7 @@ from . import (
     _native,
     gpu,  # noqa: F401  (tetrace.gpu.info() is part of the API)
 )
+from .conveniences import cast, default_scene
 from .errors import (
     GpuError,
     MeshError,
@@ -25,8 +26,6 @@ from .scene import (
     Deformation,
     Scene,
     accels,
-    cast,
-    default_scene,
     default_scene_path,
     layouts,
     methods,

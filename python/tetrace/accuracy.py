@@ -1,7 +1,7 @@
 """How accurate a mesher's tetrahedralization is for casting: the fraction of random rays on
 which it agrees with Embree on the caller's mesh (``mesher="auto"`` picks by it).
 
-Loaded when first measured; needs embreex. Takes the scene class as an argument, so it does
+Needs embreex (imported when it measures). Takes the scene class as an argument, so it does
 not import :mod:`tetrace.scene`.
 """
 
@@ -22,7 +22,7 @@ def measure_accuracy(
     Parameters
     ----------
     scene_class : type
-        The scene to cast with, :class:`tetrace.Scene` (:func:`tetrace.scene.measure_accuracy`
+        The scene to cast with, :class:`tetrace.Scene` (:meth:`tetrace.Scene.from_mesh`
         passes it): ``scene_class(tetrahedralization, vertices, faces)``.
     tetrahedralization : tetrace.mesh.Tetrahedralization
     vertices, faces : numpy.ndarray

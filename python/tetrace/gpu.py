@@ -146,3 +146,15 @@ def wanted(device, precision, method, layout, accel, start):
             and available()
         )
     return False
+
+
+def deprecated_timings():
+    """``Scene.gpu_timings``: warn that it is deprecated (at the caller's line), and None."""
+    import warnings
+
+    warnings.warn(
+        "Scene.gpu_timings is deprecated and always None: read hits.timings of the GPU "
+        "cast's result",
+        DeprecationWarning,
+        stacklevel=3,
+    )

@@ -164,6 +164,25 @@ class Hits:
         return Hits(**fields)
 
     @classmethod
+    def from_core(cls, r, normals, geometries, timings=None) -> Hits:
+        """Hits from the core's flat answer ``r`` (``NativeScene.query("closest", ...)`` or
+        a GPU cast): the scene triangle split into mesh and triangle in it
+        (:func:`locate`), the hit triangle's row of ``normals`` (``(F, 3)``), and a GPU
+        cast's ``timings``."""
+        scene_triangle = np.asarray(r["triangle"])
+        geometry, triangle = locate(geometries, scene_triangle)
+        hit = scene_triangle >= 0
+        normal = np.full((len(scene_triangle), 3), np.nan, dtype=np.asarray(r["t"]).dtype)
+        normal[hit] = normals[scene_triangle[hit]]
+        return cls(
+            **dict(r, triangle=triangle),
+            normal=normal,
+            geometry=geometry,
+            scene_triangle=scene_triangle,
+            timings=timings,
+        )
+
+    @classmethod
     def misses(cls, n: int, dtype=np.float64) -> Hits:
         """Return ``n`` rays that all missed.
 
@@ -289,6 +308,16 @@ class Hits:
         return f"Hits(N={s['rays']}, hits={s['hit']}, misses={s['miss']}, failed={s['failed']})"
 
 
+def locate(geometries, scene_triangle):
+    """``(geometry, triangle)``: which mesh of a :meth:`~tetrace.Scene.from_meshes` scene's
+    ``geometries`` each scene triangle id belongs to and its index there (-1 for -1); a
+    scene of one mesh (``geometries`` None) has geometry 0 and keeps the ids."""
+    if geometries is None:
+        s = np.asarray(scene_triangle)
+        return np.where(s >= 0, 0, -1).astype(np.int32), s.astype(np.int32, copy=False)
+    return geometries.locate(scene_triangle)
+
+
 @dataclasses.dataclass(frozen=True, eq=False, repr=False)
 class Intersections:
     """Every hit of every ray (:meth:`tetrace.Scene.intersections`), flat, in ray order.
@@ -366,12 +395,12 @@ class Intersections:
             raise ValueError(f"Intersections.point has shape {self.point.shape}, expected ({m}, 3)")
 
     @classmethod
-    def from_core(cls, r, shape, locate) -> Intersections:
+    def from_core(cls, r, shape, geometries) -> Intersections:
         """The core's flat answer ``r`` (``NativeScene.query("all", ...)``) for rays of
-        leading ``shape``; ``locate`` splits scene triangle ids into (geometry, triangle)."""
+        leading ``shape``, on a scene of ``geometries`` (:func:`locate`)."""
         offsets = np.asarray(r["offsets"], np.int64)
         scene_triangle = np.asarray(r["triangle"]).astype(np.int32, copy=False)
-        geometry, triangle = locate(scene_triangle)
+        geometry, triangle = locate(geometries, scene_triangle)
         return cls(
             offsets=offsets,
             ray=np.repeat(np.arange(len(offsets) - 1, dtype=np.int64), np.diff(offsets)),

@@ -12,9 +12,9 @@ import warnings
 
 import numpy as np
 
-from .hits import ClosestPoints
+from .hits import ClosestPoints, locate
 
-__all__ = ["contains_mode", "inside", "closest_points"]
+__all__ = ["contains_mode", "inside", "closest_points", "surface_info"]
 
 
 def contains_mode(scene, mode):
@@ -39,6 +39,16 @@ def contains_mode(scene, mode):
     return mode
 
 
+def surface_info(scene):
+    """The caller's mesh as cleaned, with its edge census: built once, kept on the scene
+    until its vertices move (``scene._surface``)."""
+    if scene._surface is None:
+        from .winding import surface
+
+        scene._surface = surface(scene.vertices, scene.faces)
+    return scene._surface
+
+
 def inside(scene, flat, mode, threads):
     """Containment of the ``(N, 3)`` float64 points by the resolved ``mode``."""
     if mode == "parity":
@@ -54,7 +64,7 @@ def closest_points(scene, flat, shape, threads):
     back in their leading ``shape``."""
     r = scene._native.closest_points(flat, threads)
     scene_triangle = np.asarray(r["triangle"])
-    geometry, triangle = scene._locate(scene_triangle)
+    geometry, triangle = locate(scene.geometries, scene_triangle)
     return ClosestPoints(
         point=np.asarray(r["point"]).reshape(shape + (3,)),
         triangle=triangle.reshape(shape),

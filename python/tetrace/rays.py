@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from typing import NamedTuple
 
 import numpy as np
@@ -9,7 +10,14 @@ import numpy as np
 from . import _native
 from .hits import HIT, Hits
 
-__all__ = ["RayBatch", "prepare_ray_batch", "prepare_rays", "prepare_bounds", "raise_invalid"]
+__all__ = [
+    "RayBatch",
+    "prepare_ray_batch",
+    "prepare_rays",
+    "prepare_bounds",
+    "raise_invalid",
+    "documented",
+]
 
 
 class RayBatch(NamedTuple):
@@ -377,3 +385,122 @@ class RayRequest:
         """Raise for rays the core marked INVALID, unless ``invalid="mark"``."""
         if self.invalid == "raise":
             raise_invalid(np.asarray(status).reshape(-1), self.o, self.d, self.shape)
+
+
+#: The numpydoc of every ray-query argument, written once (the arguments are the request's,
+#: :attr:`RayRequest.ARGS`, and ``device``): :func:`documented` puts the ones a query takes
+#: into its docstring.
+ARG_DOCS = """\
+origins : array_like, optional
+    ``(N, 3)`` or ``(..., 3)`` ray origins, or ``(N, 6)``/``(..., 6)`` rays
+    ``[ox, oy, oz, dx, dy, dz]`` when ``directions`` is None. Origins may lie
+    anywhere, inside or outside the domain. Not with ``start``.
+directions : array_like, optional
+    ``(N, 3)`` or ``(..., 3)`` directions, not necessarily unit length; ``t`` is in
+    their units. Origins and directions broadcast over their leading axes (one
+    ``(3,)`` origin with ``(H, W, 3)`` directions: ``(H, W)`` rays); the results
+    have that leading shape (a single ray gives shape ``(1,)``).
+start : Hits, optional
+    Secondary rays (shadow rays, reflections, bounces): start each ray at a hit of
+    an earlier :meth:`cast` of this scene, at ``start.point``, in ``directions``
+    (which broadcast against the hits' shape: ``(S, *hits.shape, 3)`` casts ``S``
+    rays from every hit). Such a ray needs no offset origin and never hits the
+    triangle it leaves: its hits lie strictly beyond the point where its line
+    crosses that triangle's plane (beyond its origin for a line parallel to the
+    plane), decided exactly, so it goes off on the side its direction points to
+    (a reflection stays, a transmission crosses), on grazing and concave
+    geometry alike; ``tmin``/``tmax`` still apply (``tmax=1`` with
+    ``directions = light - hits.point`` stops at the light). Its walk starts from
+    the tet the hit's walk ended in (Lagae & Dutré 2008's ray connectivity: no
+    point location). Rays whose ``start`` entry is not a ``HIT`` are answered as
+    misses. Needs the ``exact`` method and the CPU; every ``accel`` takes it.
+tmin, tmax : float or array_like
+    Only hits with ``tmin <= t <= tmax`` count: scalars, or arrays that broadcast
+    to the rays' leading shape. A ray with ``tmin > tmax`` (an empty interval)
+    misses, as in Embree; ``tmin < 0`` or NaN raises ``ValueError``.
+threads : int, optional
+    Worker threads, 1 to :data:`MAX_THREADS`; None uses all cores. The GIL is
+    released while casting; Ctrl-C stops the cast (``KeyboardInterrupt``, within
+    about 50 ms plus a chunk of 4096 rays).
+max_steps : int, optional
+    Guard on tets visited per ray; a ray that reaches it is reported FAILED.
+invalid : {"raise", "mark"}
+    Rays with NaN/inf components, zero directions or directions whose components
+    span more than float64's exponent range (``1e308`` beside ``0.1``: no
+    power-of-two scaling keeps them exact), and hits whose ``t`` overflows the
+    rays' precision (a direction so short, e.g. a denormal, that ``t`` has no
+    finite value), raise ``ValueError``, or with
+    ``"mark"`` come back with status ``INVALID``.
+method : str, optional
+    Exit-face method, one of :func:`tetrace.methods` (default: ``exact``, the only
+    one that keeps tetrace's contract on every ray; the others are faster float
+    methods for the speed-accuracy chart). All hits and counts take ``exact`` only
+    (another raises ``ValueError``).
+layout : str, optional
+    Tet layout, one of :func:`tetrace.layouts`; built on first use.
+precision : {"f32", "f64"}, optional
+    Precision of the rays as the core takes them; default: the rays' own. Rays are
+    converted when it differs. Float methods walk in that precision; ``exact`` walks
+    the float64 mesh either way (exactly, on the rays' numbers).
+device : {"cpu", "gpu", "auto"}
+    Where the walk runs. ``"gpu"``: on the GPU (:mod:`tetrace.gpu`), in float32:
+    float64 rays are rounded to float32 and ``precision="f64"`` is refused; method
+    and layout must name a GPU kernel (:func:`tetrace.gpu.kernels`; by default
+    ``aman2022`` on ``tet20``). Start location and the hit on your triangle stay on
+    the CPU. ``"auto"``: the GPU when a device opens, the walk is float32 and a kernel
+    exists for the method (named explicitly: the default ``exact`` has none) and
+    layout, else the CPU.
+packet : bool
+    Let rays that share an origin (a camera, rays from one point) walk as packets
+    where the method allows (the ``exact`` default): a chunk of rays is taken as
+    sharing one when its first two rays do, and a packet steps once for all its
+    rays while every ray leaves a tet by the same face, exactly. Answers are the
+    same, bit for bit, either way; ``False`` walks every ray on its own.
+accel : str, optional
+    Acceleration structure, one of :func:`tetrace.accels`: ``"tetwalk"`` (the
+    default, the walk through the tetrahedralization), ``"reshetov_bvh"``
+    (Reshetov 2007's BVH over the same triangles, built on first use or by
+    :meth:`build_bvh`, one ray at a time) or ``"reshetov_bvh_packets"`` /
+    ``"reshetov_bvh_packets8"`` (that BVH walked by packets of 16 / 64 rays with
+    the paper's frustum vertex culling; :meth:`bvh_info` counts what was culled)
+    or ``"portalez_octree"`` (Portalez & Duguet's neighbour-linked octree, built on
+    first use or by :meth:`build_octree`). All keep the contract exactly and give
+    the same answers; those other than the tet walk take only the ``exact``
+    method, any layout, and the CPU.
+progress : bool, optional
+    A bar of the rays done (tqdm, on stderr) for a cast that runs more than
+    :data:`tetrace.progress.CAST_DELAY_S` seconds; None (the default): on in a
+    terminal or a notebook, off when ``CI`` is set; see :mod:`tetrace.progress`.
+    Answers are the same either way. GPU casts show none.
+"""
+
+_ENTRY = re.compile(r"^(\w+(?:, \w+)*) :", re.M)
+
+
+def _arg_entries():
+    """``ARG_DOCS`` as ``(names, text)`` pairs, one per numpydoc entry."""
+    starts = [m.start() for m in _ENTRY.finditer(ARG_DOCS)] + [len(ARG_DOCS)]
+    return [
+        (_ENTRY.match(ARG_DOCS, a).group(1).split(", "), ARG_DOCS[a:b])
+        for a, b in zip(starts, starts[1:])
+    ]
+
+
+def documented(query):
+    """Decorate a ray query: its docstring's ``{ray_arguments}`` line becomes the numpydoc
+    of the ray arguments its signature takes (:data:`ARG_DOCS`, in that order), except those
+    its Parameters section documents itself (a query's own wording wins)."""
+    import inspect
+    import textwrap
+
+    takes = set(inspect.signature(query).parameters)
+    doc = query.__doc__
+    line = re.search(r"^( *)\{ray_arguments\}\n", doc, re.M)
+    section = doc[doc.rindex("\n", 0, doc.index("Parameters")) : doc.index("Returns")]
+    params = textwrap.dedent(section)
+    own = {n for m in _ENTRY.finditer(params) for n in m.group(1).split(", ")}
+    text = "".join(t for names, t in _arg_entries() if takes & set(names) and not own & set(names))
+    rows = text.splitlines(True)
+    indented = "".join(line.group(1) + row if row.strip() else row for row in rows)
+    query.__doc__ = doc[: line.start()] + indented + doc[line.end() :]
+    return query

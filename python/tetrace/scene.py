@@ -3,13 +3,11 @@
 from __future__ import annotations
 
 import time
-import warnings
-from functools import lru_cache
 from importlib import resources
 
 import numpy as np
 
-from . import _native, deform, gpu, point_queries
+from . import _native, construct, deform, gpu, persist, point_queries, scenefile
 from .deform import Deformation
 from .hits import FAILED, HIT, INVALID, Hits, Intersections
 from .names import (  # noqa: F401  (the public names stay where they were: tetrace.scene.methods)
@@ -20,14 +18,11 @@ from .names import (  # noqa: F401  (the public names stay where they were: tetr
     methods,
     simd_levels,
 )
-from .rays import RayRequest, _check_threads, _query_points
+from .rays import RayRequest, _check_threads, _query_points, documented
 
 __all__ = [
     "Scene",
     "Deformation",
-    "cast",
-    "measure_accuracy",
-    "default_scene",
     "default_scene_path",
     "methods",
     "accels",
@@ -67,10 +62,8 @@ class Scene:
     geometries : tetrace.meshes.Geometries or None
         Where each mesh of a :meth:`from_meshes` scene sits in ``faces``; None for one mesh.
     build_times : dict
-        Seconds spent in each build stage: ``clean``, ``repair``, ``mesher`` (TetGen or fTetWild),
-        ``rust`` (topology, locator and layout construction), ``total``; see
-        :class:`tetrace.mesh.Tetrahedralization` for the mesher's (``tetgen``,
-        ``ftetwild``, ``recover``, ``mesher``).
+        Seconds per build stage: ``clean``, ``repair``, ``mesher`` and its parts
+        (:class:`tetrace.mesh.Tetrahedralization`), ``rust`` (the core's build), ``total``.
     """
 
     def __init__(self, tetrahedralization, vertices, faces, *, hilbert=True):
@@ -81,29 +74,12 @@ class Scene:
         #: (None: one mesh).
         self.geometries = None
         self._normals = None
-        # The caller's mesh as cleaned, with its edge census (tetrace.winding.Surface): what
-        # is_closed and the winding number read; built on first use, dropped when the vertices
-        # move. And whether contains(mode="parity") has warned that the mesh is open.
+        # The cleaned mesh's edge census (point_queries.surface_info), and whether
+        # contains(mode="parity") has warned that the mesh is open.
         self._surface = None
         self._parity_warned = False
-        triangles = np.ascontiguousarray(vertices[faces], dtype=np.float64)
         t0 = time.perf_counter()
-        # fTetWild's faces lie near the input, not on it: let hits name the neighbour of a
-        # face's triangle that the ray crosses (see tetrace.mesh.neighbour_triangles).
-        alternatives = None
-        if getattr(tet, "mesher", "tetgen") == "ftetwild":
-            from .mesh.ftetwild import neighbour_triangles
-
-            alternatives = neighbour_triangles(tet.clean, len(faces))
-        self._native = _native.NativeScene(
-            np.ascontiguousarray(tet.points, dtype=np.float64),
-            np.ascontiguousarray(tet.tets, dtype=np.uint32),
-            np.ascontiguousarray(tet.faces, dtype=np.uint32).reshape(-1, 3),
-            np.ascontiguousarray(tet.face_triangle, dtype=np.uint32),
-            triangles,
-            hilbert=bool(hilbert),
-            alternatives=alternatives,
-        )
+        self._native = construct.native_scene(tet, vertices, faces, hilbert)
         self.hilbert = bool(hilbert)
         #: Deformation or None: what the last :meth:`update_vertices` did.
         self.last_deformation = None
@@ -154,12 +130,10 @@ class Scene:
             ``geometries.names``) and the triangle within it; ``scene_triangle`` numbers
             the triangles as the file's path does.
         preset : str
-            TetGen settings (``tetrace.mesh.PRESETS``): ``"quality"`` (radius-edge
-            bound 5, the default), ``"quality3"``, ``"quality2"``, ``"quality1.5"`` or any
-            ``"quality<r>"`` (tighter bounds, more tets), ``"constrained"`` (constrained
-            Delaunay without refinement: the fewest points and the fastest build, but not
-            the fewest tets, bunny 228,894 against ``"quality"``'s 215,821, and more tets
-            per ray), ``"graded"`` (quality plus tets that grow away from the surface).
+            TetGen settings (``tetrace.mesh.PRESETS``): ``"quality"`` (radius-edge bound 5,
+            the default), ``"quality<r>"`` (tighter bounds, more tets), ``"constrained"`` (no
+            refinement: the fastest build, but more tets than ``"quality"`` on the bunny),
+            ``"graded"`` (quality plus tets that grow away from the surface).
         mesher : {"tetgen", "ftetwild", "fallback", "auto"}
             ``"tetgen"``: exact, hits name the caller's triangles exactly. ``"ftetwild"``:
             fTetWild (``pip install 'pytetwild<0.3'``) remeshes the surface within
@@ -192,15 +166,13 @@ class Scene:
             ``mesher="auto"``: the fraction of random rays that must agree with Embree on
             the input mesh (default 0.999).
         hilbert : bool
-            Renumber points along a Hilbert curve and tets by region, then along the curve
-            (Aman et al. 2022), for memory locality; False keeps the mesher's order (to measure
-            the effect).
+            Renumber points and tets along a Hilbert curve (Aman et al. 2022) for memory
+            locality; False keeps the mesher's order (to measure the effect).
         progress : bool, optional
-            Show a status line per stage on stderr (cleaning, each repair and TetGen attempt
-            with its preset and running time, fTetWild, the build of the compiled scene) and
-            ``mesher="auto"``'s candidates as a bar. None (default): on when stderr is a
-            terminal or in a Jupyter kernel, off when the environment variable ``CI`` is
-            set; True/False force it (:mod:`tetrace.progress`). The scene is the same.
+            A status line per stage on stderr (each repair and TetGen attempt with its
+            running time, fTetWild, the build) and ``mesher="auto"``'s candidates as a bar.
+            None (default): on in a terminal or Jupyter unless ``CI`` is set
+            (:mod:`tetrace.progress`). The scene is the same.
 
         Returns
         -------
@@ -211,44 +183,8 @@ class Scene:
         tetrace.MeshingError
             The scene cannot be meshed; the message names the stage and the cause.
         """
-        from .io import _mesh_name, is_trimesh_scene
-        from .mesh import FTETWILD_EDGE_LENGTH, FTETWILD_EPSILON, load_triangles, tetrahedralize
-        from .progress import reporting, stage
-
-        # What the scene was built with: a rebuild (update_vertices) meshes again with it.
-        options = dict(
-            preset=preset,
-            mesher=mesher,
-            margin=margin,
-            contain=contain,
-            minratio=minratio,
-            maxvolume=maxvolume,
-            sizing=sizing,
-            repair=repair,
-            epsilon=epsilon,
-            edge_length=edge_length,
-            timeout=timeout,
-            accuracy=accuracy,
-        )
-        if is_trimesh_scene(mesh):
-            # Meshed as one, like its path, but with the per-mesh ids from_meshes records.
-            return cls.from_meshes(mesh, hilbert=hilbert, progress=progress, **options)
-        with reporting(progress):
-            vertices, faces = load_triangles(mesh)
-            tet = tetrahedralize(
-                (vertices, faces),
-                **dict(
-                    options,
-                    epsilon=FTETWILD_EPSILON if epsilon is None else epsilon,
-                    edge_length=FTETWILD_EDGE_LENGTH if edge_length is None else edge_length,
-                ),
-                measure=measure_accuracy,
-                name=_mesh_name(mesh),
-            )
-            with stage(f"build the scene ({len(tet.tets)} tets)"):
-                scene = cls(tet, vertices, faces, hilbert=hilbert)
-        scene._build_options = options
-        return scene
+        options = {k: v for k, v in locals().items() if k in construct.MESH_OPTIONS}
+        return construct.from_mesh(cls, mesh, options, hilbert, progress)
 
     @classmethod
     def from_meshes(cls, meshes, preset="quality", **mesh_options):
@@ -290,6 +226,7 @@ class Scene:
         scene.geometries = geometries
         return scene
 
+    @documented
     def cast(
         self,
         origins=None,
@@ -313,86 +250,7 @@ class Scene:
 
         Parameters
         ----------
-        origins : array_like, optional
-            ``(N, 3)`` or ``(..., 3)`` ray origins, or ``(N, 6)``/``(..., 6)`` rays
-            ``[ox, oy, oz, dx, dy, dz]`` when ``directions`` is None. Origins may lie
-            anywhere, inside or outside the domain. Not with ``start``.
-        directions : array_like, optional
-            ``(N, 3)`` or ``(..., 3)`` directions, not necessarily unit length; ``t`` is in
-            their units. Origins and directions broadcast over their leading axes (one
-            ``(3,)`` origin with ``(H, W, 3)`` directions: ``(H, W)`` rays); the results
-            have that leading shape (a single ray gives shape ``(1,)``).
-        start : Hits, optional
-            Secondary rays (shadow rays, reflections, bounces): start each ray at a hit of
-            an earlier :meth:`cast` of this scene, at ``start.point``, in ``directions``
-            (which broadcast against the hits' shape: ``(S, *hits.shape, 3)`` casts ``S``
-            rays from every hit). Such a ray needs no offset origin and never hits the
-            triangle it leaves: its hits lie strictly beyond the point where its line
-            crosses that triangle's plane (beyond its origin for a line parallel to the
-            plane), decided exactly, so it goes off on the side its direction points to
-            (a reflection stays, a transmission crosses), on grazing and concave
-            geometry alike; ``tmin``/``tmax`` still apply (``tmax=1`` with
-            ``directions = light - hits.point`` stops at the light). Its walk starts from
-            the tet the hit's walk ended in (Lagae & Dutré 2008's ray connectivity: no
-            point location). Rays whose ``start`` entry is not a ``HIT`` are answered as
-            misses. Needs the ``exact`` method and the CPU; every ``accel`` takes it.
-        tmin, tmax : float or array_like
-            Only hits with ``tmin <= t <= tmax`` count: scalars, or arrays that broadcast
-            to the rays' leading shape. A ray with ``tmin > tmax`` (an empty interval)
-            misses, as in Embree; ``tmin < 0`` or NaN raises ``ValueError``.
-        threads : int, optional
-            Worker threads, 1 to :data:`MAX_THREADS`; None uses all cores. The GIL is
-            released while casting; Ctrl-C stops the cast (``KeyboardInterrupt``, within
-            about 50 ms plus a chunk of 4096 rays).
-        max_steps : int, optional
-            Guard on tets visited per ray; a ray that reaches it is reported FAILED.
-        invalid : {"raise", "mark"}
-            Rays with NaN/inf components, zero directions or directions whose components
-            span more than float64's exponent range (``1e308`` beside ``0.1``: no
-            power-of-two scaling keeps them exact), and hits whose ``t`` overflows the
-            rays' precision (a direction so short, e.g. a denormal, that ``t`` has no
-            finite value), raise ``ValueError``, or with
-            ``"mark"`` come back with status ``INVALID``.
-        method : str, optional
-            Exit-face method, one of :func:`tetrace.methods` (default: ``exact``, the only
-            one that keeps tetrace's contract on every ray; the others are faster float
-            methods for the speed-accuracy chart).
-        layout : str, optional
-            Tet layout, one of :func:`tetrace.layouts`; built on first use.
-        precision : {"f32", "f64"}, optional
-            Precision of the rays as the core takes them; default: the rays' own. Rays are
-            converted when it differs. Float methods walk in that precision; ``exact`` walks
-            the float64 mesh either way (exactly, on the rays' numbers).
-        device : {"cpu", "gpu", "auto"}
-            Where the walk runs. ``"gpu"``: on the GPU (:mod:`tetrace.gpu`), in float32:
-            float64 rays are rounded to float32 and ``precision="f64"`` is refused; method
-            and layout must name a GPU kernel (:func:`tetrace.gpu.kernels`; by default
-            ``aman2022`` on ``tet20``). Start location and the hit on your triangle stay on
-            the CPU. ``"auto"``: the GPU when a device opens, the walk is float32 and a kernel
-            exists for the method (named explicitly: the default ``exact`` has none) and
-            layout, else the CPU.
-        packet : bool
-            Let rays that share an origin (a camera, rays from one point) walk as packets
-            where the method allows (the ``exact`` default): a chunk of rays is taken as
-            sharing one when its first two rays do, and a packet steps once for all its
-            rays while every ray leaves a tet by the same face, exactly. Answers are the
-            same, bit for bit, either way; ``False`` walks every ray on its own.
-        accel : str, optional
-            Acceleration structure, one of :func:`tetrace.accels`: ``"tetwalk"`` (the
-            default, the walk through the tetrahedralization), ``"reshetov_bvh"``
-            (Reshetov 2007's BVH over the same triangles, built on first use or by
-            :meth:`build_bvh`, one ray at a time) or ``"reshetov_bvh_packets"`` /
-            ``"reshetov_bvh_packets8"`` (that BVH walked by packets of 16 / 64 rays with
-            the paper's frustum vertex culling; :meth:`bvh_info` counts what was culled)
-            or ``"portalez_octree"`` (Portalez & Duguet's neighbour-linked octree, built on
-            first use or by :meth:`build_octree`). All keep the contract exactly and give
-            the same answers; those other than the tet walk take only the ``exact``
-            method, any layout, and the CPU.
-        progress : bool, optional
-            A bar of the rays done (tqdm, on stderr) for a cast that runs more than
-            :data:`tetrace.progress.CAST_DELAY_S` seconds; None (the default): on in a
-            terminal or a notebook, off when ``CI`` is set; see :mod:`tetrace.progress`.
-            Answers are the same either way. GPU casts show none.
+        {ray_arguments}
 
         Returns
         -------
@@ -418,7 +276,7 @@ class Scene:
         else:
             r = q.run(self._native, "closest", "casting")
         q.check(r["status"])
-        return self._hits(r, timings).reshape(q.shape)
+        return Hits.from_core(r, self.normals(), self.geometries, timings).reshape(q.shape)
 
     def _request(self, args):
         """The :class:`~tetrace.rays.RayRequest` of a ray query's arguments (the public
@@ -426,28 +284,6 @@ class Scene:
         return RayRequest(
             geometries=self.geometries, **{k: args[k] for k in RayRequest.ARGS if k in args}
         )
-
-    def _hits(self, r, timings=None):
-        """Hits from the core's flat answer: the triangle split into mesh and triangle in
-        it, and the hit triangle's normal (and a GPU cast's ``timings``)."""
-        scene_triangle = np.asarray(r["triangle"])
-        geometry, triangle = self._locate(scene_triangle)
-        hit = scene_triangle >= 0
-        normal = np.full((len(scene_triangle), 3), np.nan, dtype=np.asarray(r["t"]).dtype)
-        normal[hit] = self.normals()[scene_triangle[hit]]
-        return Hits(
-            **dict(r, triangle=triangle),
-            normal=normal,
-            geometry=geometry,
-            scene_triangle=scene_triangle,
-            timings=timings,
-        )
-
-    def _locate(self, scene_triangle):
-        if self.geometries is None:
-            s = np.asarray(scene_triangle)
-            return np.where(s >= 0, 0, -1).astype(np.int32), s.astype(np.int32, copy=False)
-        return self.geometries.locate(scene_triangle)
 
     def normals(self):
         """Return the unit geometric normal of each of the scene's triangles.
@@ -460,29 +296,18 @@ class Scene:
             for a zero-area triangle (one no ray hits). Computed once.
         """
         if self._normals is None:
-            p = np.asarray(self.vertices, np.float64)[np.asarray(self.faces)]
-            n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-            length = np.linalg.norm(n, axis=1, keepdims=True)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                n = np.where(length > 0, n / length, np.nan)
-            n.setflags(write=False)
-            self._normals = n
+            self._normals = construct.triangle_normals(self.vertices, self.faces)
         return self._normals
 
     @property
     def gpu_timings(self):
-        """None. Deprecated: a GPU cast's phase timings come back with its result,
-        :attr:`Hits.timings` (kept on the scene, two threads casting at once raced on them)."""
-        warnings.warn(
-            "Scene.gpu_timings is deprecated and always None: read hits.timings of the GPU "
-            "cast's result",
-            DeprecationWarning,
-            stacklevel=2,
-        )
-        return None
+        """None. Deprecated: a GPU cast's phase timings are its result's :attr:`Hits.timings`
+        (on the scene, two threads casting at once raced on them)."""
+        return gpu.deprecated_timings()
 
     # ------------------------------------------------------------------ other query kinds
 
+    @documented
     def occluded(
         self,
         origins=None,
@@ -504,17 +329,12 @@ class Scene:
     ):
         """Return whether each ray hits any triangle (a shadow ray), without finding which.
 
-        A ray hits a triangle when it meets the closed triangle (edges and vertices
-        included) at one point at ``t`` in ``[tmin, tmax]``; a ray in a triangle's plane
-        never hits it. Stops at the first hit found, so it costs no more than
-        :meth:`cast` and usually less.
+        The ray queries' contract (:class:`Scene`). Stops at the first hit found, so it
+        costs no more than :meth:`cast` and usually less.
 
         Parameters
         ----------
-        origins, directions, tmin, tmax, threads, max_steps, invalid, method, layout
-            As for :meth:`cast` (rays of any leading shape, CPU only).
-        start, precision, packet, accel, progress
-            As for :meth:`cast` (``start=hits``: rays from an earlier cast's hits).
+        {ray_arguments}
         return_status : bool
             Also return the status per ray.
 
@@ -535,6 +355,7 @@ class Scene:
         hit = status == HIT
         return (hit, status) if return_status else hit
 
+    @documented
     def intersections(
         self,
         origins=None,
@@ -555,24 +376,14 @@ class Scene:
     ):
         """Return every hit of every ray, sorted by ray, then by exact ``t``.
 
-        A ray hits a triangle when it meets the closed triangle (edges and vertices
-        included) at one point at ``t`` in ``[tmin, tmax]``; a ray in a triangle's plane
-        never hits it. Each point where a ray meets the surface is reported once, even
-        where it crosses an edge or vertex that triangles share (then ``triangle`` names
-        one of them); triangles that meet the ray at one point in space (duplicates,
-        overlaps) count once there too.
+        The ray queries' contract (:class:`Scene`): each point where a ray meets the
+        surface is reported once, even at an edge or vertex that triangles share (then
+        ``triangle`` names one of them); triangles that meet the ray at one point in space
+        (duplicates, overlaps) count once there too.
 
         Parameters
         ----------
-        origins, directions, tmin, tmax, threads, max_steps, invalid
-            As for :meth:`cast` (rays of any leading shape, CPU only).
-        method : str, optional
-            ``"exact"`` (the default); the core refuses any other (``ValueError``).
-        layout : str, optional
-            Checked as a name, then ignored: the core's all-hits walk takes no tet layout
-            (the argument is there so that every ray query takes :meth:`cast`'s).
-        start, precision, packet, accel, progress
-            As for :meth:`cast` (``start=hits``: rays from an earlier cast's hits).
+        {ray_arguments}
 
         Returns
         -------
@@ -587,8 +398,9 @@ class Scene:
         q = self._request(locals())
         r = q.run(self._native, "all", "intersections")
         q.check(r["status"])
-        return Intersections.from_core(r, q.shape, self._locate)
+        return Intersections.from_core(r, q.shape, self.geometries)
 
+    @documented
     def count_intersections(
         self,
         origins=None,
@@ -616,15 +428,7 @@ class Scene:
 
         Parameters
         ----------
-        origins, directions, tmin, tmax, threads, max_steps, invalid
-            As for :meth:`cast` (rays of any leading shape, CPU only).
-        method : str, optional
-            ``"exact"`` (the default); the core refuses any other (``ValueError``).
-        layout : str, optional
-            Checked as a name, then ignored: the core's all-hits walk takes no tet layout
-            (the argument is there so that every ray query takes :meth:`cast`'s).
-        start, precision, packet, accel, progress
-            As for :meth:`cast` (``start=hits``: rays from an earlier cast's hits).
+        {ray_arguments}
         return_status : bool
             Also return the status per ray.
 
@@ -809,13 +613,11 @@ class Scene:
         Returns
         -------
         dict or None
-            ``nodes``, ``leaves``, ``depth``, ``bytes`` and the parameters it was built
-            with (``cost_ratio``, ``max_leaf``, ``bins``, ``aperture``); and what packets
-            (``accel="reshetov_bvh_packets"``) did on this tree since it was built:
-            ``packet_tests`` (ray-triangle pairs reached at leaves), ``packet_culled``
-            (those the frustum culled), and the leaves reached with a frustum
-            (``packet_leaves_frustum``), with one active ray (``packet_leaves_lone``) or
-            with no prevalent axis (``packet_leaves_no_axis``).
+            ``nodes``, ``leaves``, ``depth``, ``bytes``, the build parameters, and what
+            packets did on this tree: ``packet_tests`` (ray-triangle pairs at leaves),
+            ``packet_culled`` (those the frustum culled), leaves reached with a frustum
+            (``packet_leaves_frustum``), one active ray (``packet_leaves_lone``) or no
+            prevalent axis (``packet_leaves_no_axis``).
         """
         return self._native.bvh_info()
 
@@ -824,36 +626,23 @@ class Scene:
 
         Two rules; :attr:`is_closed` picks one unless ``mode`` does:
 
-        * ``"parity"``, for closed surfaces (every edge shared by an even number of
-          triangles), **exact**: a point is inside when a ray from it crosses the surface an
-          odd number of times, decided with exact predicates on the tetrahedralization (no
-          ray is cast). Points on the surface count as inside; points outside the domain box
-          are outside. Nested shells alternate, and where closed pieces overlap the overlap
-          is outside (an even number of crossings). Of an open surface it answers whether the
-          fewest crossings needed to reach the outside of the domain box is odd, which lets
-          every point escape through a hole (a scan's inside is all "outside"): asking for it
-          on a scene that is not closed warns (:class:`UserWarning`, once per scene object).
+        * ``"parity"``, for closed surfaces, **exact**: inside when a ray from the point
+          crosses the surface an odd number of times, decided with exact predicates on the
+          tetrahedralization (no ray is cast). Points on the surface are inside, points
+          outside the domain box outside; nested shells alternate, overlaps are outside. On
+          an open surface every point escapes through a hole, so asking for it there warns
+          (:class:`UserWarning`, once per scene object).
         * ``"winding"``, for open, cracked or non-manifold surfaces: inside when the
-          generalized winding number of the scene's triangles (Jacobson et al. 2013, the sum
-          of their signed solid angles over 4 pi) is at least 1/2. It is 1 inside and 0
-          outside a closed outward surface, and varies smoothly across a hole, so points
-          well inside a scan with small holes are inside. Where closed pieces overlap it is 2:
-          inside (their union). It needs the triangles oriented consistently (normals
-          outward); a triangle facing the wrong way subtracts what it should add.
+          generalized winding number (Jacobson et al. 2013) is at least 1/2: 1 inside a
+          closed outward surface, 0 outside, smooth across a hole (points well inside a scan
+          with small holes are inside), 2 in overlaps (inside). It needs consistently
+          oriented triangles (normals outward).
 
-        **Error of the winding mode.** The fast winding number (libigl, Barill et al. 2018:
-        Barnes-Hut, far triangles replaced by a Taylor expansion) is computed first; where it
-        lies within 0.05 of 1/2 the exact sum of solid angles (libigl's hierarchical
-        evaluation, exact up to rounding) replaces it. The fast value was off by at most
-        0.0044 on the Stanford bunny (10^4 points in its box, 8 x 10^4 near its surface),
-        so the answer is the exact sum's unless that error exceeds 0.05 (not proven, never
-        seen). The uncertain points are those whose exact winding number is itself near
-        1/2: points on the surface, where it jumps between 0 and 1 (parity counts them as
-        inside; the winding mode has no such rule), and points across a hole, where it is near 1/2
-        only because of the hole and the side is a matter of convention. Points far from
-        holes and from the surface get the same answer as any watertight closing of the
-        holes would give. ``tetrace.winding`` documents the measurements; docs/queries.md
-        compares with trimesh and Open3D.
+        **Error of the winding mode.** libigl's fast winding number (Barill et al. 2018) is
+        computed first, and the exact sum of solid angles replaces it within 0.05 of 1/2; the
+        fast value was off by at most 0.0044 on the bunny (:mod:`tetrace.winding` gives the
+        measurements). Points on the surface and across a hole are the uncertain ones (their
+        exact winding number is near 1/2); docs/queries.md compares with trimesh and Open3D.
 
         Parameters
         ----------
@@ -891,37 +680,26 @@ class Scene:
         """bool: whether :meth:`contains` uses exact parity by default (else the winding
         number): every edge of the caller's mesh is shared by an even number of triangles.
 
-        That is two on a manifold surface, and 4, 6, ... where closed pieces touch along an
-        edge; a hole's boundary edge has one, an edge where three sheets meet has three.
-        Orientation is not part of it, because parity does not use it (a closed surface with
-        some triangles flipped is still exact by parity, whereas its winding number is not).
-        The mesh is read as the scene's cleaning leaves it (:func:`tetrace.mesh.clean`):
-        exactly coincident vertices are one (UV seams do not open a mesh), and zero-area
-        and duplicate triangles (the same three vertices, either orientation) are dropped.
-        A :meth:`from_meshes` scene is judged as the one mesh of all its meshes. Computed
-        on first use and kept until :meth:`update_vertices` moves the vertices.
+        Two on a manifold surface, 4, 6, ... where closed pieces touch along an edge; not
+        orientation (parity does not use it). Read on the mesh as the scene's cleaning leaves
+        it (:func:`tetrace.mesh.clean`: coincident vertices merged, zero-area and duplicate
+        triangles dropped); a :meth:`from_meshes` scene as one mesh. Kept until
+        :meth:`update_vertices` moves the vertices.
         """
         return self._surface_info().closed
 
     def _surface_info(self):
         """The caller's mesh as cleaned, with its edge census (built once per vertices)."""
-        if self._surface is None:
-            from .winding import surface
-
-            self._surface = surface(self.vertices, self.faces)
-        return self._surface
+        return point_queries.surface_info(self)
 
     def update_vertices(self, vertices):
         """Move the scene's vertices, keeping its tetrahedralization when it stays valid.
 
-        Lagae & Dutré 2008: the constrained tetrahedralization keeps its topology and every
-        point moves (``docs/deformation.md`` gives the rule: the caller's vertices go where
-        they are sent, points on the domain box stay, Steiner points on a triangle follow it,
-        Steiner points in the volume follow a smoothed displacement). The core checks every
-        tet's orientation exactly and that every point stays in the domain box; if all hold
-        it takes the new points, else the scene is meshed again from the new vertices with
-        the options it was built with. Either way every query answers on the moved mesh
-        afterwards, with the same contract.
+        Lagae & Dutré 2008: the tetrahedralization keeps its topology and every point moves
+        (the rule is in ``docs/deformation.md``). If every tet stays positively oriented
+        (checked exactly) and every point in the domain box, the core takes the new points;
+        else the scene is meshed again with the options it was built with. Either way every
+        query answers on the moved mesh, with the same contract.
 
         Parameters
         ----------
@@ -975,6 +753,11 @@ class Scene:
     def prepare_layout(self, layout):
         """Build a traversal layout now rather than at its first cast.
 
+        Parameters
+        ----------
+        layout : str
+            One of :func:`tetrace.layouts`.
+
         Returns
         -------
         int
@@ -1017,20 +800,16 @@ class Scene:
     def to_bytes(self):
         """Serialize the scene in tetrace's scene file format (``docs/save_format.md``).
 
-        What is written rebuilds the scene exactly, without meshing: the tetrahedralization
-        as last built (the core rebuilds its structure from it deterministically), the
-        current positions of a moved scene (:meth:`update_vertices`) and its rest state (so
-        that it keeps deforming as the original would), the caller's mesh, the meshes of a
-        :meth:`from_meshes` scene, the meshing options a rebuild uses, the build times, the
-        last deformation report, and the parameters of a built BVH or octree.
+        It rebuilds the scene exactly, without meshing: the tetrahedralization as last built,
+        a moved scene's positions and rest state (it keeps deforming as the original would),
+        the caller's meshes, the meshing options, build times, last deformation report and
+        the parameters of a built BVH or octree.
 
         Returns
         -------
         bytes
             Loaded back by :meth:`from_bytes`; every query answers the same, bit for bit.
         """
-        from . import persist
-
         return persist.to_bytes(self)
 
     @classmethod
@@ -1053,8 +832,6 @@ class Scene:
             Not a scene file, a newer format version, truncated or corrupt data; the
             message names ``source`` and what is wrong.
         """
-        from . import persist
-
         return persist.from_bytes(cls, data, source)
 
     def save(self, path):
@@ -1066,9 +843,7 @@ class Scene:
             A path (written to a temporary file beside it, then renamed) or a binary file
             object open for writing.
         """
-        from .scenefile import write_bytes
-
-        write_bytes(path, self.to_bytes())
+        scenefile.write_bytes(path, self.to_bytes())
 
     @classmethod
     def load(cls, path):
@@ -1093,9 +868,7 @@ class Scene:
             is wrong. :class:`tetrace.SceneFileNotFoundError` (also a ``FileNotFoundError``)
             when it does not exist.
         """
-        from .scenefile import read_bytes
-
-        data, source = read_bytes(path)
+        data, source = scenefile.read_bytes(path)
         return cls.from_bytes(data, source=source)
 
     def __reduce__(self):
@@ -1122,49 +895,3 @@ def _scene_from_bytes(data):
 def default_scene_path():
     """Return the path of the bundled default scene (Keenan Crane's Spot, CC0)."""
     return resources.files("tetrace").joinpath("data", "spot.obj")
-
-
-@lru_cache(maxsize=1)
-def default_scene():
-    """Return the bundled default scene, built once per process with the default preset."""
-    return Scene.from_mesh(str(default_scene_path()))
-
-
-def cast(rays, scene=None, **kwargs):
-    """Cast rays through a scene.
-
-    Parameters
-    ----------
-    rays : array_like or tuple
-        ``(N, 6)`` rays ``[ox, oy, oz, dx, dy, dz]`` or an ``(origins, directions)`` tuple.
-    scene : Scene or mesh or path, optional
-        A built :class:`Scene`, or anything :meth:`Scene.from_mesh` takes; None casts into
-        the bundled default scene.
-    **kwargs
-        Passed to :meth:`Scene.cast` (``tmin``, ``tmax``, ``threads``, ...).
-
-    Returns
-    -------
-    Hits
-    """
-    if scene is None:
-        scene = default_scene()
-    elif not isinstance(scene, Scene):
-        scene = Scene.from_mesh(scene)
-    if isinstance(rays, tuple):
-        if len(rays) != 2:
-            raise ValueError("rays given as a tuple must be (origins, directions)")
-        return scene.cast(rays[0], rays[1], **kwargs)
-    return scene.cast(rays, **kwargs)
-
-
-def measure_accuracy(
-    tetrahedralization, vertices, faces, *, rays=20_000, seed=0, hit_distance=1e-3
-):
-    """Fraction of random rays on which a tetrahedralization agrees with Embree: what
-    :func:`tetrace.accuracy.measure_accuracy` documents, cast with :class:`Scene`."""
-    from .accuracy import measure_accuracy
-
-    return measure_accuracy(
-        Scene, tetrahedralization, vertices, faces, rays=rays, seed=seed, hit_distance=hit_distance
-    )

@@ -106,16 +106,21 @@ fn upload_records<T: bytemuck::Pod + Send>(
                     .get_mapped_range_mut()
                     .map_err(|e| Error::Gpu(format!("mapping the {label}: {e}")))?;
                 // The mapped memory is write-only: fill a block of records at a time and copy it.
+                // The fill runs in tetrace's default pool, as every parallel step does
+                // (threads.rs: fork-safe), not in rayon's global one.
+                let pool = crate::threads::pool(None)?;
                 const BLOCK: usize = 1 << 16;
                 let mut block: Vec<T> = Vec::with_capacity(BLOCK);
                 let rsize = std::mem::size_of::<T>();
                 for start in (0..n).step_by(BLOCK) {
                     let end = (start + BLOCK).min(n);
                     block.clear();
-                    (start..end)
-                        .into_par_iter()
-                        .map(&fill)
-                        .collect_into_vec(&mut block);
+                    pool.install(|| {
+                        (start..end)
+                            .into_par_iter()
+                            .map(&fill)
+                            .collect_into_vec(&mut block)
+                    });
                     view.slice(start * rsize..end * rsize)
                         .copy_from_slice(bytemuck::cast_slice(&block));
                 }

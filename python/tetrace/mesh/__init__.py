@@ -190,7 +190,8 @@ def tetrahedralize(
         Embree on the caller's mesh (default 0.999).
     measure : callable, optional
         ``mesher="auto"`` only: how an inexact candidate's accuracy is measured
-        (:meth:`tetrace.Scene.from_mesh` passes :func:`tetrace.scene.measure_accuracy`);
+        (:meth:`tetrace.Scene.from_mesh` passes
+        :func:`tetrace.accuracy.measure_accuracy` with the ``Scene`` class);
         see :func:`tetrace.mesh.auto.auto_tetrahedralize`.
     name : str, optional
         What error messages call the mesh (default: a path's file name, else "the mesh").

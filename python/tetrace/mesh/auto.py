@@ -84,7 +84,8 @@ def auto_tetrahedralize(
         (:func:`tetrace.mesh.tetrahedralize`, which passes itself).
     measure : callable, optional
         ``measure(tz, vertices, faces, rays=, seed=)``: the accuracy of an inexact candidate
-        (:meth:`tetrace.Scene.from_mesh` passes :func:`tetrace.scene.measure_accuracy`,
+        (:meth:`tetrace.Scene.from_mesh` passes
+        :func:`tetrace.accuracy.measure_accuracy` with the ``Scene`` class,
         agreement with Embree). Without it, inexact candidates are not measured and cannot
         be chosen.
     accuracy : float

@@ -50,6 +50,7 @@ def audited_cast(
         with exact orientation predicates on the points the walk read), and steps where the
         method's own tests found no exit face.
     """
+    from ...hits import Hits
     from ...rays import RayRequest
 
     dt = np.float32 if precision == "f32" else np.float64
@@ -67,7 +68,7 @@ def audited_cast(
     )
     r = q.run(scene._native, "closest", "casting")
     audit = r.pop("audit")
-    return scene._hits(r), audit
+    return Hits.from_core(r, scene.normals(), scene.geometries), audit
 
 
 def judge_cast(hits, audit, verdict):
