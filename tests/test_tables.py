@@ -172,7 +172,7 @@ def _public_callables():
             yield name, getattr(tetrace, name)
 
 
-@pytest.mark.parametrize("name, f", list(_public_callables()), ids=lambda x: str(x)[:40])
+@pytest.mark.parametrize("name, f", [pytest.param(n, f, id=n) for n, f in _public_callables()])
 def test_every_argument_is_documented_once(name, f):
     # The ray queries' argument docs are written once (rays.ARG_DOCS) and put into each
     # query's docstring by rays.documented: a query that takes an argument must list it
