@@ -3,7 +3,8 @@
 //! still passed). A ray that misses, or that never walked, names no triangle (-1) and has
 //! t = ∞ and NaN u, v and point; a ray that never walked (not traceable, or missing the
 //! domain box) also names no tet and took no step; a caster that walks no tets names no tet.
-//! (A hit may take no step: an origin on a triangle meets it before the walk moves.)
+//! A BVH's or octree's hit visited a node (a tet walk's hit may take no step: an origin on a
+//! triangle meets it before the walk moves).
 
 use super::*;
 use crate::accel::AccelKind;
@@ -45,6 +46,8 @@ fn misses_and_rays_that_never_walked_name_nothing() {
                 hits += 1;
                 assert!(out.triangle[i] >= 0, "{what}: a hit names a triangle");
                 assert_eq!(out.tet[i] >= 0, walks_tets, "{what}: tet {}", out.tet[i]);
+                // A hierarchy finds a triangle in a node it visited: at least one step.
+                assert!(walks_tets || out.steps[i] >= 1, "{what}: no node visited");
                 continue;
             }
             assert_eq!(out.triangle[i], -1, "{what}");
