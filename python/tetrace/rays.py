@@ -493,8 +493,10 @@ def documented(query):
     import inspect
     import textwrap
 
-    takes = set(inspect.signature(query).parameters)
     doc = query.__doc__
+    if doc is None:  # python -OO strips docstrings
+        return query
+    takes = set(inspect.signature(query).parameters)
     line = re.search(r"^( *)\{ray_arguments\}\n", doc, re.M)
     section = doc[doc.rindex("\n", 0, doc.index("Parameters")) : doc.index("Returns")]
     params = textwrap.dedent(section)
