@@ -502,7 +502,6 @@ def documented(query):
     params = textwrap.dedent(section)
     own = {n for m in _ENTRY.finditer(params) for n in m.group(1).split(", ")}
     text = "".join(t for names, t in _arg_entries() if takes & set(names) and not own & set(names))
-    rows = text.splitlines(True)
-    indented = "".join(line.group(1) + row if row.strip() else row for row in rows)
+    indented = textwrap.indent(text, line.group(1))  # blank lines stay blank
     query.__doc__ = doc[: line.start()] + indented + doc[line.end() :]
     return query
