@@ -43,9 +43,15 @@ def spot():
 
 
 def test_kernels_and_their_defaults():
-    assert gpu.kernels() == [("aman2022", "tet20"), ("maria2017", "tet80"), ("robust", "tet20")]
-    assert gpu.DEFAULT_KERNEL == ("aman2022", "tet20")
-    assert gpu.kernel_for() == ("aman2022", "tet20")
+    assert gpu.kernels() == [
+        ("exact", "tet20"),
+        ("aman2022", "tet20"),
+        ("maria2017", "tet80"),
+        ("robust", "tet20"),
+    ]
+    assert gpu.DEFAULT_KERNEL == ("exact", "tet20")
+    assert gpu.kernel_for() == ("exact", "tet20")
+    assert gpu.kernel_for("aman2022") == ("aman2022", "tet20")
     assert gpu.kernel_for("maria2017") == ("maria2017", "tet80")
     assert gpu.kernel_for("robust") == ("robust", "tet20")
     assert gpu.kernel_for("ms06") is None
@@ -158,13 +164,17 @@ def _check(scene, o, d, what, device):
         # within ulp_f32(t*) + B of the exact t* (docs/referee.md): no "t off".
         assert g.failed == 0 and c.failed == 0, msg
         assert g.t_off == 0 and c.t_off == 0, msg
-        if method == "robust" or exact_twin:
-            # robust: certified signs on the GPU, exact ones on the CPU, deferral when unsure:
-            # the same walk, ray for ray (docs/gpu.md). The float32 kernels on a driver that
-            # does not contract: the twin's operations in its order (_twin_must_match).
+        if method in ("exact", "robust") or exact_twin:
+            # exact, robust: certified signs on the GPU, exact ones on the CPU, the CPU's
+            # walk where unsure: the same walk, ray for ray (docs/gpu.md); for exact the CPU
+            # exact cast, the default. The float32 kernels on a driver that does not
+            # contract: the twin's operations in its order (_twin_must_match).
             assert len(differ) == 0, msg
-            for f in ("status", "triangle", "tet", "steps", "t", "u", "v"):
+            for f in ("status", "triangle", "tet", "steps", "t", "u", "v", "point"):
                 np.testing.assert_array_equal(getattr(cpu, f), getattr(hits, f), err_msg=f)
+        if method == "exact":
+            # The contract: every ray right by the referee (the CPU exact cast's answers).
+            assert g.right == len(o), msg
         elif len(differ):
             # Information, not a failure (pytest turns warnings into errors): printed.
             print(
@@ -186,11 +196,11 @@ def test_bunny_camera_and_random_rays_match_cpu_twin(scene_path, device):
     _check(scene, o, d, "bunny 10^5 random", device)
 
 
-def test_gpu_hits_fields_and_options(spot, device):
+def test_gpu_hits_fields_and_options(spot, device, monkeypatch):
     lo, hi = spot.vertices.min(0), spot.vertices.max(0)
     o, d = pinhole(hi + (hi - lo), (lo + hi) / 2, width=64, height=64, dtype=np.float32)
     h = spot.cast(o, d, device="gpu")
-    ref = spot.cast(o, d, method="aman2022", layout="tet20")
+    ref = spot.cast(o, d)  # the exact default on the CPU: the GPU's default gives its answers
     for f in ("t", "u", "v", "point", "triangle", "tet", "steps", "status"):
         np.testing.assert_array_equal(getattr(h, f), getattr(ref, f), err_msg=f)
     assert (h.status == tetrace.HIT).any()
@@ -209,10 +219,16 @@ def test_gpu_hits_fields_and_options(spot, device):
         spot.cast(o, d, device="tpu")
     with pytest.raises(ValueError, match="aman2022/tet20"):
         spot.cast(o, d, device="gpu", method="ms06")
-    # auto: the GPU for float32 walks of a method named with a kernel, else the CPU (the
-    # exact default has no GPU kernel: auto does not trade it away).
+    # auto: the GPU for float32 walks of a method named with a kernel; for the exact default
+    # only on a hardware GPU (on lavapipe the CPU walk is faster), with the CPU's answers.
     h = spot.cast(o, d, device="auto")
-    assert h.t.dtype == np.float32 and h.timings is None
+    assert h.t.dtype == np.float32 and bool(h.timings) == gpu.hardware()
+    monkeypatch.setattr(gpu, "hardware", lambda: True)
+    h = spot.cast(o, d, device="auto")
+    assert h.timings and h.timings["walked"] > 0
+    np.testing.assert_array_equal(h.triangle, ref.triangle)
+    np.testing.assert_array_equal(h.t, ref.t)
+    monkeypatch.undo()
     h = spot.cast(o, d, device="auto", method="aman2022")
     assert h.t.dtype == np.float32 and h.timings
     h64 = spot.cast(o.astype(np.float64), d.astype(np.float64), device="auto")

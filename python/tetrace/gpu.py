@@ -1,10 +1,13 @@
 """GPU casting through wgpu compute shaders: adapters, the device, the kernels.
 
-``scene.cast(..., device="gpu")`` locates each ray's start tet and finishes its hit on the
-CPU, as the CPU cast does, and walks from tet to tet on the GPU, one invocation per ray. The
-GPU walks in float32 (WGSL has no float64). Kernels (method on layout): Aman et al. 2022 on
-tet20 (the default), Maria et al. 2017 on tet80, and the robust walk on tet20, whose float32
-filter hands the rays it cannot certify back to the CPU robust walk. Design: ``docs/gpu.md``.
+The default kernel, ``exact`` on tet20, keeps the exact contract on the GPU: the CPU begins
+each ray's exact walk (location, the first exit), the GPU takes every step of the walk it can
+certify with float32 error bounds (the robust kernel's, plus the points' rounding to float32),
+and the CPU exact walk goes on from where the GPU stopped: at the face the query decides, or
+at a step too close to call. Every answer is then the CPU exact cast's, bit for bit. The
+papers' float32 kernels remain (method on layout): Aman et al. 2022 on tet20, Maria et al.
+2017 on tet80, and the robust walk on tet20, whose float32 filter hands the rays it cannot
+certify back to the CPU robust walk. Design: ``docs/gpu.md``.
 
 Any Vulkan, Metal, DX12 or OpenGL adapter with compute shaders works; on a Linux machine
 without a GPU, Mesa's software Vulkan driver (lavapipe, ``apt-get install
@@ -21,7 +24,7 @@ from functools import lru_cache
 
 from . import _native
 
-__all__ = ["GpuError", "info", "device", "available", "kernels", "DEFAULT_KERNEL"]
+__all__ = ["GpuError", "info", "device", "available", "hardware", "kernels", "DEFAULT_KERNEL"]
 
 # How ``Scene.cast`` routes a cast to the GPU (:func:`check_cast`, :func:`wanted`):
 # functions of the cast's arguments, so that this module imports nothing of tetrace.scene.
@@ -129,22 +132,31 @@ def check_cast(device):
         raise ValueError(f'device must be "cpu", "gpu" or "auto", got {device!r}')
 
 
+def hardware():
+    """Return whether the device GPU casts run on is a hardware GPU (not a software driver
+    such as lavapipe, which runs the kernels on the CPU, slower than the CPU walk).
+
+    Returns
+    -------
+    bool
+    """
+    return available() and device().get("device_type") != "Cpu"
+
+
 def wanted(device, precision, method, layout, accel, start):
     """Whether a cast of rays of ``precision`` (``"f32"`` or ``"f64"``, the walk's) runs on
-    the GPU: always for ``device="gpu"``; for ``"auto"``, when a float32 walk of an
-    explicitly named method has a kernel and a device opens."""
+    the GPU: always for ``device="gpu"``; for ``"auto"``, when a float32 tet walk has a kernel
+    and a device opens: for the exact default on a hardware GPU (:func:`hardware`; the GPU's
+    answers are the CPU's, so only speed is at stake), for a method named explicitly on any
+    adapter."""
     if device == "gpu":
         return True
     if device == "auto" and precision == "f32":
-        # Only a float method named explicitly: the exact default has no GPU kernel, and
-        # "auto" must not trade the contract for speed behind the caller's back.
-        return (
-            accel in (None, "tetwalk")
-            and start is None
-            and method is not None
-            and kernel_for(method, layout) is not None
-            and available()
-        )
+        if accel not in (None, "tetwalk") or start is not None:
+            return False
+        if kernel_for(method, layout) is None or not available():
+            return False
+        return method is not None or hardware()
     return False
 
 

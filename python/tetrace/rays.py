@@ -446,10 +446,12 @@ device : {"cpu", "gpu", "auto"}
     Where the walk runs. ``"gpu"``: on the GPU (:mod:`tetrace.gpu`), in float32:
     float64 rays are rounded to float32 and ``precision="f64"`` is refused; method
     and layout must name a GPU kernel (:func:`tetrace.gpu.kernels`; by default
-    ``aman2022`` on ``tet20``). Start location and the hit on your triangle stay on
-    the CPU. ``"auto"``: the GPU when a device opens, the walk is float32 and a kernel
-    exists for the method (named explicitly: the default ``exact`` has none) and
-    layout, else the CPU.
+    ``exact`` on ``tet20``: the GPU takes the exact walk's certified steps and the
+    answers are the CPU exact cast's, bit for bit). Start location and the hit on your
+    triangle stay on the CPU. ``"auto"``: the GPU when the walk is float32, a kernel
+    exists for the method and layout, and a device opens (for the ``exact`` default, a
+    hardware GPU: a software driver such as lavapipe is slower than the CPU), else the
+    CPU.
 packet : bool
     Let rays that share an origin (a camera, rays from one point) walk as packets
     where the method allows (the ``exact`` default): a chunk of rays is taken as

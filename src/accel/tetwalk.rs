@@ -89,6 +89,17 @@ struct Walking<R: Real, M: ExitMethod<R>, P, O> {
     state: WalkState<M::Vert>,
 }
 
+/// Where a walk stands between plain steps, by ids: in tet `t` after `steps` tets, leaving by
+/// the face (a, b, c) (counter-clockwise around the ray, certain edges) across which `link`
+/// lies. What the GPU's exact kernel takes and gives back ([`TetWalk::begin_elsewhere`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PlainState {
+    pub face: [u32; 3],
+    pub link: u32,
+    pub t: u32,
+    pub steps: u32,
+}
+
 /// A lane (or a packet's ray): empty, or the index in its chunk, the ray and its walk.
 type Lane<R, M, P, O> = Option<(usize, Ray, Walking<R, M, P, O>)>;
 
@@ -284,6 +295,63 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
             }),
             Err(w) => Err(query.answer(&start, &w, policy, observer.counts())),
         }
+    }
+
+    /// The first half of a walk whose plain steps are taken elsewhere (the GPU's exact kernel,
+    /// `gpu::cast`): locates the ray and takes its first exit as [`TetWalk::begin_plain`]
+    /// does. Err: the ray's answer (it did not walk, its walk ended at the start, or it may
+    /// touch the surface where it stands, so it walked to its end here). Ok: where its walk
+    /// stands, an exit face with certain edges and a query policy still fresh (as
+    /// `K::policy` makes it: no touch was told to it), for [`TetWalk::walk_on_from`].
+    pub(crate) fn begin_elsewhere<K: QueryKind>(
+        &self,
+        query: &K,
+        ray: &Ray,
+        st: &mut LocateState,
+    ) -> Result<(WalkStart, PlainState), K::Answer> {
+        let w = self.begin(query, ray, st)?;
+        let s = &w.start;
+        // Rays whose origin may touch were told so (`begin_exact`): their policy is not fresh.
+        let told = M::CONTACTS
+            && s.entry.is_none()
+            && s.tmin == 0.0
+            && st.origin_may_touch(s.o, s.tet, || query.origin_may_touch(s));
+        if told || (M::CONTACTS && M::may_touch(&w.prepared, &w.state.pa, &w.state.pb, &w.state.pc))
+        {
+            return Err(self.finish(query, w));
+        }
+        let st = &w.state;
+        let plain = PlainState {
+            face: [st.a, st.b, st.c],
+            link: st.link,
+            t: st.t,
+            steps: st.steps,
+        };
+        Ok((w.start, plain))
+    }
+
+    /// The second half: the walk of the ray started at `start`, standing at `at` after plain
+    /// steps taken elsewhere (each the one-ray walk's, so `at` is a state this walk reaches),
+    /// walked on to its end here, and its answer: the one-ray walk's, bit for bit.
+    pub(crate) fn walk_on_from<K: QueryKind>(
+        &self,
+        query: &K,
+        start: &WalkStart,
+        at: PlainState,
+    ) -> K::Answer {
+        let mesh = self.locators.mesh;
+        let prepared = start.prepare::<R, M>(mesh);
+        let observer = O::for_ray(start.o, start.dir, &mesh.bounds);
+        let state =
+            WalkState::plain::<R, L, M>(&self.setup, &prepared, at.face, at.link, at.t, at.steps);
+        self.walk_on(
+            query,
+            start,
+            &prepared,
+            query.policy(start),
+            observer,
+            state,
+        )
     }
 
     /// Walks on from where `w` stands to the walk's end, and answers.

@@ -3,20 +3,30 @@
 //! (`KernelSpec::prepare`), the GPU walks batches of rays (`launch.rs`), and the CPU finishes
 //! each hit on the caller's triangle (`Scene::finish`). Rays a kernel defers (the robust
 //! filter's) are walked again on the CPU from the same start.
+//!
+//! The exact kernel (the default) splits the CPU exact walk instead: the CPU begins each walk
+//! (`TetWalk::begin_elsewhere`: location, the origin's touch, the first exit), the GPU takes
+//! the plain steps it can certify, and the CPU walks on from where the GPU stopped
+//! (`TetWalk::walk_on_from`): at the face its query decides, or at a step the GPU could not
+//! certify. Every answer is the CPU exact walk's.
 
-use super::context::gpu;
+use super::context::{gpu, Gpu};
 use super::device_scene::DeviceScene;
 use super::kernels::KernelSpec;
 use super::launch::{Batching, Launch};
 use super::structs::{RayIn, RayOut, END_BOUNDARY, END_DEFERRED, END_HIT};
 use super::timings::GpuTimings;
+use super::upload::LayoutBuffers;
+use crate::accel::tetwalk::PlainState;
+use crate::accel::TetWalk;
 use crate::error::{Error, Result};
+use crate::layout::Tet20;
 use crate::locate::{LocateState, Start, WalkStart};
 use crate::query::RayHit;
 use crate::scene::CastOptions;
 use crate::scene::{check_lengths, HitsOut, Rays, Scene, CHUNK};
 use crate::threads::run_pieces;
-use crate::traverse::{Walk, WalkEnd};
+use crate::traverse::{Exact, NoObserver, Walk, WalkEnd, WalkSetup};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
@@ -64,9 +74,20 @@ impl DeviceScene {
             scene_upload,
             ..Default::default()
         };
+        let device = OnDevice {
+            g: &g,
+            pipeline: &pipeline,
+            scene: &scene_buffers,
+            max_steps: opts.max_steps_for(scene.mesh.len()),
+            batching,
+        };
+        if kernel.resumes {
+            resumed(scene, kernel, &device, rays, out, opts, &mut timings)?;
+            return Ok(timings);
+        }
         // 1. Locate and prepare, chunk by chunk as the CPU cast does (same hints and seeds),
         // on tetrace's pools as pieces: Ctrl-C skips the chunks not started.
-        let max_steps = opts.max_steps_for(scene.mesh.len());
+        let max_steps = device.max_steps;
         let t0 = Instant::now();
         let mut chunks = crate::query::chunks(out, CHUNK);
         let mut located: Vec<Located> = (0..chunks.len()).map(|_| Default::default()).collect();
@@ -74,34 +95,13 @@ impl DeviceScene {
         run_pieces(pieces, opts.threads, |(k, (chunk, slot))| {
             *slot = locate_chunk(scene, kernel, rays, k, chunk)
         })?;
-        let walked: usize = located.iter().map(|(s, _)| s.len()).sum();
-        timings.walked = walked;
         timings.locate = t0.elapsed().as_secs_f64();
 
         // 2. Walk on the device, in batches.
-        let results = if walked > 0 {
-            let all: Vec<&[RayIn]> = located.iter().map(|(_, r)| r.as_slice()).collect();
-            let launch = Launch {
-                g: &g,
-                pipeline: &pipeline,
-                scene: &scene_buffers,
-                max_steps,
-                batching,
-            };
-            launch.run(&all, walked, &mut timings)?
-        } else {
-            Vec::new()
-        };
+        let (results, offsets) = device.walk(&located, &mut timings)?;
 
-        crate::threads::checkpoint()?;
         // 3. Finish: hits on the caller's triangles, deferred rays on the CPU.
         let t3 = Instant::now();
-        let mut offsets = Vec::with_capacity(located.len());
-        let mut acc = 0usize;
-        for (s, _) in &located {
-            offsets.push(acc);
-            acc += s.len();
-        }
         let cpu_walk = kernel.deferred_to.map(|f| f(scene)).transpose()?;
         let deferred = AtomicUsize::new(0);
         let pieces: Vec<_> = chunks.into_iter().enumerate().collect();
@@ -126,6 +126,118 @@ impl DeviceScene {
         timings.finish = t3.elapsed().as_secs_f64();
         Ok(timings)
     }
+}
+
+/// A kernel ready to run on the device, with the scene's buffers for it.
+struct OnDevice<'a> {
+    g: &'a Gpu,
+    pipeline: &'a wgpu::ComputePipeline,
+    scene: &'a LayoutBuffers,
+    max_steps: u32,
+    batching: Batching,
+}
+
+impl OnDevice<'_> {
+    /// Walks every chunk's prepared rays on the device, in batches: their results in order,
+    /// and where each chunk's begin among them.
+    fn walk(
+        &self,
+        located: &[Located],
+        timings: &mut GpuTimings,
+    ) -> Result<(Vec<RayOut>, Vec<usize>)> {
+        let mut offsets = Vec::with_capacity(located.len());
+        let mut walked = 0usize;
+        for (s, _) in located {
+            offsets.push(walked);
+            walked += s.len();
+        }
+        timings.walked = walked;
+        let results = if walked > 0 {
+            let all: Vec<&[RayIn]> = located.iter().map(|(_, r)| r.as_slice()).collect();
+            let launch = Launch {
+                g: self.g,
+                pipeline: self.pipeline,
+                scene: self.scene,
+                max_steps: self.max_steps,
+                batching: self.batching,
+            };
+            launch.run(&all, walked, timings)?
+        } else {
+            Vec::new()
+        };
+        crate::threads::checkpoint()?;
+        Ok((results, offsets))
+    }
+}
+
+/// The exact kernel's cast (see the module docs): the CPU exact walk on Tet20, its plain steps
+/// taken on the device.
+fn resumed(
+    scene: &Scene,
+    kernel: &KernelSpec,
+    device: &OnDevice,
+    rays: &Rays<f32>,
+    out: HitsOut<f32>,
+    opts: &CastOptions,
+    timings: &mut GpuTimings,
+) -> Result<()> {
+    // The CPU exact walk of float32 rays, as the CPU cast dispatches it: float64 points.
+    let setup = WalkSetup {
+        layout: crate::layout::get::<Tet20>(&scene.layouts.tet20, &scene.mesh)?,
+        points: &scene.mesh.points[..],
+        sides: &scene.mesh.constrained,
+        max_steps: device.max_steps,
+    };
+    let walk = TetWalk::<f64, Tet20, Exact, NoObserver>::new(scene.locators(), setup);
+    let query = scene.closest();
+    let points_slack = device.scene.points_slack;
+    let t0 = Instant::now();
+    let mut chunks = crate::query::chunks(out, CHUNK);
+    let mut located: Vec<Located> = (0..chunks.len()).map(|_| Default::default()).collect();
+    let pieces: Vec<_> = chunks.iter_mut().zip(&mut located).enumerate().collect();
+    run_pieces(pieces, opts.threads, |(k, (chunk, (starts, prepared)))| {
+        let mut st = LocateState::for_chunk(k);
+        for j in 0..chunk.len() {
+            match walk.begin_elsewhere(&query, &rays.ray(k * CHUNK + j), &mut st) {
+                Err(answer) => chunk.set(j, &answer),
+                Ok((s, at)) => {
+                    let r = (kernel.prepare)(&s, &scene.mesh);
+                    prepared.push(RayIn {
+                        tet: at.t,
+                        entry: at.steps,
+                        verts: [at.face[0], at.face[1], at.face[2], at.link],
+                        slack: ((r.slack as f64 + points_slack as f64) * (1.0 + 1e-6)) as f32,
+                        ..r
+                    });
+                    starts.push((j as u32, s));
+                }
+            }
+        }
+    })?;
+    timings.locate = t0.elapsed().as_secs_f64();
+    let (results, offsets) = device.walk(&located, timings)?;
+    let t3 = Instant::now();
+    let deferred = AtomicUsize::new(0);
+    let pieces: Vec<_> = chunks.into_iter().enumerate().collect();
+    run_pieces(pieces, opts.threads, |(k, mut chunk)| {
+        let starts = &located[k].0;
+        let res = &results[offsets[k]..offsets[k] + starts.len()];
+        for ((j, s), o) in starts.iter().zip(res) {
+            if o.end == END_DEFERRED {
+                deferred.fetch_add(1, Ordering::Relaxed);
+            }
+            let at = PlainState {
+                face: [o.face[0], o.face[1], o.face[2]],
+                link: o.constrained,
+                t: o.tet,
+                steps: o.steps,
+            };
+            chunk.set(*j as usize, &walk.walk_on_from(&query, s, at));
+        }
+    })?;
+    timings.deferred = deferred.into_inner();
+    timings.finish = t3.elapsed().as_secs_f64();
+    Ok(())
 }
 
 /// Locates the rays of chunk k; rays that need no walk are written to `chunk` at once.

@@ -18,9 +18,10 @@ use crate::locate::WalkStart;
 use crate::mesh::TetMesh;
 use crate::scene::Scene;
 use crate::traverse::aman2022::BasisRay;
+use crate::traverse::exact::ExactRay;
 use crate::traverse::lagae2008_plucker::PluckerRay;
 use crate::traverse::robust::LineRay;
-use crate::traverse::{walk, Aman2022, ExitMethod, Maria2017, Robust, Walk};
+use crate::traverse::{walk, Aman2022, Exact, ExitMethod, Maria2017, Robust, Walk};
 use std::sync::Arc;
 
 /// One WGSL file: its path under `shaders/` and its text, embedded at compile time.
@@ -83,8 +84,15 @@ pub struct KernelSpec {
     /// The exit method's name (`tetrace.methods()`; the CPU twin's `ExitMethod::NAME`).
     pub method: &'static str,
     pub layout: &'static GpuLayout,
-    /// The method's exit test (`shaders/methods/`).
-    pub wgsl: Wgsl,
+    /// The method's exit test (`shaders/methods/`): one file, or files joined in order (the
+    /// exact kernel's plain step builds on the robust kernel's certified signs).
+    pub wgsl: &'static [Wgsl],
+    /// The walk, when not the layout's (`shaders/walks/`): the exact kernel resumes walks.
+    pub walk: Option<Wgsl>,
+    /// Whether the kernel resumes walks the host began (`TetWalk::begin_elsewhere`) and hands
+    /// them back as they stand, for the host's exact walk to finish: RayIn carries the walk's
+    /// state (shaders/walks/resume.wgsl), not a start.
+    pub resumes: bool,
     /// Whether the CPU twin's walk starts in the tet holding the perturbed start point
     /// (`ExitMethod::PERTURBED_START`): the host then locates as the twin's cast does.
     pub perturbed_start: bool,
@@ -94,24 +102,33 @@ pub struct KernelSpec {
     pub(crate) deferred_to: Option<fn(&Scene) -> Result<CpuWalk<'_>>>,
 }
 
-/// Every kernel, the default (Aman et al. on Tet20, their GPU design) first.
-pub static KERNELS: [KernelSpec; 3] = [
-    KernelSpec::of::<Aman2022>(&GPU_LAYOUTS[0], wgsl!("methods/aman2022.wgsl"), None),
-    KernelSpec::of::<Maria2017>(&GPU_LAYOUTS[1], wgsl!("methods/maria2017.wgsl"), None),
+/// The robust kernel's certified signs, on which the exact kernel's plain step builds.
+const ROBUST: Wgsl = wgsl!("methods/robust.wgsl");
+
+/// Every kernel, the default first: the exact walk's plain steps on Tet20, the rest of each
+/// walk on the CPU exact walk (the contract, as on the CPU). Then the papers' float32 kernels.
+pub static KERNELS: [KernelSpec; 4] = [
+    KernelSpec {
+        resumes: true,
+        walk: Some(wgsl!("walks/resume.wgsl")),
+        ..KernelSpec::of::<Exact>(
+            &GPU_LAYOUTS[0],
+            &[ROBUST, wgsl!("methods/exact.wgsl")],
+            None,
+        )
+    },
+    KernelSpec::of::<Aman2022>(&GPU_LAYOUTS[0], &[wgsl!("methods/aman2022.wgsl")], None),
+    KernelSpec::of::<Maria2017>(&GPU_LAYOUTS[1], &[wgsl!("methods/maria2017.wgsl")], None),
     // The robust walk's float32 filter; rays it cannot certify go back to
     // `walk::<f32, Tet20, Robust>`.
-    KernelSpec::of::<Robust>(
-        &GPU_LAYOUTS[0],
-        wgsl!("methods/robust.wgsl"),
-        Some(robust_tet20_on_cpu),
-    ),
+    KernelSpec::of::<Robust>(&GPU_LAYOUTS[0], &[ROBUST], Some(robust_tet20_on_cpu)),
 ];
 
 impl KernelSpec {
     /// The kernel of method M (its CPU twin's method) on `layout`.
     const fn of<M: ExitMethod<f32>>(
         layout: &'static GpuLayout,
-        wgsl: Wgsl,
+        wgsl: &'static [Wgsl],
         deferred_to: Option<fn(&Scene) -> Result<CpuWalk<'_>>>,
     ) -> KernelSpec
     where
@@ -121,6 +138,8 @@ impl KernelSpec {
             method: M::NAME,
             layout,
             wgsl,
+            walk: None,
+            resumes: false,
             perturbed_start: M::PERTURBED_START,
             prepare: prepare_as::<M>,
             deferred_to,
@@ -133,8 +152,11 @@ impl KernelSpec {
     }
 
     /// The parts of the WGSL module, in the order they are joined.
-    pub fn parts(&self) -> [Wgsl; 4] {
-        [COMMON, self.layout.wgsl, self.wgsl, self.layout.walk]
+    pub fn parts(&self) -> Vec<Wgsl> {
+        let mut parts = vec![COMMON, self.layout.wgsl];
+        parts.extend_from_slice(self.wgsl);
+        parts.push(self.walk.unwrap_or(self.layout.walk));
+        parts
     }
 
     /// The full WGSL module the device compiles.
@@ -231,6 +253,20 @@ impl GpuRay for BasisRay<f32> {
             origin: self.origin,
             e0: self.u,
             e1: self.w,
+            ..ray
+        }
+    }
+}
+
+/// The exact walk: o in float32 and the basis perpendicular to its direction. `slack` is the
+/// host's to set (the exact kernel adds the points' rounding, `DeviceScene`'s).
+impl GpuRay for ExactRay<f32> {
+    fn fill(&self, ray: RayIn) -> RayIn {
+        RayIn {
+            origin: self.or,
+            e0: self.u,
+            e1: self.w,
+            slack: slack(self.o, self.or),
             ..ray
         }
     }

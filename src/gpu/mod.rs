@@ -6,7 +6,10 @@
 //! kernel has a CPU twin, the float32 walk with the same method and layout, which it matches
 //! up to the GPU compiler's freedom to fuse multiply-adds. The robust kernel certifies each
 //! sign with an error bound valid under any fusing and hands rays it cannot certify back to
-//! the CPU robust walk. Design, bounds and measurements: docs/gpu.md.
+//! the CPU robust walk. The exact kernel (the default) takes the CPU exact walk's plain steps
+//! on the same certified signs, between a start and an end the CPU exact walk takes
+//! (`cast.rs`), so its answers are the CPU exact cast's. Design, bounds and measurements:
+//! docs/gpu.md.
 
 pub mod cast;
 pub mod context;

@@ -13,6 +13,10 @@ pub struct LayoutBuffers {
     pub tets: wgpu::Buffer,
     /// Float32 points, padded to 16 bytes (binding 4), for layouts naming vertices by id.
     pub points: Option<wgpu::Buffer>,
+    /// max |p − p̃|₁ over the points p and their float32 copies p̃ on the device, rounded up:
+    /// how far a vertex the kernels read may be from the mesh's float64 one (0 when every
+    /// point is a float32 number). The exact kernel's certified signs allow for it.
+    pub points_slack: f32,
 }
 
 impl LayoutBuffers {
@@ -38,6 +42,7 @@ pub(crate) fn upload_tet20(g: &Gpu, scene: &Scene) -> Result<LayoutBuffers> {
     Ok(LayoutBuffers {
         tets,
         points: Some(points),
+        points_slack: points_slack(&scene.mesh.points, p),
     })
 }
 
@@ -58,7 +63,21 @@ pub(crate) fn upload_tet80(g: &Gpu, scene: &Scene) -> Result<LayoutBuffers> {
             }),
         }
     })?;
-    Ok(LayoutBuffers { tets, points: None })
+    Ok(LayoutBuffers {
+        tets,
+        points: None,
+        points_slack: points_slack(&scene.mesh.points, &scene.points_f32),
+    })
+}
+
+/// max |p − p̃|₁ over the points and their float32 copies, rounded up to float32.
+pub(crate) fn points_slack(points: &[[f64; 3]], f32s: &[[f32; 3]]) -> f32 {
+    // One pass, on this thread: a few ns a point, beside the upload of the records.
+    points
+        .iter()
+        .zip(f32s)
+        .map(|(p, q)| super::kernels::slack(*p, *q))
+        .fold(0.0f32, f32::max)
 }
 
 /// A scene buffer of `size` bytes must fit one storage binding and one buffer of the device.

@@ -185,11 +185,26 @@ fn assert_robust_bracket(scene: &Scene, o: &[f32], d: &[f32], tris: &[[[f64; 3];
 /// float32 after the move (by at most 2^-21 at offset 10, far below the jitter): the GPU and
 /// the float32 CPU walks then read the very mesh whose triangles the referee judges.
 fn grid_scene(n: usize, frac: f64, offset: f64, seed: u64) -> (Scene, Vec<[[f64; 3]; 3]>) {
+    grid_scene_with(n, frac, offset, seed, true)
+}
+
+/// [`grid_scene`], its points rounded to float32 or not (`f32_points`): then the device's
+/// float32 copies are up to half an ulp off the mesh's points.
+fn grid_scene_with(
+    n: usize,
+    frac: f64,
+    offset: f64,
+    seed: u64,
+    f32_points: bool,
+) -> (Scene, Vec<[[f64; 3]; 3]>) {
     let mut rng = Rng::xorshift(seed);
     let (mut pts, tets) = kuhn_grid(n, 0.3, &mut rng);
     for p in &mut pts {
         for x in p.iter_mut() {
-            *x = ((*x + offset) as f32) as f64;
+            *x += offset;
+            if f32_points {
+                *x = (*x as f32) as f64;
+            }
         }
     }
     let mut faces: Vec<[u32; 3]> = tets
@@ -244,6 +259,9 @@ fn rays(n: usize, offset: f64, seed: u64) -> (Vec<f32>, Vec<f32>) {
 #[derive(Debug)]
 struct Out {
     t: Vec<f32>,
+    u: Vec<f32>,
+    v: Vec<f32>,
+    point: Vec<f32>,
     tri: Vec<i32>,
     tet: Vec<i32>,
     steps: Vec<u32>,
@@ -282,6 +300,9 @@ fn run(
     let _ = scene;
     Out {
         t,
+        u,
+        v,
+        point: p,
         tri,
         tet,
         steps,

@@ -45,7 +45,7 @@ fn every_shader_validates_with_naga() {
     files.sort();
     let mut used: Vec<String> = KERNELS
         .iter()
-        .flat_map(|k| k.parts().map(|p| p.path.to_string()))
+        .flat_map(|k| k.parts().into_iter().map(|p| p.path.to_string()))
         .collect();
     // The octree kernel stands alone (tests/octree.rs validates it); its path is written here
     // too so that the check holds without the gpu-octree feature.

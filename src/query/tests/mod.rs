@@ -16,6 +16,7 @@ use std::cmp::Ordering;
 mod fields;
 #[cfg(feature = "fuzz")]
 mod fuzz_cases;
+mod grazing;
 mod lanes;
 mod policies;
 
