@@ -303,6 +303,7 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
     /// touch the surface where it stands, so it walked to its end here). Ok: where its walk
     /// stands, an exit face with certain edges and a query policy still fresh (as
     /// `K::policy` makes it: no touch was told to it), for [`TetWalk::walk_on_from`].
+    #[cfg(feature = "gpu")]
     pub(crate) fn begin_elsewhere<K: QueryKind>(
         &self,
         query: &K,
@@ -333,6 +334,7 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
     /// The second half: the walk of the ray started at `start`, standing at `at` after plain
     /// steps taken elsewhere (each the one-ray walk's, so `at` is a state this walk reaches),
     /// walked on to its end here, and its answer: the one-ray walk's, bit for bit.
+    #[cfg(feature = "gpu")]
     pub(crate) fn walk_on_from<K: QueryKind>(
         &self,
         query: &K,
