@@ -85,45 +85,25 @@ impl DeviceScene {
             resumed(scene, kernel, &device, rays, out, opts, &mut timings)?;
             return Ok(timings);
         }
-        // 1. Locate and prepare, chunk by chunk as the CPU cast does (same hints and seeds),
-        // on tetrace's pools as pieces: Ctrl-C skips the chunks not started.
-        let max_steps = device.max_steps;
-        let t0 = Instant::now();
-        let mut chunks = crate::query::chunks(out, CHUNK);
-        let mut located: Vec<Located> = (0..chunks.len()).map(|_| Default::default()).collect();
-        let pieces: Vec<_> = chunks.iter_mut().zip(&mut located).enumerate().collect();
-        run_pieces(pieces, opts.threads, |(k, (chunk, slot))| {
-            *slot = locate_chunk(scene, kernel, rays, k, chunk)
-        })?;
-        timings.locate = t0.elapsed().as_secs_f64();
-
-        // 2. Walk on the device, in batches.
-        let (results, offsets) = device.walk(&located, &mut timings)?;
-
-        // 3. Finish: hits on the caller's triangles, deferred rays on the CPU.
-        let t3 = Instant::now();
+        // Rays the kernel defers (the robust filter's) walk again on the CPU from their start.
         let cpu_walk = kernel.deferred_to.map(|f| f(scene)).transpose()?;
-        let deferred = AtomicUsize::new(0);
-        let pieces: Vec<_> = chunks.into_iter().enumerate().collect();
-        run_pieces(pieces, opts.threads, |(k, mut chunk)| {
-            let (starts, _) = &located[k];
-            let res = &results[offsets[k]..offsets[k] + starts.len()];
-            for ((j, s), o) in starts.iter().zip(res) {
+        device.cast(
+            out,
+            opts,
+            &mut timings,
+            |k, chunk| locate_chunk(scene, kernel, rays, k, chunk),
+            |s, o| {
                 let w = if o.end == END_DEFERRED {
-                    deferred.fetch_add(1, Ordering::Relaxed);
                     let cpu_walk = cpu_walk
                         .as_ref()
                         .expect("only kernels with a CPU walk defer rays");
-                    cpu_walk(s, max_steps)
+                    cpu_walk(s, device.max_steps)
                 } else {
                     gpu_walk(kernel, o)
                 };
-                let r = scene.finish(s, &w);
-                chunk.set(*j as usize, &r);
-            }
-        })?;
-        timings.deferred = deferred.into_inner();
-        timings.finish = t3.elapsed().as_secs_f64();
+                scene.finish(s, &w)
+            },
+        )?;
         Ok(timings)
     }
 }
@@ -168,6 +148,48 @@ impl OnDevice<'_> {
         crate::threads::checkpoint()?;
         Ok((results, offsets))
     }
+
+    /// A cast in three phases, each chunk of rays as the CPU cast cuts them (same hints and
+    /// seeds), on tetrace's pools as pieces (Ctrl-C skips the chunks not started): `begin`
+    /// writes the answers of chunk k's rays that need no kernel and returns the others,
+    /// prepared; the device walks them in batches; `end` answers each from its start and the
+    /// kernel's result. Counts the rays the kernel deferred.
+    fn cast(
+        &self,
+        out: HitsOut<f32>,
+        opts: &CastOptions,
+        timings: &mut GpuTimings,
+        begin: impl Fn(usize, &mut HitsOut<f32>) -> Located + Sync,
+        end: impl Fn(&WalkStart, &RayOut) -> RayHit + Sync,
+    ) -> Result<()> {
+        let t0 = Instant::now();
+        let mut chunks = crate::query::chunks(out, CHUNK);
+        let mut located: Vec<Located> = (0..chunks.len()).map(|_| Default::default()).collect();
+        let pieces: Vec<_> = chunks.iter_mut().zip(&mut located).enumerate().collect();
+        run_pieces(pieces, opts.threads, |(k, (chunk, slot))| {
+            *slot = begin(k, chunk)
+        })?;
+        timings.locate = t0.elapsed().as_secs_f64();
+
+        let (results, offsets) = self.walk(&located, timings)?;
+
+        let t3 = Instant::now();
+        let deferred = AtomicUsize::new(0);
+        let pieces: Vec<_> = chunks.into_iter().enumerate().collect();
+        run_pieces(pieces, opts.threads, |(k, mut chunk)| {
+            let starts = &located[k].0;
+            let res = &results[offsets[k]..offsets[k] + starts.len()];
+            for ((j, s), o) in starts.iter().zip(res) {
+                if o.end == END_DEFERRED {
+                    deferred.fetch_add(1, Ordering::Relaxed);
+                }
+                chunk.set(*j as usize, &end(s, o));
+            }
+        })?;
+        timings.deferred = deferred.into_inner();
+        timings.finish = t3.elapsed().as_secs_f64();
+        Ok(())
+    }
 }
 
 /// The exact kernel's cast (see the module docs): the CPU exact walk on Tet20, its plain steps
@@ -191,53 +213,41 @@ fn resumed(
     let walk = TetWalk::<f64, Tet20, Exact, NoObserver>::new(scene.locators(), setup);
     let query = scene.closest();
     let points_slack = device.scene.points_slack;
-    let t0 = Instant::now();
-    let mut chunks = crate::query::chunks(out, CHUNK);
-    let mut located: Vec<Located> = (0..chunks.len()).map(|_| Default::default()).collect();
-    let pieces: Vec<_> = chunks.iter_mut().zip(&mut located).enumerate().collect();
-    run_pieces(pieces, opts.threads, |(k, (chunk, (starts, prepared)))| {
-        let mut st = LocateState::for_chunk(k);
-        for j in 0..chunk.len() {
-            match walk.begin_elsewhere(&query, &rays.ray(k * CHUNK + j), &mut st) {
-                Err(answer) => chunk.set(j, &answer),
-                Ok((s, at)) => {
-                    let r = (kernel.prepare)(&s, &scene.mesh);
-                    prepared.push(RayIn {
-                        tet: at.t,
-                        entry: at.steps,
-                        verts: [at.face[0], at.face[1], at.face[2], at.link],
-                        slack: ((r.slack as f64 + points_slack as f64) * (1.0 + 1e-6)) as f32,
-                        ..r
-                    });
-                    starts.push((j as u32, s));
+    device.cast(
+        out,
+        opts,
+        timings,
+        |k, chunk| {
+            let (mut starts, mut prepared) = (Vec::new(), Vec::new());
+            let mut st = LocateState::for_chunk(k);
+            for j in 0..chunk.len() {
+                match walk.begin_elsewhere(&query, &rays.ray(k * CHUNK + j), &mut st) {
+                    Err(answer) => chunk.set(j, &answer),
+                    Ok((s, at)) => {
+                        let r = (kernel.prepare)(&s, &scene.mesh);
+                        prepared.push(RayIn {
+                            tet: at.t,
+                            entry: at.steps,
+                            verts: [at.face[0], at.face[1], at.face[2], at.link],
+                            slack: ((r.slack as f64 + points_slack as f64) * (1.0 + 1e-6)) as f32,
+                            ..r
+                        });
+                        starts.push((j as u32, s));
+                    }
                 }
             }
-        }
-    })?;
-    timings.locate = t0.elapsed().as_secs_f64();
-    let (results, offsets) = device.walk(&located, timings)?;
-    let t3 = Instant::now();
-    let deferred = AtomicUsize::new(0);
-    let pieces: Vec<_> = chunks.into_iter().enumerate().collect();
-    run_pieces(pieces, opts.threads, |(k, mut chunk)| {
-        let starts = &located[k].0;
-        let res = &results[offsets[k]..offsets[k] + starts.len()];
-        for ((j, s), o) in starts.iter().zip(res) {
-            if o.end == END_DEFERRED {
-                deferred.fetch_add(1, Ordering::Relaxed);
-            }
+            (starts, prepared)
+        },
+        |s, o| {
             let at = PlainState {
                 face: [o.face[0], o.face[1], o.face[2]],
                 link: o.constrained,
                 t: o.tet,
                 steps: o.steps,
             };
-            chunk.set(*j as usize, &walk.walk_on_from(&query, s, at));
-        }
-    })?;
-    timings.deferred = deferred.into_inner();
-    timings.finish = t3.elapsed().as_secs_f64();
-    Ok(())
+            walk.walk_on_from(&query, s, at)
+        },
+    )
 }
 
 /// Locates the rays of chunk k; rays that need no walk are written to `chunk` at once.

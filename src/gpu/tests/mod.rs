@@ -207,21 +207,8 @@ fn grid_scene_with(
             }
         }
     }
-    let mut faces: Vec<[u32; 3]> = tets
-        .iter()
-        .flat_map(|t| {
-            [[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]].map(|f| {
-                let mut k = f.map(|i| t[i]);
-                k.sort();
-                k
-            })
-        })
-        .collect();
-    faces.sort();
-    let interior: Vec<[u32; 3]> = faces
-        .chunk_by(|a, b| a == b)
-        .filter(|g| g.len() == 2)
-        .map(|g| g[0])
+    let interior: Vec<[u32; 3]> = crate::testing::all_faces(&tets)
+        .into_iter()
         .filter(|_| rng.f() < frac)
         .collect();
     let tris: Vec<[[f64; 3]; 3]> = interior
