@@ -82,9 +82,10 @@ class Hits:
         on miss. None for casters that do not give it.
     timings : dict or None
         Not per ray: the seconds of each phase of the GPU cast that made these hits
-        (``locate``, ``scene_upload``, ``upload``, ``kernel``, ``readback``, ``finish``) and
-        counts (``walked``: rays the GPU walked, ``deferred``: robust rays re-walked on the
-        CPU, ``batches``). None for CPU casts and other casters. :meth:`reshape` keeps it;
+        (``locate``, ``scene_upload``, ``upload``, ``kernel``, ``readback``, ``finish``;
+        ``kernel`` from the GPU's timestamps where the device has them, ``kernel_wall`` the
+        host's wait for it) and counts (``walked``: rays the GPU walked, ``deferred``: rays
+        the kernel handed back to the CPU walk before a face, ``batches``). None for CPU casts and other casters. :meth:`reshape` keeps it;
         :meth:`__getitem__` drops it (the rays selected are not what was timed).
 
     Notes

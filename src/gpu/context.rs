@@ -124,6 +124,9 @@ pub struct Gpu {
     /// The device's limits: the adapter's own, all requested (large scenes need their
     /// max_storage_buffer_binding_size and max_buffer_size, not WebGPU's defaults).
     pub limits: wgpu::Limits,
+    /// Whether the device writes GPU timestamps (`Features::TIMESTAMP_QUERY`): the kernel's
+    /// time is then the GPU's own, not the host's wait for it.
+    pub timestamps: bool,
     /// Compiled kernels, by (method, layout) (`Gpu::pipeline`, in kernels.rs).
     pub(super) pipelines: Mutex<HashMap<(&'static str, &'static str), Arc<wgpu::ComputePipeline>>>,
 }
@@ -165,7 +168,8 @@ impl Gpu {
         let limits = adapter.limits();
         let desc = wgpu::DeviceDescriptor {
             label: Some("tetrace"),
-            required_features: wgpu::Features::empty(),
+            // GPU timestamps time the kernel where the adapter has them (`launch.rs`).
+            required_features: adapter.features() & wgpu::Features::TIMESTAMP_QUERY,
             required_limits: limits.clone(),
             memory_hints: wgpu::MemoryHints::Performance,
             ..Default::default()
@@ -182,6 +186,7 @@ impl Gpu {
             eprintln!("tetrace: uncaptured GPU error: {e}");
         }));
         Ok(Gpu {
+            timestamps: device.features().contains(wgpu::Features::TIMESTAMP_QUERY),
             adapter: summary(adapter),
             limits: device.limits(),
             device,

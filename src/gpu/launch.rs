@@ -46,6 +46,15 @@ struct RayBuffers {
     hits: wgpu::Buffer,
     readback: wgpu::Buffer,
     params: wgpu::Buffer,
+    /// Where the device has timestamps: the pass's two, resolved and read back.
+    stamps: Option<Stamps>,
+}
+
+/// The kernel's begin and end timestamps (`Gpu::timestamps`).
+struct Stamps {
+    set: wgpu::QuerySet,
+    resolved: wgpu::Buffer,
+    readback: wgpu::Buffer,
 }
 
 impl Launch<'_> {
@@ -87,7 +96,7 @@ impl Launch<'_> {
             crate::threads::checkpoint()?;
             timings.batches += 1;
             self.upload(&bufs, &staged, timings)?;
-            self.dispatch(&bind, staged.len(), max_dim, timings)?;
+            self.dispatch(&bind, &bufs, staged.len(), max_dim, timings)?;
             read_back(g, &bufs, staged.len(), &mut results, timings)?;
         }
         Ok(results)
@@ -122,6 +131,15 @@ impl Launch<'_> {
                         contents: bytemuck::bytes_of(&Params::default()),
                         usage: U::UNIFORM | U::COPY_DST,
                     }),
+                stamps: g.timestamps.then(|| Stamps {
+                    set: g.device.create_query_set(&wgpu::QuerySetDescriptor {
+                        label: Some("kernel timestamps"),
+                        ty: wgpu::QueryType::Timestamp,
+                        count: 2,
+                    }),
+                    resolved: mk("timestamps", 16, U::QUERY_RESOLVE | U::COPY_SRC),
+                    readback: mk("timestamps readback", 16, U::MAP_READ | U::COPY_DST),
+                }),
             }
         })
     }
@@ -186,6 +204,7 @@ impl Launch<'_> {
     fn dispatch(
         &self,
         bind: &wgpu::BindGroup,
+        bufs: &RayBuffers,
         n: usize,
         max_dim: u32,
         timings: &mut GpuTimings,
@@ -203,16 +222,41 @@ impl Launch<'_> {
             {
                 let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
                     label: Some("walk"),
-                    timestamp_writes: None,
+                    timestamp_writes: bufs.stamps.as_ref().map(|s| {
+                        wgpu::ComputePassTimestampWrites {
+                            query_set: &s.set,
+                            beginning_of_pass_write_index: Some(0),
+                            end_of_pass_write_index: Some(1),
+                        }
+                    }),
                 });
                 pass.set_pipeline(self.pipeline);
                 pass.set_bind_group(0, bind, &[]);
                 pass.dispatch_workgroups(gx, gy, 1);
             }
+            if let Some(s) = &bufs.stamps {
+                enc.resolve_query_set(&s.set, 0..2, &s.resolved, 0);
+                enc.copy_buffer_to_buffer(&s.resolved, 0, &s.readback, 0, 16);
+            }
             g.queue.submit([enc.finish()]);
         })?;
         g.wait()?;
-        timings.kernel += t.elapsed().as_secs_f64();
+        let wall = t.elapsed().as_secs_f64();
+        timings.kernel_wall += wall;
+        timings.kernel += match &bufs.stamps {
+            Some(s) => {
+                let mut ticks: Vec<u64> = Vec::with_capacity(2);
+                g.read_mapped(&s.readback, 16, &mut ticks, "the kernel's timestamps")?;
+                // Ticks of `get_timestamp_period` nanoseconds; a device that wraps or resets
+                // them between the two gives no time: the wall time stands in.
+                let period = g.queue.get_timestamp_period() as f64;
+                match ticks[1].checked_sub(ticks[0]) {
+                    Some(dt) if period > 0.0 => dt as f64 * period * 1e-9,
+                    _ => wall,
+                }
+            }
+            None => wall,
+        };
         Ok(())
     }
 }

@@ -10,8 +10,11 @@ pub struct GpuTimings {
     pub scene_upload: f64,
     /// Copying the rays to the device.
     pub upload: f64,
-    /// The traversal kernel.
+    /// The traversal kernel: the GPU's timestamps around each dispatch, summed, where the
+    /// device has them (`Gpu::timestamps`), else `kernel_wall`.
     pub kernel: f64,
+    /// The host's wall time from submitting each dispatch to its end, summed.
+    pub kernel_wall: f64,
     /// Copying the results back.
     pub readback: f64,
     /// Hits on the caller's triangles, and CPU walks of deferred rays.

@@ -66,6 +66,7 @@ mod built {
             ("scene_upload", timings.scene_upload),
             ("upload", timings.upload),
             ("kernel", timings.kernel),
+            ("kernel_wall", timings.kernel_wall),
             ("readback", timings.readback),
             ("finish", timings.finish),
         ] {

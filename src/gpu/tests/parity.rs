@@ -445,3 +445,32 @@ fn gpu_prepares_rays_as_the_cpu_cast() {
         }
     }
 }
+
+/// The kernel's time is the GPU's own where the device writes timestamps: positive, and
+/// within the host's wall time from each submission to its end (the pass runs inside it).
+#[test]
+fn gpu_kernel_time_comes_from_timestamps() {
+    if !device_or_skip("gpu timestamps") {
+        return;
+    }
+    let g = crate::gpu::gpu().unwrap();
+    let (scene, _) = grid_scene(6, 0.1, 0.0, 51);
+    let (o, d) = rays(5_000, 0.0, 53);
+    let opts = CastOptions::default();
+    let mut t = None;
+    run(&scene, &o, &d, |r, out| {
+        t = Some(cast_gpu(&scene, None, None, r, out, &opts)?);
+        Ok(())
+    });
+    let t = t.unwrap();
+    eprintln!(
+        "gpu timestamps on {}: {} (kernel {:.3e} s, wall {:.3e} s)",
+        g.adapter.name, g.timestamps, t.kernel, t.kernel_wall
+    );
+    assert!(t.kernel > 0.0 && t.kernel_wall > 0.0, "{t:?}");
+    if g.timestamps {
+        assert!(t.kernel <= t.kernel_wall, "{t:?}");
+    } else {
+        assert_eq!(t.kernel, t.kernel_wall, "{t:?}");
+    }
+}
