@@ -395,10 +395,10 @@ def run_scene_bench(
         dev = results["gpu_device"]
         out(
             f"GPU: {dev['name']} ({dev['backend']}, {dev['device_type']}); kernel Mrays/s = rays "
-            f"walked on the GPU / kernel seconds (GPU timestamps where the device has them); end-to-end includes the CPU's start location "
-            f"and hit finishing; host ns/ray = (whole call - kernel) / rays, best run; handed "
-            f"back = rays the kernel left to the CPU walk before a face; seconds are the best "
-            f"run's"
+            f"walked on the GPU / kernel seconds (GPU timestamps where the device has them); "
+            f"end-to-end includes the CPU's start location and hit finishing; host ns/ray = "
+            f"(whole call - kernel) / rays, best run; handed back = rays the kernel left to the "
+            f"CPU walk before a face; seconds are the best run's"
         )
         out(
             _table(
