@@ -218,9 +218,10 @@ fn resumed(
         opts,
         timings,
         |k, chunk| {
-            let (mut starts, mut prepared) = (Vec::new(), Vec::new());
+            let n = chunk.len();
+            let (mut starts, mut prepared) = (Vec::with_capacity(n), Vec::with_capacity(n));
             let mut st = LocateState::for_chunk(k);
-            for j in 0..chunk.len() {
+            for j in 0..n {
                 match walk.begin_elsewhere(&query, &rays.ray(k * CHUNK + j), &mut st) {
                     Err(answer) => chunk.set(j, &answer),
                     Ok((s, at)) => {
