@@ -778,8 +778,9 @@ class Scene:
         dict
             ``points_f64``, ``points_f32``, ``constrained`` (constrained-side table),
             ``locator`` (seed grid, boundary grid, location topology),
-            ``tets_<layout>`` for each layout built so far, and ``gpu_<layout>`` for each
-            layout's buffers on the GPU (records, and float32 points for tet20).
+            ``tets_<layout>`` for each layout built so far, ``gpu_<layout>`` for each
+            layout's buffers on the GPU (records, and float32 points for tet20), and
+            ``gpu_rays`` for the ray buffers GPU casts keep for the next cast.
         """
         return dict(self._native.memory())
 

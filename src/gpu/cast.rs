@@ -13,7 +13,7 @@
 use super::context::{gpu, Gpu};
 use super::device_scene::DeviceScene;
 use super::kernels::KernelSpec;
-use super::launch::{Batching, Launch};
+use super::launch::{Batching, Launch, RunBuffers};
 use super::structs::{RayIn, RayOut, END_BOUNDARY, END_DEFERRED, END_HIT};
 use super::timings::GpuTimings;
 use super::upload::LayoutBuffers;
@@ -28,6 +28,7 @@ use crate::scene::{check_lengths, HitsOut, Rays, Scene, CHUNK};
 use crate::threads::run_pieces;
 use crate::traverse::{Exact, NoObserver, Walk, WalkEnd, WalkSetup};
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
 use std::time::Instant;
 
 /// A chunk's rays that walk: their index in the chunk and start, and as the kernel takes them.
@@ -74,12 +75,14 @@ impl DeviceScene {
             scene_upload,
             ..Default::default()
         };
+        let cache = self.run_buffers(kernel);
         let device = OnDevice {
             g: &g,
             pipeline: &pipeline,
             scene: &scene_buffers,
             max_steps: opts.max_steps_for(scene.mesh.len()),
             batching,
+            cache: &cache,
         };
         if kernel.resumes {
             resumed(scene, kernel, &device, rays, out, opts, &mut timings)?;
@@ -115,6 +118,7 @@ struct OnDevice<'a> {
     scene: &'a LayoutBuffers,
     max_steps: u32,
     batching: Batching,
+    cache: &'a Mutex<Option<RunBuffers>>,
 }
 
 impl OnDevice<'_> {
@@ -140,6 +144,7 @@ impl OnDevice<'_> {
                 scene: self.scene,
                 max_steps: self.max_steps,
                 batching: self.batching,
+                cache: self.cache,
             };
             launch.run(&all, walked, timings)?
         } else {

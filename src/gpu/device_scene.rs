@@ -4,6 +4,7 @@
 
 use super::context::Gpu;
 use super::kernels::{GpuLayout, KernelSpec};
+use super::launch::RunBuffers;
 use super::upload::LayoutBuffers;
 use crate::error::Result;
 use crate::scene::Scene;
@@ -17,13 +18,38 @@ use std::time::Instant;
 #[derive(Default)]
 pub struct DeviceScene {
     buffers: Mutex<HashMap<&'static str, Arc<LayoutBuffers>>>,
+    /// Each kernel's ray buffers and bind group (bound to this scene's buffers), by kernel:
+    /// made by its first cast, kept for the next (`launch::Launch::cache`).
+    runs: Mutex<HashMap<(&'static str, &'static str), Arc<Mutex<Option<RunBuffers>>>>>,
 }
 
 impl DeviceScene {
-    /// Bytes on the device per layout (records, and points for id layouts).
+    /// Bytes on the device per layout (records, and points for id layouts), and under "rays"
+    /// the kernels' ray buffers kept between casts.
     pub fn bytes(&self) -> Vec<(&'static str, u64)> {
         let b = self.buffers.lock().unwrap_or_else(|e| e.into_inner());
-        b.iter().map(|(k, s)| (*k, s.bytes())).collect()
+        let mut out: Vec<(&'static str, u64)> = b.iter().map(|(k, s)| (*k, s.bytes())).collect();
+        let runs = self.runs.lock().unwrap_or_else(|e| e.into_inner());
+        let rays: u64 = runs
+            .values()
+            .filter_map(|r| {
+                r.try_lock()
+                    .ok()
+                    .and_then(|c| c.as_ref().map(RunBuffers::bytes))
+            })
+            .sum();
+        if rays > 0 {
+            out.push(("rays", rays));
+        }
+        out
+    }
+
+    /// `kernel`'s ray buffers kept between casts on this scene (empty until its first cast).
+    pub(crate) fn run_buffers(&self, kernel: &KernelSpec) -> Arc<Mutex<Option<RunBuffers>>> {
+        let mut runs = self.runs.lock().unwrap_or_else(|e| e.into_inner());
+        runs.entry((kernel.method, kernel.layout.name))
+            .or_default()
+            .clone()
     }
 
     /// The buffers for `kernel`'s layout, uploaded now if they are not on the device yet, and

@@ -6,6 +6,7 @@ use super::structs::{Params, RayIn, RayOut, WORKGROUP};
 use super::timings::GpuTimings;
 use super::upload::LayoutBuffers;
 use crate::error::Result;
+use std::sync::Mutex;
 use std::time::Instant;
 use wgpu::util::DeviceExt;
 
@@ -38,6 +39,25 @@ pub(crate) struct Launch<'a> {
     pub scene: &'a LayoutBuffers,
     pub max_steps: u32,
     pub batching: Batching,
+    /// The kernel's ray buffers and bind group, kept from cast to cast (`DeviceScene`): made
+    /// by the first run, remade only for a larger batch. Held for the whole run, so casts on
+    /// one scene with one kernel take turns on the device.
+    pub cache: &'a Mutex<Option<RunBuffers>>,
+}
+
+/// A kernel's ray buffers for batches of up to `batch` rays, and their bind group.
+pub(crate) struct RunBuffers {
+    batch: usize,
+    bufs: RayBuffers,
+    bind: wgpu::BindGroup,
+}
+
+impl RunBuffers {
+    /// Bytes on the device.
+    pub(crate) fn bytes(&self) -> u64 {
+        let b = &self.bufs;
+        b.rays.size() + b.hits.size() + b.readback.size() + b.params.size()
+    }
 }
 
 /// The device buffers of a run, sized for one batch.
@@ -76,28 +96,48 @@ impl Launch<'_> {
             / ray_bytes)
             .min(self.batching.max_batch as u64) as usize;
         let batch = walked.min(cap).max(1);
-        let bufs = self.allocate(batch)?;
-        let bind = self.bind(&bufs)?;
-        let mut staged: Vec<RayIn> = Vec::with_capacity(batch);
-        let mut iter = parts.iter().flat_map(|p| p.iter());
+        let mut cache = self.cache.lock().unwrap_or_else(|e| e.into_inner());
+        if cache.as_ref().is_none_or(|c| c.batch < batch) {
+            // Dropped first: the old buffers and the new need not both fit.
+            *cache = None;
+            let bufs = self.allocate(batch)?;
+            let bind = self.bind(&bufs)?;
+            *cache = Some(RunBuffers { batch, bufs, bind });
+        }
+        let RunBuffers { bufs, bind, .. } = cache.as_ref().expect("made just above");
         let max_dim = self
             .batching
             .max_groups
             .unwrap_or(u32::MAX)
             .min(g.limits.max_compute_workgroups_per_dimension)
             .max(1);
+        // The rays in order, cut into batches of at most `batch`: each batch is the pieces of
+        // the chunks' slices it spans, written to the device as they lie (no staging copy).
+        let mut rest = parts.iter().copied().filter(|p| !p.is_empty());
+        let mut carry: &[RayIn] = &[];
         loop {
-            staged.clear();
-            staged.extend(iter.by_ref().take(batch).copied());
-            if staged.is_empty() {
+            let (mut pieces, mut n) = (Vec::new(), 0usize);
+            while n < batch {
+                if carry.is_empty() {
+                    match rest.next() {
+                        Some(p) => carry = p,
+                        None => break,
+                    }
+                }
+                let take = (batch - n).min(carry.len());
+                pieces.push(&carry[..take]);
+                carry = &carry[take..];
+                n += take;
+            }
+            if n == 0 {
                 break;
             }
             // Between batches, Ctrl-C (the bindings' poll) stops the cast.
             crate::threads::checkpoint()?;
             timings.batches += 1;
-            self.upload(&bufs, &staged, timings)?;
-            self.dispatch(&bind, &bufs, staged.len(), max_dim, timings)?;
-            read_back(g, &bufs, staged.len(), &mut results, timings)?;
+            self.upload(bufs, &pieces, n, timings)?;
+            self.dispatch(bind, bufs, n, max_dim, timings)?;
+            read_back(g, bufs, n, &mut results, timings)?;
         }
         Ok(results)
     }
@@ -179,17 +219,27 @@ impl Launch<'_> {
         })
     }
 
-    fn upload(&self, bufs: &RayBuffers, staged: &[RayIn], timings: &mut GpuTimings) -> Result<()> {
+    fn upload(
+        &self,
+        bufs: &RayBuffers,
+        pieces: &[&[RayIn]],
+        n: usize,
+        timings: &mut GpuTimings,
+    ) -> Result<()> {
         let g = self.g;
         let t = Instant::now();
         g.scoped("uploading rays", || {
-            g.queue
-                .write_buffer(&bufs.rays, 0, bytemuck::cast_slice(staged));
+            let mut offset = 0u64;
+            for p in pieces {
+                let bytes: &[u8] = bytemuck::cast_slice(p);
+                g.queue.write_buffer(&bufs.rays, offset, bytes);
+                offset += bytes.len() as u64;
+            }
             g.queue.write_buffer(
                 &bufs.params,
                 0,
                 bytemuck::bytes_of(&Params {
-                    n_rays: staged.len() as u32,
+                    n_rays: n as u32,
                     max_steps: self.max_steps,
                     ..Default::default()
                 }),

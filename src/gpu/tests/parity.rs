@@ -474,3 +474,54 @@ fn gpu_kernel_time_comes_from_timestamps() {
         assert_eq!(t.kernel, t.kernel_wall, "{t:?}");
     }
 }
+
+/// A scene's ray buffers are made by its first GPU cast and kept: a cast of as many rays or
+/// fewer reuses them, a larger batch remakes them larger, and the answers are a fresh
+/// device copy's.
+#[test]
+fn gpu_ray_buffers_are_kept_between_casts() {
+    if !device_or_skip("gpu ray buffers") {
+        return;
+    }
+    let (scene, _) = grid_scene(6, 0.1, 0.0, 61);
+    let (o, d) = rays(4_000, 0.0, 63);
+    let opts = CastOptions::default();
+    let device = DeviceScene::default();
+    let rays_bytes = || {
+        device
+            .bytes()
+            .into_iter()
+            .find(|(k, _)| *k == "rays")
+            .map_or(0, |(_, b)| b)
+    };
+    let cast = |o: &[f32], d: &[f32]| {
+        run(&scene, o, d, |r, out| {
+            device.cast(&scene, None, None, r, out, &opts).map(|_| ())
+        })
+    };
+    let (small_o, small_d) = (&o[..3000], &d[..3000]);
+    let first = cast(small_o, small_d);
+    let kept = rays_bytes();
+    assert!(kept > 0);
+    let again = cast(small_o, small_d);
+    assert_eq!(
+        rays_bytes(),
+        kept,
+        "a cast of as many rays reuses the buffers"
+    );
+    cast(&o, &d);
+    let grown = rays_bytes();
+    assert!(grown > kept, "{grown} <= {kept}");
+    let after = cast(small_o, small_d);
+    assert_eq!(
+        rays_bytes(),
+        grown,
+        "a smaller cast reuses the larger buffers"
+    );
+    let fresh = run(&scene, small_o, small_d, |r, out| {
+        cast_gpu(&scene, None, None, r, out, &opts).map(|_| ())
+    });
+    for out in [&again, &after, &fresh] {
+        assert_same_answers("gpu ray buffers", &first, out);
+    }
+}
