@@ -12,6 +12,9 @@ use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
+/// One kernel's ray buffers, shared by the casts that take turns with them.
+pub(crate) type KeptRuns = Arc<Mutex<Option<RunBuffers>>>;
+
 /// The device copies of one scene, by layout name: kernels on the same layout (aman2022 and
 /// robust on tet20) share them. Empty until the first GPU cast; it must only ever be used with
 /// the one scene it was first used with.
@@ -20,7 +23,7 @@ pub struct DeviceScene {
     buffers: Mutex<HashMap<&'static str, Arc<LayoutBuffers>>>,
     /// Each kernel's ray buffers and bind group (bound to this scene's buffers), by kernel:
     /// made by its first cast, kept for the next (`launch::Launch::cache`).
-    runs: Mutex<HashMap<(&'static str, &'static str), Arc<Mutex<Option<RunBuffers>>>>>,
+    runs: Mutex<HashMap<(&'static str, &'static str), KeptRuns>>,
 }
 
 impl DeviceScene {
@@ -45,7 +48,7 @@ impl DeviceScene {
     }
 
     /// `kernel`'s ray buffers kept between casts on this scene (empty until its first cast).
-    pub(crate) fn run_buffers(&self, kernel: &KernelSpec) -> Arc<Mutex<Option<RunBuffers>>> {
+    pub(crate) fn run_buffers(&self, kernel: &KernelSpec) -> KeptRuns {
         let mut runs = self.runs.lock().unwrap_or_else(|e| e.into_inner());
         runs.entry((kernel.method, kernel.layout.name))
             .or_default()
