@@ -11,7 +11,7 @@
 //! `upload.rs`, and one row in [`GPU_LAYOUTS`].
 
 use super::structs::{RayIn, NO_ENTRY};
-use super::upload::{upload_tet20, upload_tet80, LayoutBuffers};
+use super::upload::{slack, upload_tet20, upload_tet80, LayoutBuffers};
 use super::Gpu;
 use crate::error::{Error, Result};
 use crate::locate::WalkStart;
@@ -309,15 +309,6 @@ where
         ..Default::default()
     };
     s.prepare::<f32, M>(mesh).fill(base)
-}
-
-/// |s − s̃|₁ rounded up to float32: how far the float32 start point the kernel subtracts is
-/// from the exact start point of the robust walk's line (docs/gpu.md).
-pub fn slack(s: [f64; 3], sr: [f32; 3]) -> f32 {
-    // Each difference is exact in f64 (s̃ is s rounded); the sum and the conversion round by
-    // far less than the 1e-6 margin.
-    let e: f64 = (0..3).map(|k| (s[k] - sr[k] as f64).abs()).sum();
-    (e * (1.0 + 1e-6)) as f32
 }
 
 /// The CPU robust walk on Tet20, which decides the rays the robust kernel defers.

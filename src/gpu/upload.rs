@@ -76,7 +76,7 @@ pub(crate) fn points_slack(points: &[[f64; 3]], f32s: &[[f32; 3]]) -> f32 {
     points
         .iter()
         .zip(f32s)
-        .map(|(p, q)| super::kernels::slack(*p, *q))
+        .map(|(p, q)| slack(*p, *q))
         .fold(0.0f32, f32::max)
 }
 
@@ -148,4 +148,13 @@ fn upload_records<T: bytemuck::Pod + Send>(
             Ok(buf)
         },
     )?
+}
+
+/// |s − s̃|₁ rounded up to float32: how far the float32 start point the kernel subtracts is
+/// from the exact start point of the robust walk's line (docs/gpu.md).
+pub fn slack(s: [f64; 3], sr: [f32; 3]) -> f32 {
+    // Each difference is exact in f64 (s̃ is s rounded); the sum and the conversion round by
+    // far less than the 1e-6 margin.
+    let e: f64 = (0..3).map(|k| (s[k] - sr[k] as f64).abs()).sum();
+    (e * (1.0 + 1e-6)) as f32
 }

@@ -111,7 +111,7 @@ fn slack_bounds_the_start_point_rounding() {
         let s = [0, 1, 2].map(|_| (rng.f() - 0.5) * 10f64.powi((rng.f() * 12.0) as i32 - 6));
         let sr = s.map(|x| x as f32);
         let e: f64 = (0..3).map(|k| (s[k] - sr[k] as f64).abs()).sum();
-        assert!(crate::gpu::kernels::slack(s, sr) as f64 >= e);
+        assert!(crate::gpu::upload::slack(s, sr) as f64 >= e);
     }
 }
 
