@@ -138,6 +138,13 @@ test-rust:
 test-python:
 	$(PY) -m pytest -n $(PYTEST_WORKERS) -ra tests $(if $(NOTEBOOKS),--nbmake $(NOTEBOOKS)) $(PYTEST_EXTRA)
 
+# The GPU bench on the bundled scene, small enough for CI (issue 34's host-time measure: the
+# whole GPU cast less the kernel, 512² camera, best of 3, printed in CI's log on lavapipe; a
+# goal of the bench, not a test: a crash or a ray the referee finds wrong fails it, a time never).
+.PHONY: bench-gpu-smoke
+bench-gpu-smoke:
+	$(PY) -m tetrace.bench gpu --width 512 --height 512 --random 100000 --sample 20000 --repeat 3 --check
+
 # Mutation testing of the exact core (issue 37; not in CI: hours on 2 cores). cargo-mutants
 # changes one function at a time in the files below and runs the Rust library tests against
 # each change; a mutant no test catches is a path no test reaches (docs/testing.md).

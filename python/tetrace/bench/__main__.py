@@ -76,6 +76,60 @@ def scenes_main(argv):
     return 0
 
 
+def gpu_main(argv):
+    from .gpu_bench import run_gpu_bench, save_scenes
+
+    p = argparse.ArgumentParser(
+        prog="python -m tetrace.bench gpu",
+        description="The GPU cast numpy to numpy, phase by phase, on saved scenes: a pinhole "
+        "camera and random rays per scene; kernel Grays/s, Mrays/s numpy to numpy, host ns "
+        "per ray (the call less the kernel), the share handed back to the CPU, the exact "
+        "referee on a sample, and the CPU exact walk and embreex on every core. A machine "
+        "lent with a GPU has no mesher: --save writes .tetrace files where one is installed.",
+    )
+    p.add_argument(
+        "scenes", nargs="*", help=".tetrace files, or meshes (default: the bundled scene)"
+    )
+    p.add_argument("--width", type=int, default=1920)
+    p.add_argument("--height", type=int, default=1440)
+    p.add_argument("--random", type=int, default=1_000_000, help="random rays (0: none)")
+    p.add_argument("--sample", type=int, default=100_000, help="rays the referee judges")
+    p.add_argument("--repeat", type=int, default=3, help="timed casts; the best is kept")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--preset", default="quality", help="meshing preset for mesh files")
+    p.add_argument("--json", default=None, help="also write the rows as JSON here")
+    p.add_argument(
+        "--check",
+        action="store_true",
+        help="exit with status 1 when the referee finds a ray not right (CI's smoke run)",
+    )
+    p.add_argument(
+        "--save",
+        default=None,
+        metavar="DIR",
+        help="mesh the scenes and write them to DIR as .tetrace files instead of benching",
+    )
+    args = p.parse_args(argv)
+    if args.save:
+        save_scenes(args.scenes, args.save, preset=args.preset)
+        return 0
+    results = run_gpu_bench(
+        args.scenes,
+        width=args.width,
+        height=args.height,
+        n_random=args.random,
+        sample=args.sample,
+        repeat=args.repeat,
+        seed=args.seed,
+        preset=args.preset,
+        json_path=args.json,
+    )
+    bad = [r for r in results["rows"] if r["right"] != r["judged"]]
+    for r in bad:
+        print(f"not right: {r['scene']}, {r['rays']}: {r['not_right']}", file=sys.stderr)
+    return 1 if args.check and bad else 0
+
+
 def exitface_main(argv):
     from .. import _native
     from .scene_bench import _table
@@ -207,6 +261,10 @@ SUBCOMMANDS = {
     "exitface": (
         "exit-face micro-benchmark: ns per exit-face decision on random tets",
         exitface_main,
+    ),
+    "gpu": (
+        "the GPU cast numpy to numpy, phase by phase, on saved scenes, beside CPU and embreex",
+        gpu_main,
     ),
     "growth": (
         "local complexity: one object and one camera in ever bigger worlds",

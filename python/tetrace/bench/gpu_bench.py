@@ -1,0 +1,294 @@
+"""``python -m tetrace.bench gpu``: the GPU cast from numpy to numpy, phase by phase (issue 34).
+
+A machine lent with a GPU has no mesher, so it benches scenes saved as ``.tetrace`` files
+(:meth:`tetrace.Scene.save`); ``--save DIR`` writes them here, where the meshers run. Per scene
+and ray set (a pinhole camera and uniform random rays) it prints where the time of
+``scene.cast(o, d, device="gpu")`` went, the kernel's rate from the GPU's timestamps, the rate
+numpy to numpy, the host time per ray (the whole call less the kernel: issue 34's measure),
+the share of rays handed back to the CPU, the exact referee's verdict on a sample, and the CPU
+exact walk and embreex on every core of the same machine.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+
+import numpy as np
+
+from ..dev.camera import orbit_view, pinhole, random_rays
+from .scene_bench import FOV_DEG, _table
+
+#: What the bench prints per ray set, in order: (JSON key, column header).
+COLUMNS = [
+    ("scene", "scene"),
+    ("rays", "rays"),
+    ("n", "n"),
+    ("kernel_grays_per_s", "kernel Grays/s"),
+    ("mrays_per_s", "numpy→numpy Mrays/s"),
+    ("host_ns_per_ray", "host ns/ray"),
+    ("handed_back", "handed back"),
+    ("locate_ms", "locate ms"),
+    ("upload_ms", "upload ms"),
+    ("kernel_ms", "kernel ms"),
+    ("readback_ms", "readback ms"),
+    ("finish_ms", "finish ms"),
+    ("wall_ms", "wall ms"),
+    ("camera_mrays_per_s", "camera= Mrays/s"),
+    ("right", "referee right"),
+    ("cpu_exact_mrays_per_s", "CPU exact Mrays/s"),
+    ("embreex_mrays_per_s", "embreex Mrays/s"),
+]
+
+
+def load_scene(path, preset="quality"):
+    """A ``.tetrace`` file is loaded as saved; a mesh file is meshed (needs a mesher)."""
+    from ..scene import Scene, default_scene_path
+
+    path = str(path) if path is not None else str(default_scene_path())
+    if path.endswith(".tetrace"):
+        return Scene.load(path), path
+    return Scene.from_mesh(path, preset), path
+
+
+def save_scenes(paths, out_dir, preset="quality", out=print):
+    """Mesh each file and save it as ``out_dir/<stem>.tetrace`` for a machine without meshers.
+
+    Returns
+    -------
+    list of str
+        The files written.
+    """
+    os.makedirs(out_dir, exist_ok=True)
+    written = []
+    for path in paths or [None]:
+        t0 = time.perf_counter()
+        scene, path = load_scene(path, preset)
+        stem = os.path.splitext(os.path.basename(path))[0]
+        dest = os.path.join(out_dir, stem + ".tetrace")
+        scene.save(dest)
+        out(
+            f"{dest}: {scene.n_tets:,} tets, {len(scene.faces):,} triangles, "
+            f"{os.path.getsize(dest) / 1e6:.1f} MB ({time.perf_counter() - t0:.1f} s)"
+        )
+        written.append(dest)
+    return written
+
+
+def gpu_cast_timed(scene, o, d, repeat, **kw):
+    """``scene.cast(o, d, device="gpu")`` after one untimed cast (which uploads the scene and
+    compiles the kernel), then ``repeat`` timed casts.
+
+    Returns
+    -------
+    best : dict
+        The phases (seconds) of the cast with the shortest kernel time, with ``wall`` added.
+    host : float
+        The least host time per ray over the casts: the whole call, numpy to numpy, less the
+        kernel's timestamped time (issue 34's measure), in seconds.
+    hits : Hits
+        The last cast's hits.
+    scene_upload : float
+        Seconds the first cast spent uploading the scene.
+    """
+    first = scene.cast(o[:1], d[:1], device="gpu", **kw)
+    scene_upload = first.timings["scene_upload"]
+    best, host, hits = None, float("inf"), None
+    for _ in range(max(int(repeat), 1)):
+        t0 = time.perf_counter()
+        hits = scene.cast(o, d, device="gpu", **kw)
+        wall = time.perf_counter() - t0
+        t = dict(hits.timings, wall=wall)
+        if best is None or t["kernel"] < best["kernel"]:
+            best = t
+        host = min(host, (wall - t["kernel"]) / max(len(o), 1))
+    return best, host, hits, scene_upload
+
+
+def _best_rate(fn, n, repeat):
+    fn()  # warm-up
+    best = float("inf")
+    for _ in range(max(int(repeat), 1)):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return n / best / 1e6
+
+
+def _camera_rate(scene, eye, target, up, width, height, repeat):
+    """Mrays/s of ``scene.cast(camera=..., device="gpu")`` where the package has cameras;
+    None where it does not."""
+    try:
+        from ..camera import Camera
+    except ImportError:
+        return None
+    cam = Camera.look_at(eye, target, up, fov_deg=FOV_DEG, width=width, height=height)
+    return _best_rate(lambda: scene.cast(camera=cam, device="gpu"), width * height, repeat)
+
+
+def bench_rays(scene, name, label, o, d, *, repeat, sample, seed, embreex, ncpu, camera=None):
+    """One row: the GPU cast of rays ``o, d`` phase by phase, judged on a sample, beside the
+    CPU exact walk and embreex on ``ncpu`` threads."""
+    from ..dev.compare import agreement
+    from ..referee import Referee
+
+    n = len(o)
+    best, host, hits, scene_upload = gpu_cast_timed(scene, o, d, repeat)
+    # The referee's verdict on a sample (it is exact and slower than any caster).
+    rng = np.random.default_rng(seed)
+    idx = np.sort(rng.choice(n, size=min(sample, n), replace=False))
+    verdict = Referee(scene.vertices, scene.faces).first_hits(
+        o[idx], d[idx], hint=hits.triangle[idx]
+    )
+    score = agreement(hits[idx], verdict, "f64")
+    cpu = _best_rate(lambda: scene.cast(o, d, threads=ncpu), n, repeat)
+    emb = _best_rate(lambda: embreex.cast(o, d, ncpu), n, repeat)
+    cam = None if camera is None else _camera_rate(scene, *camera, repeat)
+    ms = lambda k: best[k] * 1e3
+    return {
+        "scene": name,
+        "rays": label,
+        "n": n,
+        "kernel_grays_per_s": best["walked"] / best["kernel"] / 1e9 if best["kernel"] else None,
+        "mrays_per_s": n / best["wall"] / 1e6,
+        "host_ns_per_ray": host * 1e9,
+        "handed_back": best["deferred"] / n,
+        "walked": best["walked"],
+        "locate_ms": ms("locate"),
+        "upload_ms": ms("upload"),
+        "kernel_ms": ms("kernel"),
+        "kernel_wall_ms": ms("kernel_wall"),
+        "readback_ms": ms("readback"),
+        "finish_ms": ms("finish"),
+        "wall_ms": ms("wall"),
+        "scene_upload_ms": scene_upload * 1e3,
+        "camera_mrays_per_s": cam,
+        "right": score.right,
+        "judged": score.rays,
+        "not_right": {k: getattr(score, k) for k in ("failed", "leaked", "late", "wrong")},
+        "cpu_exact_mrays_per_s": cpu,
+        "embreex_mrays_per_s": emb,
+    }
+
+
+def _cell(key, value, row):
+    if value is None:
+        return "—"
+    if key == "handed_back":
+        return f"{value * 100:.3f}%"
+    if key == "right":
+        return f"{value:,}/{row['judged']:,}"
+    if key in ("n", "rays", "scene"):
+        return f"{value:,}" if isinstance(value, int) else str(value)
+    if key == "host_ns_per_ray":
+        return f"{value:,.0f}"
+    if key == "kernel_grays_per_s":
+        return f"{value:.3g}"
+    return f"{value:,.1f}" if value >= 10 else f"{value:.2f}"
+
+
+def run_gpu_bench(
+    paths=None,
+    *,
+    width=1920,
+    height=1440,
+    n_random=1_000_000,
+    sample=100_000,
+    repeat=3,
+    seed=0,
+    preset="quality",
+    json_path=None,
+    out=print,
+):
+    """Bench the GPU cast on each scene: a ``width`` × ``height`` camera and ``n_random``
+    random rays (either set is skipped when its size is 0).
+
+    Parameters
+    ----------
+    paths : list of str, optional
+        ``.tetrace`` files (or meshes, where a mesher is installed); default: the bundled
+        scene.
+    width, height : int
+        Camera resolution (float32 rays from one eye).
+    n_random : int
+        Random rays in and around the scene's box.
+    sample : int
+        Rays of each set the exact referee judges.
+    repeat : int
+        Timed casts per measurement; the best is kept.
+    seed : int
+    preset : str
+        Meshing preset for mesh files.
+    json_path : str, optional
+        Also write the rows as JSON there.
+
+    Returns
+    -------
+    dict
+        ``device`` (the adapter), ``threads`` and ``rows`` (one dict per scene and ray set,
+        keys as :data:`COLUMNS` plus details).
+    """
+    from .. import gpu
+    from ..baselines.embree import cpu_count
+    from .casters import EmbreexCaster
+
+    dev = gpu.device()  # GpuError naming what was looked for when there is no adapter
+    ncpu = cpu_count()
+    out(
+        f"GPU: {dev['name']} ({dev['backend']}, {dev['device_type']}); "
+        f"CPU exact walk and embreex on {ncpu} threads; referee on {sample:,} rays per set"
+    )
+    rows = []
+    for path in paths or [None]:
+        scene, path = load_scene(path, preset)
+        name = os.path.basename(path)
+        v, f = scene.vertices, scene.faces
+        bounds = np.array([v.min(0), v.max(0)])
+        embreex = EmbreexCaster(v, f)
+        sets = []
+        if width > 0 and height > 0:
+            view = orbit_view(bounds, distance=1.6)
+            o, d = pinhole(*view, fov_deg=FOV_DEG, width=width, height=height)
+            sets.append((f"camera {width}×{height}", o, d, (*view, width, height)))
+        if n_random > 0:
+            o, d = random_rays(bounds, n_random, seed, dtype=np.float32)
+            sets.append((f"random {n_random:,}", o, d, None))
+        for label, o, d, camera in sets:
+            row = bench_rays(
+                scene,
+                name,
+                label,
+                o,
+                d,
+                repeat=repeat,
+                sample=sample,
+                seed=seed,
+                embreex=embreex,
+                ncpu=ncpu,
+                camera=camera,
+            )
+            rows.append(row)
+            out(
+                f"{name}, {label}: host {row['host_ns_per_ray']:,.0f} ns/ray, "
+                f"{row['mrays_per_s']:,.1f} Mrays/s numpy to numpy"
+            )
+    out("")
+    out(
+        "kernel Grays/s = rays walked on the GPU / kernel seconds (timestamps where the device "
+        "has them); host ns/ray = (whole call − kernel) / rays, best of the timed casts; "
+        "handed back = rays the GPU handed to the CPU exact walk before a face; camera= = "
+        "scene.cast(camera=..., device='gpu') (rays generated on the host until the kernel "
+        "generates them)"
+    )
+    out(
+        _table(
+            [[_cell(k, r[k], r) for k, _ in COLUMNS] for r in rows],
+            [h for _, h in COLUMNS],
+        )
+    )
+    results = {"device": dev, "threads": ncpu, "rows": rows}
+    if json_path:
+        with open(json_path, "w") as fh:
+            json.dump(results, fh, indent=2, default=str)
+    return results
