@@ -119,6 +119,7 @@ def test_import_tetrace_loads_only_the_library():
         "tetrace",
         "tetrace._native",
         "tetrace.accuracy",
+        "tetrace.camera",
         "tetrace.construct",
         "tetrace.conveniences",
         "tetrace.deform",

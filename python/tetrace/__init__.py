@@ -4,12 +4,17 @@
 >>> scene = tetrace.Scene.from_mesh("bunny.obj")            # doctest: +SKIP
 >>> hits = scene.cast(origins, directions)                   # doctest: +SKIP
 >>> hits.t, hits.triangle, hits.status                       # doctest: +SKIP
+>>> cam = tetrace.Camera.look_at(eye, target, width=640, height=480)  # doctest: +SKIP
+>>> scene.cast(camera=cam).t.shape                           # doctest: +SKIP
+(480, 640)
 """
 
 from . import (
     _native,
+    camera,  # noqa: F401  (tetrace.camera is part of the API)
     gpu,  # noqa: F401  (tetrace.gpu.info() is part of the API)
 )
+from .camera import Camera
 from .conveniences import cast, default_scene
 from .errors import (
     GpuError,
@@ -38,6 +43,7 @@ __all__ = [
     "Scene",
     "Deformation",
     "Hits",
+    "Camera",
     "cast",
     "default_scene",
     "default_scene_path",
@@ -59,4 +65,5 @@ __all__ = [
     "TooLargeError",
     "GpuError",
     "gpu",
+    "camera",
 ]

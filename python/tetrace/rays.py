@@ -8,6 +8,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import _native
+from .camera import Camera
 from .hits import HIT, Hits
 
 __all__ = [
@@ -273,11 +274,24 @@ def _from_hits(start, directions, geometries):
     return origins, d, (hit.reshape(-1), ids(triangle).reshape(-1), ids(tet).reshape(-1))
 
 
+def _camera_rays(camera, origins, directions, start, precision):
+    """A camera's rays (``camera=cam``), ``(H, W, 3)`` each, generated on the host in the
+    requested precision (float32 by default, as the GPU and Open3D take them)."""
+    if not isinstance(camera, Camera):
+        raise TypeError(f"camera must be a tetrace.Camera, got {type(camera)}")
+    if origins is not None or directions is not None or start is not None:
+        raise ValueError(
+            "give camera or rays (origins, directions or start=hits), not both: the camera "
+            "makes its own rays"
+        )
+    return camera.rays(np.float64 if precision == "f64" else np.float32)
+
+
 class RayRequest:
     """One ray query's arguments, checked once, as every ray query of a :class:`Scene` takes
-    them: the rays (``origins``/``directions`` of any leading shape, or ``start=hits``), the
-    bounds, the threads, the precision (named, not guessed by the core), the packets, the
-    accelerator, the walk's method and layout, and the progress bar.
+    them: the rays (``origins``/``directions`` of any leading shape, ``camera=cam`` or
+    ``start=hits``), the bounds, the threads, the precision (named, not guessed by the core),
+    the packets, the accelerator, the walk's method and layout, and the progress bar.
 
     Python does what only Python can (broadcasting leading shapes, ``start=hits``, the dtype
     the inputs ask for); the core's :class:`tetrace._native.RayRequest` checks every rule
@@ -288,6 +302,7 @@ class RayRequest:
     ARGS = (
         "origins",
         "directions",
+        "camera",
         "start",
         "tmin",
         "tmax",
@@ -307,6 +322,7 @@ class RayRequest:
         origins,
         directions,
         *,
+        camera=None,
         start=None,
         tmin=0.0,
         tmax=np.inf,
@@ -327,12 +343,14 @@ class RayRequest:
         enabled(progress)  # a TypeError for anything but None/True/False, before any work
         self.progress = progress
         leaving = None
-        if start is not None:
+        if camera is not None:
+            origins, directions = _camera_rays(camera, origins, directions, start, precision)
+        elif start is not None:
             if origins is not None:
                 raise TypeError("give origins or start=hits, not both")
             origins, directions, leaving = _from_hits(start, directions, geometries)
         elif origins is None:
-            raise TypeError("rays need origins (or start=hits)")
+            raise TypeError("rays need origins (or camera=cam or start=hits)")
         batch = prepare_ray_batch(origins, directions, invalid=invalid)
         o, d = batch.origins, batch.directions
         if precision is None:
@@ -394,12 +412,21 @@ ARG_DOCS = """\
 origins : array_like, optional
     ``(N, 3)`` or ``(..., 3)`` ray origins, or ``(N, 6)``/``(..., 6)`` rays
     ``[ox, oy, oz, dx, dy, dz]`` when ``directions`` is None. Origins may lie
-    anywhere, inside or outside the domain. Not with ``start``.
+    anywhere, inside or outside the domain. Not with ``start`` or ``camera``.
 directions : array_like, optional
     ``(N, 3)`` or ``(..., 3)`` directions, not necessarily unit length; ``t`` is in
     their units. Origins and directions broadcast over their leading axes (one
     ``(3,)`` origin with ``(H, W, 3)`` directions: ``(H, W)`` rays); the results
     have that leading shape (a single ray gives shape ``(1,)``).
+camera : Camera, optional
+    A :class:`tetrace.Camera`: one ray per pixel instead of ``origins`` and
+    ``directions`` (give one or the other, else ``ValueError``); the results have
+    the image's shape ``(height, width)``, row 0 at the top, column 0 at the left.
+    The rays are those of :meth:`Camera.rays <tetrace.Camera.rays>`, in ``precision``
+    (default ``"f32"``; ``"f64"`` generates them in float64, not rounded through
+    float32), so ``cast(camera=cam)`` equals ``cast(*cam.rays())`` field for field.
+    For now they are generated on the host (numpy) and cast like any others, on any
+    ``device``.
 start : Hits, optional
     Secondary rays (shadow rays, reflections, bounces): start each ray at a hit of
     an earlier :meth:`cast` of this scene, at ``start.point``, in ``directions``

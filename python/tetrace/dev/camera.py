@@ -1,25 +1,25 @@
 """Ray generators: a pinhole camera, orbit viewpoints and random rays.
 
-Imports only numpy.
+The pinhole camera moved to :class:`tetrace.Camera` (:mod:`tetrace.camera`); :func:`pinhole`
+stays here as a thin wrapper over it. Imports only numpy (and :mod:`tetrace.camera`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from ..camera import Camera
+
 __all__ = ["pinhole", "orbit_views", "orbit_view", "random_rays"]
 
 
-def _unit(v, name):
-    v = np.asarray(v, dtype=np.float64)
-    norm = np.linalg.norm(v)
-    if not np.isfinite(norm) or norm == 0.0:
-        raise ValueError(f"{name} must be a finite nonzero vector, got {v}")
-    return v / norm
-
-
 def pinhole(eye, target, up=(0, 1, 0), fov_deg=45.0, width=1024, height=1024, dtype=np.float32):
-    """Primary rays of a pinhole camera, one per pixel centre.
+    """Primary rays of a pinhole camera, one per pixel centre, as flat ``(N, 3)`` arrays.
+
+    Moved to the public :class:`tetrace.Camera`: this is
+    ``Camera.look_at(eye, target, up, fov_deg, width, height).rays(dtype)`` flattened, the
+    same numbers bit for bit as before the move (kept for the tests, benches and notebooks
+    that import it). New code: ``scene.cast(camera=tetrace.Camera.look_at(...))``.
 
     Parameters
     ----------
@@ -41,36 +41,16 @@ def pinhole(eye, target, up=(0, 1, 0), fov_deg=45.0, width=1024, height=1024, dt
     Returns
     -------
     origins : numpy.ndarray
-        ``(height * width, 3)``, every row equal to ``eye``.
+        ``(height * width, 3)``, every row equal to ``eye`` (a writable copy per ray).
     directions : numpy.ndarray
         ``(height * width, 3)`` unit directions, pixels in row-major order:
         ray ``i * width + j`` goes through row ``i`` (row 0 is the top of the
         image) and column ``j`` (column 0 is the left).
     """
-    if width < 1 or height < 1:
-        raise ValueError(f"width and height must be positive, got {width} x {height}")
-    if not 0.0 < fov_deg < 180.0:
-        raise ValueError(f"fov_deg must be in (0, 180), got {fov_deg}")
-    eye = np.asarray(eye, dtype=np.float64)
-    forward = _unit(np.asarray(target, dtype=np.float64) - eye, "target - eye")
-    right = np.cross(forward, _unit(up, "up"))
-    if np.linalg.norm(right) < 1e-9:
-        raise ValueError("up is parallel to the viewing direction")
-    right /= np.linalg.norm(right)
-    true_up = np.cross(right, forward)
-
-    half_h = np.tan(np.radians(fov_deg) / 2.0)
-    half_w = half_h * width / height
-    x = ((np.arange(width) + 0.5) / width * 2.0 - 1.0) * half_w
-    y = (1.0 - (np.arange(height) + 0.5) / height * 2.0) * half_h
-    dirs = (
-        forward[None, None, :]
-        + x[None, :, None] * right[None, None, :]
-        + y[:, None, None] * true_up[None, None, :]
-    ).reshape(-1, 3)
-    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
-    origins = np.tile(eye.astype(dtype), (width * height, 1))
-    return origins, dirs.astype(dtype)
+    cam = Camera.look_at(eye, target, up, fov_deg=fov_deg, width=width, height=height)
+    _, directions = cam.rays(dtype)
+    origins = np.tile(cam.eye.astype(dtype), (cam.n_rays, 1))
+    return origins, directions.reshape(-1, 3)
 
 
 def orbit_views(bounds, n=3, distance=2.0):
