@@ -175,6 +175,9 @@ def _check(scene, o, d, what, device):
         if method == "exact":
             # The contract: every ray right by the referee (the CPU exact cast's answers).
             assert g.right == len(o), msg
+            # Rays from one origin begin their walks on the GPU (docs/gpu.md, shared origin).
+            one_origin = bool((o == o[:1]).all())
+            assert t["shared_origin"] == one_origin, msg
         elif len(differ):
             # Information, not a failure (pytest turns warnings into errors): printed.
             print(

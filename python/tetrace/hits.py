@@ -85,7 +85,9 @@ class Hits:
         (``locate``, ``scene_upload``, ``upload``, ``kernel``, ``readback``, ``finish``;
         ``kernel`` from the GPU's timestamps where the device has them, ``kernel_wall`` the
         host's wait for it) and counts (``walked``: rays the GPU walked, ``deferred``: rays
-        the kernel handed back to the CPU walk before a face, ``batches``). None for CPU
+        the kernel handed back to the CPU walk before a face, ``batches``) and
+        ``shared_origin`` (whether the rays shared one origin, located once, and began their
+        walks on the GPU from their directions alone). None for CPU
         casts and other casters. :meth:`reshape` keeps it; :meth:`__getitem__` drops it (the
         rays selected are not what was timed).
 

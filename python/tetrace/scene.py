@@ -784,7 +784,9 @@ class Scene:
             ``locator`` (seed grid, boundary grid, location topology),
             ``tets_<layout>`` for each layout built so far, ``gpu_<layout>`` for each
             layout's buffers on the GPU (records, and float32 points for tet20), and
-            ``gpu_rays`` for the ray buffers GPU casts keep for the next cast.
+            ``gpu_rays`` for the ray buffers GPU casts keep for the next cast, and
+            ``gpu_entry_grid`` for the box's entry grid (uploaded by the first GPU cast of
+            rays from one origin outside the box).
         """
         return dict(self._native.memory())
 

@@ -18,7 +18,7 @@ const SIDE_UNSURE: u32 = 2u;
 
 // Filter (docs/gpu.md): with N = |p - s~|_1, M = |x| + |y| (the projected L1 norm) and
 // eta = |s - s~|_1, |computed det - exact det (scaled)| is below
-//   2^-20 (N_p M_q + M_p N_q) + 2^-22 M_p M_q + 2 eta (M_p + M_q) + 2^-40 N_p N_q
+//   2^-20 (N_p M_q + M_p N_q) + 2^-22 M_p M_q + 2 eta (M_p + M_q) + 2^-39 N_p N_q
 //   + 2^-19 eta (N_p + N_q) + 2 eta^2 + 2^-100 (N_p + N_q + 1)
 // for any evaluation order and any fused multiply-add (u = 2^-24; each coefficient is at
 // least twice its first-order value). Far from s the error scales with M (the distance of
@@ -26,7 +26,7 @@ const SIDE_UNSURE: u32 = 2u;
 // nearly meets the edge.
 const C_NM: f32 = 9.5367431640625e-7; // 2^-20
 const C_MM: f32 = 2.384185791015625e-7; // 2^-22
-const C_NN: f32 = 9.094947017729282e-13; // 2^-40
+const C_NN: f32 = 1.8189894035458565e-12; // 2^-39
 const C_ETA_N: f32 = 1.9073486328125e-6; // 2^-19
 const C_ABS: f32 = 7.888609052210118e-31; // 2^-100
 

@@ -12,17 +12,19 @@
 
 use super::context::{gpu, Gpu};
 use super::device_scene::DeviceScene;
-use super::kernels::KernelSpec;
+use super::kernels::{KernelSpec, SHARED_ORIGIN};
 use super::launch::{Batching, Launch, RunBuffers};
-use super::structs::{RayIn, RayOut, END_BOUNDARY, END_DEFERRED, END_HIT};
+use super::origin::{boundary_miss, entry_sides, plain_state, shared_origin, start_of};
+use super::structs::{
+    RayIn, RayOut, Shared, END_BOUNDARY, END_DEFERRED, END_HIT, END_MISS_BOX, END_UNBEGUN,
+};
 use super::timings::GpuTimings;
 use super::upload::LayoutBuffers;
-use crate::accel::tetwalk::PlainState;
 use crate::accel::TetWalk;
 use crate::error::{Error, Result};
 use crate::layout::Tet20;
 use crate::locate::{LocateState, Start, WalkStart};
-use crate::query::RayHit;
+use crate::query::{QueryKind, RayHit};
 use crate::scene::CastOptions;
 use crate::scene::{check_lengths, HitsOut, Rays, Scene, CHUNK};
 use crate::threads::run_pieces;
@@ -85,7 +87,16 @@ impl DeviceScene {
             cache: &cache,
         };
         if kernel.resumes {
-            resumed(scene, kernel, &device, rays, out, opts, &mut timings)?;
+            // The scan for one origin and its location count as the cast's location.
+            let t0 = Instant::now();
+            let query = scene.closest();
+            let sides = entry_sides(scene);
+            let slack = scene_buffers.points_slack;
+            if let Some(shared) = shared_origin(scene, rays, &query, slack, sides) {
+                self.cast_shared(scene, &device, (shared, t0), rays, out, opts, &mut timings)?;
+            } else {
+                resumed(scene, kernel, &device, rays, out, opts, &mut timings)?;
+            }
             return Ok(timings);
         }
         // Rays the kernel defers (the robust filter's) walk again on the CPU from their start.
@@ -109,6 +120,101 @@ impl DeviceScene {
         )?;
         Ok(timings)
     }
+}
+
+impl DeviceScene {
+    /// A batch from one origin (`gpu::origin`): the shared-origin kernel begins every walk
+    /// from the ray's direction and walks on; the host answers each ray from where its walk
+    /// was handed back, walks the rays whose start the kernel could not certify from their
+    /// start, and answers the certain misses of the box.
+    #[allow(clippy::too_many_arguments)] // one cast's parts, as `resumed` takes them
+    fn cast_shared(
+        &self,
+        scene: &Scene,
+        exact: &OnDevice,
+        (shared, t0): (Shared, Instant),
+        rays: &Rays<f32>,
+        out: HitsOut<f32>,
+        opts: &CastOptions,
+        timings: &mut GpuTimings,
+    ) -> Result<()> {
+        let g = exact.g;
+        let pipeline = g.pipeline(&SHARED_ORIGIN)?;
+        let (grid, grid_upload) = self.entry_grid(g, scene)?;
+        timings.scene_upload += grid_upload;
+        let cache = self.run_buffers(&SHARED_ORIGIN);
+        let extra = [(7, &grid.cells), (8, &grid.faces)];
+        let launch = Launch {
+            g,
+            pipeline: &pipeline,
+            scene: exact.scene,
+            max_steps: exact.max_steps,
+            batching: exact.batching,
+            cache: &cache,
+            input_binding: 6,
+            shared: Some(shared),
+            extra: &extra,
+        };
+        let n = rays.len();
+        timings.shared_origin = true;
+        timings.locate = t0.elapsed().as_secs_f64() - grid_upload;
+        timings.walked = n;
+        // Straight from the caller's array: 12 bytes a ray.
+        let dirs: &[[f32; 3]] = bytemuck::cast_slice(rays.directions);
+        let results = launch.run(&[dirs], n, timings)?;
+        crate::threads::checkpoint()?;
+
+        let t1 = Instant::now();
+        let setup = exact_setup(scene, exact.max_steps)?;
+        let walk = TetWalk::<f64, Tet20, Exact, NoObserver>::new(scene.locators(), setup);
+        let query = scene.closest();
+        let handed = AtomicUsize::new(0);
+        let pieces: Vec<_> = crate::query::chunks(out, CHUNK)
+            .into_iter()
+            .enumerate()
+            .collect();
+        run_pieces(pieces, opts.threads, |(k, mut chunk)| {
+            let mut st = LocateState::for_chunk(k);
+            let mut sent = 0;
+            for j in 0..chunk.len() {
+                let i = k * CHUNK + j;
+                let o = &results[i];
+                let answer = match o.end {
+                    END_MISS_BOX => query.skipped(crate::status::MISS),
+                    END_BOUNDARY => boundary_miss(o),
+                    END_UNBEGUN => {
+                        sent += 1;
+                        match walk.begin_elsewhere(&query, &rays.ray(i), &mut st) {
+                            Err(answer) => answer,
+                            Ok((s, at)) => walk.walk_on_from(&query, &s, at),
+                        }
+                    }
+                    end => {
+                        sent += (end == END_DEFERRED) as usize;
+                        match start_of(rays, i) {
+                            Ok(s) => walk.walk_on_from(&query, &s, plain_state(o)),
+                            Err(status) => query.skipped(status),
+                        }
+                    }
+                };
+                chunk.set(j, &answer);
+            }
+            handed.fetch_add(sent, Ordering::Relaxed);
+        })?;
+        timings.deferred = handed.into_inner();
+        timings.finish = t1.elapsed().as_secs_f64();
+        Ok(())
+    }
+}
+
+/// The CPU exact walk of float32 rays on Tet20, as the CPU cast dispatches it: float64 points.
+fn exact_setup(scene: &Scene, max_steps: u32) -> Result<WalkSetup<'_, f64, Tet20>> {
+    Ok(WalkSetup {
+        layout: crate::layout::get::<Tet20>(&scene.layouts.tet20, &scene.mesh)?,
+        points: &scene.mesh.points[..],
+        sides: &scene.mesh.constrained,
+        max_steps,
+    })
 }
 
 /// A kernel ready to run on the device, with the scene's buffers for it.
@@ -145,6 +251,9 @@ impl OnDevice<'_> {
                 max_steps: self.max_steps,
                 batching: self.batching,
                 cache: self.cache,
+                input_binding: 1,
+                shared: None,
+                extra: &[],
             };
             launch.run(&all, walked, timings)?
         } else {
@@ -208,13 +317,7 @@ fn resumed(
     opts: &CastOptions,
     timings: &mut GpuTimings,
 ) -> Result<()> {
-    // The CPU exact walk of float32 rays, as the CPU cast dispatches it: float64 points.
-    let setup = WalkSetup {
-        layout: crate::layout::get::<Tet20>(&scene.layouts.tet20, &scene.mesh)?,
-        points: &scene.mesh.points[..],
-        sides: &scene.mesh.constrained,
-        max_steps: device.max_steps,
-    };
+    let setup = exact_setup(scene, device.max_steps)?;
     let walk = TetWalk::<f64, Tet20, Exact, NoObserver>::new(scene.locators(), setup);
     let query = scene.closest();
     let points_slack = device.scene.points_slack;
@@ -244,14 +347,9 @@ fn resumed(
             }
             (starts, prepared)
         },
-        |s, o| {
-            let at = PlainState {
-                face: [o.face[0], o.face[1], o.face[2]],
-                link: o.constrained,
-                t: o.tet,
-                steps: o.steps,
-            };
-            walk.walk_on_from(&query, s, at)
+        |s, o| match o.end {
+            END_BOUNDARY => boundary_miss(o),
+            _ => walk.walk_on_from(&query, s, plain_state(o)),
         },
     )
 }

@@ -5,6 +5,10 @@ use crate::error::{Error, Result};
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 
+/// A kernel's identity, which names its pipeline and kept ray buffers: (method, layout, walk
+/// file) (`KernelSpec::key`).
+pub type KernelKey = (&'static str, &'static str, &'static str);
+
 /// What `tetrace.gpu.info()` shows of an adapter.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct AdapterSummary {
@@ -128,7 +132,7 @@ pub struct Gpu {
     /// time is then the GPU's own, not the host's wait for it.
     pub timestamps: bool,
     /// Compiled kernels, by (method, layout) (`Gpu::pipeline`, in kernels.rs).
-    pub(super) pipelines: Mutex<HashMap<(&'static str, &'static str), Arc<wgpu::ComputePipeline>>>,
+    pub(super) pipelines: Mutex<HashMap<KernelKey, Arc<wgpu::ComputePipeline>>>,
 }
 
 static GPU: Mutex<Option<Arc<Gpu>>> = Mutex::new(None);

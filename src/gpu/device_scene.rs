@@ -3,8 +3,10 @@
 //! whoever casts on the GPU keeps a [`DeviceScene`] beside its [`Scene`].
 
 use super::context::Gpu;
+use super::context::KernelKey;
 use super::kernels::{GpuLayout, KernelSpec};
 use super::launch::RunBuffers;
+use super::origin::{upload_entry_grid, EntryGrid};
 use super::upload::LayoutBuffers;
 use crate::error::Result;
 use crate::scene::Scene;
@@ -23,7 +25,9 @@ pub struct DeviceScene {
     buffers: Mutex<HashMap<&'static str, Arc<LayoutBuffers>>>,
     /// Each kernel's ray buffers and bind group (bound to this scene's buffers), by kernel:
     /// made by its first cast, kept for the next (`launch::Launch::cache`).
-    runs: Mutex<HashMap<(&'static str, &'static str), KeptRuns>>,
+    runs: Mutex<HashMap<KernelKey, KeptRuns>>,
+    /// The box's entry grid, for the shared-origin kernel (uploaded by its first cast).
+    entry_grid: Mutex<Option<Arc<EntryGrid>>>,
 }
 
 impl DeviceScene {
@@ -44,15 +48,31 @@ impl DeviceScene {
         if rays > 0 {
             out.push(("rays", rays));
         }
+        let grid = self.entry_grid.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(g) = grid.as_ref() {
+            out.push(("entry_grid", g.bytes()));
+        }
         out
     }
 
     /// `kernel`'s ray buffers kept between casts on this scene (empty until its first cast).
     pub(crate) fn run_buffers(&self, kernel: &KernelSpec) -> KeptRuns {
         let mut runs = self.runs.lock().unwrap_or_else(|e| e.into_inner());
-        runs.entry((kernel.method, kernel.layout.name))
-            .or_default()
-            .clone()
+        runs.entry(kernel.key()).or_default().clone()
+    }
+
+    /// The scene's box entry grid on the device, uploaded now if it is not there yet, and the
+    /// seconds the upload took.
+    pub(crate) fn entry_grid(&self, g: &Gpu, scene: &Scene) -> Result<(Arc<EntryGrid>, f64)> {
+        let mut grid = self.entry_grid.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(x) = grid.as_ref() {
+            return Ok((x.clone(), 0.0));
+        }
+        let t0 = Instant::now();
+        let x = Arc::new(upload_entry_grid(g, scene)?);
+        g.wait()?;
+        *grid = Some(x.clone());
+        Ok((x, t0.elapsed().as_secs_f64()))
     }
 
     /// The buffers for `kernel`'s layout, uploaded now if they are not on the device yet, and

@@ -10,6 +10,7 @@
 //! (or an existing one, if the layout provides the same accessors), an upload function in
 //! `upload.rs`, and one row in [`GPU_LAYOUTS`].
 
+use super::context::KernelKey;
 use super::structs::{RayIn, NO_ENTRY};
 use super::upload::{slack, upload_tet20, upload_tet80, LayoutBuffers};
 use super::Gpu;
@@ -124,7 +125,34 @@ pub static KERNELS: [KernelSpec; 4] = [
     KernelSpec::of::<Robust>(&GPU_LAYOUTS[0], &[ROBUST], Some(robust_tet20_on_cpu)),
 ];
 
+/// The exact kernel for batches whose rays share one origin (`gpu::origin`): chosen by the
+/// exact kernel's cast, never named by a caller. It begins each walk on the device from the
+/// ray's direction, then walks on as the exact kernel does.
+pub static SHARED_ORIGIN: KernelSpec = KernelSpec {
+    resumes: true,
+    walk: Some(wgsl!("walks/shared_origin.wgsl")),
+    ..KernelSpec::of::<Exact>(
+        &GPU_LAYOUTS[0],
+        &[ROBUST, wgsl!("methods/exact.wgsl")],
+        None,
+    )
+};
+
+/// Every kernel the device may compile: [`KERNELS`] and the shared-origin exact kernel.
+pub fn all_kernels() -> impl Iterator<Item = &'static KernelSpec> {
+    KERNELS.iter().chain(std::iter::once(&SHARED_ORIGIN))
+}
+
 impl KernelSpec {
+    /// What names its pipeline and kept ray buffers: method, layout and walk.
+    pub fn key(&self) -> KernelKey {
+        (
+            self.method,
+            self.layout.name,
+            self.walk.unwrap_or(self.layout.walk).path,
+        )
+    }
+
     /// The kernel of method M (its CPU twin's method) on `layout`.
     const fn of<M: ExitMethod<f32>>(
         layout: &'static GpuLayout,
@@ -208,7 +236,7 @@ impl std::fmt::Debug for KernelSpec {
 impl Gpu {
     /// The kernel's compute pipeline, compiled on first use (the device keeps it).
     pub fn pipeline(&self, kernel: &KernelSpec) -> Result<Arc<wgpu::ComputePipeline>> {
-        let key = (kernel.method, kernel.layout.name);
+        let key = kernel.key();
         let mut p = self.pipelines.lock().unwrap_or_else(|e| e.into_inner());
         if let Some(x) = p.get(&key) {
             return Ok(x.clone());

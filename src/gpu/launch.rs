@@ -2,7 +2,7 @@
 //! upload, a dispatch (a 2D grid when one row of workgroups is not enough) and a readback.
 
 use super::context::Gpu;
-use super::structs::{Params, RayIn, RayOut, WORKGROUP};
+use super::structs::{Params, RayOut, Shared, WORKGROUP};
 use super::timings::GpuTimings;
 use super::upload::LayoutBuffers;
 use crate::error::Result;
@@ -10,7 +10,7 @@ use std::sync::Mutex;
 use std::time::Instant;
 use wgpu::util::DeviceExt;
 
-/// Rays per batch at most: bounds the ray buffers (64 + 2 × 32 bytes a ray).
+/// Rays per batch at most: bounds the ray buffers (at most 64 + 2 × 32 bytes a ray).
 pub const MAX_BATCH: usize = 1 << 20;
 
 /// How rays are cut into dispatches.
@@ -43,6 +43,12 @@ pub(crate) struct Launch<'a> {
     /// by the first run, remade only for a larger batch. Held for the whole run, so casts on
     /// one scene with one kernel take turns on the device.
     pub cache: &'a Mutex<Option<RunBuffers>>,
+    /// Where the rays go: binding 1 (`rays`, RayIn) or the shared-origin kernel's 6 (`dirs`).
+    pub input_binding: u32,
+    /// What every ray of the cast shares (the shared-origin kernel's uniform, binding 5).
+    pub shared: Option<Shared>,
+    /// The scene's further buffers the kernel reads, by binding (the entry grid).
+    pub extra: &'a [(u32, &'a wgpu::Buffer)],
 }
 
 /// A kernel's ray buffers for batches of up to `batch` rays, and their bind group.
@@ -56,7 +62,11 @@ impl RunBuffers {
     /// Bytes on the device.
     pub(crate) fn bytes(&self) -> u64 {
         let b = &self.bufs;
-        b.rays.size() + b.hits.size() + b.readback.size() + b.params.size()
+        b.rays.size()
+            + b.hits.size()
+            + b.readback.size()
+            + b.params.size()
+            + b.shared.as_ref().map_or(0, wgpu::Buffer::size)
     }
 }
 
@@ -66,6 +76,8 @@ struct RayBuffers {
     hits: wgpu::Buffer,
     readback: wgpu::Buffer,
     params: wgpu::Buffer,
+    /// The shared-origin kernel's uniform (binding 5).
+    shared: Option<wgpu::Buffer>,
     /// Where the device has timestamps: the pass's two, resolved and read back.
     stamps: Option<Stamps>,
 }
@@ -79,16 +91,17 @@ struct Stamps {
 
 impl Launch<'_> {
     /// Walks the rays of `parts` (all chunks' rays, in order: `walked` in all), as one
-    /// sequence cut into batches; returns their results in the same order.
-    pub fn run(
+    /// sequence cut into batches; returns their results in the same order. A ray is a RayIn,
+    /// or for the shared-origin kernel its direction.
+    pub fn run<T: bytemuck::Pod>(
         &self,
-        parts: &[&[RayIn]],
+        parts: &[&[T]],
         walked: usize,
         timings: &mut GpuTimings,
     ) -> Result<Vec<RayOut>> {
         let g = self.g;
         let mut results: Vec<RayOut> = Vec::with_capacity(walked);
-        let ray_bytes = std::mem::size_of::<RayIn>() as u64;
+        let ray_bytes = std::mem::size_of::<T>() as u64;
         let cap = (g
             .limits
             .max_storage_buffer_binding_size
@@ -100,7 +113,7 @@ impl Launch<'_> {
         if cache.as_ref().is_none_or(|c| c.batch < batch) {
             // Dropped first: the old buffers and the new need not both fit.
             *cache = None;
-            let bufs = self.allocate(batch)?;
+            let bufs = self.allocate(batch, ray_bytes)?;
             let bind = self.bind(&bufs)?;
             *cache = Some(RunBuffers { batch, bufs, bind });
         }
@@ -114,7 +127,7 @@ impl Launch<'_> {
         // The rays in order, cut into batches of at most `batch`: each batch is the pieces of
         // the chunks' slices it spans, written to the device as they lie (no staging copy).
         let mut rest = parts.iter().copied().filter(|p| !p.is_empty());
-        let mut carry: &[RayIn] = &[];
+        let mut carry: &[T] = &[];
         loop {
             let (mut pieces, mut n) = (Vec::new(), 0usize);
             while n < batch {
@@ -142,9 +155,8 @@ impl Launch<'_> {
         Ok(results)
     }
 
-    fn allocate(&self, batch: usize) -> Result<RayBuffers> {
+    fn allocate(&self, batch: usize, ray_bytes: u64) -> Result<RayBuffers> {
         let g = self.g;
-        let ray_bytes = std::mem::size_of::<RayIn>() as u64;
         let out_bytes = std::mem::size_of::<RayOut>() as u64;
         g.scoped("allocating ray buffers", || {
             let mk = |label, size, usage| {
@@ -171,6 +183,14 @@ impl Launch<'_> {
                         contents: bytemuck::bytes_of(&Params::default()),
                         usage: U::UNIFORM | U::COPY_DST,
                     }),
+                shared: self.shared.map(|s| {
+                    g.device
+                        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                            label: Some("shared origin"),
+                            contents: bytemuck::bytes_of(&s),
+                            usage: U::UNIFORM | U::COPY_DST,
+                        })
+                }),
                 stamps: g.timestamps.then(|| Stamps {
                     set: g.device.create_query_set(&wgpu::QuerySetDescriptor {
                         label: Some("kernel timestamps"),
@@ -192,7 +212,7 @@ impl Launch<'_> {
                 resource: bufs.params.as_entire_binding(),
             },
             wgpu::BindGroupEntry {
-                binding: 1,
+                binding: self.input_binding,
                 resource: bufs.rays.as_entire_binding(),
             },
             wgpu::BindGroupEntry {
@@ -210,6 +230,18 @@ impl Launch<'_> {
                 resource: p.as_entire_binding(),
             });
         }
+        if let Some(b) = &bufs.shared {
+            entries.push(wgpu::BindGroupEntry {
+                binding: 5,
+                resource: b.as_entire_binding(),
+            });
+        }
+        for (binding, b) in self.extra {
+            entries.push(wgpu::BindGroupEntry {
+                binding: *binding,
+                resource: b.as_entire_binding(),
+            });
+        }
         self.g.scoped("binding buffers", || {
             self.g.device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("tetrace"),
@@ -219,10 +251,10 @@ impl Launch<'_> {
         })
     }
 
-    fn upload(
+    fn upload<T: bytemuck::Pod>(
         &self,
         bufs: &RayBuffers,
-        pieces: &[&[RayIn]],
+        pieces: &[&[T]],
         n: usize,
         timings: &mut GpuTimings,
     ) -> Result<()> {
@@ -234,6 +266,9 @@ impl Launch<'_> {
                 let bytes: &[u8] = bytemuck::cast_slice(p);
                 g.queue.write_buffer(&bufs.rays, offset, bytes);
                 offset += bytes.len() as u64;
+            }
+            if let (Some(b), Some(s)) = (&bufs.shared, &self.shared) {
+                g.queue.write_buffer(b, 0, bytemuck::bytes_of(s));
             }
             g.queue.write_buffer(
                 &bufs.params,

@@ -16,6 +16,7 @@ pub mod context;
 pub mod device_scene;
 pub mod kernels;
 pub mod launch;
+pub mod origin;
 // Portalez & Duguet's octree walk in float32 on the GPU, measured by its tests only (the
 // `gpu-octree` feature, which `make test` turns on).
 #[cfg(feature = "gpu-octree")]

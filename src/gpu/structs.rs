@@ -63,10 +63,48 @@ pub struct Tet80 {
     pub faces: [Face80; 4],
 }
 
+/// `GridSide` of shaders/walks/shared_origin.wgsl: one side of the domain box's entry grid
+/// (`locate::boundary::SideGrid`), its cells' starts at `cells` in the cell buffer and its
+/// faces at `faces` in the face buffer.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GridSide {
+    pub lo: [f32; 2],
+    pub inv_cell: [f32; 2],
+    pub dims: [u32; 2],
+    pub cells: u32,
+    pub faces: u32,
+}
+
+/// `Shared` (uniform) of shaders/walks/shared_origin.wgsl: what every ray of a batch from one
+/// origin shares, located once on the host.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Shared {
+    /// The origin (a float32 number: the rays are float32) and η, the points' slack.
+    pub origin: [f32; 3],
+    pub slack: f32,
+    /// Inside the box: the start tet's vertex ids (positively oriented, as `mesh.tets`).
+    pub verts: [u32; 4],
+    /// The domain box rounded outward to float32.
+    pub box_lo: [f32; 3],
+    pub start_tet: u32,
+    pub box_hi: [f32; 3],
+    /// 1 when the origin lies strictly inside `start_tet`, 0 when it is outside the box.
+    pub inside: u32,
+    /// Per axis, where the origin lies against the box (exactly): −1 below, 0 within, 1 above.
+    pub beyond: [i32; 4],
+    pub sides: [GridSide; 6],
+}
+
 /// `END_*` of shaders/common.wgsl (any other end is END_STEP_LIMIT).
 pub const END_BOUNDARY: u32 = 0;
 pub const END_HIT: u32 = 1;
 pub const END_DEFERRED: u32 = 3;
+/// Shared-origin kernel only: the ray's start could not be certified on the device (the host
+/// begins and walks it), or it certainly misses the domain box.
+pub const END_UNBEGUN: u32 = 5;
+pub const END_MISS_BOX: u32 = 6;
 /// `NO_ENTRY` of shaders/common.wgsl.
 pub const NO_ENTRY: u32 = 4;
 /// `WORKGROUP` of shaders/common.wgsl.
@@ -90,6 +128,20 @@ const _: () = {
     assert!(offset_of!(RayOut, tet) == 8);
     assert!(offset_of!(RayOut, steps) == 12);
     assert!(offset_of!(RayOut, face) == 16);
+    assert!(size_of::<GridSide>() == 32);
+    assert!(offset_of!(GridSide, inv_cell) == 8);
+    assert!(offset_of!(GridSide, dims) == 16);
+    assert!(offset_of!(GridSide, cells) == 24);
+    assert!(offset_of!(GridSide, faces) == 28);
+    assert!(size_of::<Shared>() == 80 + 6 * 32);
+    assert!(offset_of!(Shared, slack) == 12);
+    assert!(offset_of!(Shared, verts) == 16);
+    assert!(offset_of!(Shared, box_lo) == 32);
+    assert!(offset_of!(Shared, start_tet) == 44);
+    assert!(offset_of!(Shared, box_hi) == 48);
+    assert!(offset_of!(Shared, inside) == 60);
+    assert!(offset_of!(Shared, beyond) == 64);
+    assert!(offset_of!(Shared, sides) == 80);
     assert!(size_of::<Tet20>() == 20);
     assert!(offset_of!(Tet20, vertex_xor) == 0);
     assert!(offset_of!(Tet20, links) == 4);

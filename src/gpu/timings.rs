@@ -24,4 +24,7 @@ pub struct GpuTimings {
     /// Robust kernel: rays deferred to the CPU robust walk.
     pub deferred: usize,
     pub batches: usize,
+    /// Whether the batch took the shared-origin exact kernel (`gpu::origin`): one origin
+    /// located once, every start on the device.
+    pub shared_origin: bool,
 }

@@ -102,7 +102,7 @@ pub(crate) fn check_fits(
 
 /// A buffer of `n` records, filled while mapped (no second host copy of the whole scene), after
 /// checking it fits the device's limits.
-fn upload_records<T: bytemuck::Pod + Send>(
+pub(crate) fn upload_records<T: bytemuck::Pod + Send>(
     g: &Gpu,
     label: &str,
     n: usize,

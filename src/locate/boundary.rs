@@ -32,6 +32,15 @@ fn contains(tri: &[[f64; 2]; 3], q: [f64; 2]) -> bool {
     o.iter().all(|&x| x >= 0.0) || o.iter().all(|&x| x <= 0.0)
 }
 
+/// One side's grid, exported for the device ([`BoundaryLocator::side_grid`]).
+pub struct SideGrid<'a> {
+    pub lo: [f64; 2],
+    pub inv_cell: [f64; 2],
+    pub dims: [usize; 2],
+    pub start: &'a [u32],
+    pub faces: Vec<(u32, u8)>,
+}
+
 #[derive(Clone)]
 pub struct BoundaryLocator {
     /// Index 2*axis + (0 for the low side, 1 for the high side).
@@ -129,6 +138,20 @@ impl BoundaryLocator {
         self.sides
             .iter()
             .flat_map(|s| s.entries.iter().map(|(t, i, _)| (*t, *i as usize)))
+    }
+
+    /// The grid of side `k` (2 × axis + high) as the GPU reads it (`gpu::origin`): the
+    /// lower corner and cells per unit on the side's two axes ((axis + 1) % 3, (axis + 2) % 3),
+    /// cells per axis, the CSR starts, and each entry's (tet, local face).
+    pub fn side_grid(&self, k: usize) -> SideGrid<'_> {
+        let s = &self.sides[k];
+        SideGrid {
+            lo: s.lo,
+            inv_cell: s.inv_cell,
+            dims: s.dims,
+            start: &s.start,
+            faces: s.entries.iter().map(|(t, i, _)| (*t, *i)).collect(),
+        }
     }
 
     /// The boundary tet, and its local face, on side (`axis`, `high`) that holds point p (on

@@ -75,6 +75,7 @@ mod built {
         t.set_item("walked", timings.walked)?;
         t.set_item("deferred", timings.deferred)?;
         t.set_item("batches", timings.batches)?;
+        t.set_item("shared_origin", timings.shared_origin)?;
         Ok(t)
     }
 

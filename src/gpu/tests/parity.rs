@@ -270,6 +270,191 @@ fn gpu_exact_is_the_cpu_exact_walk() {
     assert!(handed_back > 0);
 }
 
+/// The shared-origin exact kernel (`gpu::origin`), which begins each walk on the device from
+/// the direction alone: for origins strictly inside a tet and outside the box on one side, on
+/// two, on three, every column equals the CPU exact cast's and the referee's verdict, on
+/// random directions, directions at every mesh vertex and edge midpoint (where the device's
+/// float32 signs cannot certify and the host walks the ray from its start), along the axes,
+/// at the box's sides, and scaled from 1e-30 to 1e30. An origin on a mesh vertex takes the
+/// resumed path with the same answers.
+#[test]
+fn gpu_shared_origin_is_the_cpu_exact_walk() {
+    let test = "gpu shared origin";
+    if !device_or_skip(test) {
+        return;
+    }
+    let mut took = [0usize; 2];
+    for (offset, seed, f32_points) in [(0.0, 61u64, true), (10.0, 63, false), (1000.0, 65, true)] {
+        let (scene, tris) = grid_scene_with(6, 0.08, offset, seed, f32_points);
+        let mut rng = Rng::xorshift(seed + 1);
+        let [lo, hi] = scene.mesh.bounds;
+        // Targets the rays pass through exactly (up to the direction's rounding): vertices
+        // and edge midpoints with at most one coordinate on the box (a ray through a box edge
+        // or corner from outside may graze the box at one point: query/tests/grazing.rs).
+        let on_box = |p: &[f64; 3]| (0..3).filter(|&a| p[a] == lo[a] || p[a] == hi[a]).count();
+        let mut targets: Vec<[f64; 3]> = scene.mesh.points.clone();
+        for tet in scene.mesh.tets.iter().step_by(3) {
+            let (p, q) = (
+                scene.mesh.points[tet[0] as usize],
+                scene.mesh.points[tet[1] as usize],
+            );
+            targets.push([0, 1, 2].map(|a| 0.5 * (p[a] + q[a])));
+        }
+        targets.retain(|p| on_box(p) <= 1);
+        let at = |x: f64, y: f64, z: f64| [x, y, z].map(|v| (offset + v) as f32);
+        // A mesh vertex, as float32: on the float64-points scene it is off the vertex by a
+        // rounding, strictly inside a tet, and takes the shared-origin kernel (whose signs
+        // near the vertex are all too close to call: every ray is walked by the host).
+        let vertex = scene.points_f32[scene.mesh.tets[7][2] as usize];
+        let on_vertex = scene.mesh.points.contains(&vertex.map(f64::from));
+        assert_eq!(on_vertex, f32_points);
+        for (origin, shared) in [
+            (at(0.437, 0.519, 0.283), true),
+            (at(-0.71, 0.313, 0.472), true),
+            (at(1.93, 1.71, 0.42), true),
+            (at(1.6, -0.55, 2.2), true),
+            (at(0.5, 0.5, -3.0), true),
+            (vertex, !on_vertex),
+        ] {
+            let o64 = origin.map(f64::from);
+            let mut d0: Vec<f32> = Vec::new();
+            for _ in 0..6000 {
+                d0.extend([0, 1, 2].map(|_| (rng.f() - 0.5) as f32));
+            }
+            for p in &targets {
+                d0.extend([0, 1, 2].map(|a| (p[a] - o64[a]) as f32));
+            }
+            for a in 0..3 {
+                for s in [-1.0f32, 1.0] {
+                    let mut v = [0.0f32; 3];
+                    v[a] = s;
+                    d0.extend(v);
+                    v[(a + 1) % 3] = 0.5 * s;
+                    d0.extend(v);
+                }
+            }
+            for corner in 0..8 {
+                let c = [0, 1, 2].map(|a| if corner >> a & 1 == 1 { hi[a] } else { lo[a] });
+                d0.extend([0, 1, 2].map(|a| (0.9 * c[a] + 0.1 * offset + 0.05 - o64[a]) as f32));
+            }
+            // Within a few float32 ulps of each box edge, on either side: directions at a
+            // point of the edge, stepped by 1 to 3 ulps in one component across it. There the kernel's
+            // slab test and entry faces cannot tell a miss from an entry in float32 alone.
+            // (Not on the edge itself: a ray touching the box at one point of a triangle's edge
+            // is the CPU's known miss, query/tests/grazing.rs.)
+            for a in 0..3 {
+                let (b, c) = ((a + 1) % 3, (a + 2) % 3);
+                for corner in 0..4 {
+                    for k in 0..8 {
+                        let mut q = [0.0; 3];
+                        q[a] = lo[a] + (hi[a] - lo[a]) * (k as f64 + 0.37) / 8.0;
+                        q[b] = if corner & 1 != 0 { hi[b] } else { lo[b] };
+                        q[c] = if corner & 2 != 0 { hi[c] } else { lo[c] };
+                        let d = [0, 1, 2].map(|x| (q[x] - o64[x]) as f32);
+                        // Rounded, the direction itself passes within half an ulp of the edge,
+                        // unless it is exact across it (then it meets the edge).
+                        if [b, c].iter().any(|&x| d[x] as f64 != q[x] - o64[x]) {
+                            d0.extend(d);
+                        }
+                        for m in [b, c] {
+                            for steps in [-3i32, -2, -1, 1, 2, 3] {
+                                let mut v = d;
+                                for _ in 0..steps.abs() {
+                                    v[m] = if steps > 0 {
+                                        v[m].next_up()
+                                    } else {
+                                        v[m].next_down()
+                                    };
+                                }
+                                d0.extend(v);
+                            }
+                        }
+                    }
+                }
+            }
+            // Grazing a box edge within half an ulp: t_near(a) = t_far(b) solved for d_b in
+            // float64, rounded: the slab comparison's float32 products decide nothing here.
+            let o32 = origin.map(f64::from);
+            for a in 0..3 {
+                for b in (0..3).filter(|&b| b != a) {
+                    for _ in 0..150 {
+                        let mut v = [0, 1, 2].map(|_| rng.f() * 2.0 - 1.0);
+                        let (near, far) = (
+                            if v[a] > 0.0 { lo[a] } else { hi[a] } - o32[a],
+                            if v[b] > 0.0 { hi[b] } else { lo[b] } - o32[b],
+                        );
+                        v[b] = far * v[a] / near;
+                        d0.extend(v.map(|x| x as f32));
+                    }
+                }
+            }
+            let n = d0.len() / 3;
+            let o: Vec<f32> = (0..n).flat_map(|_| origin).collect();
+            let opts = CastOptions {
+                threads: None,
+                max_steps: Some(scene.mesh.len() as u32 + 1),
+                ..Default::default()
+            };
+            for scale in [1e-30f32, 1.0, 1e30] {
+                let d: Vec<f32> = d0.iter().map(|x| x * scale).collect();
+                let name = format!("{test} offset {offset} origin {origin:?} |d| x {scale:e}");
+                let cpu = run(&scene, &o, &d, |r, out| scene.cast(r, out, &opts));
+                let mut timings = None;
+                let gpu = run(&scene, &o, &d, |r, out| {
+                    timings = Some(cast_gpu(&scene, None, None, r, out, &opts)?);
+                    Ok(())
+                });
+                let t = timings.unwrap();
+                eprintln!(
+                    "{name}: {n} rays, shared origin {}, {} handed back before a face",
+                    t.shared_origin, t.deferred
+                );
+                assert_eq!(t.shared_origin, shared, "{name}");
+                took[shared as usize] += 1;
+                assert_same_answers(&name, &cpu, &gpu);
+                let c = judged(&name, &verdicts32(&o, &d, &tris), &gpu);
+                assert_eq!(c.bad(), 0, "{name}: {c:?}");
+            }
+        }
+    }
+    assert!(took[0] > 0 && took[1] > 0, "{took:?}");
+}
+
+/// A batch the shared-origin kernel must not take: rays with their own origins, a range
+/// starting after the origin, an origin in the box with a finite tmax is taken; outside the
+/// box it is not (the host clips the range to the box).
+#[test]
+fn gpu_shared_origin_is_taken_only_where_it_holds() {
+    if !device_or_skip("gpu shared origin batches") {
+        return;
+    }
+    let (scene, _) = grid_scene(4, 0.1, 0.0, 71);
+    let query = scene.closest();
+    let sides = crate::gpu::origin::entry_sides(&scene);
+    let take = |o: &[f32], d: &[f32], tmin: f64, tmax: f64| {
+        let rays = Rays {
+            origins: o,
+            directions: d,
+            tmin: &[tmin],
+            tmax: &[tmax],
+            leaving: None,
+        };
+        crate::gpu::origin::shared_origin(&scene, &rays, &query, 0.0, sides).is_some()
+    };
+    let inside = [0.431f32, 0.377, 0.619, 0.431, 0.377, 0.619];
+    let outside = [-0.5f32, 0.377, 0.619, -0.5, 0.377, 0.619];
+    let d = [1.0f32, 0.1, 0.2, 0.3, 1.0, -0.4];
+    assert!(take(&inside, &d, 0.0, f64::INFINITY));
+    assert!(take(&inside, &d, -1.0, 2.0));
+    assert!(!take(&inside, &d, 0.5, f64::INFINITY));
+    assert!(take(&outside, &d, 0.0, f64::INFINITY));
+    assert!(!take(&outside, &d, 0.0, 5.0));
+    let mut apart = inside;
+    apart[3] = 0.432;
+    assert!(!take(&apart, &d, 0.0, f64::INFINITY));
+    assert!(!take(&[f32::NAN, 0.0, 0.0], &d[..3], 0.0, f64::INFINITY));
+}
+
 #[test]
 fn gpu_aman2022_tet20_matches_cpu_twin() {
     check_kernel(kernel("aman2022", "tet20"));

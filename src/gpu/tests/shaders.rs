@@ -1,7 +1,7 @@
 //! The WGSL side, no GPU needed: every kernel assembles, parses and validates; the Rust
 //! mirrors of its structs have naga's sizes and offsets.
 
-use crate::gpu::kernels::KERNELS;
+use crate::gpu::kernels::{all_kernels, KERNELS};
 use crate::gpu::structs::*;
 use std::mem::{offset_of, size_of};
 use std::path::PathBuf;
@@ -43,8 +43,7 @@ fn every_shader_validates_with_naga() {
     let mut files = Vec::new();
     wgsl_files(&shaders_dir(), &mut files);
     files.sort();
-    let mut used: Vec<String> = KERNELS
-        .iter()
+    let mut used: Vec<String> = all_kernels()
         .flat_map(|k| k.parts().into_iter().map(|p| p.path.to_string()))
         .collect();
     // The octree kernel stands alone (tests/octree.rs validates it); its path is written here
@@ -60,7 +59,7 @@ fn every_shader_validates_with_naga() {
     used.sort();
     used.dedup();
     assert_eq!(files, used, "shaders/ holds exactly the kernels' parts");
-    for k in &KERNELS {
+    for k in all_kernels() {
         for part in k.parts() {
             let disk = std::fs::read_to_string(shaders_dir().join(part.path)).unwrap();
             assert_eq!(disk, part.source, "{}: embedded source is stale", part.path);
@@ -133,6 +132,32 @@ fn rust_mirrors_match_wgsl_layouts() {
             ],
         ),
         (
+            "GridSide",
+            size_of::<GridSide>(),
+            vec![
+                ("lo", offset_of!(GridSide, lo)),
+                ("inv_cell", offset_of!(GridSide, inv_cell)),
+                ("dims", offset_of!(GridSide, dims)),
+                ("cells", offset_of!(GridSide, cells)),
+                ("faces", offset_of!(GridSide, faces)),
+            ],
+        ),
+        (
+            "Shared",
+            size_of::<Shared>(),
+            vec![
+                ("origin", offset_of!(Shared, origin)),
+                ("slack", offset_of!(Shared, slack)),
+                ("verts", offset_of!(Shared, verts)),
+                ("box_lo", offset_of!(Shared, box_lo)),
+                ("start_tet", offset_of!(Shared, start_tet)),
+                ("box_hi", offset_of!(Shared, box_hi)),
+                ("inside", offset_of!(Shared, inside)),
+                ("beyond", offset_of!(Shared, beyond)),
+                ("sides", offset_of!(Shared, sides)),
+            ],
+        ),
+        (
             "Tet20",
             size_of::<Tet20>(),
             vec![
@@ -158,7 +183,7 @@ fn rust_mirrors_match_wgsl_layouts() {
         ),
     ];
     let mut seen = std::collections::HashSet::new();
-    for k in &KERNELS {
+    for k in all_kernels() {
         let file = k.name();
         let (module, _) = parse_and_validate(&file, &k.source());
         let mut layouter = naga::proc::Layouter::default();

@@ -1,0 +1,295 @@
+// The exact kernel for rays that share one origin (a camera): the kernel reads only each
+// ray's direction. The host located the origin once (`gpu::origin`): strictly inside one tet
+// (`batch.inside`), or outside the domain box, with the box's entry grid on the device. Per
+// ray the kernel builds the 2D basis from the direction (docs/gpu.md: the bound still holds),
+// begins the walk as the CPU exact walk begins it, then takes plain steps as the resumed
+// walk does (shaders/walks/resume.wgsl). Each decision is a certified sign, so it is the CPU
+// exact walk's; a ray whose start it cannot certify ends END_UNBEGUN (the host walks it
+// from the start), and one that certainly misses the box ends END_MISS_BOX (its answer is a
+// miss, as `Locators::exact_line` says). Joined after robust.wgsl and exact.wgsl (tet20).
+//
+// RayOut: as resume.wgsl's (the walk's state when handed back, the link in `constrained`).
+
+const END_UNBEGUN: u32 = 5u;
+const END_MISS_BOX: u32 = 6u;
+
+// One side of the box's entry grid (`locate::boundary::SideGrid`): cells on the side's axes
+// ((axis + 1) % 3, (axis + 2) % 3); cell c's faces are face_ids[cells[cells + c] ..
+// cells[cells + c + 1]] offset by `faces`.
+struct GridSide {
+    lo: vec2<f32>,
+    inv_cell: vec2<f32>,
+    dims: vec2<u32>,
+    cells: u32,
+    faces: u32,
+}
+
+struct Shared {
+    origin: vec3<f32>,
+    slack: f32,
+    verts: vec4<u32>,
+    box_lo: vec3<f32>,
+    start_tet: u32,
+    box_hi: vec3<f32>,
+    inside: u32,
+    beyond: vec4<i32>,
+    sides: array<GridSide, 6>,
+}
+
+@group(0) @binding(5) var<uniform> batch: Shared;
+// The rays' directions, three float32 a ray, as the caller passed them.
+@group(0) @binding(6) var<storage, read> dirs: array<f32>;
+// CSR starts of every side's cells, and per boundary face (tet << 2 | local face, then its
+// vertex ids in outward order).
+@group(0) @binding(7) var<storage, read> cells: array<u32>;
+@group(0) @binding(8) var<storage, read> faces: array<vec4<u32>>;
+
+// 2^-21: twice the error of a slab comparison's products (docs/gpu.md).
+const C_SLAB: f32 = 4.76837158203125e-7;
+
+fn is_positive(bits: u32) -> bool {
+    return (bits & 0x80000000u) == 0u && (bits & 0x7fffffffu) != 0u;
+}
+
+fn is_negative(bits: u32) -> bool {
+    return (bits & 0x80000000u) != 0u && (bits & 0x7fffffffu) != 0u;
+}
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = ray_index(gid, nwg);
+    if i >= params.n_rays {
+        return;
+    }
+    let d0 = vec3<f32>(dirs[3u * i], dirs[3u * i + 1u], dirs[3u * i + 2u]);
+    // Signs and magnitudes from the bits: comparisons may flush subnormals to zero.
+    let bits = bitcast<vec3<u32>>(d0);
+    let mag = bits & vec3<u32>(0x7fffffffu);
+    let top = max(mag.x, max(mag.y, mag.z));
+    // Not finite, zero (INVALID: the host says so), or too large or small to scale exactly.
+    if top >= 0x7f800000u || (top >> 23u) < 2u || (top >> 23u) > 253u {
+        unbegun(i);
+        return;
+    }
+    // The direction scaled by a power of two (exact): its largest component in [1, 2).
+    let d = d0 * bitcast<f32>((254u - (top >> 23u)) << 23u);
+    var ray: RayIn;
+    ray.origin = batch.origin;
+    ray.slack = batch.slack;
+    let basis = direction_basis(d);
+    ray.e0 = basis[0];
+    ray.e1 = basis[1];
+
+    var a: u32;
+    var b: u32;
+    var c: u32;
+    var pa: Vert;
+    var pb: Vert;
+    var pc: Vert;
+    var t: u32;
+    var link: u32;
+    if batch.inside != 0u {
+        // `walk_begin` from inside: the face turning counter-clockwise on all three edges.
+        let names = batch.verts;
+        var vs: array<Vert, 4>;
+        for (var k = 0u; k < 4u; k++) {
+            vs[k] = vertex(ray, position(names[k]));
+        }
+        let e = start_exit(ray, &vs);
+        if e == EXIT_UNSURE {
+            unbegun(i);
+            return;
+        }
+        t = batch.start_tet;
+        let f = outward_face(e);
+        a = names[f.x];
+        b = names[f.y];
+        c = names[f.z];
+        pa = vs[f.x];
+        pb = vs[f.y];
+        pc = vs[f.z];
+        link = link_opposite(t, names[e], a, b, c);
+    } else {
+        // From outside: a ray moving away from a side its origin lies beyond misses the box
+        // (`exact_line`'s exact test); then the box lies ahead of the origin.
+        for (var k = 0u; k < 3u; k++) {
+            let s = batch.beyond[k];
+            if (s < 0 && !is_positive(bits[k])) || (s > 0 && !is_negative(bits[k])) {
+                finish_miss(i);
+                return;
+            }
+        }
+        let side = entry_side(d, bits);
+        if side == 6u {
+            finish_miss(i);
+            return;
+        }
+        if side > 6u {
+            unbegun(i);
+            return;
+        }
+        let found = entry_face(ray, d, side);
+        if found.x == 0xffffffffu {
+            unbegun(i);
+            return;
+        }
+        // Entering by the face, reversed from its outward order: counter-clockwise around
+        // the ray, as an exit face of the tet behind it would be; then the first step.
+        let into = found.x >> 2u;
+        a = found.y;
+        b = found.w;
+        c = found.z;
+        pa = vertex(ray, position(a));
+        pb = vertex(ray, position(b));
+        pc = vertex(ray, position(c));
+        let dv = fourth_vertex(into, a, b, c);
+        let pd = vertex(ray, position(dv));
+        let e = plain_exit(ray, pa, pb, pc, pd);
+        if e == EXIT_UNSURE {
+            unbegun(i);
+            return;
+        }
+        t = into;
+        let opposite = turn(e, dv, pd, &a, &b, &c, &pa, &pb, &pc);
+        link = link_opposite(t, opposite, a, b, c);
+    }
+    // Plain steps, as resume.wgsl takes them.
+    var steps = 1u;
+    loop {
+        if (link & CONSTRAINED_BIT) != 0u {
+            resumed(i, link_end(link), link, t, steps, a, b, c);
+            return;
+        }
+        if steps >= params.max_steps {
+            resumed(i, END_STEP_LIMIT, link, t, steps, a, b, c);
+            return;
+        }
+        let next = link;
+        let dv = fourth_vertex(next, a, b, c);
+        let pd = vertex(ray, position(dv));
+        let e = plain_exit(ray, pa, pb, pc, pd);
+        if e == EXIT_UNSURE {
+            resumed(i, END_DEFERRED, link, t, steps, a, b, c);
+            return;
+        }
+        t = next;
+        steps += 1u;
+        let opposite = turn(e, dv, pd, &a, &b, &c, &pa, &pb, &pc);
+        link = link_opposite(t, opposite, a, b, c);
+    }
+}
+
+// An orthonormal basis (u, w) of the plane perpendicular to d, u x w along +d, within the
+// bound docs/gpu.md derives: u = d x e_k (exact: e_k is the axis of d's smallest component),
+// w = d x u (one rounding a component, two for the sum of squares), each normalized.
+fn direction_basis(d: vec3<f32>) -> array<vec3<f32>, 2> {
+    let ad = abs(d);
+    var ek = vec3<f32>(0.0, 0.0, 1.0);
+    if ad.x <= ad.y && ad.x <= ad.z {
+        ek = vec3<f32>(1.0, 0.0, 0.0);
+    } else if ad.y <= ad.z {
+        ek = vec3<f32>(0.0, 1.0, 0.0);
+    }
+    let u0 = cross(d, ek);
+    let w0 = cross(d, u0);
+    return array<vec3<f32>, 2>(u0 * inverseSqrt(dot(u0, u0)), w0 * inverseSqrt(dot(w0, w0)));
+}
+
+// The box side the ray enters by (2 x axis + high), 6 when it certainly misses the box (the
+// box rounded outward: a ray that misses it misses the box), 7 when no slab can say. Only
+// called when the box lies ahead of the origin. The slab parameters are compared
+// cross-multiplied, with a certified bound, never divided.
+fn entry_side(d: vec3<f32>, bits: vec3<u32>) -> u32 {
+    let o = batch.origin;
+    var near: vec3<f32>;
+    var far: vec3<f32>;
+    var moving: vec3<bool>;
+    for (var k = 0u; k < 3u; k++) {
+        let up = is_positive(bits[k]);
+        moving[k] = (bits[k] & 0x7fffffffu) != 0u && d[k] != 0.0;
+        near[k] = select(batch.box_hi[k], batch.box_lo[k], up) - o[k];
+        far[k] = select(batch.box_lo[k], batch.box_hi[k], up) - o[k];
+    }
+    // A miss: some slab is entered after another is left (t_near(a) > t_far(b)).
+    for (var a = 0u; a < 3u; a++) {
+        for (var b = 0u; b < 3u; b++) {
+            if a == b || !moving[a] || !moving[b] {
+                continue;
+            }
+            let p = near[a] * d[b];
+            let q = far[b] * d[a];
+            let bound = C_SLAB * (abs(p) + abs(q)) + C_ABS;
+            let s = select(-1.0, 1.0, (d[a] > 0.0) == (d[b] > 0.0));
+            if s * (p - q) > bound {
+                return 6u;
+            }
+        }
+    }
+    // The entry: the largest t_near among the moving axes (float: the faces decide).
+    var best = 7u;
+    var tbest = -3.4e38;
+    for (var k = 0u; k < 3u; k++) {
+        if moving[k] {
+            let tk = near[k] / d[k];
+            if tk > tbest {
+                tbest = tk;
+                best = 2u * k + select(0u, 1u, !is_positive(bits[k]));
+            }
+        }
+    }
+    return best;
+}
+
+// The boundary face the ray certainly enters by, among the faces of the grid cell of side
+// `by` that holds the rounded entry point: (tet << 2 | face, its vertex ids in outward
+// order), x = 0xffffffff when none is certain.
+fn entry_face(ray: RayIn, d: vec3<f32>, by: u32) -> vec4<u32> {
+    let axis = by / 2u;
+    let high = (by & 1u) == 1u;
+    let o = batch.origin;
+    let plane = select(batch.box_lo[axis], batch.box_hi[axis], high);
+    let tk = (plane - o[axis]) / d[axis];
+    let g = batch.sides[by];
+    let a0 = (axis + 1u) % 3u;
+    let a1 = (axis + 2u) % 3u;
+    let q = vec2<f32>(o[a0] + tk * d[a0], o[a1] + tk * d[a1]);
+    // As the CPU's truncation, clamped to the grid (min also bounds whatever a NaN becomes).
+    let x = min(vec2<u32>(max((q - g.lo) * g.inv_cell, vec2<f32>(0.0))), g.dims - vec2<u32>(1u));
+    let cell = g.cells + x.x + g.dims.x * x.y;
+    let eta = ray.slack;
+    for (var e = cells[cell]; e < cells[cell + 1u]; e++) {
+        let f = faces[g.faces + e];
+        let p0 = vertex(ray, position(f.y));
+        let p1 = vertex(ray, position(f.z));
+        let p2 = vertex(ray, position(f.w));
+        // `Exact::enters`: clockwise around the ray on every edge of the outward face.
+        if side(p0, p1, eta) == SIDE_FALSE && side(p1, p2, eta) == SIDE_FALSE
+            && side(p2, p0, eta) == SIDE_FALSE {
+            return f;
+        }
+    }
+    return vec4<u32>(0xffffffffu);
+}
+
+fn unbegun(i: u32) {
+    var out: RayOut;
+    out.end = END_UNBEGUN;
+    hits[i] = out;
+}
+
+fn finish_miss(i: u32) {
+    var out: RayOut;
+    out.end = END_MISS_BOX;
+    hits[i] = out;
+}
+
+// The state the walk stands in, for the host to walk on from (as resume.wgsl's).
+fn resumed(i: u32, end: u32, link: u32, tet: u32, steps: u32, a: u32, b: u32, c: u32) {
+    var out: RayOut;
+    out.end = end;
+    out.constrained = link;
+    out.tet = tet;
+    out.steps = steps;
+    out.face = vec4<u32>(a, b, c, 0u);
+    hits[i] = out;
+}

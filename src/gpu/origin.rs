@@ -1,0 +1,220 @@
+//! The exact kernel for a batch whose rays share one origin (a camera, rays from one point):
+//! the host locates the origin once, and the kernel begins every walk from the direction
+//! alone (`shaders/walks/shared_origin.wgsl`). Each ray uploads its 12 bytes of direction
+//! straight from the caller's array; there is no per-ray work on the host before the kernel.
+//!
+//! - Origin strictly inside a tet (and touching no triangle's plane): that tet, its vertex ids,
+//!   go in the uniform; the kernel takes the first exit as `walk_begin` does.
+//! - Origin outside the domain box: per axis, where the origin lies (exactly), the box rounded
+//!   outward to float32, and the box's entry grid (`locate::boundary`) on the device; the
+//!   kernel certifies a miss of the box or the boundary face the ray enters by, as
+//!   `Locators::locate_exact` finds it, then takes the first step.
+//!
+//! Any other batch (an origin on a face, edge or vertex, rays with their own origins or
+//! ranges, rays started from hits) takes the resumed path (`cast::resumed`). A ray whose start
+//! the kernel cannot certify is walked by the host from its start; every answer is the CPU
+//! exact walk's (docs/gpu.md).
+
+use super::context::Gpu;
+use super::structs::{GridSide, Shared};
+use super::upload::upload_records;
+use crate::accel::tetwalk::PlainState;
+use crate::error::Result;
+use crate::geom::predicates::orient;
+use crate::locate::{LocateState, WalkStart};
+use crate::mesh::build::OUTWARD_FACES;
+use crate::query::{ClosestHit, QueryKind};
+use crate::scene::{Rays, Scene};
+use crate::traverse::Exact;
+
+/// The scene's entry grid on the device: each box side's cells (CSR starts) and, per entry,
+/// the boundary face (tet << 2 | local face, its vertex ids in outward order).
+pub struct EntryGrid {
+    pub cells: wgpu::Buffer,
+    pub faces: wgpu::Buffer,
+}
+
+impl EntryGrid {
+    pub(crate) fn bytes(&self) -> u64 {
+        self.cells.size() + self.faces.size()
+    }
+}
+
+/// Each box side's grid as the kernel's uniform names it: its cells' and faces' offsets in
+/// the buffers [`upload_entry_grid`] fills.
+pub(crate) fn entry_sides(scene: &Scene) -> [GridSide; 6] {
+    let (mut cells, mut faces) = (0u32, 0u32);
+    std::array::from_fn(|k| {
+        let grid = scene.entry.side_grid(k);
+        let side = GridSide {
+            lo: grid.lo.map(|x| x as f32),
+            inv_cell: grid.inv_cell.map(|x| x as f32),
+            dims: grid.dims.map(|x| x as u32),
+            cells,
+            faces,
+        };
+        cells += grid.start.len() as u32;
+        faces += grid.faces.len() as u32;
+        side
+    })
+}
+
+/// Uploads the scene's entry grid (`Scene::entry`) for the shared-origin kernel, laid out as
+/// [`entry_sides`] says.
+pub(crate) fn upload_entry_grid(g: &Gpu, scene: &Scene) -> Result<EntryGrid> {
+    let mesh = &scene.mesh;
+    let (mut cells, mut faces): (Vec<u32>, Vec<[u32; 4]>) = (Vec::new(), Vec::new());
+    for k in 0..6 {
+        let grid = scene.entry.side_grid(k);
+        cells.extend_from_slice(grid.start);
+        faces.extend(grid.faces.iter().map(|&(t, i)| {
+            let tet = mesh.tets[t as usize];
+            let [a, b, c] = OUTWARD_FACES[i as usize].map(|x| tet[x]);
+            [t << 2 | i as u32, a, b, c]
+        }));
+    }
+    let cells = upload_records(g, "entry grid cells", cells.len(), |i| cells[i])?;
+    // upload_records makes at least one record: a side-less grid still binds.
+    let faces = upload_records(g, "entry grid faces", faces.len(), |i| faces[i])?;
+    Ok(EntryGrid { cells, faces })
+}
+
+/// The uniform of a batch whose rays all leave one origin, or None when the batch is not one
+/// the shared-origin kernel takes (see the module docs). `points_slack`: the device points'
+/// rounding (`LayoutBuffers::points_slack`).
+pub(crate) fn shared_origin(
+    scene: &Scene,
+    rays: &Rays<f32>,
+    query: &ClosestHit,
+    points_slack: f32,
+    sides: [GridSide; 6],
+) -> Option<Shared> {
+    let n = rays.len();
+    if n == 0 || rays.leaving.is_some() || rays.tmin.len() != 1 || rays.tmax.len() != 1 {
+        return None;
+    }
+    let (tmin, tmax) = (rays.tmin[0], rays.tmax[0]);
+    // The walk starts at the origin: tmin clamps to 0 (and no ray's range is empty).
+    if !(tmin <= 0.0 && tmax >= 0.0) {
+        return None;
+    }
+    let o32: [f32; 3] = rays.origins[..3].try_into().ok()?;
+    let bits = o32.map(f32::to_bits);
+    if !o32.iter().all(|x| x.is_finite())
+        || !rays
+            .origins
+            .chunks_exact(3)
+            .all(|o| o.iter().zip(&bits).all(|(x, b)| x.to_bits() == *b))
+    {
+        return None;
+    }
+    let o = o32.map(f64::from);
+    let mesh = &scene.mesh;
+    let [lo, hi] = mesh.bounds;
+    let beyond = [0, 1, 2].map(|a| {
+        if o[a] < lo[a] {
+            -1
+        } else if o[a] > hi[a] {
+            1
+        } else {
+            0
+        }
+    });
+    let mut shared = Shared {
+        origin: o32,
+        slack: points_slack,
+        box_lo: lo.map(round_down),
+        box_hi: hi.map(round_up),
+        beyond: [beyond[0], beyond[1], beyond[2], 0],
+        sides,
+        ..Default::default()
+    };
+    if beyond != [0; 3] {
+        // From outside, the kernel certifies a miss of the whole box; a ray ending before
+        // the box is the host's (`exact_line` clips [0, tmax]).
+        return (tmax == f64::INFINITY).then_some(shared);
+    }
+    // Inside: the start tet as the CPU exact walk locates it, for a ray from this origin.
+    let ray = rays.ray(0);
+    let locators = scene.locators();
+    let mut st = LocateState::for_chunk(0);
+    let (s, _) = locators
+        .locate_exact::<f64, Exact>(&ray, &mesh.points, &mut st)
+        .ok()?;
+    let tet = mesh.tets[s.tet as usize];
+    let p = |k: usize| mesh.points[tet[k] as usize];
+    // Strictly inside (then the tet is the only one holding o), and in no triangle's plane
+    // there (`TetWalk::begin_exact` asks the same once per origin).
+    let strictly = OUTWARD_FACES.iter().enumerate().all(|(i, f)| {
+        let (a, b, c) = (p(f[0]), p(f[1]), p(f[2]));
+        let (own, at) = (orient(a, b, c, p(i)), orient(a, b, c, o));
+        own != 0.0 && at != 0.0 && (own > 0.0) == (at > 0.0)
+    });
+    if s.entry.is_some() || !strictly || query.origin_may_touch(&s) {
+        return None;
+    }
+    shared.inside = 1;
+    shared.start_tet = s.tet;
+    shared.verts = tet;
+    Some(shared)
+}
+
+/// x rounded to a float32 number at most x.
+fn round_down(x: f64) -> f32 {
+    let r = x as f32;
+    if (r as f64) > x {
+        r.next_down()
+    } else {
+        r
+    }
+}
+
+/// x rounded to a float32 number at least x.
+fn round_up(x: f64) -> f32 {
+    let r = x as f32;
+    if (r as f64) < x {
+        r.next_up()
+    } else {
+        r
+    }
+}
+
+/// Where ray i's walk starts, for walking on from a state the kernel reached: the ray's line
+/// and range (the walk on needs nothing else of it), or the status of a ray that does not walk.
+pub(crate) fn start_of(rays: &Rays<f32>, i: usize) -> std::result::Result<WalkStart, u8> {
+    let ray = rays.ray(i);
+    let (tmin, tmax) = crate::geom::ray::checked_range(&ray)?;
+    Ok(WalkStart {
+        o: ray.o,
+        d: ray.d,
+        dir: crate::geom::real::unit_scale(ray.d),
+        tmin,
+        tmax,
+        point: ray.o,
+        tet: 0,
+        entry: None,
+        exact: true,
+        leaving: None,
+    })
+}
+
+/// The state a kernel handed back, as the host's walk takes it on.
+pub(crate) fn plain_state(o: &super::structs::RayOut) -> PlainState {
+    PlainState {
+        face: [o.face[0], o.face[1], o.face[2]],
+        link: o.constrained,
+        t: o.tet,
+        steps: o.steps,
+    }
+}
+
+/// The answer of an exact walk handed back at the domain boundary: a miss, in the tet and
+/// after the steps the walk took. What `TetWalk::walk_on_from` answers there with a fresh
+/// policy (no touch was told to it, so it kept no earlier meet), without preparing the ray.
+pub(crate) fn boundary_miss(o: &super::structs::RayOut) -> crate::query::RayHit {
+    crate::query::RayHit {
+        tet: o.tet as i32,
+        steps: o.steps,
+        ..crate::query::RayHit::nothing(crate::status::MISS)
+    }
+}
