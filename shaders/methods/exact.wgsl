@@ -24,3 +24,59 @@ fn plain_exit(ray: RayIn, a: Vert, b: Vert, c: Vert, d: Vert) -> u32 {
     }
     return select(EXIT_BCD, EXIT_CAD, dc == SIDE_TRUE);
 }
+
+// The exact walk's plain steps from the exit face (a, b, c) of tet t, counter-clockwise
+// around the ray, with `link` across it, after `steps` tets: taken while certified, then the
+// state handed back to the host (`resumed`) at a constrained face or the box, at the step
+// guard, or at a step it cannot certify (END_DEFERRED). Both exact kernels end this way.
+fn plain_steps(
+    i: u32,
+    ray: RayIn,
+    at: vec4<u32>,
+    face: vec3<u32>,
+    p: array<Vert, 3>,
+) {
+    var t = at.x;
+    var link = at.y;
+    var steps = at.z;
+    var a = face.x;
+    var b = face.y;
+    var c = face.z;
+    var pa = p[0];
+    var pb = p[1];
+    var pc = p[2];
+    loop {
+        if (link & CONSTRAINED_BIT) != 0u {
+            resumed(i, link_end(link), link, t, steps, a, b, c);
+            return;
+        }
+        if steps >= params.max_steps {
+            resumed(i, END_STEP_LIMIT, link, t, steps, a, b, c);
+            return;
+        }
+        let next = link;
+        let d = fourth_vertex(next, a, b, c);
+        let pd = vertex(ray, position(d));
+        let e = plain_exit(ray, pa, pb, pc, pd);
+        if e == EXIT_UNSURE {
+            resumed(i, END_DEFERRED, link, t, steps, a, b, c);
+            return;
+        }
+        t = next;
+        steps += 1u;
+        let opposite = turn(e, d, pd, &a, &b, &c, &pa, &pb, &pc);
+        link = link_opposite(t, opposite, a, b, c);
+    }
+}
+
+// The state the walk stands in, for the host to walk on from: RayOut.constrained holds the
+// link across the face.
+fn resumed(i: u32, end: u32, link: u32, tet: u32, steps: u32, a: u32, b: u32, c: u32) {
+    var out: RayOut;
+    out.end = end;
+    out.constrained = link;
+    out.tet = tet;
+    out.steps = steps;
+    out.face = vec4<u32>(a, b, c, 0u);
+    hits[i] = out;
+}

@@ -8,7 +8,7 @@
 // from the start), and one that certainly misses the box ends END_MISS_BOX (its answer is a
 // miss, as `Locators::exact_line` says). Joined after robust.wgsl and exact.wgsl (tet20).
 //
-// RayOut: as resume.wgsl's (the walk's state when handed back, the link in `constrained`).
+// RayOut: as resume.wgsl's (exact.wgsl's `resumed`: the walk's state when handed back).
 
 const END_UNBEGUN: u32 = 5u;
 const END_MISS_BOX: u32 = 6u;
@@ -153,30 +153,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         let opposite = turn(e, dv, pd, &a, &b, &c, &pa, &pb, &pc);
         link = link_opposite(t, opposite, a, b, c);
     }
-    // Plain steps, as resume.wgsl takes them.
-    var steps = 1u;
-    loop {
-        if (link & CONSTRAINED_BIT) != 0u {
-            resumed(i, link_end(link), link, t, steps, a, b, c);
-            return;
-        }
-        if steps >= params.max_steps {
-            resumed(i, END_STEP_LIMIT, link, t, steps, a, b, c);
-            return;
-        }
-        let next = link;
-        let dv = fourth_vertex(next, a, b, c);
-        let pd = vertex(ray, position(dv));
-        let e = plain_exit(ray, pa, pb, pc, pd);
-        if e == EXIT_UNSURE {
-            resumed(i, END_DEFERRED, link, t, steps, a, b, c);
-            return;
-        }
-        t = next;
-        steps += 1u;
-        let opposite = turn(e, dv, pd, &a, &b, &c, &pa, &pb, &pc);
-        link = link_opposite(t, opposite, a, b, c);
-    }
+    // Plain steps, as the resumed kernel takes them (exact.wgsl).
+    let p = array<Vert, 3>(pa, pb, pc);
+    plain_steps(i, ray, vec4<u32>(t, link, 1u, 0u), vec3<u32>(a, b, c), p);
 }
 
 // An orthonormal basis (u, w) of the plane perpendicular to d, u x w along +d, within the
@@ -280,16 +259,5 @@ fn unbegun(i: u32) {
 fn finish_miss(i: u32) {
     var out: RayOut;
     out.end = END_MISS_BOX;
-    hits[i] = out;
-}
-
-// The state the walk stands in, for the host to walk on from (as resume.wgsl's).
-fn resumed(i: u32, end: u32, link: u32, tet: u32, steps: u32, a: u32, b: u32, c: u32) {
-    var out: RayOut;
-    out.end = end;
-    out.constrained = link;
-    out.tet = tet;
-    out.steps = steps;
-    out.face = vec4<u32>(a, b, c, 0u);
     hits[i] = out;
 }

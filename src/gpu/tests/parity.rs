@@ -171,6 +171,40 @@ fn assert_same_answers(test: &str, cpu: &Out, gpu: &Out) {
     same(test, "steps", &cpu.steps, &gpu.steps);
 }
 
+/// The GPU's default cast of rays `o`, `d` against the CPU exact cast: every column bit for
+/// bit, and the referee's verdict on every ray. Returns the GPU cast's timings.
+fn assert_gpu_is_cpu_exact(
+    name: &str,
+    scene: &Scene,
+    tris: &[[[f64; 3]; 3]],
+    o: &[f32],
+    d: &[f32],
+) -> crate::gpu::GpuTimings {
+    let opts = CastOptions {
+        threads: None,
+        max_steps: Some(scene.mesh.len() as u32 + 1),
+        ..Default::default()
+    };
+    let cpu = run(scene, o, d, |r, out| scene.cast(r, out, &opts));
+    let mut timings = None;
+    let gpu = run(scene, o, d, |r, out| {
+        timings = Some(cast_gpu(scene, None, None, r, out, &opts)?);
+        Ok(())
+    });
+    let t = timings.expect("the GPU cast ran");
+    eprintln!(
+        "{name}: {} rays, {} walked on the GPU (shared origin: {}), {} handed back before a face",
+        o.len() / 3,
+        t.walked,
+        t.shared_origin,
+        t.deferred
+    );
+    assert_same_answers(name, &cpu, &gpu);
+    let c = judged(name, &verdicts32(o, d, tris), &gpu);
+    assert_eq!(c.bad(), 0, "{name}: {c:?}");
+    t
+}
+
 /// Rays the float32 filter cannot decide: along the grid's lines from outside the box and
 /// from inside it, and in the face plane x = 0 through its vertices (exact zeros everywhere).
 fn degenerate_rays(n: usize) -> (Vec<f32>, Vec<f32>) {
@@ -239,31 +273,12 @@ fn gpu_exact_is_the_cpu_exact_walk() {
                 d0.extend([0, 1, 2].map(|a| (target[a] - from[a] as f64) as f32));
             }
         }
-        let opts = CastOptions {
-            threads: None,
-            max_steps: Some(scene.mesh.len() as u32 + 1),
-            ..Default::default()
-        };
         for scale in [1e-30f32, 1.0, 1e30] {
             let d: Vec<f32> = d0.iter().map(|x| x * scale).collect();
             let name = format!("{test} offset {offset} f32 points {f32_points} |d| x {scale:e}");
-            let cpu = run(&scene, &o, &d, |r, out| scene.cast(r, out, &opts));
-            let mut timings = None;
-            let gpu = run(&scene, &o, &d, |r, out| {
-                timings = Some(cast_gpu(&scene, None, None, r, out, &opts)?);
-                Ok(())
-            });
-            let t = timings.unwrap();
-            let n = o.len() / 3;
-            eprintln!(
-                "{name}: {n} rays, {} walked on the GPU, {} handed back before a face",
-                t.walked, t.deferred
-            );
-            assert!(t.walked > n / 2, "{name}: {t:?}");
+            let t = assert_gpu_is_cpu_exact(&name, &scene, &tris, &o, &d);
+            assert!(t.walked > o.len() / 6, "{name}: {t:?}");
             handed_back += t.deferred;
-            assert_same_answers(&name, &cpu, &gpu);
-            let c = judged(&name, &verdicts32(&o, &d, &tris), &gpu);
-            assert_eq!(c.bad(), 0, "{name}: {c:?}");
         }
     }
     // The degenerate rays reach the CPU's predicates through the hand-back.
@@ -390,30 +405,12 @@ fn gpu_shared_origin_is_the_cpu_exact_walk() {
             }
             let n = d0.len() / 3;
             let o: Vec<f32> = (0..n).flat_map(|_| origin).collect();
-            let opts = CastOptions {
-                threads: None,
-                max_steps: Some(scene.mesh.len() as u32 + 1),
-                ..Default::default()
-            };
             for scale in [1e-30f32, 1.0, 1e30] {
                 let d: Vec<f32> = d0.iter().map(|x| x * scale).collect();
                 let name = format!("{test} offset {offset} origin {origin:?} |d| x {scale:e}");
-                let cpu = run(&scene, &o, &d, |r, out| scene.cast(r, out, &opts));
-                let mut timings = None;
-                let gpu = run(&scene, &o, &d, |r, out| {
-                    timings = Some(cast_gpu(&scene, None, None, r, out, &opts)?);
-                    Ok(())
-                });
-                let t = timings.unwrap();
-                eprintln!(
-                    "{name}: {n} rays, shared origin {}, {} handed back before a face",
-                    t.shared_origin, t.deferred
-                );
+                let t = assert_gpu_is_cpu_exact(&name, &scene, &tris, &o, &d);
                 assert_eq!(t.shared_origin, shared, "{name}");
                 took[shared as usize] += 1;
-                assert_same_answers(&name, &cpu, &gpu);
-                let c = judged(&name, &verdicts32(&o, &d, &tris), &gpu);
-                assert_eq!(c.bad(), 0, "{name}: {c:?}");
             }
         }
     }
