@@ -14,7 +14,7 @@ use super::context::{gpu, Gpu};
 use super::device_scene::DeviceScene;
 use super::kernels::{KernelSpec, SHARED_ORIGIN};
 use super::launch::{Batching, Launch, RunBuffers};
-use super::origin::{boundary_miss, entry_sides, plain_state, shared_origin, start_of};
+use super::origin::{boundary_miss, plain_state, shared_origin, start_of};
 use super::structs::{
     RayIn, RayOut, Shared, END_BOUNDARY, END_DEFERRED, END_HIT, END_MISS_BOX, END_UNBEGUN,
 };
@@ -90,9 +90,8 @@ impl DeviceScene {
             // The scan for one origin and its location count as the cast's location.
             let t0 = Instant::now();
             let query = scene.closest();
-            let sides = entry_sides(scene);
             let slack = scene_buffers.points_slack;
-            if let Some(shared) = shared_origin(scene, rays, &query, slack, sides) {
+            if let Some(shared) = shared_origin(scene, rays, &query, slack) {
                 self.cast_shared(scene, &device, (shared, t0), rays, out, opts, &mut timings)?;
             } else {
                 resumed(scene, kernel, &device, rays, out, opts, &mut timings)?;
@@ -142,6 +141,10 @@ impl DeviceScene {
         let pipeline = g.pipeline(&SHARED_ORIGIN)?;
         let (grid, grid_upload) = self.entry_grid(g, scene)?;
         timings.scene_upload += grid_upload;
+        let shared = Shared {
+            sides: grid.sides,
+            ..shared
+        };
         let cache = self.run_buffers(&SHARED_ORIGIN);
         let extra = [(7, &grid.cells), (8, &grid.faces)];
         let launch = Launch {

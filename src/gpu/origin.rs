@@ -30,6 +30,8 @@ use crate::traverse::Exact;
 /// The scene's entry grid on the device: each box side's cells (CSR starts) and, per entry,
 /// the boundary face (tet << 2 | local face, its vertex ids in outward order).
 pub struct EntryGrid {
+    /// Where each side's cells and faces begin in the buffers, as the uniform names them.
+    pub sides: [GridSide; 6],
     pub cells: wgpu::Buffer,
     pub faces: wgpu::Buffer,
 }
@@ -40,54 +42,47 @@ impl EntryGrid {
     }
 }
 
-/// Each box side's grid as the kernel's uniform names it: its cells' and faces' offsets in
-/// the buffers [`upload_entry_grid`] fills.
-pub(crate) fn entry_sides(scene: &Scene) -> [GridSide; 6] {
-    let (mut cells, mut faces) = (0u32, 0u32);
-    std::array::from_fn(|k| {
+/// Uploads the scene's entry grid (`Scene::entry`) for the shared-origin kernel: each side's
+/// cells and faces, one after another, and where each side's begin (the uniform's sides).
+pub(crate) fn upload_entry_grid(g: &Gpu, scene: &Scene) -> Result<EntryGrid> {
+    let mesh = &scene.mesh;
+    let (mut cells, mut faces): (Vec<u32>, Vec<[u32; 4]>) = (Vec::new(), Vec::new());
+    let sides = std::array::from_fn(|k| {
         let grid = scene.entry.side_grid(k);
         let side = GridSide {
             lo: grid.lo.map(|x| x as f32),
             inv_cell: grid.inv_cell.map(|x| x as f32),
             dims: grid.dims.map(|x| x as u32),
-            cells,
-            faces,
+            cells: cells.len() as u32,
+            faces: faces.len() as u32,
         };
-        cells += grid.start.len() as u32;
-        faces += grid.faces.len() as u32;
-        side
-    })
-}
-
-/// Uploads the scene's entry grid (`Scene::entry`) for the shared-origin kernel, laid out as
-/// [`entry_sides`] says.
-pub(crate) fn upload_entry_grid(g: &Gpu, scene: &Scene) -> Result<EntryGrid> {
-    let mesh = &scene.mesh;
-    let (mut cells, mut faces): (Vec<u32>, Vec<[u32; 4]>) = (Vec::new(), Vec::new());
-    for k in 0..6 {
-        let grid = scene.entry.side_grid(k);
         cells.extend_from_slice(grid.start);
         faces.extend(grid.faces.iter().map(|&(t, i)| {
             let tet = mesh.tets[t as usize];
             let [a, b, c] = OUTWARD_FACES[i as usize].map(|x| tet[x]);
             [t << 2 | i as u32, a, b, c]
         }));
-    }
+        side
+    });
     let cells = upload_records(g, "entry grid cells", cells.len(), |i| cells[i])?;
     // upload_records makes at least one record: a side-less grid still binds.
     let faces = upload_records(g, "entry grid faces", faces.len(), |i| faces[i])?;
-    Ok(EntryGrid { cells, faces })
+    Ok(EntryGrid {
+        sides,
+        cells,
+        faces,
+    })
 }
 
 /// The uniform of a batch whose rays all leave one origin, or None when the batch is not one
 /// the shared-origin kernel takes (see the module docs). `points_slack`: the device points'
-/// rounding (`LayoutBuffers::points_slack`).
+/// rounding (`LayoutBuffers::points_slack`). The entry grid's sides are left for the caller,
+/// from the grid on the device ([`EntryGrid::sides`]).
 pub(crate) fn shared_origin(
     scene: &Scene,
     rays: &Rays<f32>,
     query: &ClosestHit,
     points_slack: f32,
-    sides: [GridSide; 6],
 ) -> Option<Shared> {
     let n = rays.len();
     if n == 0 || rays.leaving.is_some() || rays.tmin.len() != 1 || rays.tmax.len() != 1 {
@@ -126,7 +121,6 @@ pub(crate) fn shared_origin(
         box_lo: lo.map(round_down),
         box_hi: hi.map(round_up),
         beyond: [beyond[0], beyond[1], beyond[2], 0],
-        sides,
         ..Default::default()
     };
     if beyond != [0; 3] {
@@ -182,20 +176,7 @@ fn round_up(x: f64) -> f32 {
 /// Where ray i's walk starts, for walking on from a state the kernel reached: the ray's line
 /// and range (the walk on needs nothing else of it), or the status of a ray that does not walk.
 pub(crate) fn start_of(rays: &Rays<f32>, i: usize) -> std::result::Result<WalkStart, u8> {
-    let ray = rays.ray(i);
-    let (tmin, tmax) = crate::geom::ray::checked_range(&ray)?;
-    Ok(WalkStart {
-        o: ray.o,
-        d: ray.d,
-        dir: crate::geom::real::unit_scale(ray.d),
-        tmin,
-        tmax,
-        point: ray.o,
-        tet: 0,
-        entry: None,
-        exact: true,
-        leaving: None,
-    })
+    WalkStart::exact(&rays.ray(i))
 }
 
 /// The state a kernel handed back, as the host's walk takes it on.

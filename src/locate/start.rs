@@ -35,6 +35,25 @@ pub struct WalkStart {
 }
 
 impl WalkStart {
+    /// The exact walk's start of a checked ray, before location: its line and range, at its
+    /// origin (`tet`, `entry` and, from outside the box, `point` are the locator's to set);
+    /// Err: the status of a ray that does not walk (`checked_range`).
+    pub fn exact(ray: &Ray) -> Result<WalkStart, u8> {
+        let (tmin, tmax) = checked_range(ray)?;
+        Ok(WalkStart {
+            o: ray.o,
+            d: ray.d,
+            dir: unit_scale(ray.d),
+            tmin,
+            tmax,
+            point: ray.o,
+            tet: 0,
+            entry: None,
+            exact: true,
+            leaving: ray.leaving.map(|l| l.triangle),
+        })
+    }
+
     /// The ray as method M's walk takes it (the CPU cast's and the GPU kernels' preparation).
     #[inline]
     pub fn prepare<R: Real, M: ExitMethod<R>>(&self, mesh: &TetMesh) -> M::Ray {
@@ -296,20 +315,9 @@ impl Locators<'_> {
     /// box; from outside, `point` is where the ray enters the box (rounded, then clamped onto
     /// it). `tet` and `entry` are left for the caller.
     pub fn exact_line(&self, ray: &Ray) -> Result<(WalkStart, ExactOrigin), u8> {
-        let (tmin, tmax) = checked_range(ray)?;
+        let mut start = WalkStart::exact(ray)?;
+        let tmax = start.tmax;
         let Ray { o, d, .. } = *ray;
-        let mut start = WalkStart {
-            o,
-            d,
-            dir: unit_scale(d),
-            tmin,
-            tmax,
-            point: o,
-            tet: 0,
-            entry: None,
-            exact: true,
-            leaving: ray.leaving.map(|l| l.triangle),
-        };
         let [lo, hi] = self.mesh.bounds;
         if (0..3).all(|a| o[a] >= lo[a] && o[a] <= hi[a]) {
             return Ok((start, ExactOrigin::Inside));

@@ -427,7 +427,6 @@ fn gpu_shared_origin_is_taken_only_where_it_holds() {
     }
     let (scene, _) = grid_scene(4, 0.1, 0.0, 71);
     let query = scene.closest();
-    let sides = crate::gpu::origin::entry_sides(&scene);
     let take = |o: &[f32], d: &[f32], tmin: f64, tmax: f64| {
         let rays = Rays {
             origins: o,
@@ -436,7 +435,7 @@ fn gpu_shared_origin_is_taken_only_where_it_holds() {
             tmax: &[tmax],
             leaving: None,
         };
-        crate::gpu::origin::shared_origin(&scene, &rays, &query, 0.0, sides).is_some()
+        crate::gpu::origin::shared_origin(&scene, &rays, &query, 0.0).is_some()
     };
     let inside = [0.431f32, 0.377, 0.619, 0.431, 0.377, 0.619];
     let outside = [-0.5f32, 0.377, 0.619, -0.5, 0.377, 0.619];
