@@ -12,7 +12,7 @@ import pytest
 
 import tetrace
 from tetrace.bench.__main__ import main
-from tetrace.bench.gpu_bench import gpu_cast_timed
+from tetrace.bench.casters import gpu_cast_timed
 from tetrace.dev.camera import orbit_view, pinhole
 
 from conftest import gpu_device

@@ -17,7 +17,9 @@ import time
 
 import numpy as np
 
+from ..camera import Camera
 from ..dev.camera import orbit_view, pinhole, random_rays
+from .casters import TetraceCaster, gpu_cast_timed, timed
 from .scene_bench import FOV_DEG, _table
 
 #: What the bench prints per ray set, in order: (JSON key, column header).
@@ -76,55 +78,15 @@ def save_scenes(paths, out_dir, preset="quality", out=print):
     return written
 
 
-def gpu_cast_timed(scene, o, d, repeat, **kw):
-    """``scene.cast(o, d, device="gpu")`` after one untimed cast (which uploads the scene and
-    compiles the kernel), then ``repeat`` timed casts.
+class _CameraCaster:
+    """``scene.cast(camera=cam, device="gpu")`` as :func:`~tetrace.bench.casters.timed` takes
+    a caster (the rays passed in are ignored: the camera makes its own)."""
 
-    Returns
-    -------
-    best : dict
-        The phases (seconds) of the cast with the shortest kernel time, with ``wall`` added.
-    host : float
-        The least host time per ray over the casts: the whole call, numpy to numpy, less the
-        kernel's timestamped time (issue 34's measure), in seconds.
-    hits : Hits
-        The last cast's hits.
-    scene_upload : float
-        Seconds the first cast spent uploading the scene.
-    """
-    first = scene.cast(o[:1], d[:1], device="gpu", **kw)
-    scene_upload = first.timings["scene_upload"]
-    best, host, hits = None, float("inf"), None
-    for _ in range(max(int(repeat), 1)):
-        t0 = time.perf_counter()
-        hits = scene.cast(o, d, device="gpu", **kw)
-        wall = time.perf_counter() - t0
-        t = dict(hits.timings, wall=wall)
-        if best is None or t["kernel"] < best["kernel"]:
-            best = t
-        host = min(host, (wall - t["kernel"]) / max(len(o), 1))
-    return best, host, hits, scene_upload
+    def __init__(self, scene, cam):
+        self.scene, self.cam = scene, cam
 
-
-def _best_rate(fn, n, repeat):
-    fn()  # warm-up
-    best = float("inf")
-    for _ in range(max(int(repeat), 1)):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return n / best / 1e6
-
-
-def _camera_rate(scene, eye, target, up, width, height, repeat):
-    """Mrays/s of ``scene.cast(camera=..., device="gpu")`` where the package has cameras;
-    None where it does not."""
-    try:
-        from ..camera import Camera
-    except ImportError:
-        return None
-    cam = Camera.look_at(eye, target, up, fov_deg=FOV_DEG, width=width, height=height)
-    return _best_rate(lambda: scene.cast(camera=cam, device="gpu"), width * height, repeat)
+    def cast(self, origins, directions, threads):
+        return self.scene.cast(camera=self.cam, device="gpu")
 
 
 def bench_rays(scene, name, label, o, d, *, repeat, sample, seed, embreex, ncpu, camera=None):
@@ -142,9 +104,14 @@ def bench_rays(scene, name, label, o, d, *, repeat, sample, seed, embreex, ncpu,
         o[idx], d[idx], hint=hits.triangle[idx]
     )
     score = agreement(hits[idx], verdict, "f64")
-    cpu = _best_rate(lambda: scene.cast(o, d, threads=ncpu), n, repeat)
-    emb = _best_rate(lambda: embreex.cast(o, d, ncpu), n, repeat)
-    cam = None if camera is None else _camera_rate(scene, *camera, repeat)
+    rate = lambda caster: n / timed(caster, o, d, ncpu, repeat)[0] / 1e6
+    cpu = rate(TetraceCaster(scene, None, None, "f32"))
+    emb = rate(embreex)
+    cam = None
+    if camera is not None:
+        *view, width, height = camera
+        lens = Camera.look_at(*view, fov_deg=FOV_DEG, width=width, height=height)
+        cam = rate(_CameraCaster(scene, lens))
     ms = lambda k: best[k] * 1e3
     return {
         "scene": name,

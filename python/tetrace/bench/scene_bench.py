@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import json
 import os
-import time
 
 import numpy as np
 
@@ -58,6 +57,7 @@ def _table(rows, header):
 def _gpu_runs(scene, o32, d32, judge, methods, layouts, repeat, results):
     """GPU rows of the bench table, and the last kernel's hits."""
     from .. import gpu
+    from .casters import gpu_cast_timed
 
     kernels = gpu.kernels()
     if methods not in (["all"], "all") and methods:
@@ -71,18 +71,9 @@ def _gpu_runs(scene, o32, d32, judge, methods, layouts, repeat, results):
     rows, hits = [], None
     n = len(o32)
     for method, layout in kernels:
-        first = scene.cast(o32[:1], d32[:1], method=method, layout=layout, device="gpu")
-        scene_upload = first.timings["scene_upload"]  # uploaded once, by this cast
-        best, host = None, float("inf")
-        for _ in range(repeat):
-            t0 = time.perf_counter()
-            hits = scene.cast(o32, d32, method=method, layout=layout, device="gpu")
-            wall = time.perf_counter() - t0
-            t = dict(hits.timings, wall=wall)
-            if best is None or t["kernel"] < best["kernel"]:
-                best = t
-            # Host time: the whole call, numpy to numpy, minus the kernel (issue 34's measure).
-            host = min(host, (wall - t["kernel"]) / n)
+        best, host, hits, scene_upload = gpu_cast_timed(
+            scene, o32, d32, repeat, method=method, layout=layout
+        )
         a = judge(hits)
         kernel_rate = best["walked"] / best["kernel"] / 1e6
         e2e = n / best["wall"] / 1e6
