@@ -69,8 +69,11 @@ struct RayOut {
     tet: u32,
     steps: u32,
     // The face it left by, counter-clockwise around the ray: vertex ids, or local slots
-    // 0..3 for tet80 (which knows no ids). w is unused.
+    // 0..3 for tet80 (which knows no ids). w is unused. A hit finished on the device
+    // (END_FINISHED, shared_origin.wgsl): the point's coordinates, as float bits.
     face: vec4<u32>,
+    // END_FINISHED: t, u, v (w unused); unused by every other end.
+    hit: vec4<f32>,
 }
 
 @group(0) @binding(0) var<uniform> params: Params;

@@ -47,7 +47,8 @@ fn plain_steps(
     var pc = p[2];
     loop {
         if (link & CONSTRAINED_BIT) != 0u {
-            resumed(i, link_end(link), link, t, steps, a, b, c);
+            // The walk's own kernel says what the face means (`at_constrained`: its walk file).
+            at_constrained(i, link, t, steps, a, b, c);
             return;
         }
         if steps >= params.max_steps {

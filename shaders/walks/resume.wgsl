@@ -25,3 +25,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     );
     plain_steps(i, ray, vec4<u32>(ray.tet, v.w, ray.entry, 0u), v.xyz, p);
 }
+
+// At a constrained face or the boundary: handed back as it stands (the host decides the face).
+fn at_constrained(i: u32, link: u32, t: u32, steps: u32, a: u32, b: u32, c: u32) {
+    resumed(i, link_end(link), link, t, steps, a, b, c);
+}

@@ -12,6 +12,11 @@
 
 const END_UNBEGUN: u32 = 5u;
 const END_MISS_BOX: u32 = 6u;
+// A hit finished on the device (exact_hit.wgsl): RayOut.constrained is the caller's
+// triangle, face.xyz the point (float bits), hit.xyz t, u and v: the host's answer.
+const END_FINISHED: u32 = 7u;
+// Shared.finish, or a hit table entry: no hit finished on the device.
+const NO_TRIANGLE: u32 = 0xffffffffu;
 
 // One side of the box's entry grid (`locate::boundary::SideGrid`): cells on the side's axes
 // ((axis + 1) % 3, (axis + 2) % 3); cell c's faces are face_ids[cells[cells + c] ..
@@ -32,7 +37,10 @@ struct Shared {
     start_tet: u32,
     box_hi: vec3<f32>,
     inside: u32,
-    beyond: vec4<i32>,
+    beyond: vec3<i32>,
+    // Where the hit table's corners begin, or NO_TRIANGLE: hits are then all the host's
+    // (a finite tmax, which only the host compares).
+    finish: u32,
     sides: array<GridSide, 6>,
 }
 
@@ -43,6 +51,14 @@ struct Shared {
 // vertex ids in outward order).
 @group(0) @binding(7) var<storage, read> cells: array<u32>;
 @group(0) @binding(8) var<storage, read> faces: array<vec4<u32>>;
+// The hit table (src/gpu/finish.rs, `HitTable`): per constrained side the caller's triangle
+// (or NO_TRIANGLE), then from word `batch.finish` nine float32 corners per triangle, and last
+// 0 (exact_hit.wgsl's `zero_bits`).
+@group(0) @binding(9) var<storage, read> hit_table: array<u32>;
+
+// This invocation's direction as the walk takes it (the caller's times 2^dir_exp).
+var<private> dir: vec3<f32>;
+var<private> dir_exp: i32;
 
 // 2^-21: twice the error of a slab comparison's products (docs/gpu.md).
 const C_SLAB: f32 = 4.76837158203125e-7;
@@ -73,6 +89,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     }
     // The direction scaled by a power of two (exact): its largest component in [1, 2).
     let d = d0 * bitcast<f32>((254u - (top >> 23u)) << 23u);
+    dir = d;
+    dir_exp = 127 - i32(top >> 23u);
+    zero_bits = hit_table[arrayLength(&hit_table) - 1u];
     var ray: RayIn;
     ray.origin = batch.origin;
     ray.slack = batch.slack;
@@ -260,4 +279,34 @@ fn finish_miss(i: u32) {
     var out: RayOut;
     out.end = END_MISS_BOX;
     hits[i] = out;
+}
+
+// At a constrained face, crossed through its interior (every sign of the walk so far was
+// certified, so no edge or vertex was touched and nothing was met before): the hit, finished
+// here when its values are certain; else, and at the boundary, handed back as it stands.
+fn at_constrained(i: u32, link: u32, t: u32, steps: u32, a: u32, b: u32, c: u32) {
+    if link != BOUNDARY && batch.finish != NO_TRIANGLE {
+        let tri = hit_table[link & ~CONSTRAINED_BIT];
+        if tri != NO_TRIANGLE {
+            let at = batch.finish + 9u * tri;
+            var p: array<vec3<f32>, 3>;
+            for (var k = 0u; k < 3u; k++) {
+                let w = at + 3u * k;
+                p[k] = bitcast<vec3<f32>>(vec3<u32>(hit_table[w], hit_table[w + 1u], hit_table[w + 2u]));
+            }
+            let h = finish_hit(batch.origin, dir, dir_exp, p[0], p[1], p[2]);
+            if h.ok {
+                var out: RayOut;
+                out.end = END_FINISHED;
+                out.constrained = tri;
+                out.tet = t;
+                out.steps = steps;
+                out.face = vec4<u32>(bitcast<vec3<u32>>(h.p), 0u);
+                out.hit = vec4<f32>(h.t, h.u, h.v, 0.0);
+                hits[i] = out;
+                return;
+            }
+        }
+    }
+    resumed(i, link_end(link), link, t, steps, a, b, c);
 }

@@ -8,15 +8,20 @@
 //! (`TetWalk::begin_elsewhere`: location, the origin's touch, the first exit), the GPU takes
 //! the plain steps it can certify, and the CPU walks on from where the GPU stopped
 //! (`TetWalk::walk_on_from`): at the face its query decides, or at a step the GPU could not
-//! certify. Every answer is the CPU exact walk's.
+//! certify. Every answer is the CPU exact walk's. Batches from one origin take the
+//! shared-origin kernel (`cast_shared`), which also begins the walks and finishes the hits it
+//! can certify (`gpu::finish`): the host walks on only the rest.
 
 use super::context::{gpu, Gpu};
 use super::device_scene::DeviceScene;
+use super::finish::NONE;
 use super::kernels::{KernelSpec, SHARED_ORIGIN};
 use super::launch::{Batching, Launch, RunBuffers};
+use super::origin::finished_hit;
 use super::origin::{boundary_miss, plain_state, shared_origin, start_of};
 use super::structs::{
-    RayIn, RayOut, Shared, END_BOUNDARY, END_DEFERRED, END_HIT, END_MISS_BOX, END_UNBEGUN,
+    RayIn, RayOut, Shared, END_BOUNDARY, END_DEFERRED, END_FINISHED, END_HIT, END_MISS_BOX,
+    END_UNBEGUN,
 };
 use super::timings::GpuTimings;
 use super::upload::LayoutBuffers;
@@ -123,9 +128,10 @@ impl DeviceScene {
 
 impl DeviceScene {
     /// A batch from one origin (`gpu::origin`): the shared-origin kernel begins every walk
-    /// from the ray's direction and walks on; the host answers each ray from where its walk
-    /// was handed back, walks the rays whose start the kernel could not certify from their
-    /// start, and answers the certain misses of the box.
+    /// from the ray's direction, walks on and finishes the hits it can certify; the host
+    /// copies those, answers each other ray from where its walk was handed back, walks the
+    /// rays whose start the kernel could not certify from their start, and answers the
+    /// certain misses of the box.
     #[allow(clippy::too_many_arguments)] // one cast's parts, as `resumed` takes them
     fn cast_shared(
         &self,
@@ -140,13 +146,17 @@ impl DeviceScene {
         let g = exact.g;
         let pipeline = g.pipeline(&SHARED_ORIGIN)?;
         let (grid, grid_upload) = self.entry_grid(g, scene)?;
-        timings.scene_upload += grid_upload;
+        let (table, table_upload) = self.hit_table(g, scene)?;
+        timings.scene_upload += grid_upload + table_upload;
+        // The kernel finishes hits where the host would compare nothing against tmax.
+        let finite_tmax = rays.tmax.first().is_some_and(|t| *t != f64::INFINITY);
         let shared = Shared {
             sides: grid.sides,
+            finish: if finite_tmax { NONE } else { table.sides },
             ..shared
         };
         let cache = self.run_buffers(&SHARED_ORIGIN);
-        let extra = [(7, &grid.cells), (8, &grid.faces)];
+        let extra = [(7, &grid.cells), (8, &grid.faces), (9, &table.buffer)];
         let launch = Launch {
             g,
             pipeline: &pipeline,
@@ -160,7 +170,7 @@ impl DeviceScene {
         };
         let n = rays.len();
         timings.shared_origin = true;
-        timings.locate = t0.elapsed().as_secs_f64() - grid_upload;
+        timings.locate = t0.elapsed().as_secs_f64() - grid_upload - table_upload;
         timings.walked = n;
         // Straight from the caller's array: 12 bytes a ray.
         let dirs: &[[f32; 3]] = bytemuck::cast_slice(rays.directions);
@@ -172,17 +182,22 @@ impl DeviceScene {
         let walk = TetWalk::<f64, Tet20, Exact, NoObserver>::new(scene.locators(), setup);
         let query = scene.closest();
         let handed = AtomicUsize::new(0);
+        let finished = AtomicUsize::new(0);
         let pieces: Vec<_> = crate::query::chunks(out, CHUNK)
             .into_iter()
             .enumerate()
             .collect();
         run_pieces(pieces, opts.threads, |(k, mut chunk)| {
             let mut st = LocateState::for_chunk(k);
-            let mut sent = 0;
+            let (mut sent, mut done) = (0, 0);
             for j in 0..chunk.len() {
                 let i = k * CHUNK + j;
                 let o = &results[i];
                 let answer = match o.end {
+                    END_FINISHED => {
+                        done += 1;
+                        finished_hit(o)
+                    }
                     END_MISS_BOX => query.skipped(crate::status::MISS),
                     END_BOUNDARY => boundary_miss(o),
                     END_UNBEGUN => {
@@ -203,8 +218,10 @@ impl DeviceScene {
                 chunk.set(j, &answer);
             }
             handed.fetch_add(sent, Ordering::Relaxed);
+            finished.fetch_add(done, Ordering::Relaxed);
         })?;
         timings.deferred = handed.into_inner();
+        timings.finished = finished.into_inner();
         timings.finish = t1.elapsed().as_secs_f64();
         Ok(())
     }

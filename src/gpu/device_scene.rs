@@ -4,6 +4,7 @@
 
 use super::context::Gpu;
 use super::context::KernelKey;
+use super::finish::{upload_hit_table, HitTable};
 use super::kernels::{GpuLayout, KernelSpec};
 use super::launch::RunBuffers;
 use super::origin::{upload_entry_grid, EntryGrid};
@@ -28,6 +29,8 @@ pub struct DeviceScene {
     runs: Mutex<HashMap<KernelKey, KeptRuns>>,
     /// The box's entry grid, for the shared-origin kernel (uploaded by its first cast).
     entry_grid: Mutex<Option<Arc<EntryGrid>>>,
+    /// The shared-origin kernel's hit table (uploaded by its first cast).
+    hit_table: Mutex<Option<Arc<HitTable>>>,
 }
 
 impl DeviceScene {
@@ -52,6 +55,10 @@ impl DeviceScene {
         if let Some(g) = grid.as_ref() {
             out.push(("entry_grid", g.bytes()));
         }
+        let table = self.hit_table.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(t) = table.as_ref() {
+            out.push(("hit_table", t.bytes()));
+        }
         out
     }
 
@@ -64,15 +71,13 @@ impl DeviceScene {
     /// The scene's box entry grid on the device, uploaded now if it is not there yet, and the
     /// seconds the upload took.
     pub(crate) fn entry_grid(&self, g: &Gpu, scene: &Scene) -> Result<(Arc<EntryGrid>, f64)> {
-        let mut grid = self.entry_grid.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some(x) = grid.as_ref() {
-            return Ok((x.clone(), 0.0));
-        }
-        let t0 = Instant::now();
-        let x = Arc::new(upload_entry_grid(g, scene)?);
-        g.wait()?;
-        *grid = Some(x.clone());
-        Ok((x, t0.elapsed().as_secs_f64()))
+        kept(g, &self.entry_grid, || upload_entry_grid(g, scene))
+    }
+
+    /// The scene's hit table on the device (`gpu::finish`), uploaded now if it is not there
+    /// yet, and the seconds the upload took.
+    pub(crate) fn hit_table(&self, g: &Gpu, scene: &Scene) -> Result<(Arc<HitTable>, f64)> {
+        kept(g, &self.hit_table, || upload_hit_table(g, scene))
     }
 
     /// The buffers for `kernel`'s layout, uploaded now if they are not on the device yet, and
@@ -95,4 +100,21 @@ impl DeviceScene {
         cache.insert(layout.name, b.clone());
         Ok((b, t0.elapsed().as_secs_f64()))
     }
+}
+
+/// What `slot` holds, or what `upload` puts on the device now (and the seconds it took).
+fn kept<T>(
+    g: &Gpu,
+    slot: &Mutex<Option<Arc<T>>>,
+    upload: impl FnOnce() -> Result<T>,
+) -> Result<(Arc<T>, f64)> {
+    let mut slot = slot.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(x) = slot.as_ref() {
+        return Ok((x.clone(), 0.0));
+    }
+    let t0 = Instant::now();
+    let x = Arc::new(upload()?);
+    g.wait()?;
+    *slot = Some(x.clone());
+    Ok((x, t0.elapsed().as_secs_f64()))
 }

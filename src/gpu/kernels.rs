@@ -127,13 +127,18 @@ pub static KERNELS: [KernelSpec; 4] = [
 
 /// The exact kernel for batches whose rays share one origin (`gpu::origin`): chosen by the
 /// exact kernel's cast, never named by a caller. It begins each walk on the device from the
-/// ray's direction, then walks on as the exact kernel does.
+/// ray's direction, walks on as the exact kernel does, and finishes the hits it can certify
+/// (`gpu::finish`).
 pub static SHARED_ORIGIN: KernelSpec = KernelSpec {
     resumes: true,
     walk: Some(wgsl!("walks/shared_origin.wgsl")),
     ..KernelSpec::of::<Exact>(
         &GPU_LAYOUTS[0],
-        &[ROBUST, wgsl!("methods/exact.wgsl")],
+        &[
+            ROBUST,
+            wgsl!("methods/exact.wgsl"),
+            wgsl!("methods/exact_hit.wgsl"),
+        ],
         None,
     )
 };

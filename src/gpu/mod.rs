@@ -2,7 +2,9 @@
 //! `kernels.rs`).
 //!
 //! Start-tet location and the hit on the caller's triangle stay on the CPU (the same code as
-//! the CPU cast); the walk from tet to tet runs on the device, one invocation per ray. Each
+//! the CPU cast), except for rays sharing one origin, which begin their walks on the device
+//! (`origin.rs`) and have the hits it can certify finished there (`finish.rs`); the walk from
+//! tet to tet runs on the device, one invocation per ray. Each
 //! kernel has a CPU twin, the float32 walk with the same method and layout, which it matches
 //! up to the GPU compiler's freedom to fuse multiply-adds. The robust kernel certifies each
 //! sign with an error bound valid under any fusing and hands rays it cannot certify back to
@@ -14,6 +16,7 @@
 pub mod cast;
 pub mod context;
 pub mod device_scene;
+pub mod finish;
 pub mod kernels;
 pub mod launch;
 pub mod origin;

@@ -120,7 +120,7 @@ pub(crate) fn shared_origin(
         slack: points_slack,
         box_lo: lo.map(round_down),
         box_hi: hi.map(round_up),
-        beyond: [beyond[0], beyond[1], beyond[2], 0],
+        beyond,
         ..Default::default()
     };
     if beyond != [0; 3] {
@@ -197,5 +197,21 @@ pub(crate) fn boundary_miss(o: &super::structs::RayOut) -> crate::query::RayHit 
         tet: o.tet as i32,
         steps: o.steps,
         ..crate::query::RayHit::nothing(crate::status::MISS)
+    }
+}
+
+/// The answer of a hit the kernel finished (`gpu::finish`): what the host's exact walk
+/// answers there, its values already the float32 ones the host writes.
+pub(crate) fn finished_hit(o: &super::structs::RayOut) -> crate::query::RayHit {
+    crate::query::RayHit {
+        status: crate::status::HIT,
+        t: o.hit[0] as f64,
+        u: o.hit[1] as f64,
+        v: o.hit[2] as f64,
+        point: [0, 1, 2].map(|k| f32::from_bits(o.face[k]) as f64),
+        triangle: o.constrained as i32,
+        tet: o.tet as i32,
+        steps: o.steps,
+        audit: [0, 0],
     }
 }

@@ -28,15 +28,18 @@ pub struct RayIn {
     pub verts: [u32; 4],
 }
 
-/// `RayOut`: how a walk ended.
+/// `RayOut`: how a walk ended. A hit finished on the device ([`END_FINISHED`]) has the
+/// caller's triangle in `constrained`, the point's coordinates (float bits) in `face` and
+/// t, u, v in `hit`.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct RayOut {
     pub end: u32,
     pub constrained: u32,
     pub tet: u32,
     pub steps: u32,
     pub face: [u32; 4],
+    pub hit: [f32; 4],
 }
 
 /// `Tet20` of shaders/layouts/tet20.wgsl (layout::tet20::Tet20Record).
@@ -93,7 +96,10 @@ pub struct Shared {
     /// 1 when the origin lies strictly inside `start_tet`, 0 when it is outside the box.
     pub inside: u32,
     /// Per axis, where the origin lies against the box (exactly): −1 below, 0 within, 1 above.
-    pub beyond: [i32; 4],
+    pub beyond: [i32; 3],
+    /// Where the hit table's corners begin (`finish::HitTable::sides`), or `finish::NONE`:
+    /// the kernel then finishes no hit (a finite tmax, which the host compares).
+    pub finish: u32,
     pub sides: [GridSide; 6],
 }
 
@@ -105,6 +111,8 @@ pub const END_DEFERRED: u32 = 3;
 /// begins and walks it), or it certainly misses the domain box.
 pub const END_UNBEGUN: u32 = 5;
 pub const END_MISS_BOX: u32 = 6;
+/// Shared-origin kernel only: a hit the kernel finished (`gpu::finish`), the host's answer.
+pub const END_FINISHED: u32 = 7;
 /// `NO_ENTRY` of shaders/common.wgsl.
 pub const NO_ENTRY: u32 = 4;
 /// `WORKGROUP` of shaders/common.wgsl.
@@ -122,12 +130,13 @@ const _: () = {
     assert!(offset_of!(RayIn, e1) == 32);
     assert!(offset_of!(RayIn, slack) == 44);
     assert!(offset_of!(RayIn, verts) == 48);
-    assert!(size_of::<RayOut>() == 32);
+    assert!(size_of::<RayOut>() == 48);
     assert!(offset_of!(RayOut, end) == 0);
     assert!(offset_of!(RayOut, constrained) == 4);
     assert!(offset_of!(RayOut, tet) == 8);
     assert!(offset_of!(RayOut, steps) == 12);
     assert!(offset_of!(RayOut, face) == 16);
+    assert!(offset_of!(RayOut, hit) == 32);
     assert!(size_of::<GridSide>() == 32);
     assert!(offset_of!(GridSide, inv_cell) == 8);
     assert!(offset_of!(GridSide, dims) == 16);
@@ -141,6 +150,7 @@ const _: () = {
     assert!(offset_of!(Shared, box_hi) == 48);
     assert!(offset_of!(Shared, inside) == 60);
     assert!(offset_of!(Shared, beyond) == 64);
+    assert!(offset_of!(Shared, finish) == 76);
     assert!(offset_of!(Shared, sides) == 80);
     assert!(size_of::<Tet20>() == 20);
     assert!(offset_of!(Tet20, vertex_xor) == 0);

@@ -21,8 +21,11 @@ pub struct GpuTimings {
     pub finish: f64,
     /// Rays the GPU walked (rays that miss the box or are invalid are settled on the CPU).
     pub walked: usize,
-    /// Robust kernel: rays deferred to the CPU robust walk.
+    /// Robust kernel: rays deferred to the CPU robust walk. Exact kernel: rays handed back
+    /// before the face their query decides (or, shared origin, before their start).
     pub deferred: usize,
+    /// Shared-origin kernel: hits finished on the device (`gpu::finish`).
+    pub finished: usize,
     pub batches: usize,
     /// Whether the batch took the shared-origin exact kernel (`gpu::origin`): one origin
     /// located once, every start on the device.

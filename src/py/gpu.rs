@@ -76,6 +76,7 @@ mod built {
         t.set_item("deferred", timings.deferred)?;
         t.set_item("batches", timings.batches)?;
         t.set_item("shared_origin", timings.shared_origin)?;
+        t.set_item("finished", timings.finished)?;
         Ok(t)
     }
 

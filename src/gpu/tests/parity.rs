@@ -193,11 +193,13 @@ fn assert_gpu_is_cpu_exact(
     });
     let t = timings.expect("the GPU cast ran");
     eprintln!(
-        "{name}: {} rays, {} walked on the GPU (shared origin: {}), {} handed back before a face",
+        "{name}: {} rays, {} walked on the GPU (shared origin: {}), {} handed back before a \
+         face, {} hits finished on the GPU",
         o.len() / 3,
         t.walked,
         t.shared_origin,
-        t.deferred
+        t.deferred,
+        t.finished
     );
     assert_same_answers(name, &cpu, &gpu);
     let c = judged(name, &verdicts32(o, d, tris), &gpu);
@@ -298,7 +300,7 @@ fn gpu_shared_origin_is_the_cpu_exact_walk() {
     if !device_or_skip(test) {
         return;
     }
-    let mut took = [0usize; 2];
+    let (mut took, mut finished) = ([0usize; 2], 0);
     for (offset, seed, f32_points) in [(0.0, 61u64, true), (10.0, 63, false), (1000.0, 65, true)] {
         let (scene, tris) = grid_scene_with(6, 0.08, offset, seed, f32_points);
         let mut rng = Rng::xorshift(seed + 1);
@@ -411,10 +413,14 @@ fn gpu_shared_origin_is_the_cpu_exact_walk() {
                 let t = assert_gpu_is_cpu_exact(&name, &scene, &tris, &o, &d);
                 assert_eq!(t.shared_origin, shared, "{name}");
                 took[shared as usize] += 1;
+                finished += t.finished;
             }
         }
     }
     assert!(took[0] > 0 && took[1] > 0, "{took:?}");
+    // The kernel finished hits (gpu::finish), each one of the columns compared above.
+    assert!(finished > 0, "no hit was finished on the device");
+    eprintln!("{test}: {finished} hits finished on the device");
 }
 
 /// A batch the shared-origin kernel must not take: rays with their own origins, a range

@@ -1,0 +1,240 @@
+//! The device's hit finishing (shaders/methods/exact_hit.wgsl) against its CPU twin
+//! (`gpu::finish`), function by function: the same hits run through both, alone, in a small
+//! kernel. Their error-free sums and products must come out exact on the device as on the CPU
+//! (a driver that rewrites them would show here), and every hit the device finishes must be the
+//! twin's, bit for bit (the twin's values are checked against the host and the exact referee
+//! in `gpu/finish/tests.rs`).
+
+use super::*;
+use crate::gpu::finish::{finish_hit, two_prod, two_sum};
+use crate::gpu::gpu;
+use crate::gpu::kernels::Wgsl;
+use wgpu::util::DeviceExt;
+
+const HIT: Wgsl = Wgsl {
+    path: "methods/exact_hit.wgsl",
+    source: include_str!("../../../shaders/methods/exact_hit.wgsl"),
+};
+
+/// Runs `main` (reading `inp`, writing `outp`, `words` f32 words per case) over `n` cases.
+fn run_kernel(main: &str, inp: &[f32], n: usize, words: usize) -> Vec<f32> {
+    let g = gpu().unwrap();
+    // Last, 0 for `zero_bits` (read from storage, as the kernel reads it).
+    let inp: Vec<f32> = inp.iter().copied().chain([0.0]).collect();
+    let inp = &inp[..];
+    let source = format!(
+        "struct Params {{ n_rays: u32, max_steps: u32, _pad0: u32, _pad1: u32 }}\n\
+         @group(0) @binding(0) var<uniform> params: Params;\n\
+         @group(0) @binding(1) var<storage, read> inp: array<f32>;\n\
+         @group(0) @binding(2) var<storage, read_write> outp: array<f32>;\n{}\n{main}",
+        HIT.source
+    );
+    let module = g.device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("finish harness"),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
+    });
+    let pipeline = g
+        .device
+        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: None,
+            layout: None,
+            module: &module,
+            entry_point: Some("main"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+    use wgpu::BufferUsages as U;
+    let params = crate::gpu::structs::Params {
+        n_rays: n as u32,
+        ..Default::default()
+    };
+    let pbuf = g
+        .device
+        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: None,
+            contents: bytemuck::bytes_of(&params),
+            usage: U::UNIFORM,
+        });
+    let ibuf = g
+        .device
+        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: None,
+            contents: bytemuck::cast_slice(inp),
+            usage: U::STORAGE,
+        });
+    let size = (n * words * 4) as u64;
+    let obuf = g.device.create_buffer(&wgpu::BufferDescriptor {
+        label: None,
+        size,
+        usage: U::STORAGE | U::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let rbuf = g.device.create_buffer(&wgpu::BufferDescriptor {
+        label: None,
+        size,
+        usage: U::MAP_READ | U::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let bind = g.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: pbuf.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: ibuf.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 2,
+                resource: obuf.as_entire_binding(),
+            },
+        ],
+    });
+    let mut enc = g.device.create_command_encoder(&Default::default());
+    {
+        let mut pass = enc.begin_compute_pass(&Default::default());
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &bind, &[]);
+        pass.dispatch_workgroups((n as u32).div_ceil(64), 1, 1);
+    }
+    enc.copy_buffer_to_buffer(&obuf, 0, &rbuf, 0, size);
+    g.queue.submit([enc.finish()]);
+    let mut out = Vec::new();
+    g.read_mapped(&rbuf, size, &mut out, "harness results")
+        .unwrap();
+    out
+}
+
+/// TwoSum is exact and the product within its bound on the device, as on the CPU: the same
+/// words, bit for bit (the device rounds `+`, `−` and `×` correctly; a driver rewriting the
+/// sums algebraically would make the error words 0).
+#[test]
+fn device_two_sum_and_two_prod_are_the_twins() {
+    if !device_or_skip("device two_sum") {
+        return;
+    }
+    let mut rng = Rng::xorshift(5);
+    let mut inp = Vec::new();
+    let n = 4096;
+    for i in 0..n {
+        let a = (rng.f() - 0.5) as f32 * 2f32.powi((i % 40) as i32 - 20);
+        let b = (rng.f() - 0.5) as f32 * 2f32.powi((i % 17) as i32 - 8);
+        inp.extend([a, b]);
+    }
+    let main = "@compute @workgroup_size(64) fn main(@builtin(global_invocation_id) g: vec3<u32>) {\n\
+        let i = g.x; if i >= params.n_rays { return; }\n\
+        zero_bits = bitcast<u32>(inp[arrayLength(&inp) - 1u]);\n\
+        let s = two_sum(inp[2u * i], inp[2u * i + 1u]);\n\
+        let p = two_prod(inp[2u * i], inp[2u * i + 1u]);\n\
+        outp[4u * i] = s.hi; outp[4u * i + 1u] = s.lo; outp[4u * i + 2u] = p.hi; outp[4u * i + 3u] = p.lo;\n}";
+    let out = run_kernel(main, &inp, n, 4);
+    let mut nonzero = 0;
+    for i in 0..n {
+        let (a, b) = (inp[2 * i], inp[2 * i + 1]);
+        let (s, e) = two_sum(a, b);
+        let (p, pe) = two_prod(a, b);
+        let got = &out[4 * i..4 * i + 4];
+        assert_eq!(
+            [s, e, p, pe].map(f32::to_bits),
+            [got[0], got[1], got[2], got[3]].map(f32::to_bits),
+            "two_sum/two_prod({a:e}, {b:e}) on the device"
+        );
+        nonzero += (e != 0.0) as usize;
+    }
+    // Not vacuous: most sums of these operands round, and their error words are not 0.
+    assert!(nonzero > n / 2, "{nonzero}");
+}
+
+/// Hits finished on the device are the twin's, bit for bit, and finished where the twin
+/// finishes them (their quotients may differ in the last bit: WGSL divides within 2.5 ulp,
+/// the twin correctly; the remainder absorbs it, so both give the same certified values).
+#[test]
+fn device_finished_hits_are_the_twins() {
+    if !device_or_skip("device finish") {
+        return;
+    }
+    let mut rng = Rng::xorshift(8);
+    let (mut inp, mut cases) = (Vec::new(), Vec::new());
+    for i in 0..6000 {
+        let size = [1e-3, 1.0, 50.0][i % 3];
+        let c = [0, 1, 2].map(|_| (rng.f() - 0.5) * 10.0 * size);
+        let tri = [0, 1, 2].map(|_| [0, 1, 2].map(|k| (c[k] + size * (rng.f() - 0.5)) as f32));
+        let o = [0, 1, 2].map(|k| (c[k] + size * 20.0 * (rng.f() - 0.5)) as f32);
+        let (s, t) = (rng.f() * 0.5, rng.f() * 0.5);
+        let d0 = [0, 1, 2].map(|k| {
+            let [a, b, cc] = tri.map(|v| v[k] as f64);
+            ((a + s * (b - a) + t * (cc - a)) - o[k] as f64) as f32 * [1e-30, 1.0, 1e30][i % 3]
+        });
+        let top = d0.iter().map(|x| x.to_bits() & 0x7fff_ffff).max().unwrap();
+        let k = 127 - (top >> 23) as i32;
+        if top >> 23 < 2 || top >> 23 > 253 {
+            continue;
+        }
+        let d = d0.map(|x| x * f32::from_bits(((k + 127) as u32) << 23));
+        inp.extend(o);
+        inp.extend(d);
+        inp.push(f32::from_bits(k as u32));
+        for v in tri {
+            inp.extend(v);
+        }
+        cases.push((o, d, k, tri));
+    }
+    let main = "@compute @workgroup_size(64) fn main(@builtin(global_invocation_id) g: vec3<u32>) {\n\
+        let i = g.x; if i >= params.n_rays { return; }\n\
+        zero_bits = bitcast<u32>(inp[arrayLength(&inp) - 1u]);\n\
+        let b = 16u * i;\n\
+        let v = vec3<f32>(inp[b], inp[b + 1u], inp[b + 2u]);\n\
+        let d = vec3<f32>(inp[b + 3u], inp[b + 4u], inp[b + 5u]);\n\
+        let k = bitcast<i32>(inp[b + 6u]);\n\
+        let p0 = vec3<f32>(inp[b + 7u], inp[b + 8u], inp[b + 9u]);\n\
+        let p1 = vec3<f32>(inp[b + 10u], inp[b + 11u], inp[b + 12u]);\n\
+        let p2 = vec3<f32>(inp[b + 13u], inp[b + 14u], inp[b + 15u]);\n\
+        let h = finish_hit(v, d, k, p0, p1, p2);\n\
+        let o = 7u * i;\n\
+        outp[o] = select(0.0, 1.0, h.ok); outp[o + 1u] = h.t; outp[o + 2u] = h.u; outp[o + 3u] = h.v;\n\
+        outp[o + 4u] = h.p.x; outp[o + 5u] = h.p.y; outp[o + 6u] = h.p.z;\n}";
+    let out = run_kernel(main, &inp, cases.len(), 7);
+    let (mut both, mut only_gpu, mut only_twin) = (0, 0, 0);
+    for (i, (o, d, k, tri)) in cases.iter().enumerate() {
+        let got = &out[7 * i..7 * i + 7];
+        let twin = finish_hit(*o, *d, *k, tri);
+        match (got[0] == 1.0, twin) {
+            (true, Some(f)) => {
+                both += 1;
+                let want = [f.t, f.u, f.v, f.point[0], f.point[1], f.point[2]];
+                assert_eq!(
+                    want.map(f32::to_bits),
+                    [got[1], got[2], got[3], got[4], got[5], got[6]].map(f32::to_bits),
+                    "case {i}: o {o:?} d {d:?} k {k} tri {tri:?}"
+                );
+            }
+            (true, None) => {
+                // The host's values (geom::rounded, rounded to float32), t in the caller's
+                // units: the direction was scaled by 2^k.
+                only_gpu += 1;
+                let f = |v: [f32; 3]| v.map(f64::from);
+                let h = crate::geom::rounded::rounded_hit(f(*o), f(*d), &tri.map(f)).unwrap();
+                let t = (h.t * 2f64.powi(*k)) as f32;
+                let want = [t, h.u as f32, h.v as f32]
+                    .into_iter()
+                    .chain(h.point.map(|x| x as f32));
+                let want: Vec<u32> = want.map(f32::to_bits).collect();
+                let got: Vec<u32> = got[1..].iter().map(|x| x.to_bits()).collect();
+                assert_eq!(
+                    want, got,
+                    "case {i} (device only): o {o:?} d {d:?} tri {tri:?}"
+                );
+            }
+            (false, Some(_)) => only_twin += 1,
+            (false, None) => {}
+        }
+    }
+    eprintln!(
+        "device finish: both {both}, device only {only_gpu}, twin only {only_twin} of {}",
+        cases.len()
+    );
+    assert!(both * 10 > cases.len() * 9, "{both} of {}", cases.len());
+}
