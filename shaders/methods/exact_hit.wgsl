@@ -127,10 +127,9 @@ fn det_ff(x: V3, x3: vec3<f32>, c: Cross) -> Det {
         + (p0.lo + p1.lo + p2.lo)
         + (x.hi.x * c.v.lo.x + x.hi.y * c.v.lo.y + x.hi.z * c.v.lo.z)
         + ((x.lo.x + x3.x) * c.v.hi.x + (x.lo.y + x3.y) * c.v.hi.y + (x.lo.z + x3.z) * c.v.hi.z);
-    let perm = (abs(x.hi.x) + abs(x3.x)) * c.mag.x
-        + (abs(x.hi.y) + abs(x3.y)) * c.mag.y
-        + (abs(x.hi.z) + abs(x3.z)) * c.mag.z;
-    return Det(two_sum(s.hi, lo), F_K_EPS2 * perm + F_ABS);
+    let p3 = abs(x3.x) * c.mag.x + abs(x3.y) * c.mag.y + abs(x3.z) * c.mag.z;
+    let perm = abs(x.hi.x) * c.mag.x + abs(x.hi.y) * c.mag.y + abs(x.hi.z) * c.mag.z + p3;
+    return Det(two_sum(s.hi, lo), F_K_EPS2 * perm + 4.0 * F_EPS * p3 + F_ABS);
 }
 
 fn quotient_ff(n: Det, d: Det) -> Quo {
@@ -194,26 +193,36 @@ fn pow2(k: i32) -> f32 {
     return bitcast<f32>(u32(k + 127) << 23u);
 }
 
-fn diff3(a: vec3<f32>, b: vec3<f32>) -> V3 {
-    var out: V3;
-    for (var k = 0u; k < 3u; k++) {
-        let s = two_sum(a[k], -b[k]);
-        out.hi[k] = s.hi;
-        out.lo[k] = s.lo;
-    }
-    return out;
+// The caller's triangle as the hit table holds it (`finish::TriWords`): the corner a in three
+// words per coordinate (exactly), the edges b − a and c − a as double-words.
+struct Tri {
+    a0: vec3<f32>,
+    a1: vec3<f32>,
+    a2: vec3<f32>,
+    e1: V3,
+    e2: V3,
 }
 
 // The hit of the ray from o with direction d (the caller's times 2^d_exp, largest component
-// in [1, 2)) on the triangle (a, b, c), finished when certain (`finish::finish_hit`).
-fn finish_hit(o: vec3<f32>, d: vec3<f32>, d_exp: i32, a: vec3<f32>, b: vec3<f32>, c: vec3<f32>) -> Finished {
+// in [1, 2)) on the triangle, finished when certain (`finish::finish_hit`).
+fn finish_hit(o: vec3<f32>, d: vec3<f32>, d_exp: i32, tri: Tri) -> Finished {
     var out: Finished;
-    if !(operands_ok(o) && operands_ok(a) && operands_ok(b) && operands_ok(c) && zero_or_normal(d)) {
+    if !(operands_ok(o) && zero_or_normal(d)) {
         return out;
     }
-    let w = diff3(a, o);
-    let e1 = diff3(b, a);
-    let e2 = diff3(c, a);
+    let e1 = tri.e1;
+    let e2 = tri.e2;
+    // w = a − o exactly: a double-word and a small third word.
+    var w: V3;
+    var w2: vec3<f32>;
+    for (var k = 0u; k < 3u; k++) {
+        let s0 = two_sum(tri.a0[k], -o[k]);
+        let x = two_sum(s0.lo, tri.a1[k]);
+        let h = two_sum(s0.hi, x.hi);
+        w.hi[k] = h.hi;
+        w.lo[k] = h.lo;
+        w2[k] = x.lo + tri.a2[k];
+    }
     let lambda = opaque(leading12((w.hi.x * d.x + w.hi.y * d.y + w.hi.z * d.z) / (d.x * d.x + d.y * d.y + d.z * d.z)));
     // w − λ d, exactly (`finish::shifted`).
     var ws: V3;
@@ -227,7 +236,7 @@ fn finish_hit(o: vec3<f32>, d: vec3<f32>, d_exp: i32, a: vec3<f32>, b: vec3<f32>
         let n = two_sum(h.hi, l2.hi);
         ws.hi[k] = n.hi;
         ws.lo[k] = n.lo;
-        w3[k] = f.lo + l2.lo;
+        w3[k] = (f.lo + l2.lo) + w2[k];
     }
     let m = max(max(abs(ws.hi), abs(e1.hi)), abs(e2.hi));
     let mm = max(m.x, max(m.y, m.z));
@@ -275,7 +284,8 @@ fn finish_hit(o: vec3<f32>, d: vec3<f32>, d_exp: i32, a: vec3<f32>, b: vec3<f32>
         return out;
     }
     for (var i = 0u; i < 3u; i++) {
-        let x = point_coordinate(a[i], Ff(e1.hi[i], e1.lo[i]), Ff(e2.hi[i], e2.lo[i]), uq, vq);
+        let a = vec3<f32>(tri.a0[i], tri.a1[i], tri.a2[i]);
+        let x = point_coordinate(a, Ff(e1.hi[i], e1.lo[i]), Ff(e2.hi[i], e2.lo[i]), uq, vq);
         if !x.ok {
             return out;
         }
@@ -288,15 +298,17 @@ fn finish_hit(o: vec3<f32>, d: vec3<f32>, d_exp: i32, a: vec3<f32>, b: vec3<f32>
     return out;
 }
 
-fn point_coordinate(a: f32, e1: Ff, e2: Ff, u: Quo, v: Quo) -> Cert {
+fn point_coordinate(a: vec3<f32>, e1: Ff, e2: Ff, u: Quo, v: Quo) -> Cert {
     if e1.hi == 0.0 && e1.lo == 0.0 && e2.hi == 0.0 && e2.lo == 0.0 {
-        return Cert(a, bitcast<u32>(a) != 0x80000000u);
+        return Cert(a.x, bitcast<u32>(a.x) != 0x80000000u);
     }
     let p1 = two_prod(u.q, e1.hi);
     let p2 = two_prod(v.q, e2.hi);
-    let s1 = two_sum(a, p1.hi);
+    let s1 = two_sum(a.x, p1.hi);
     let s2 = two_sum(s1.hi, p2.hi);
-    var terms = array<f32, 8>(
+    var terms = array<f32, 10>(
+        a.y,
+        a.z,
         p1.lo,
         p2.lo,
         s1.lo,
@@ -308,13 +320,14 @@ fn point_coordinate(a: f32, e1: Ff, e2: Ff, u: Quo, v: Quo) -> Cert {
     );
     var rest = 0.0;
     var size = 0.0;
-    for (var i = 0u; i < 8u; i++) {
+    for (var i = 0u; i < 10u; i++) {
         rest += terms[i];
         size += abs(terms[i]);
     }
-    let err = 8.0 * F_EPS * size
+    let err = 10.0 * F_EPS * size
         + 16.0 * F_EPS * F_EPS * (abs(p1.hi) + abs(p2.hi))
         + F_EPS * (abs(u.c) * abs(e1.hi) + abs(v.c) * abs(e2.hi))
+        + 2.0 * F_EPS * F_EPS * (abs(u.q) * abs(e1.hi) + abs(v.q) * abs(e2.hi))
         + u.err * (abs(e1.hi) + abs(e1.lo))
         + v.err * (abs(e2.hi) + abs(e2.lo))
         + 32.0 * F_TINY;

@@ -52,8 +52,8 @@ struct Shared {
 @group(0) @binding(7) var<storage, read> cells: array<u32>;
 @group(0) @binding(8) var<storage, read> faces: array<vec4<u32>>;
 // The hit table (src/gpu/finish.rs, `HitTable`): per constrained side the caller's triangle
-// (or NO_TRIANGLE), then from word `batch.finish` nine float32 corners per triangle, and last
-// 0 (exact_hit.wgsl's `zero_bits`).
+// (or NO_TRIANGLE), then from word `batch.finish` 21 words per triangle (`Tri`), and last 0
+// (exact_hit.wgsl's `zero_bits`).
 @group(0) @binding(9) var<storage, read> hit_table: array<u32>;
 
 // This invocation's direction as the walk takes it (the caller's times 2^dir_exp).
@@ -288,13 +288,19 @@ fn at_constrained(i: u32, link: u32, t: u32, steps: u32, a: u32, b: u32, c: u32)
     if link != BOUNDARY && batch.finish != NO_TRIANGLE {
         let tri = hit_table[link & ~CONSTRAINED_BIT];
         if tri != NO_TRIANGLE {
-            let at = batch.finish + 9u * tri;
-            var p: array<vec3<f32>, 3>;
+            // The triangle's 21 words (`finish::TriWords`).
+            let at = batch.finish + 21u * tri;
+            var t3: Tri;
             for (var k = 0u; k < 3u; k++) {
-                let w = at + 3u * k;
-                p[k] = bitcast<vec3<f32>>(vec3<u32>(hit_table[w], hit_table[w + 1u], hit_table[w + 2u]));
+                t3.a0[k] = bitcast<f32>(hit_table[at + 3u * k]);
+                t3.a1[k] = bitcast<f32>(hit_table[at + 3u * k + 1u]);
+                t3.a2[k] = bitcast<f32>(hit_table[at + 3u * k + 2u]);
+                t3.e1.hi[k] = bitcast<f32>(hit_table[at + 9u + 2u * k]);
+                t3.e1.lo[k] = bitcast<f32>(hit_table[at + 10u + 2u * k]);
+                t3.e2.hi[k] = bitcast<f32>(hit_table[at + 15u + 2u * k]);
+                t3.e2.lo[k] = bitcast<f32>(hit_table[at + 16u + 2u * k]);
             }
-            let h = finish_hit(batch.origin, dir, dir_exp, p[0], p[1], p[2]);
+            let h = finish_hit(batch.origin, dir, dir_exp, t3);
             if h.ok {
                 var out: RayOut;
                 out.end = END_FINISHED;

@@ -9,7 +9,8 @@
 //! stay the CPU exact cast's, bit for bit (docs/gpu.md, "Hits finished on the device").
 //!
 //! This file is the kernel's CPU twin, operation for operation, and the table the kernel
-//! reads: per constrained side the caller's triangle, and per triangle its corners in float32.
+//! reads: per constrained side the caller's triangle, and per triangle its words ([`TriWords`]:
+//! the float64 corner in three float32 words, the edges as double-words).
 //!
 //! The arithmetic, and why it needs no fused multiply-add. A product `a b` is split as
 //! `a = ah + al` by masking: `ah` keeps the 12 leading significant bits and `al = a − ah` the
@@ -27,24 +28,24 @@ use crate::error::Result;
 use crate::scene::Scene;
 
 /// Unit roundoff of float32.
-pub const EPS: f32 = 5.960_464_5e-8; // 2^-24
+pub const EPS: f32 = f32::from_bits(0x3380_0000); // 2^-24
 /// The determinants' bound is `K ε² P + ABS` (`P` the permanent; see [`Det`]).
-const K_EPS2: f32 = 9.094_947e-13; // 256 ε² = 2^-40
+const K_EPS2: f32 = f32::from_bits(0x2b80_0000); // 256 ε² = 2^-40
 /// Every result a device flushes to zero costs at most 2^-126; the determinants' operands
 /// are scaled to magnitudes below 2 and a determinant takes fewer than 64 results, each
 /// amplified by at most 8: far below this.
-const ABS: f32 = 7.703_719_8e-34; // 2^-110
+const ABS: f32 = f32::from_bits(0x0880_0000); // 2^-110
 /// Corners and the origin: zero or of a magnitude in [2^-100, 2^100], so that their
 /// differences are exact (no part of a TwoSum falls below the normal range) and the scale
 /// that brings them near 1 is a normal float32 number.
-const OPERAND_MIN: f32 = 7.888_609e-31; // 2^-100
-const OPERAND_MAX: f32 = 1.267_650_6e30; // 2^100
+const OPERAND_MIN: f32 = f32::from_bits(0x0d80_0000); // 2^-100
+const OPERAND_MAX: f32 = f32::from_bits(0x7180_0000); // 2^100
 /// The host's float64 value is within an ulp of the exact one: within 2^-51 |x| (2^-50 |x|
 /// here, for the margin).
-const HOST_SLACK: f32 = 8.881_784e-16; // 2^-50
+const HOST_SLACK: f32 = f32::from_bits(0x2680_0000); // 2^-50
 /// Each bound below is formed in float32 with a few roundings, each within ε: it is
 /// enlarged, and the room it is compared with reduced, by 2^-20 (≫ those roundings).
-const SAFE: f32 = 9.536_743e-7; // 2^-20
+const SAFE: f32 = f32::from_bits(0x3580_0000); // 2^-20
 /// 2^-126, the smallest normal float32 number.
 const TINY: f32 = f32::MIN_POSITIVE;
 
@@ -82,13 +83,6 @@ pub fn two_prod(a: f32, b: f32) -> (f32, f32) {
 }
 
 impl Ff {
-    /// a − b, exactly (for operands as [`OPERAND_MIN`] says).
-    #[inline(always)]
-    pub(crate) fn diff(a: f32, b: f32) -> Ff {
-        let (hi, lo) = two_sum(a, -b);
-        Ff { hi, lo }
-    }
-
     #[inline(always)]
     fn scaled(self, f: f32) -> Ff {
         Ff {
@@ -119,13 +113,15 @@ pub(crate) fn cross(x: &[Ff; 3], y: &[Ff; 3]) -> ([Ff; 3], [f32; 3]) {
 }
 
 /// A determinant `x · c` (c a [`cross`] product with magnitudes `mag`; x a double-word with
-/// a third word `x3`, see [`shifted`]), normalized, and its error bound `K ε² P + ABS`,
-/// P = Σ (|x_i| + |x3_i|) mag_i. K = 256: a cross component is within 26 ε² of its
+/// a third word `x3`, see [`shifted`]), normalized, and its error bound
+/// `K ε² P + 4 ε P₃ + ABS`, P = Σ (|x_i| + |x3_i|) mag_i, P₃ = Σ |x3_i| mag_i (the third word
+/// is itself within 2ε of its exact value). K = 256: a cross component is within 26 ε² of its
 /// magnitudes (its two products' 10 ε² each, the hi × lo products and their sums, the dropped
 /// lo × lo), and the dot product adds its products' 10 ε², its lo sum's roundings (at most
 /// 38 ε² P over eleven additions of terms summing to 8 ε P at most), the rounded and dropped
-/// products (9 ε² P) and the cross product's error times |x|: at most 83 ε² P, a margin of
-/// three.
+/// products (9 ε² P) and the cross product's error times |x|: at most 83 ε² P; the edges'
+/// own representation (within 1.01 ε² of the exact edges, [`edge`]) adds at most 3 ε² P:
+/// a margin near three.
 #[inline(always)]
 pub(crate) fn det(x: &[Ff; 3], x3: &[f32; 3], c: &[Ff; 3], mag: &[f32; 3]) -> (Ff, f32) {
     let (p0, e0) = two_prod(x[0].hi, c[0].hi);
@@ -137,28 +133,28 @@ pub(crate) fn det(x: &[Ff; 3], x3: &[f32; 3], c: &[Ff; 3], mag: &[f32; 3]) -> (F
         + (e0 + e1 + e2)
         + (x[0].hi * c[0].lo + x[1].hi * c[1].lo + x[2].hi * c[2].lo)
         + ((x[0].lo + x3[0]) * c[0].hi + (x[1].lo + x3[1]) * c[1].hi + (x[2].lo + x3[2]) * c[2].hi);
-    let perm = (x[0].hi.abs() + x3[0].abs()) * mag[0]
-        + (x[1].hi.abs() + x3[1].abs()) * mag[1]
-        + (x[2].hi.abs() + x3[2].abs()) * mag[2];
+    let p3 = x3[0].abs() * mag[0] + x3[1].abs() * mag[1] + x3[2].abs() * mag[2];
+    let perm = x[0].hi.abs() * mag[0] + x[1].hi.abs() * mag[1] + x[2].hi.abs() * mag[2] + p3;
     let (hi, lo) = two_sum(s, lo);
-    (Ff { hi, lo }, K_EPS2 * perm + ABS)
+    (Ff { hi, lo }, K_EPS2 * perm + 4.0 * EPS * p3 + ABS)
 }
 
-/// w − λ d exactly, for λ of at most 12 significant bits (then λ d_k is exactly a
-/// double-word, [`two_prod`]'s four partial products being exact): a normalized double-word
-/// and a third word (within ε of the exact remainder, itself at most about ε² |w|: its
-/// rounding is far inside the bound's margin). With λ near the ray parameter of the corner
-/// `a`, the result is short (about the triangle's size, not the origin's distance), and so
-/// are the determinants' permanents and errors: a far origin costs no accuracy.
+/// w − λ d, for w = w.hi + w.lo + w2 (w2 a small third word) and λ of at most 12 significant
+/// bits (then λ d_k is exactly a double-word, [`two_prod`]'s four partial products being
+/// exact): a normalized double-word, exact, and a third word (the small remainders and w2,
+/// summed with two roundings: within 2ε of their sum, which [`det`] bounds). With λ near the
+/// ray parameter of the corner `a`, the result is short (about the triangle's size, not the
+/// origin's distance), and so are the determinants' permanents and errors: a far origin costs
+/// no accuracy.
 #[inline(always)]
-pub(crate) fn shifted(w: Ff, lambda: f32, d: f32) -> (Ff, f32) {
+pub(crate) fn shifted(w: Ff, w2: f32, lambda: f32, d: f32) -> (Ff, f32) {
     let (ph, pl) = two_prod(lambda, d);
     let (s, e) = two_sum(w.hi, -ph);
     let (f, g) = two_sum(w.lo, -pl);
     let (h, l) = two_sum(s, f);
     let (l2, g2) = two_sum(l, e);
     let (hi, lo) = two_sum(h, l2);
-    (Ff { hi, lo }, g + g2)
+    (Ff { hi, lo }, (g + g2) + w2)
 }
 
 /// x cut to its 12 leading significant bits.
@@ -174,7 +170,7 @@ pub(crate) fn leading12(x: f32) -> f32 {
 pub(crate) fn quotient(n: Ff, n_err: f32, d: Ff, d_err: f32) -> Option<(f32, f32, f32)> {
     let dh = d.hi.abs();
     // Operands are bounded (2^100) and scaled below 2: nothing here overflows.
-    if !(dh > 2.0 * d_err) {
+    if dh.partial_cmp(&(2.0 * d_err)) != Some(std::cmp::Ordering::Greater) {
         return None;
     }
     let q = n.hi / d.hi;
@@ -248,32 +244,81 @@ fn pow2(k: i32) -> f32 {
     f32::from_bits(((k + 127) as u32) << 23)
 }
 
-/// The hit of the ray from `o` with direction `d` on triangle `tri`, finished when certain.
-/// `d` is the caller's direction times 2^`d_exp` with its largest component in [1, 2), as the
-/// kernel scales it; `o` and the corners are the caller's float32 numbers. None: the host
-/// finishes the hit (a value not certain, t not positive, an operand out of range).
-pub fn finish_hit(o: [f32; 3], d: [f32; 3], d_exp: i32, tri: &[[f32; 3]; 3]) -> Option<Finished> {
+/// The caller's triangle as the kernel reads it (21 words of the hit table): the corner `a`
+/// in three float32 words per coordinate (exactly its float64 value), and the edges b − a and
+/// c − a as double-words within 1.01 ε² |hi| of the exact differences, per component.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TriWords {
+    pub a: [[f32; 3]; 3],
+    pub e1: [Ff; 3],
+    pub e2: [Ff; 3],
+}
+
+/// A high word the kernel takes: zero or a magnitude in [2^-100, 2^100].
+fn high_ok(x: f32) -> bool {
+    operand_ok(x)
+}
+
+/// x as three float32 words, exactly (None when it cannot be, or a word would be subnormal).
+fn words3(x: f64) -> Option<[f32; 3]> {
+    let hi = x as f32;
+    let r = x - hi as f64;
+    let mid = r as f32;
+    let r2 = r - mid as f64;
+    let lo = r2 as f32;
+    let ok = high_ok(hi) && zero_or_normal(mid) && zero_or_normal(lo) && lo as f64 == r2;
+    ok.then_some([hi, mid, lo])
+}
+
+/// p − q as a float32 double-word within 1.01 ε² |hi| of the exact difference: the exact
+/// float64 pair (TwoSum) rounded, its remainder s − hi exact, the low word rounded twice
+/// (2^-53 and 2^-24 of a value at most 2^-24 |hi| (1 + 2^-28)).
+fn edge(p: f64, q: f64) -> Option<Ff> {
+    let s = p - q;
+    let bv = s - p;
+    let t = (p - (s - bv)) + (-q - bv);
+    let hi = s as f32;
+    let lo = ((s - hi as f64) + t) as f32;
+    (high_ok(hi) && zero_or_normal(lo)).then_some(Ff { hi, lo })
+}
+
+/// The kernel's words for a caller's triangle, or None where it must leave its hits to the
+/// host (a coordinate beyond the words' range).
+pub fn tri_words(tri: &[[f64; 3]; 3]) -> Option<TriWords> {
     let [a, b, c] = *tri;
-    if !o
-        .iter()
-        .chain(&a)
-        .chain(&b)
-        .chain(&c)
-        .all(|&x| operand_ok(x))
-        || !d.iter().all(|&x| zero_or_normal(x))
-    {
+    let mut out = TriWords::default();
+    for k in 0..3 {
+        out.a[k] = words3(a[k])?;
+        out.e1[k] = edge(b[k], a[k])?;
+        out.e2[k] = edge(c[k], a[k])?;
+    }
+    Some(out)
+}
+
+/// The hit of the ray from `o` with direction `d` on the triangle `tri` (its words), finished
+/// when certain. `d` is the caller's direction times 2^`d_exp` with its largest component in
+/// [1, 2), as the kernel scales it; `o` is the caller's float32 origin. None: the host finishes
+/// the hit (a value not certain, t not positive, an operand out of range).
+pub fn finish_hit(o: [f32; 3], d: [f32; 3], d_exp: i32, tri: &TriWords) -> Option<Finished> {
+    if !o.iter().all(|&x| operand_ok(x)) || !d.iter().all(|&x| zero_or_normal(x)) {
         return None;
     }
-    let w = [0, 1, 2].map(|k| Ff::diff(a[k], o[k]));
-    let e1 = [0, 1, 2].map(|k| Ff::diff(b[k], a[k]));
-    let e2 = [0, 1, 2].map(|k| Ff::diff(c[k], a[k]));
+    let (e1, e2) = (tri.e1, tri.e2);
+    // w = a − o exactly: a double-word and a small third word (within ε of it).
+    let w = [0, 1, 2].map(|k| {
+        let [a0, a1, a2] = tri.a[k];
+        let (s0, e0) = two_sum(a0, -o[k]);
+        let (x, y) = two_sum(e0, a1);
+        let (hi, lo) = two_sum(s0, x);
+        (Ff { hi, lo }, y + a2)
+    });
     // The origin moved along the line to near the corner's parameter λ (12 bits): t = λ + t'
     // with t' from the shifted determinants; u and v do not change.
     let lambda = leading12(
-        (w[0].hi * d[0] + w[1].hi * d[1] + w[2].hi * d[2])
+        (w[0].0.hi * d[0] + w[1].0.hi * d[1] + w[2].0.hi * d[2])
             / (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]),
     );
-    let ws = [0, 1, 2].map(|k| shifted(w[k], lambda, d[k]));
+    let ws = [0, 1, 2].map(|k| shifted(w[k].0, w[k].1, lambda, d[k]));
     // The short vectors scaled by one power of two to a largest magnitude in [1, 2): exact
     // (a part pushed below the normal range is flushed at worst, within ABS); t scales with it.
     let m = ws
@@ -319,24 +364,33 @@ pub fn finish_hit(o: [f32; 3], d: [f32; 3], d_exp: i32, tri: &[[f32; 3]; 3]) -> 
     let v = certify(vq.0, vq.1, vq.2)?;
     let mut point = [0.0f32; 3];
     for i in 0..3 {
-        point[i] = point_coordinate(a[i], e1[i], e2[i], uq, vq)?;
+        point[i] = point_coordinate(tri.a[i], e1[i], e2[i], uq, vq)?;
     }
     Some(Finished { t, u, v, point })
 }
 
-/// Coordinate `a + u e1 + v e2` of the point (u, v as [`quotient`] gives them), when
-/// certain. Where both edges are flat on this axis it is `a` exactly, as the host's
-/// evaluation gives it (but a −0 there: the host's sign of zero follows its own products).
+/// Coordinate `a + u e1 + v e2` of the point (a in three words; u, v as [`quotient`] gives
+/// them), when certain. Where both edges are flat on this axis it is `a` exactly, which the
+/// host rounds to `a`'s high word (but a −0 there: the host's sign of zero follows its own
+/// products).
 #[inline(always)]
-fn point_coordinate(a: f32, e1: Ff, e2: Ff, u: (f32, f32, f32), v: (f32, f32, f32)) -> Option<f32> {
+fn point_coordinate(
+    a: [f32; 3],
+    e1: Ff,
+    e2: Ff,
+    u: (f32, f32, f32),
+    v: (f32, f32, f32),
+) -> Option<f32> {
     if e1.hi == 0.0 && e1.lo == 0.0 && e2.hi == 0.0 && e2.lo == 0.0 {
-        return (a.to_bits() != 0x8000_0000).then_some(a);
+        return (a[0].to_bits() != 0x8000_0000).then_some(a[0]);
     }
     let (p1, p1e) = two_prod(u.0, e1.hi);
     let (p2, p2e) = two_prod(v.0, e2.hi);
-    let (s1, s1e) = two_sum(a, p1);
+    let (s1, s1e) = two_sum(a[0], p1);
     let (s2, s2e) = two_sum(s1, p2);
     let terms = [
+        a[1],
+        a[2],
         p1e,
         p2e,
         s1e,
@@ -352,11 +406,13 @@ fn point_coordinate(a: f32, e1: Ff, e2: Ff, u: (f32, f32, f32), v: (f32, f32, f3
         rest += x;
         size += x.abs();
     }
-    // The sum's roundings (eight terms), the products' 10 ε², the dropped c·lo products
-    // (≤ ε |c| |hi|), the errors of u and v times the edges, and flushed results.
-    let err = 8.0 * EPS * size
+    // The sum's roundings (ten terms), the products' 10 ε², the dropped c·lo products
+    // (≤ ε |c| |hi|), the edges' own 1.01 ε², the errors of u and v times the edges, and
+    // flushed results.
+    let err = 10.0 * EPS * size
         + 16.0 * EPS * EPS * (p1.abs() + p2.abs())
         + EPS * (u.1.abs() * e1.hi.abs() + v.1.abs() * e2.hi.abs())
+        + 2.0 * EPS * EPS * (u.0.abs() * e1.hi.abs() + v.0.abs() * e2.hi.abs())
         + u.2 * (e1.hi.abs() + e1.lo.abs())
         + v.2 * (e2.hi.abs() + e2.lo.abs())
         + 32.0 * TINY;
@@ -364,17 +420,21 @@ fn point_coordinate(a: f32, e1: Ff, e2: Ff, u: (f32, f32, f32), v: (f32, f32, f3
 }
 
 /// The kernel's table (binding 9): per constrained side, the caller's triangle its face lies
-/// on, or [`NONE`] where the host must decide (a triangle with alternatives, or corners that
-/// are not float32 numbers); then, from word `sides`, nine float32 corners per triangle; last,
-/// 0 (the kernel's `zero_bits`, exact_hit.wgsl).
+/// on, or [`NONE`] where the host must decide (a triangle with alternatives, or a coordinate
+/// beyond the words' range); then, from word `sides`, [`TRI_WORDS`] words per triangle
+/// ([`TriWords`]: a's three words per coordinate, then e1's and e2's two); last, 0 (the
+/// kernel's `zero_bits`, exact_hit.wgsl).
 pub struct HitTable {
     pub buffer: wgpu::Buffer,
-    /// Where the corners begin (the number of sides).
+    /// Where the triangles' words begin (the number of sides).
     pub sides: u32,
 }
 
 /// A side whose hits the kernel leaves to the host.
 pub const NONE: u32 = u32::MAX;
+
+/// Words per triangle in the table.
+pub const TRI_WORDS: usize = 21;
 
 impl HitTable {
     pub(crate) fn bytes(&self) -> u64 {
@@ -382,28 +442,52 @@ impl HitTable {
     }
 }
 
+impl TriWords {
+    /// As the table holds them.
+    fn words(&self) -> [u32; TRI_WORDS] {
+        let mut w = [0u32; TRI_WORDS];
+        for k in 0..3 {
+            for j in 0..3 {
+                w[3 * k + j] = self.a[k][j].to_bits();
+            }
+            w[9 + 2 * k] = self.e1[k].hi.to_bits();
+            w[10 + 2 * k] = self.e1[k].lo.to_bits();
+            w[15 + 2 * k] = self.e2[k].hi.to_bits();
+            w[16 + 2 * k] = self.e2[k].lo.to_bits();
+        }
+        w
+    }
+}
+
 /// The table's words (see [`HitTable`]).
 pub(crate) fn hit_table(scene: &Scene) -> (Vec<u32>, u32) {
     let tris = &scene.surface.triangles;
-    let exact = |t: &[[f64; 3]; 3]| t.iter().flatten().all(|&x| (x as f32) as f64 == x);
-    let usable: Vec<bool> = (0..tris.len())
-        .map(|k| exact(&tris[k]) && scene.surface.alternatives.of(k as u32).is_empty())
+    let words: Vec<Option<TriWords>> = tris
+        .iter()
+        .enumerate()
+        .map(|(k, t)| {
+            if scene.surface.alternatives.of(k as u32).is_empty() {
+                tri_words(t)
+            } else {
+                None
+            }
+        })
         .collect();
     let sides = scene.mesh.constrained.len();
-    let mut words = Vec::with_capacity(sides + 9 * tris.len());
-    words.extend(scene.mesh.constrained.iter().map(|s| {
-        if usable[s.triangle as usize] {
+    let mut out = Vec::with_capacity(sides + TRI_WORDS * tris.len() + 1);
+    out.extend(scene.mesh.constrained.iter().map(|s| {
+        if words[s.triangle as usize].is_some() {
             s.triangle
         } else {
             NONE
         }
     }));
-    for t in tris {
-        words.extend(t.iter().flatten().map(|&x| (x as f32).to_bits()));
+    for w in &words {
+        out.extend(w.unwrap_or_default().words());
     }
     // 0, which the kernel reads as `zero_bits` (exact_hit.wgsl: a value no compiler knows).
-    words.push(0);
-    (words, sides as u32)
+    out.push(0);
+    (out, sides as u32)
 }
 
 /// Uploads the table for the shared-origin kernel.

@@ -18,11 +18,11 @@ fn kernel_scale(d: [f32; 3]) -> ([f32; 3], i32) {
 /// The exact values (the referee): t, u, v and the point rounded to nearest float64 and then
 /// to float32 (one rounding where no float32 boundary is within a float64 ulp, which is all a
 /// certified value claims).
-fn exact(o: [f32; 3], d: [f32; 3], tri: &[[f32; 3]; 3]) -> Option<[f32; 6]> {
+fn exact(o: [f32; 3], d: [f32; 3], tri: &[[f64; 3]; 3]) -> Option<[f32; 6]> {
     let x = |v: [f32; 3]| v.map(|c| Dyadic::from_f64(c as f64));
     let sub = |p: &[Dyadic; 3], q: &[Dyadic; 3]| [0, 1, 2].map(|k| &p[k] - &q[k]);
     let (o, d) = (x(o), x(d));
-    let [a, b, c] = tri.map(x);
+    let [a, b, c] = tri.map(|v| v.map(Dyadic::from_f64));
     let (w, e1, e2) = (sub(&a, &o), sub(&b, &a), sub(&c, &a));
     let den = rdet(&d, &e1, &e2);
     if den.is_zero() {
@@ -35,9 +35,9 @@ fn exact(o: [f32; 3], d: [f32; 3], tri: &[[f32; 3]; 3]) -> Option<[f32; 6]> {
 }
 
 /// What the host writes for the hit: its float64 values rounded to float32.
-fn host(o: [f32; 3], d: [f32; 3], tri: &[[f32; 3]; 3]) -> Option<[f32; 6]> {
+fn host(o: [f32; 3], d: [f32; 3], tri: &[[f64; 3]; 3]) -> Option<[f32; 6]> {
     let f = |v: [f32; 3]| v.map(f64::from);
-    let h = rounded_hit(f(o), f(d), &tri.map(f))?;
+    let h = rounded_hit(f(o), f(d), tri)?;
     let p = h.point.map(|x| x as f32);
     Some([h.t as f32, h.u as f32, h.v as f32, p[0], p[1], p[2]])
 }
@@ -45,8 +45,17 @@ fn host(o: [f32; 3], d: [f32; 3], tri: &[[f32; 3]; 3]) -> Option<[f32; 6]> {
 /// Runs the twin on one hit; every value it gives must be the host's and the referee's, bit
 /// for bit. Returns whether it finished the hit.
 fn check(o: [f32; 3], d: [f32; 3], tri: &[[f32; 3]; 3]) -> bool {
+    check64(o, d, &tri.map(|v| v.map(f64::from)))
+}
+
+/// [`check`] on a triangle with float64 corners (the caller's, as a mesh loaded from OBJ
+/// text has them).
+fn check64(o: [f32; 3], d: [f32; 3], tri: &[[f64; 3]; 3]) -> bool {
     let (ds, k) = kernel_scale(d);
-    let Some(f) = finish_hit(o, ds, k, tri) else {
+    let Some(words) = tri_words(tri) else {
+        return false;
+    };
+    let Some(f) = finish_hit(o, ds, k, &words) else {
         return false;
     };
     let got = [f.t, f.u, f.v, f.point[0], f.point[1], f.point[2]].map(f32::to_bits);
@@ -113,6 +122,31 @@ fn finished_hits_are_the_hosts_and_the_exact_values() {
     assert!(
         done * 10 > n * 9,
         "only {done} of {n} generic hits finished"
+    );
+}
+
+/// Triangles with float64 corners (not float32 numbers), near the coordinate origin and
+/// 1,000 away from it: the corner in three words and the edges within 1.01 ε² still give the
+/// host's values, and nearly all are finished.
+#[test]
+fn float64_triangles_are_finished_right() {
+    let mut rng = Rng::new(64);
+    let (mut n, mut done) = (0, 0);
+    for offset in [0.0, 1000.0, -3.3e5] {
+        for _ in 0..1500 {
+            let centre = [0, 1, 2].map(|_| offset + (rng.f() - 0.5) * 10.0);
+            let tri = [0, 1, 2].map(|_| [0, 1, 2].map(|k| centre[k] + rng.f() - 0.5));
+            let o = f3([0, 1, 2].map(|k| centre[k] + (rng.f() - 0.5) * 16.0));
+            let t32 = tri.map(f3);
+            let d = toward(&mut rng, o, &t32);
+            n += 1;
+            done += check64(o, d, &tri) as usize;
+        }
+    }
+    eprintln!("finished {done} of {n} float64 hits");
+    assert!(
+        done * 10 > n * 9,
+        "only {done} of {n} float64 hits finished"
     );
 }
 
@@ -249,4 +283,20 @@ fn two_prod_is_within_its_bound() {
         "two_prod: worst relative error {worst:e} (10 ε² = {:e})",
         10.0 * (EPS as f64).powi(2)
     );
+}
+
+/// The constants are the powers of two the bounds and the kernel's hex literals say.
+#[test]
+fn constants_are_their_powers_of_two() {
+    for (x, k) in [
+        (EPS, -24),
+        (K_EPS2, -40),
+        (ABS, -110),
+        (OPERAND_MIN, -100),
+        (OPERAND_MAX, 100),
+        (HOST_SLACK, -50),
+        (SAFE, -20),
+    ] {
+        assert_eq!(x as f64, 2f64.powi(k), "2^{k}");
+    }
 }

@@ -6,7 +6,7 @@
 //! in `gpu/finish/tests.rs`).
 
 use super::*;
-use crate::gpu::finish::{finish_hit, two_prod, two_sum};
+use crate::gpu::finish::{finish_hit, tri_words, two_prod, two_sum, TRI_WORDS};
 use crate::gpu::gpu;
 use crate::gpu::kernels::Wgsl;
 use wgpu::util::DeviceExt;
@@ -160,12 +160,23 @@ fn device_finished_hits_are_the_twins() {
     let (mut inp, mut cases) = (Vec::new(), Vec::new());
     for i in 0..6000 {
         let size = [1e-3, 1.0, 50.0][i % 3];
-        let c = [0, 1, 2].map(|_| (rng.f() - 0.5) * 10.0 * size);
-        let tri = [0, 1, 2].map(|_| [0, 1, 2].map(|k| (c[k] + size * (rng.f() - 0.5)) as f32));
+        // Every other case at float64 corners (not float32 numbers), some far from 0.
+        let at = [0.0, 0.0, 1000.0, -70.0][i % 4];
+        let c = [0, 1, 2].map(|_| at + (rng.f() - 0.5) * 10.0 * size);
+        let tri = [0, 1, 2].map(|_| {
+            [0, 1, 2].map(|k| {
+                let x = c[k] + size * (rng.f() - 0.5);
+                if i % 2 == 0 {
+                    (x as f32) as f64
+                } else {
+                    x
+                }
+            })
+        });
         let o = [0, 1, 2].map(|k| (c[k] + size * 20.0 * (rng.f() - 0.5)) as f32);
         let (s, t) = (rng.f() * 0.5, rng.f() * 0.5);
         let d0 = [0, 1, 2].map(|k| {
-            let [a, b, cc] = tri.map(|v| v[k] as f64);
+            let [a, b, cc] = tri.map(|v| v[k]);
             ((a + s * (b - a) + t * (cc - a)) - o[k] as f64) as f32 * [1e-30, 1.0, 1e30][i % 3]
         });
         let top = d0.iter().map(|x| x.to_bits() & 0x7fff_ffff).max().unwrap();
@@ -173,34 +184,47 @@ fn device_finished_hits_are_the_twins() {
         if top >> 23 < 2 || top >> 23 > 253 {
             continue;
         }
+        let Some(words) = tri_words(&tri) else {
+            continue;
+        };
         let d = d0.map(|x| x * f32::from_bits(((k + 127) as u32) << 23));
         inp.extend(o);
         inp.extend(d);
         inp.push(f32::from_bits(k as u32));
-        for v in tri {
-            inp.extend(v);
+        let mut w = [0.0f32; TRI_WORDS];
+        for kk in 0..3 {
+            w[3 * kk..3 * kk + 3].copy_from_slice(&words.a[kk]);
+            w[9 + 2 * kk] = words.e1[kk].hi;
+            w[10 + 2 * kk] = words.e1[kk].lo;
+            w[15 + 2 * kk] = words.e2[kk].hi;
+            w[16 + 2 * kk] = words.e2[kk].lo;
         }
-        cases.push((o, d, k, tri));
+        inp.extend(w);
+        cases.push((o, d, k, tri, words));
     }
     let main = "@compute @workgroup_size(64) fn main(@builtin(global_invocation_id) g: vec3<u32>) {\n\
         let i = g.x; if i >= params.n_rays { return; }\n\
         zero_bits = bitcast<u32>(inp[arrayLength(&inp) - 1u]);\n\
-        let b = 16u * i;\n\
+        let b = 28u * i;\n\
         let v = vec3<f32>(inp[b], inp[b + 1u], inp[b + 2u]);\n\
         let d = vec3<f32>(inp[b + 3u], inp[b + 4u], inp[b + 5u]);\n\
         let k = bitcast<i32>(inp[b + 6u]);\n\
-        let p0 = vec3<f32>(inp[b + 7u], inp[b + 8u], inp[b + 9u]);\n\
-        let p1 = vec3<f32>(inp[b + 10u], inp[b + 11u], inp[b + 12u]);\n\
-        let p2 = vec3<f32>(inp[b + 13u], inp[b + 14u], inp[b + 15u]);\n\
-        let h = finish_hit(v, d, k, p0, p1, p2);\n\
+        let at = b + 7u;\n\
+        var t3: Tri;\n\
+        for (var j = 0u; j < 3u; j++) {\n\
+            t3.a0[j] = inp[at + 3u * j]; t3.a1[j] = inp[at + 3u * j + 1u]; t3.a2[j] = inp[at + 3u * j + 2u];\n\
+            t3.e1.hi[j] = inp[at + 9u + 2u * j]; t3.e1.lo[j] = inp[at + 10u + 2u * j];\n\
+            t3.e2.hi[j] = inp[at + 15u + 2u * j]; t3.e2.lo[j] = inp[at + 16u + 2u * j];\n\
+        }\n\
+        let h = finish_hit(v, d, k, t3);\n\
         let o = 7u * i;\n\
         outp[o] = select(0.0, 1.0, h.ok); outp[o + 1u] = h.t; outp[o + 2u] = h.u; outp[o + 3u] = h.v;\n\
         outp[o + 4u] = h.p.x; outp[o + 5u] = h.p.y; outp[o + 6u] = h.p.z;\n}";
     let out = run_kernel(main, &inp, cases.len(), 7);
     let (mut both, mut only_gpu, mut only_twin) = (0, 0, 0);
-    for (i, (o, d, k, tri)) in cases.iter().enumerate() {
+    for (i, (o, d, k, tri, words)) in cases.iter().enumerate() {
         let got = &out[7 * i..7 * i + 7];
-        let twin = finish_hit(*o, *d, *k, tri);
+        let twin = finish_hit(*o, *d, *k, words);
         match (got[0] == 1.0, twin) {
             (true, Some(f)) => {
                 both += 1;
@@ -216,7 +240,7 @@ fn device_finished_hits_are_the_twins() {
                 // units: the direction was scaled by 2^k.
                 only_gpu += 1;
                 let f = |v: [f32; 3]| v.map(f64::from);
-                let h = crate::geom::rounded::rounded_hit(f(*o), f(*d), &tri.map(f)).unwrap();
+                let h = crate::geom::rounded::rounded_hit(f(*o), f(*d), tri).unwrap();
                 let t = (h.t * 2f64.powi(*k)) as f32;
                 let want = [t, h.u as f32, h.v as f32]
                     .into_iter()

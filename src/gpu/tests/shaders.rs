@@ -95,7 +95,7 @@ fn naga_rejects_a_broken_kernel() {
 
 /// The Rust mirrors have the WGSL structs' sizes and member offsets, as naga lays them out.
 /// Structs of shaders/methods/exact_hit.wgsl that no buffer holds.
-const FINISH_LOCALS: [&str; 7] = ["Ff", "V3", "Cross", "Det", "Quo", "Cert", "Finished"];
+const FINISH_LOCALS: [&str; 8] = ["Ff", "V3", "Cross", "Det", "Quo", "Cert", "Finished", "Tri"];
 
 #[test]
 fn rust_mirrors_match_wgsl_layouts() {
