@@ -169,16 +169,15 @@ class Hits:
         return Hits(**fields)
 
     @classmethod
-    def from_core(cls, r, normals, geometries, timings=None) -> Hits:
+    def from_core(cls, r, normal_rows, geometries, timings=None) -> Hits:
         """Hits from the core's flat answer ``r`` (``NativeScene.query("closest", ...)`` or
         a GPU cast): the scene triangle split into mesh and triangle in it
-        (:func:`locate`), the hit triangle's row of ``normals`` (``(F, 3)``), and a GPU
+        (:func:`locate`), the hit triangle's row of ``normal_rows`` (``(F + 1, 3)`` in the
+        rays' dtype, the last row ``nan``: a miss's triangle -1 takes it), and a GPU
         cast's ``timings``."""
         scene_triangle = np.asarray(r["triangle"])
         geometry, triangle = locate(geometries, scene_triangle)
-        hit = scene_triangle >= 0
-        normal = np.full((len(scene_triangle), 3), np.nan, dtype=np.asarray(r["t"]).dtype)
-        normal[hit] = normals[scene_triangle[hit]]
+        normal = np.take(normal_rows, scene_triangle, axis=0)
         return cls(
             **dict(r, triangle=triangle),
             normal=normal,

@@ -277,7 +277,8 @@ class Scene:
         else:
             r = q.run(self._native, "closest", "casting")
         q.check(r["status"])
-        return Hits.from_core(r, self.normals(), self.geometries, timings).reshape(q.shape)
+        rows = self._normal_rows(np.asarray(r["t"]).dtype)
+        return Hits.from_core(r, rows, self.geometries, timings).reshape(q.shape)
 
     def _request(self, args):
         """The :class:`~tetrace.rays.RayRequest` of a ray query's arguments (the public
@@ -299,6 +300,21 @@ class Scene:
         if self._normals is None:
             self._normals = construct.triangle_normals(self.vertices, self.faces)
         return self._normals
+
+    def _normal_rows(self, dtype):
+        """:meth:`normals` in ``dtype`` with a row of ``nan`` appended: a hit's normal is its
+        triangle's row and a miss's (triangle -1) the last, so one ``take`` fills every ray's
+        (no mask, no second pass). Kept per dtype until the normals change."""
+        normals = self.normals()
+        cache = self.__dict__.get("_normal_rows_cache")
+        if cache is None or cache[0] is not normals:
+            cache = (normals, {})
+            self._normal_rows_cache = cache
+        key = np.dtype(dtype)
+        if key not in cache[1]:
+            nan = np.full((1, 3), np.nan)
+            cache[1][key] = np.ascontiguousarray(np.vstack([normals, nan]), dtype=key)
+        return cache[1][key]
 
     @property
     def gpu_timings(self):
