@@ -95,7 +95,7 @@ impl Ff {
 /// x × y for double-words x, y, and per component the sum of magnitudes of its two
 /// products (which bounds its error as a multiple of ε²).
 #[inline(always)]
-pub(crate) fn cross(x: &[Ff; 3], y: &[Ff; 3]) -> ([Ff; 3], [f32; 3]) {
+fn cross(x: &[Ff; 3], y: &[Ff; 3]) -> ([Ff; 3], [f32; 3]) {
     let mut out = [Ff::default(); 3];
     let mut mag = [0.0; 3];
     for i in 0..3 {
@@ -123,7 +123,7 @@ pub(crate) fn cross(x: &[Ff; 3], y: &[Ff; 3]) -> ([Ff; 3], [f32; 3]) {
 /// own representation (within 1.01 ε² of the exact edges, [`edge`]) adds at most 3 ε² P:
 /// a margin near three.
 #[inline(always)]
-pub(crate) fn det(x: &[Ff; 3], x3: &[f32; 3], c: &[Ff; 3], mag: &[f32; 3]) -> (Ff, f32) {
+fn det(x: &[Ff; 3], x3: &[f32; 3], c: &[Ff; 3], mag: &[f32; 3]) -> (Ff, f32) {
     let (p0, e0) = two_prod(x[0].hi, c[0].hi);
     let (p1, e1) = two_prod(x[1].hi, c[1].hi);
     let (p2, e2) = two_prod(x[2].hi, c[2].hi);
@@ -147,7 +147,7 @@ pub(crate) fn det(x: &[Ff; 3], x3: &[f32; 3], c: &[Ff; 3], mag: &[f32; 3]) -> (F
 /// origin's distance), and so are the determinants' permanents and errors: a far origin costs
 /// no accuracy.
 #[inline(always)]
-pub(crate) fn shifted(w: Ff, w2: f32, lambda: f32, d: f32) -> (Ff, f32) {
+fn shifted(w: Ff, w2: f32, lambda: f32, d: f32) -> (Ff, f32) {
     let (ph, pl) = two_prod(lambda, d);
     let (s, e) = two_sum(w.hi, -ph);
     let (f, g) = two_sum(w.lo, -pl);
@@ -159,7 +159,7 @@ pub(crate) fn shifted(w: Ff, w2: f32, lambda: f32, d: f32) -> (Ff, f32) {
 
 /// x cut to its 12 leading significant bits.
 #[inline(always)]
-pub(crate) fn leading12(x: f32) -> f32 {
+fn leading12(x: f32) -> f32 {
     f32::from_bits(x.to_bits() & 0xffff_f000)
 }
 
@@ -167,7 +167,7 @@ pub(crate) fn leading12(x: f32) -> f32 {
 /// with `|q + c − n*/d*| ≤ err`; None unless d is certainly nonzero. q is any approximation
 /// of the quotient (WGSL's division is within 2.5 ulp); the remainder corrects it.
 #[inline(always)]
-pub(crate) fn quotient(n: Ff, n_err: f32, d: Ff, d_err: f32) -> Option<(f32, f32, f32)> {
+fn quotient(n: Ff, n_err: f32, d: Ff, d_err: f32) -> Option<(f32, f32, f32)> {
     let dh = d.hi.abs();
     // Operands are bounded (2^100) and scaled below 2: nothing here overflows.
     if dh.partial_cmp(&(2.0 * d_err)) != Some(std::cmp::Ordering::Greater) {
@@ -254,11 +254,6 @@ pub struct TriWords {
     pub e2: [Ff; 3],
 }
 
-/// A high word the kernel takes: zero or a magnitude in [2^-100, 2^100].
-fn high_ok(x: f32) -> bool {
-    operand_ok(x)
-}
-
 /// x as three float32 words, exactly (None when it cannot be, or a word would be subnormal).
 fn words3(x: f64) -> Option<[f32; 3]> {
     let hi = x as f32;
@@ -266,7 +261,7 @@ fn words3(x: f64) -> Option<[f32; 3]> {
     let mid = r as f32;
     let r2 = r - mid as f64;
     let lo = r2 as f32;
-    let ok = high_ok(hi) && zero_or_normal(mid) && zero_or_normal(lo) && lo as f64 == r2;
+    let ok = operand_ok(hi) && zero_or_normal(mid) && zero_or_normal(lo) && lo as f64 == r2;
     ok.then_some([hi, mid, lo])
 }
 
@@ -279,7 +274,7 @@ fn edge(p: f64, q: f64) -> Option<Ff> {
     let t = (p - (s - bv)) + (-q - bv);
     let hi = s as f32;
     let lo = ((s - hi as f64) + t) as f32;
-    (high_ok(hi) && zero_or_normal(lo)).then_some(Ff { hi, lo })
+    (operand_ok(hi) && zero_or_normal(lo)).then_some(Ff { hi, lo })
 }
 
 /// The kernel's words for a caller's triangle, or None where it must leave its hits to the
