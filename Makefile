@@ -27,6 +27,15 @@ PYTEST_EXTRA ?=
 TEST_FEATURES ?= fuzz,gpu-octree
 # Notebooks run as tests through nbmake; the folder is passed only if it exists.
 NOTEBOOKS := $(wildcard notebooks)
+# The Rust tests, built in the extension's profile with its features (`python` too) so that
+# every dependency (wgpu and naga are most of the build) is the one `setup` compiled for the
+# extension, not compiled again: CI's time goes mostly to compiling. Only the crate itself is
+# built again, once, as its own test harness (`--lib`: the crate-wide tests live in src/tests/,
+# so no integration test needs it built a second time as a library; there are no doctests),
+# with debug assertions and overflow checks on, as a test build has them.
+RUST_TEST = $(CARGO) test --profile $(TEST_PROFILE) --features python,$(TEST_FEATURES) --lib \
+	--config 'profile.$(TEST_PROFILE).package.tetrace.debug-assertions=true' \
+	--config 'profile.$(TEST_PROFILE).package.tetrace.overflow-checks=true'
 
 REPO := $(patsubst %/,%,$(dir $(abspath $(lastword $(MAKEFILE_LIST)))))
 RUST_VERSION := $(shell sed -n 's/^rust-version *= *"\(.*\)"/\1/p' $(REPO)/Cargo.toml)
@@ -125,15 +134,15 @@ lint: setup
 # exit code 5 (no tests collected) counts as a failure.
 test: system-packages setup
 	@status=0; \
-	echo "+ $(CARGO) test --features $(TEST_FEATURES)"; \
-	$(CARGO) test --features $(TEST_FEATURES) || status=1; \
+	echo "+ $(RUST_TEST)"; \
+	$(RUST_TEST) || status=1; \
 	echo "+ $(PY) -m pytest -n $(PYTEST_WORKERS) -ra tests $(if $(NOTEBOOKS),--nbmake $(NOTEBOOKS)) $(PYTEST_EXTRA)"; \
 	$(PY) -m pytest -n $(PYTEST_WORKERS) -ra tests $(if $(NOTEBOOKS),--nbmake $(NOTEBOOKS)) $(PYTEST_EXTRA) || status=1; \
 	exit $$status
 
 # The two halves on their own (no setup step).
 test-rust:
-	$(CARGO) test --features $(TEST_FEATURES)
+	$(RUST_TEST)
 
 test-python:
 	$(PY) -m pytest -n $(PYTEST_WORKERS) -ra tests $(if $(NOTEBOOKS),--nbmake $(NOTEBOOKS)) $(PYTEST_EXTRA)
@@ -152,12 +161,12 @@ bench-gpu-smoke:
 MUTANTS_FILES ?= src/query/*.rs src/traverse/exact.rs src/traverse/walk.rs src/traverse/packet.rs src/geom/*.rs src/locate/*.rs src/accel/*.rs src/accel/tetwalk/packets.rs src/accel/portalez_octree/build.rs src/accel/portalez_octree/walk.rs
 MUTANTS_SHARD ?= 0/1
 # The fast, filtered test command each mutant runs: the CPU core alone (no wgpu to link), the
-# library's tests and tests/closest_order.rs (the Kuhn-grid order test), by cargo-nextest,
+# library's tests (src/query/tests/closest_order.rs, the Kuhn-grid order test, among them), by cargo-nextest,
 # which stops at the first failure. `--in-place` mutates this checkout (restored after each
 # mutant): run it in a worktree of its own (git worktree add ../mut) while you work here.
 # The test profile at opt-level 1: a mutant's rebuild takes 1.5 min on 2 cores, against 4 min
 # at the profile's opt-level 2, and the tests still run in about 2 minutes.
-MUTANTS_ARGS ?= --in-place --no-shuffle --test-tool nextest --no-default-features --features fuzz -C --lib -C --test=closest_order --timeout 300
+MUTANTS_ARGS ?= --in-place --no-shuffle --test-tool nextest --no-default-features --features fuzz -C --lib --timeout 300
 .PHONY: mutants
 mutants: toolchain
 	@$(CARGO) mutants --version >/dev/null 2>&1 || $(CARGO) install --locked cargo-mutants

@@ -30,6 +30,10 @@ pub mod traverse;
 #[cfg(test)]
 pub(crate) mod testing;
 
+// Tests of the crate as a whole (its file graph); the others sit beside their code.
+#[cfg(test)]
+mod tests;
+
 #[cfg(feature = "python")]
 mod py;
 

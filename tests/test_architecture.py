@@ -1,7 +1,7 @@
 """The package's shape: ``import tetrace`` stays small, and no module imports itself back.
 
 Both read the installed package, so a new import that breaks either fails here rather than in a
-review. (The Rust side's module graph is checked by ``tests/module_graph.rs``.)
+review. (The Rust side's module graph is checked by ``src/tests/module_graph.rs``.)
 """
 
 import ast

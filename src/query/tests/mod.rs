@@ -13,6 +13,7 @@ use crate::traverse::{
 };
 use std::cmp::Ordering;
 
+mod closest_order;
 mod fields;
 #[cfg(feature = "fuzz")]
 mod fuzz_cases;

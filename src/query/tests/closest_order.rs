@@ -25,10 +25,10 @@
 //! and confirmed by the exact referee; keeping the crossing instead (`self.best = Some(meet)`)
 //! answers W2 at 0.6875.
 
-use tetrace::layout::LayoutKind;
-use tetrace::scene::{AccelKind, Lanes, Packets};
-use tetrace::traverse::Method;
-use tetrace::{referee, CastOptions, HitBuffers, Rays, Scene, HIT};
+use crate::layout::LayoutKind;
+use crate::scene::{AccelKind, Lanes, Packets};
+use crate::traverse::Method;
+use crate::{referee, CastOptions, HitBuffers, Rays, Scene, HIT};
 
 const N: usize = 8;
 
@@ -81,7 +81,7 @@ fn cover(axis: usize, level: usize, start: [usize; 2], len: usize, upper: bool) 
 
 #[test]
 fn a_neighbour_met_out_of_order_wins_over_a_later_crossing() {
-    let (mut pts, tets) = tetrace::mesh::kuhn::kuhn_grid(N, 0.0, || 0.5);
+    let (mut pts, tets) = crate::mesh::kuhn::kuhn_grid(N, 0.0, || 0.5);
     let h = 1.0 / N as f64;
     let g = |x: f64, y: f64, z: f64| [x * h, y * h, z * h];
     // The Steiner point on the edge T and W share, one ulp above it.
