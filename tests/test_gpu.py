@@ -63,6 +63,12 @@ def test_info_lists_the_adapter_in_use(device):
     assert found and all({"name", "backend", "device_type", "compute"} <= set(a) for a in found)
     assert device["name"] in [a["name"] for a in found if a["compute"]]
     assert device["device_max_storage_buffer_binding_size"] >= 128 << 20
+    assert isinstance(device["timestamps"], bool)
+    # Results are mapped where the kernel wrote them only where memory is shared with the
+    # host; a discrete GPU's kernel must not write across the bus (docs/gpu.md).
+    assert isinstance(device["mapped_results"], bool)
+    if device["device_type"] not in ("Cpu", "IntegratedGpu"):
+        assert not device["mapped_results"]
 
 
 def test_no_adapter_is_a_clear_error():

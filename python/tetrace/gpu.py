@@ -99,7 +99,10 @@ def device():
     -------
     dict
         As in :func:`info`, plus the limits the device was opened with
-        (``device_max_storage_buffer_binding_size``, ``device_max_buffer_size``).
+        (``device_max_storage_buffer_binding_size``, ``device_max_buffer_size``),
+        ``timestamps`` (the kernel's time comes from GPU timestamps) and
+        ``mapped_results`` (the device shares memory with the host, so results are read
+        where the kernel wrote them, with no copy to a readback buffer).
 
     Raises
     ------

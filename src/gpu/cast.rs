@@ -172,27 +172,17 @@ impl DeviceScene {
         timings.shared_origin = true;
         timings.locate = t0.elapsed().as_secs_f64() - grid_upload - table_upload;
         timings.walked = n;
-        // Straight from the caller's array: 12 bytes a ray.
-        let dirs: &[[f32; 3]] = bytemuck::cast_slice(rays.directions);
-        let results = launch.run(&[dirs], n, timings)?;
-        crate::threads::checkpoint()?;
-
-        let t1 = Instant::now();
         let setup = exact_setup(scene, exact.max_steps)?;
         let walk = TetWalk::<f64, Tet20, Exact, NoObserver>::new(scene.locators(), setup);
         let query = scene.closest();
         let handed = AtomicUsize::new(0);
         let finished = AtomicUsize::new(0);
-        let pieces: Vec<_> = crate::query::chunks(out, CHUNK)
-            .into_iter()
-            .enumerate()
-            .collect();
-        run_pieces(pieces, opts.threads, |(k, mut chunk)| {
+        // Each chunk answered from its rays' results, as they come back.
+        let answer = |k: usize, mut chunk: HitsOut<f32>, results: &[RayOut]| {
             let mut st = LocateState::for_chunk(k);
             let (mut sent, mut done) = (0, 0);
-            for j in 0..chunk.len() {
+            for (j, o) in results.iter().enumerate() {
                 let i = k * CHUNK + j;
-                let o = &results[i];
                 let answer = match o.end {
                     END_FINISHED => {
                         done += 1;
@@ -219,10 +209,18 @@ impl DeviceScene {
             }
             handed.fetch_add(sent, Ordering::Relaxed);
             finished.fetch_add(done, Ordering::Relaxed);
+        };
+        let chunks = crate::query::chunks(out, CHUNK);
+        let ends: Vec<usize> = (1..=chunks.len()).map(|k| (k * CHUNK).min(n)).collect();
+        let mut by_chunk = ByChunk::new(chunks, &ends);
+        // Straight from the caller's array: 12 bytes a ray.
+        let dirs: &[[f32; 3]] = bytemuck::cast_slice(rays.directions);
+        launch.run(&[dirs], n, timings, |before, results| {
+            by_chunk.take(before, results, opts.threads, &answer)
         })?;
+        crate::threads::checkpoint()?;
         timings.deferred = handed.into_inner();
         timings.finished = finished.into_inner();
-        timings.finish = t1.elapsed().as_secs_f64();
         Ok(())
     }
 }
@@ -248,46 +246,12 @@ struct OnDevice<'a> {
 }
 
 impl OnDevice<'_> {
-    /// Walks every chunk's prepared rays on the device, in batches: their results in order,
-    /// and where each chunk's begin among them.
-    fn walk(
-        &self,
-        located: &[Located],
-        timings: &mut GpuTimings,
-    ) -> Result<(Vec<RayOut>, Vec<usize>)> {
-        let mut offsets = Vec::with_capacity(located.len());
-        let mut walked = 0usize;
-        for (s, _) in located {
-            offsets.push(walked);
-            walked += s.len();
-        }
-        timings.walked = walked;
-        let results = if walked > 0 {
-            let all: Vec<&[RayIn]> = located.iter().map(|(_, r)| r.as_slice()).collect();
-            let launch = Launch {
-                g: self.g,
-                pipeline: self.pipeline,
-                scene: self.scene,
-                max_steps: self.max_steps,
-                batching: self.batching,
-                cache: self.cache,
-                input_binding: 1,
-                shared: None,
-                extra: &[],
-            };
-            launch.run(&all, walked, timings)?
-        } else {
-            Vec::new()
-        };
-        crate::threads::checkpoint()?;
-        Ok((results, offsets))
-    }
-
     /// A cast in three phases, each chunk of rays as the CPU cast cuts them (same hints and
     /// seeds), on tetrace's pools as pieces (Ctrl-C skips the chunks not started): `begin`
     /// writes the answers of chunk k's rays that need no kernel and returns the others,
     /// prepared; the device walks them in batches; `end` answers each from its start and the
-    /// kernel's result. Counts the rays the kernel deferred.
+    /// kernel's result, chunk by chunk as the batches come back. Counts the rays the kernel
+    /// deferred.
     fn cast(
         &self,
         out: HitsOut<f32>,
@@ -305,23 +269,109 @@ impl OnDevice<'_> {
         })?;
         timings.locate = t0.elapsed().as_secs_f64();
 
-        let (results, offsets) = self.walk(&located, timings)?;
-
-        let t3 = Instant::now();
+        // Where each chunk's walked rays end in the sequence the device walks.
+        let ends: Vec<usize> = located
+            .iter()
+            .scan(0, |walked, (s, _)| {
+                *walked += s.len();
+                Some(*walked)
+            })
+            .collect();
+        let walked = ends.last().copied().unwrap_or(0);
+        timings.walked = walked;
+        if walked == 0 {
+            return Ok(());
+        }
         let deferred = AtomicUsize::new(0);
-        let pieces: Vec<_> = chunks.into_iter().enumerate().collect();
-        run_pieces(pieces, opts.threads, |(k, mut chunk)| {
-            let starts = &located[k].0;
-            let res = &results[offsets[k]..offsets[k] + starts.len()];
-            for ((j, s), o) in starts.iter().zip(res) {
+        let answer = |k: usize, mut chunk: HitsOut<f32>, results: &[RayOut]| {
+            for ((j, s), o) in located[k].0.iter().zip(results) {
                 if o.end == END_DEFERRED {
                     deferred.fetch_add(1, Ordering::Relaxed);
                 }
                 chunk.set(*j as usize, &end(s, o));
             }
+        };
+        let all: Vec<&[RayIn]> = located.iter().map(|(_, r)| r.as_slice()).collect();
+        let launch = Launch {
+            g: self.g,
+            pipeline: self.pipeline,
+            scene: self.scene,
+            max_steps: self.max_steps,
+            batching: self.batching,
+            cache: self.cache,
+            input_binding: 1,
+            shared: None,
+            extra: &[],
+        };
+        let mut by_chunk = ByChunk::new(chunks, &ends);
+        launch.run(&all, walked, timings, |before, results| {
+            by_chunk.take(before, results, opts.threads, &answer)
         })?;
+        crate::threads::checkpoint()?;
         timings.deferred = deferred.into_inner();
-        timings.finish = t3.elapsed().as_secs_f64();
+        Ok(())
+    }
+}
+
+/// A cast's chunks of answers, finished as the device's results come back batch by batch
+/// (chunk k's results are `ends[k - 1]..ends[k]` of the walked sequence): the chunks a batch
+/// completes are answered together, in parallel, from the mapped batch where it lies; a
+/// chunk a batch's end cuts keeps its first results in `carry` (at most one chunk's) and is
+/// answered when the batch that completes it comes.
+struct ByChunk<'a> {
+    chunks: std::iter::Enumerate<std::vec::IntoIter<HitsOut<'a, f32>>>,
+    ends: &'a [usize],
+    /// The first chunk not answered.
+    next: usize,
+    carry: Vec<RayOut>,
+}
+
+impl<'a> ByChunk<'a> {
+    fn new(chunks: Vec<HitsOut<'a, f32>>, ends: &'a [usize]) -> Self {
+        ByChunk {
+            chunks: chunks.into_iter().enumerate(),
+            ends,
+            next: 0,
+            carry: Vec::new(),
+        }
+    }
+
+    /// Takes the results of the batch that begins `before` rays into the sequence.
+    fn take(
+        &mut self,
+        before: usize,
+        batch: &[RayOut],
+        threads: Option<usize>,
+        answer: &(impl Fn(usize, HitsOut<'a, f32>, &[RayOut]) + Sync),
+    ) -> Result<()> {
+        let (mut rest, mut at) = (batch, before);
+        let batch_end = before + batch.len();
+        if !self.carry.is_empty() {
+            // The chunk the last batch cut: completed from this one's head, if it ends here.
+            let missing = self.ends[self.next] - at;
+            if missing > rest.len() {
+                self.carry.extend_from_slice(rest);
+                return Ok(());
+            }
+            self.carry.extend_from_slice(&rest[..missing]);
+            (rest, at) = (&rest[missing..], at + missing);
+            let (k, chunk) = self.chunks.next().expect("a chunk for every end");
+            answer(k, chunk, &self.carry);
+            self.carry.clear();
+            self.next += 1;
+        }
+        let mut pieces = Vec::new();
+        while self.next < self.ends.len() && self.ends[self.next] <= batch_end {
+            let len = self.ends[self.next] - at;
+            let (k, chunk) = self.chunks.next().expect("a chunk for every end");
+            pieces.push((k, chunk, &rest[..len]));
+            (rest, at) = (&rest[len..], at + len);
+            self.next += 1;
+        }
+        run_pieces(pieces, threads, |(k, chunk, results)| {
+            answer(k, chunk, results)
+        })?;
+        self.carry.extend_from_slice(rest);
         Ok(())
     }
 }

@@ -131,6 +131,13 @@ pub struct Gpu {
     /// Whether the device writes GPU timestamps (`Features::TIMESTAMP_QUERY`): the kernel's
     /// time is then the GPU's own, not the host's wait for it.
     pub timestamps: bool,
+    /// Whether the kernels' rays and results are written and read where the device reads
+    /// and writes them: on a device that shares memory with the host (software drivers such
+    /// as lavapipe, integrated GPUs) those buffers are mappable
+    /// (`Features::MAPPABLE_PRIMARY_BUFFERS`), so no staging copy comes before the kernel
+    /// and no copy to a readback buffer after it. A discrete GPU keeps the copy
+    /// (mapping its own memory would make the kernel's writes cross the bus one by one).
+    pub mapped_results: bool,
     /// Compiled kernels, by (method, layout) (`Gpu::pipeline`, in kernels.rs).
     pub(super) pipelines: Mutex<HashMap<KernelKey, Arc<wgpu::ComputePipeline>>>,
 }
@@ -170,10 +177,19 @@ impl Gpu {
             return Err(no_adapter_error(&seen));
         };
         let limits = adapter.limits();
+        let shares_memory = matches!(
+            adapter.get_info().device_type,
+            wgpu::DeviceType::Cpu | wgpu::DeviceType::IntegratedGpu
+        );
+        let mut wanted = wgpu::Features::TIMESTAMP_QUERY;
+        if shares_memory {
+            wanted |= wgpu::Features::MAPPABLE_PRIMARY_BUFFERS;
+        }
         let desc = wgpu::DeviceDescriptor {
             label: Some("tetrace"),
-            // GPU timestamps time the kernel where the adapter has them (`launch.rs`).
-            required_features: adapter.features() & wgpu::Features::TIMESTAMP_QUERY,
+            // GPU timestamps time the kernel where the adapter has them (`launch.rs`); results
+            // are mapped where they lie where memory is shared (`mapped_results`).
+            required_features: adapter.features() & wanted,
             required_limits: limits.clone(),
             memory_hints: wgpu::MemoryHints::Performance,
             ..Default::default()
@@ -191,6 +207,9 @@ impl Gpu {
         }));
         Ok(Gpu {
             timestamps: device.features().contains(wgpu::Features::TIMESTAMP_QUERY),
+            mapped_results: device
+                .features()
+                .contains(wgpu::Features::MAPPABLE_PRIMARY_BUFFERS),
             adapter: summary(adapter),
             limits: device.limits(),
             device,
@@ -230,24 +249,65 @@ impl Gpu {
         out: &mut Vec<T>,
         what: &str,
     ) -> Result<()> {
-        let (tx, rx) = std::sync::mpsc::channel();
-        readback
-            .slice(..size)
-            .map_async(wgpu::MapMode::Read, move |r| {
-                let _ = tx.send(r);
-            });
-        self.wait()?;
-        rx.recv()
-            .map_err(|_| Error::Gpu("the readback callback never ran".into()))?
-            .map_err(|e| Error::Gpu(format!("mapping {what}: {e}")))?;
-        {
+        self.with_mapped(readback, size, what, |v: &[T]| out.extend_from_slice(v))
+    }
+
+    /// Maps the first `size` bytes of `readback`, gives them to `f` as T where they lie (no
+    /// copy: `f` may read them from several threads), and unmaps it afterwards.
+    pub fn with_mapped<T: bytemuck::Pod, R>(
+        &self,
+        readback: &wgpu::Buffer,
+        size: u64,
+        what: &str,
+        f: impl FnOnce(&[T]) -> R,
+    ) -> Result<R> {
+        self.map(readback, size, wgpu::MapMode::Read, what)?;
+        let r = {
             let view = readback
                 .slice(..size)
                 .get_mapped_range()
                 .map_err(|e| Error::Gpu(format!("reading {what}: {e}")))?;
-            out.extend_from_slice(bytemuck::cast_slice(&view[..]));
-        }
+            // A mapped range is aligned to wgpu::MAP_ALIGNMENT (8 bytes): enough for the
+            // 4-byte words of every result type.
+            bytemuck::try_cast_slice(&view[..])
+                .map(f)
+                .map_err(|e| Error::Gpu(format!("reading {what}: {e}")))
+        };
         readback.unmap();
-        Ok(())
+        r
+    }
+
+    /// Maps the first `size` bytes of `buffer` (MAP_WRITE), lets `f` write them (write-only:
+    /// the memory may be write-combined), and unmaps it: the device then reads what `f`
+    /// wrote, with no staging copy between.
+    pub fn write_mapped<R>(
+        &self,
+        buffer: &wgpu::Buffer,
+        size: u64,
+        what: &str,
+        f: impl FnOnce(&mut wgpu::BufferViewMut) -> R,
+    ) -> Result<R> {
+        self.map(buffer, size, wgpu::MapMode::Write, what)?;
+        let r = {
+            let mut view = buffer
+                .slice(..size)
+                .get_mapped_range_mut()
+                .map_err(|e| Error::Gpu(format!("writing {what}: {e}")))?;
+            f(&mut view)
+        };
+        buffer.unmap();
+        Ok(r)
+    }
+
+    /// Maps the first `size` bytes of `buffer` and waits until it is mapped.
+    fn map(&self, buffer: &wgpu::Buffer, size: u64, mode: wgpu::MapMode, what: &str) -> Result<()> {
+        let (tx, rx) = std::sync::mpsc::channel();
+        buffer.slice(..size).map_async(mode, move |r| {
+            let _ = tx.send(r);
+        });
+        self.wait()?;
+        rx.recv()
+            .map_err(|_| Error::Gpu(format!("mapping {what}: the callback never ran")))?
+            .map_err(|e| Error::Gpu(format!("mapping {what}: {e}")))
     }
 }

@@ -21,6 +21,10 @@ pub struct Batching {
     /// Workgroups per dispatch dimension at most, below the device's own limit (None: the
     /// device's). Tests use small values to exercise batching and the 2D dispatch.
     pub max_groups: Option<u32>,
+    /// Write the rays through the queue's staging memory and copy the results to a readback
+    /// buffer even where the device could map both where they lie (`Gpu::mapped_results`):
+    /// a discrete GPU's path, which tests take on lavapipe.
+    pub copy_results: bool,
 }
 
 impl Default for Batching {
@@ -28,6 +32,7 @@ impl Default for Batching {
         Batching {
             max_batch: MAX_BATCH,
             max_groups: None,
+            copy_results: false,
         }
     }
 }
@@ -54,6 +59,8 @@ pub(crate) struct Launch<'a> {
 /// A kernel's ray buffers for batches of up to `batch` rays, and their bind group.
 pub(crate) struct RunBuffers {
     batch: usize,
+    /// Whether the results are mapped where the kernel wrote them (no readback buffer).
+    mapped: bool,
     bufs: RayBuffers,
     bind: wgpu::BindGroup,
 }
@@ -64,7 +71,7 @@ impl RunBuffers {
         let b = &self.bufs;
         b.rays.size()
             + b.hits.size()
-            + b.readback.size()
+            + b.readback.as_ref().map_or(0, wgpu::Buffer::size)
             + b.params.size()
             + b.shared.as_ref().map_or(0, wgpu::Buffer::size)
     }
@@ -74,7 +81,9 @@ impl RunBuffers {
 struct RayBuffers {
     rays: wgpu::Buffer,
     hits: wgpu::Buffer,
-    readback: wgpu::Buffer,
+    /// Where the results are copied to be mapped; None where `hits` itself is mapped (and
+    /// `rays` too: `Gpu::mapped_results`).
+    readback: Option<wgpu::Buffer>,
     params: wgpu::Buffer,
     /// The shared-origin kernel's uniform (binding 5).
     shared: Option<wgpu::Buffer>,
@@ -91,16 +100,18 @@ struct Stamps {
 
 impl Launch<'_> {
     /// Walks the rays of `parts` (all chunks' rays, in order: `walked` in all), as one
-    /// sequence cut into batches; returns their results in the same order. A ray is a RayIn,
-    /// or for the shared-origin kernel its direction.
+    /// sequence cut into batches, and gives each batch's results to `take` with the number
+    /// of rays before it, in order, where they lie in the mapped readback buffer: the host
+    /// copies nothing before it answers from them. A ray is a RayIn, or for the
+    /// shared-origin kernel its direction. `take`'s time counts as the cast's finishing.
     pub fn run<T: bytemuck::Pod>(
         &self,
         parts: &[&[T]],
         walked: usize,
         timings: &mut GpuTimings,
-    ) -> Result<Vec<RayOut>> {
+        mut take: impl FnMut(usize, &[RayOut]) -> Result<()>,
+    ) -> Result<()> {
         let g = self.g;
-        let mut results: Vec<RayOut> = Vec::with_capacity(walked);
         let ray_bytes = std::mem::size_of::<T>() as u64;
         let cap = (g
             .limits
@@ -109,13 +120,22 @@ impl Launch<'_> {
             / ray_bytes)
             .min(self.batching.max_batch as u64) as usize;
         let batch = walked.min(cap).max(1);
+        let mapped = g.mapped_results && !self.batching.copy_results;
         let mut cache = self.cache.lock().unwrap_or_else(|e| e.into_inner());
-        if cache.as_ref().is_none_or(|c| c.batch < batch) {
+        if cache
+            .as_ref()
+            .is_none_or(|c| c.batch < batch || c.mapped != mapped)
+        {
             // Dropped first: the old buffers and the new need not both fit.
             *cache = None;
-            let bufs = self.allocate(batch, ray_bytes)?;
+            let bufs = self.allocate(batch, ray_bytes, mapped)?;
             let bind = self.bind(&bufs)?;
-            *cache = Some(RunBuffers { batch, bufs, bind });
+            *cache = Some(RunBuffers {
+                batch,
+                mapped,
+                bufs,
+                bind,
+            });
         }
         let RunBuffers { bufs, bind, .. } = cache.as_ref().expect("made just above");
         let max_dim = self
@@ -128,6 +148,7 @@ impl Launch<'_> {
         // the chunks' slices it spans, written to the device as they lie (no staging copy).
         let mut rest = parts.iter().copied().filter(|p| !p.is_empty());
         let mut carry: &[T] = &[];
+        let mut before = 0usize;
         loop {
             let (mut pieces, mut n) = (Vec::new(), 0usize);
             while n < batch {
@@ -150,12 +171,13 @@ impl Launch<'_> {
             timings.batches += 1;
             self.upload(bufs, &pieces, n, timings)?;
             self.dispatch(bind, bufs, n, max_dim, timings)?;
-            read_back(g, bufs, n, &mut results, timings)?;
+            read_back(g, bufs, n, timings, |results| take(before, results))??;
+            before += n;
         }
-        Ok(results)
+        Ok(())
     }
 
-    fn allocate(&self, batch: usize, ray_bytes: u64) -> Result<RayBuffers> {
+    fn allocate(&self, batch: usize, ray_bytes: u64, mapped: bool) -> Result<RayBuffers> {
         let g = self.g;
         let out_bytes = std::mem::size_of::<RayOut>() as u64;
         g.scoped("allocating ray buffers", || {
@@ -169,13 +191,31 @@ impl Launch<'_> {
             };
             use wgpu::BufferUsages as U;
             RayBuffers {
-                rays: mk("rays", batch as u64 * ray_bytes, U::STORAGE | U::COPY_DST),
-                hits: mk("hits", batch as u64 * out_bytes, U::STORAGE | U::COPY_SRC),
-                readback: mk(
-                    "hits readback",
-                    batch as u64 * out_bytes,
-                    U::MAP_READ | U::COPY_DST,
+                rays: mk(
+                    "rays",
+                    batch as u64 * ray_bytes,
+                    if mapped {
+                        U::STORAGE | U::MAP_WRITE
+                    } else {
+                        U::STORAGE | U::COPY_DST
+                    },
                 ),
+                hits: mk(
+                    "hits",
+                    batch as u64 * out_bytes,
+                    if mapped {
+                        U::STORAGE | U::MAP_READ
+                    } else {
+                        U::STORAGE | U::COPY_SRC
+                    },
+                ),
+                readback: (!mapped).then(|| {
+                    mk(
+                        "hits readback",
+                        batch as u64 * out_bytes,
+                        U::MAP_READ | U::COPY_DST,
+                    )
+                }),
                 params: g
                     .device
                     .create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -260,12 +300,29 @@ impl Launch<'_> {
     ) -> Result<()> {
         let g = self.g;
         let t = Instant::now();
+        let mapped = bufs.readback.is_none();
+        if mapped {
+            // Shared memory (`Gpu::mapped_results`): the rays go where the kernel reads them.
+            let size = (n * std::mem::size_of::<T>()) as u64;
+            g.write_mapped(&bufs.rays, size, "the rays", |dst| {
+                let mut offset = 0;
+                for p in pieces {
+                    let bytes: &[u8] = bytemuck::cast_slice(p);
+                    dst.slice(offset..offset + bytes.len())
+                        .copy_from_slice(bytes);
+                    offset += bytes.len();
+                }
+            })?;
+        }
         g.scoped("uploading rays", || {
-            let mut offset = 0u64;
-            for p in pieces {
-                let bytes: &[u8] = bytemuck::cast_slice(p);
-                g.queue.write_buffer(&bufs.rays, offset, bytes);
-                offset += bytes.len() as u64;
+            if !mapped {
+                // Through the queue's staging memory.
+                let mut offset = 0u64;
+                for p in pieces {
+                    let bytes: &[u8] = bytemuck::cast_slice(p);
+                    g.queue.write_buffer(&bufs.rays, offset, bytes);
+                    offset += bytes.len() as u64;
+                }
             }
             if let (Some(b), Some(s)) = (&bufs.shared, &self.shared) {
                 g.queue.write_buffer(b, 0, bytemuck::bytes_of(s));
@@ -346,22 +403,36 @@ impl Launch<'_> {
     }
 }
 
-/// Copies the first `n` results back and appends them to `results`.
-fn read_back(
+/// Copies the first `n` results to the readback buffer and gives them, mapped, to `take`
+/// (its time is the finishing's, the rest the readback's).
+fn read_back<R>(
     g: &Gpu,
     bufs: &RayBuffers,
     n: usize,
-    results: &mut Vec<RayOut>,
     timings: &mut GpuTimings,
-) -> Result<()> {
+    take: impl FnOnce(&[RayOut]) -> R,
+) -> Result<R> {
     let t = Instant::now();
     let size = n as u64 * std::mem::size_of::<RayOut>() as u64;
-    g.scoped("reading results back", || {
-        let mut enc = g.device.create_command_encoder(&Default::default());
-        enc.copy_buffer_to_buffer(&bufs.hits, 0, &bufs.readback, 0, size);
-        g.queue.submit([enc.finish()]);
+    let mapped = match &bufs.readback {
+        Some(readback) => {
+            g.scoped("reading results back", || {
+                let mut enc = g.device.create_command_encoder(&Default::default());
+                enc.copy_buffer_to_buffer(&bufs.hits, 0, readback, 0, size);
+                g.queue.submit([enc.finish()]);
+            })?;
+            readback
+        }
+        None => &bufs.hits,
+    };
+    let mut taken = 0.0;
+    let r = g.with_mapped(mapped, size, "the results", |results| {
+        let t = Instant::now();
+        let r = take(results);
+        taken = t.elapsed().as_secs_f64();
+        r
     })?;
-    g.read_mapped(&bufs.readback, size, results, "the results")?;
-    timings.readback += t.elapsed().as_secs_f64();
-    Ok(())
+    timings.finish += taken;
+    timings.readback += t.elapsed().as_secs_f64() - taken;
+    Ok(r)
 }

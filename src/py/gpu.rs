@@ -30,6 +30,8 @@ mod built {
             g.limits.max_storage_buffer_binding_size,
         )?;
         d.set_item("device_max_buffer_size", g.limits.max_buffer_size)?;
+        d.set_item("timestamps", g.timestamps)?;
+        d.set_item("mapped_results", g.mapped_results)?;
         Ok(d)
     }
 
