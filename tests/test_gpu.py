@@ -285,6 +285,42 @@ def test_gpu_timings_come_back_with_the_hits(spot, device):
         assert spot.gpu_timings is None
 
 
+def test_shadow_and_bounce_rays_from_gpu_hits(spot, device):
+    """``start=hits`` on the GPU: a camera's hits on Spot, then shadow rays to a light (tmax=1)
+    and mirror bounces from every hit, each cast on the GPU and on the CPU. Every column is
+    the CPU exact cast's, bit for bit; the referee (rays from hits never meet the triangle
+    they leave) finds every ray right; and the GPU walked some of them."""
+    v = spot.vertices
+    lo, hi = v.min(0), v.max(0)
+    c, r = (lo + hi) / 2, np.linalg.norm(hi - lo)
+    o, d = pinhole(c + [0.3 * r, 0.4 * r, 1.2 * r], c, width=96, height=80, dtype=np.float32)
+    hits = spot.cast(o, d, device="gpu")
+    hit = hits.status == tetrace.HIT
+    assert hit.sum() > 1000
+    light = (c + [r, 2 * r, 0.5 * r]).astype(np.float32)
+    n = np.nan_to_num(hits.normal)
+    bounce = d - 2 * np.sum(d * n, axis=-1, keepdims=True) * n
+    referee = Referee(spot.vertices, spot.faces)
+    leaving = np.where(hit, hits.scene_triangle, -1)
+    origins = np.where(hit[:, None], hits.point, 0).astype(np.float64)
+    for what, dirs, tmax in (
+        ("shadow", light - np.nan_to_num(hits.point), 1.0),
+        ("bounce", bounce, np.inf),
+    ):
+        dirs = np.where(hit[:, None], dirs, 1).astype(np.float32)
+        got = spot.cast(start=hits, directions=dirs, tmax=tmax, device="gpu")
+        cpu = spot.cast(start=hits, directions=dirs, tmax=tmax, precision="f32")
+        for f in ("status", "triangle", "t", "u", "v", "point", "tet", "steps"):
+            np.testing.assert_array_equal(getattr(got, f), getattr(cpu, f), err_msg=f"{what} {f}")
+        assert got.timings["walked"] > 0, what
+        want = referee.first_hits(origins, dirs, 0.0, np.where(hit, tmax, -np.inf), leaving=leaving)
+        score = agreement(got, want)
+        assert score.right == len(o) and score.failed == 0, f"{what}: {score}"
+    # The float kernels cannot begin a ray at a hit: refused, naming the exact kernel.
+    with pytest.raises(ValueError, match="exact kernel"):
+        spot.cast(start=hits, directions=bounce, device="gpu", method="robust")
+
+
 def test_no_adapter_fails_unless_tetrace_skip_gpu(monkeypatch):
     # Nothing passes silently: without an adapter a GPU test fails, unless the one opt-out
     # (TETRACE_SKIP_GPU=1, exactly) makes it skip; CI=true changes nothing.

@@ -440,7 +440,9 @@ start : Hits, optional
     ``directions = light - hits.point`` stops at the light). Its walk starts from
     the tet the hit's walk ended in (Lagae & Dutré 2008's ray connectivity: no
     point location). Rays whose ``start`` entry is not a ``HIT`` are answered as
-    misses. Needs the ``exact`` method and the CPU; every ``accel`` takes it.
+    misses. Needs the ``exact`` method; every ``accel`` takes it, and
+    ``device="gpu"`` too (its exact kernel: the CPU begins each walk next to the
+    hit's tet, the GPU takes the plain steps, answers bit for bit the CPU's).
 tmin, tmax : float or array_like
     Only hits with ``tmin <= t <= tmax`` count: scalars, or arrays that broadcast
     to the rays' leading shape. A ray with ``tmin > tmax`` (an empty interval)

@@ -70,6 +70,13 @@ impl DeviceScene {
         batching: Batching,
     ) -> Result<GpuTimings> {
         check_lengths(rays, &out)?;
+        if rays.leaving.is_some() && !kernel.resumes {
+            return Err(Error::InvalidOption(format!(
+                "start=hits on the GPU takes the exact kernel (the default), which begins each \
+                 ray where the CPU exact walk does; the {}/{} kernel has no such start",
+                kernel.method, kernel.layout.name
+            )));
+        }
         if !out.audit.is_empty() {
             return Err(Error::InvalidOption(
                 "the exact audit observes the CPU walk: cast with device=\"cpu\" to audit".into(),
@@ -92,11 +99,17 @@ impl DeviceScene {
             cache: &cache,
         };
         if kernel.resumes {
-            // The scan for one origin and its location count as the cast's location.
+            // The scan for one origin and its location count as the cast's location. Rays
+            // leaving hits (`start=hits`) each begin next to their hit's tet (the CPU exact
+            // walk's `settle_from`: no point location), so they take the resumed kernel.
             let t0 = Instant::now();
             let query = scene.closest();
             let slack = scene_buffers.points_slack;
-            if let Some(shared) = shared_origin(scene, rays, &query, slack) {
+            let shared = match rays.leaving {
+                None => shared_origin(scene, rays, &query, slack),
+                Some(_) => None,
+            };
+            if let Some(shared) = shared {
                 self.cast_shared(scene, &device, (shared, t0), rays, out, opts, &mut timings)?;
             } else {
                 resumed(scene, kernel, &device, rays, out, opts, &mut timings)?;

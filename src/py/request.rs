@@ -275,10 +275,7 @@ impl PyRayRequest {
             self.tmin.bind(py).try_readonly()?,
             self.tmax.bind(py).try_readonly()?,
         );
-        let start = match &self.start {
-            Some((a, b)) => Some((a.bind(py).try_readonly()?, b.bind(py).try_readonly()?)),
-            None => None,
-        };
+        let start = self.start_read(py)?;
         match &self.arrays {
             Arrays::F32(o, d) => f.run(
                 Borrowed {
@@ -311,16 +308,21 @@ impl PyRayRequest {
                  or device=\"cpu\"",
             ));
         };
+        let start = self.start_read(py)?;
         Ok(Borrowed {
             origins: o.bind(py).try_readonly()?,
             directions: d.bind(py).try_readonly()?,
             tmin: self.tmin.bind(py).try_readonly()?,
             tmax: self.tmax.bind(py).try_readonly()?,
-            start: None,
+            start,
         })
     }
 
-    pub(crate) fn has_start(&self) -> bool {
-        self.start.is_some()
+    /// The `start=hits` arrays (triangle, tet), borrowed, if the request has them.
+    fn start_read<'py>(&self, py: Python<'py>) -> PyResult<Option<StartRead<'py>>> {
+        Ok(match &self.start {
+            Some((a, b)) => Some((a.bind(py).try_readonly()?, b.bind(py).try_readonly()?)),
+            None => None,
+        })
     }
 }

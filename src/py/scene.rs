@@ -143,12 +143,6 @@ impl PyScene {
         py: Python<'py>,
         request: &PyRayRequest,
     ) -> PyResult<(Bound<'py, PyDict>, Bound<'py, PyDict>)> {
-        if request.has_start() {
-            return Err(PyValueError::new_err(
-                "start=hits runs on the CPU: the exact walk decides where a ray leaves the \
-                 surface (device=\"cpu\")",
-            ));
-        }
         if request.opts.accel != AccelKind::TetWalk {
             return Err(PyValueError::new_err(format!(
                 "device=\"gpu\" walks the tetrahedralization; accel {:?} is CPU only",
