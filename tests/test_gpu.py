@@ -316,9 +316,45 @@ def test_shadow_and_bounce_rays_from_gpu_hits(spot, device):
         want = referee.first_hits(origins, dirs, 0.0, np.where(hit, tmax, -np.inf), leaving=leaving)
         score = agreement(got, want)
         assert score.right == len(o) and score.failed == 0, f"{what}: {score}"
+        # Occlusion of the same rays on the GPU: the CPU exact walk's statuses.
+        occ = spot.occluded(start=hits, directions=dirs, tmax=tmax, device="gpu")
+        np.testing.assert_array_equal(occ, got.status == tetrace.HIT, err_msg=what)
     # The float kernels cannot begin a ray at a hit: refused, naming the exact kernel.
     with pytest.raises(ValueError, match="exact kernel"):
         spot.cast(start=hits, directions=bounce, device="gpu", method="robust")
+
+
+def test_occluded_on_the_gpu_is_the_cpu_exact_walk(spot, device):
+    """``occluded(device="gpu")``: the exact kernel with the any-hit query. Camera and random
+    rays with unbounded and short ``tmax``: every status is the CPU exact walk's and the
+    referee's (a triangle in [0, tmax]). Other kernels and accelerators are refused."""
+    v = spot.vertices
+    bounds = np.array([v.min(0), v.max(0)])
+    eye, target, up = orbit_views(bounds, n=1, distance=1.6)[0]
+    o, d = pinhole(eye, target, up, fov_deg=40.0, width=160, height=120, dtype=np.float32)
+    ro, rd = random_rays(bounds, 20_000, seed=7, grow=0.25, dtype=np.float32)
+    referee = Referee(spot.vertices, spot.faces)
+    for what, oo, dd in (("camera", o, d), ("random", ro, rd)):
+        oo = np.broadcast_to(oo, dd.shape)
+        # Bounds up to twice the farthest hit: each ray's first hit falls inside or beyond.
+        t = spot.cast(oo, dd).t
+        short = np.random.default_rng(3).uniform(0, 2 * t[np.isfinite(t)].max(), len(dd))
+        for tmax in (np.inf, short):
+            got, status = spot.occluded(oo, dd, tmax=tmax, device="gpu", return_status=True)
+            cpu, cpu_status = spot.occluded(oo, dd, tmax=tmax, precision="f32", return_status=True)
+            np.testing.assert_array_equal(status, cpu_status, err_msg=what)
+            want = referee.first_hits(oo, dd, 0.0, np.broadcast_to(tmax, len(dd))).hit
+            np.testing.assert_array_equal(got, want, err_msg=what)
+            assert 0 < got.sum() < len(got), what
+    with pytest.raises(ValueError, match="exact kernel"):
+        spot.occluded(o, d, device="gpu", method="aman2022")
+    with pytest.raises(ValueError, match="CPU only"):
+        spot.occluded(o, d, device="gpu", accel="reshetov_bvh")
+    # "auto" with a float kernel named keeps occlusion on the CPU (no error).
+    np.testing.assert_array_equal(
+        spot.occluded(o, d, device="auto", method="aman2022", precision="f32"),
+        spot.occluded(o, d, method="aman2022", precision="f32"),
+    )
 
 
 def test_no_adapter_fails_unless_tetrace_skip_gpu(monkeypatch):

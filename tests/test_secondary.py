@@ -381,6 +381,12 @@ def test_gpu_casts_from_hits_are_the_cpu_exact_casts(case):
         d = d.astype(np.float32)
         got = _cast_judged(scene, v, f, hits32, d, device="gpu")
         cpu = scene.cast(start=hits32, directions=d)
+        for tmax in (np.inf, 1.0):
+            np.testing.assert_array_equal(
+                scene.occluded(start=hits32, directions=d, tmax=tmax, device="gpu"),
+                scene.occluded(start=hits32, directions=d, tmax=tmax),
+                f"{kind} occluded, tmax {tmax}",
+            )
         for field in ("status", "triangle", "t", "u", "v", "point", "tet", "steps", "normal"):
             np.testing.assert_array_equal(
                 getattr(got, field), getattr(cpu, field), f"{kind} {field}"

@@ -131,9 +131,11 @@ class NativeScene:
         request: RayRequest,
         progress: Callable[[int, int], object] | None = None,
     ) -> dict[str, np.ndarray]: ...
-    # A closest-hit cast of the request's float32 rays on the GPU: the fields, and the seconds
-    # of each phase.
-    def cast_gpu(self, request: RayRequest) -> tuple[dict[str, np.ndarray], dict[str, float]]: ...
+    # The request's float32 rays on the GPU, answering "closest" (the hit fields) or "any"
+    # (occlusion: "status"); with the seconds of each phase.
+    def cast_gpu(
+        self, request: RayRequest, kind: str = "closest"
+    ) -> tuple[dict[str, np.ndarray], dict[str, float]]: ...
     # (N, 3) float64 points -> (N,) bool: inside (on the surface counts as inside).
     def contains(
         self, points: npt.NDArray[np.floating], threads: int | None = None

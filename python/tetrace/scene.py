@@ -341,6 +341,7 @@ class Scene:
         layout=None,
         precision=None,
         return_status=False,
+        device="cpu",
         packet=True,
         accel=None,
         progress=None,
@@ -366,8 +367,17 @@ class Scene:
             uint8, the same shape (``return_status=True`` only): ``HIT``, ``MISS``,
             ``FAILED`` or ``INVALID``.
         """
+        gpu.check_cast(device)
+        if device == "gpu" and precision is None:
+            precision = "f32"  # WGSL has no float64: the GPU walks float32 rays
         q = self._request(locals())
-        status = q.run(self._native, "any", "occluded")["status"]
+        # On the GPU with the exact kernel only ("auto" keeps another method on the CPU).
+        if gpu.wanted(device, q.precision, method, layout, accel, start) and (
+            device == "gpu" or method in (None, "exact")
+        ):
+            status = self._native.cast_gpu(q.native, "any")[0]["status"]
+        else:
+            status = q.run(self._native, "any", "occluded")["status"]
         q.check(status)
         status = status.reshape(q.shape)
         hit = status == HIT

@@ -29,7 +29,7 @@ use crate::accel::TetWalk;
 use crate::error::{Error, Result};
 use crate::layout::Tet20;
 use crate::locate::{LocateState, Start, WalkStart};
-use crate::query::{QueryKind, RayHit};
+use crate::query::{QueryKind, RayHit, Sink};
 use crate::scene::CastOptions;
 use crate::scene::{check_lengths, HitsOut, Rays, Scene, CHUNK};
 use crate::threads::run_pieces;
@@ -82,6 +82,100 @@ impl DeviceScene {
                 "the exact audit observes the CPU walk: cast with device=\"cpu\" to audit".into(),
             ));
         }
+        self.on_device(scene, kernel, opts, batching, |device, timings| {
+            if kernel.resumes {
+                // The scan for one origin and its location count as the cast's location. Rays
+                // leaving hits (`start=hits`) each begin next to their hit's tet (the CPU
+                // exact walk's `settle_from`: no point location): the resumed kernel.
+                let t0 = Instant::now();
+                let query = scene.closest();
+                let slack = device.scene.points_slack;
+                let shared = match rays.leaving {
+                    None => shared_origin(scene, rays, &query, slack),
+                    Some(_) => None,
+                };
+                return match shared {
+                    Some(shared) => {
+                        self.cast_shared(scene, device, (shared, t0), rays, out, opts, timings)
+                    }
+                    None => {
+                        let fast = Some(boundary_miss as fn(&RayOut) -> RayHit);
+                        resumed(
+                            scene, &query, fast, kernel, device, rays, out, opts, timings,
+                        )
+                    }
+                };
+            }
+            // Rays the kernel defers (the robust filter's) walk again on the CPU from their
+            // start.
+            let cpu_walk = kernel.deferred_to.map(|f| f(scene)).transpose()?;
+            device.cast(
+                rays,
+                out,
+                opts,
+                timings,
+                |k, chunk| locate_chunk(scene, kernel, rays, k, chunk),
+                |s, o| {
+                    let w = if o.end == END_DEFERRED {
+                        let cpu_walk = cpu_walk
+                            .as_ref()
+                            .expect("only kernels with a CPU walk defer rays");
+                        cpu_walk(s, device.max_steps)
+                    } else {
+                        gpu_walk(kernel, o)
+                    };
+                    scene.finish(s, &w)
+                },
+            )
+        })
+    }
+
+    /// Occlusion of float32 rays on the GPU (shadow rays, `Scene.occluded`): `out[i]` is HIT
+    /// when a scene triangle lies on ray i in [tmin, tmax], else MISS (or the status of a ray
+    /// that did not walk). The exact kernel's resumed walk with the any-hit query: the CPU
+    /// exact walk begins each ray (or, from a hit, next to its tet), the GPU takes the plain
+    /// steps, and the CPU decides at the first constrained face, so every status is the CPU
+    /// exact walk's.
+    pub fn occluded(
+        &self,
+        scene: &Scene,
+        rays: &Rays<f32>,
+        out: &mut [u8],
+        opts: &CastOptions,
+    ) -> Result<GpuTimings> {
+        if rays.origins.len() != 3 * out.len() || rays.directions.len() != 3 * out.len() {
+            return Err(Error::InvalidInput(format!(
+                "{} rays expected 3N origin and direction values, got {} and {}",
+                out.len(),
+                rays.origins.len(),
+                rays.directions.len()
+            )));
+        }
+        let kernel = KernelSpec::find(Some("exact"), Some("tet20"))?;
+        let query = crate::query::AnyHit(scene.closest());
+        self.on_device(
+            scene,
+            kernel,
+            opts,
+            Batching::default(),
+            |device, timings| {
+                resumed(
+                    scene, &query, None, kernel, device, rays, out, opts, timings,
+                )
+            },
+        )
+    }
+
+    /// Runs `f` with `kernel` ready on the device for `scene` (its pipeline, the scene's
+    /// buffers for its layout, the kept ray buffers); returns the cast's timings.
+    fn on_device(
+        &self,
+        scene: &Scene,
+        kernel: &KernelSpec,
+        opts: &CastOptions,
+        batching: Batching,
+        f: impl FnOnce(&OnDevice, &mut GpuTimings) -> Result<()>,
+    ) -> Result<GpuTimings> {
         let g = gpu()?;
         let pipeline = g.pipeline(kernel)?;
         let (scene_buffers, scene_upload) = self.buffers(&g, scene, kernel)?;
@@ -98,43 +192,7 @@ impl DeviceScene {
             batching,
             cache: &cache,
         };
-        if kernel.resumes {
-            // The scan for one origin and its location count as the cast's location. Rays
-            // leaving hits (`start=hits`) each begin next to their hit's tet (the CPU exact
-            // walk's `settle_from`: no point location), so they take the resumed kernel.
-            let t0 = Instant::now();
-            let query = scene.closest();
-            let slack = scene_buffers.points_slack;
-            let shared = match rays.leaving {
-                None => shared_origin(scene, rays, &query, slack),
-                Some(_) => None,
-            };
-            if let Some(shared) = shared {
-                self.cast_shared(scene, &device, (shared, t0), rays, out, opts, &mut timings)?;
-            } else {
-                resumed(scene, kernel, &device, rays, out, opts, &mut timings)?;
-            }
-            return Ok(timings);
-        }
-        // Rays the kernel defers (the robust filter's) walk again on the CPU from their start.
-        let cpu_walk = kernel.deferred_to.map(|f| f(scene)).transpose()?;
-        device.cast(
-            out,
-            opts,
-            &mut timings,
-            |k, chunk| locate_chunk(scene, kernel, rays, k, chunk),
-            |s, o| {
-                let w = if o.end == END_DEFERRED {
-                    let cpu_walk = cpu_walk
-                        .as_ref()
-                        .expect("only kernels with a CPU walk defer rays");
-                    cpu_walk(s, device.max_steps)
-                } else {
-                    gpu_walk(kernel, o)
-                };
-                scene.finish(s, &w)
-            },
-        )?;
+        f(&device, &mut timings)?;
         Ok(timings)
     }
 }
@@ -265,13 +323,14 @@ impl OnDevice<'_> {
     /// prepared; the device walks them in batches; `end` answers each from its start and the
     /// kernel's result, chunk by chunk as the batches come back. Counts the rays the kernel
     /// deferred.
-    fn cast(
+    fn cast<A, S: Sink<A>>(
         &self,
-        out: HitsOut<f32>,
+        rays: &Rays<f32>,
+        out: S,
         opts: &CastOptions,
         timings: &mut GpuTimings,
-        begin: impl Fn(usize, &mut HitsOut<f32>) -> Located + Sync,
-        end: impl Fn(&WalkStart, &RayOut) -> RayHit + Sync,
+        begin: impl Fn(usize, &mut S) -> Located + Sync,
+        end: impl Fn(&WalkStart, &RayOut) -> A + Sync,
     ) -> Result<()> {
         let t0 = Instant::now();
         let mut chunks = crate::query::chunks(out, CHUNK);
@@ -296,12 +355,13 @@ impl OnDevice<'_> {
             return Ok(());
         }
         let deferred = AtomicUsize::new(0);
-        let answer = |k: usize, mut chunk: HitsOut<f32>, results: &[RayOut]| {
+        let answer = |k: usize, mut chunk: S, results: &[RayOut]| {
             for ((j, s), o) in located[k].0.iter().zip(results) {
                 if o.end == END_DEFERRED {
                     deferred.fetch_add(1, Ordering::Relaxed);
                 }
-                chunk.set(*j as usize, &end(s, o));
+                let j = *j as usize;
+                chunk.put(j, end(s, o), &rays.ray(k * CHUNK + j));
             }
         };
         let all: Vec<&[RayIn]> = located.iter().map(|(_, r)| r.as_slice()).collect();
@@ -331,16 +391,16 @@ impl OnDevice<'_> {
 /// completes are answered together, in parallel, from the mapped batch where it lies; a
 /// chunk a batch's end cuts keeps its first results in `carry` (at most one chunk's) and is
 /// answered when the batch that completes it comes.
-struct ByChunk<'a> {
-    chunks: std::iter::Enumerate<std::vec::IntoIter<HitsOut<'a, f32>>>,
+struct ByChunk<'a, S> {
+    chunks: std::iter::Enumerate<std::vec::IntoIter<S>>,
     ends: &'a [usize],
     /// The first chunk not answered.
     next: usize,
     carry: Vec<RayOut>,
 }
 
-impl<'a> ByChunk<'a> {
-    fn new(chunks: Vec<HitsOut<'a, f32>>, ends: &'a [usize]) -> Self {
+impl<'a, S: Send> ByChunk<'a, S> {
+    fn new(chunks: Vec<S>, ends: &'a [usize]) -> Self {
         ByChunk {
             chunks: chunks.into_iter().enumerate(),
             ends,
@@ -355,7 +415,7 @@ impl<'a> ByChunk<'a> {
         before: usize,
         batch: &[RayOut],
         threads: Option<usize>,
-        answer: &(impl Fn(usize, HitsOut<'a, f32>, &[RayOut]) + Sync),
+        answer: &(impl Fn(usize, S, &[RayOut]) + Sync),
     ) -> Result<()> {
         let (mut rest, mut at) = (batch, before);
         let batch_end = before + batch.len();
@@ -389,22 +449,27 @@ impl<'a> ByChunk<'a> {
     }
 }
 
-/// The exact kernel's cast (see the module docs): the CPU exact walk on Tet20, its plain steps
-/// taken on the device.
-fn resumed(
+/// The exact kernel's cast (see the module docs) for `query`: the CPU exact walk on Tet20,
+/// its plain steps taken on the device. `at_boundary` answers a walk handed back at the
+/// domain's boundary without walking on (the closest hit's miss); without it the CPU walks on
+/// from there, as from any face.
+#[allow(clippy::too_many_arguments)] // one cast's parts, as `cast_shared` takes them
+fn resumed<K: QueryKind, S: Sink<K::Answer>>(
     scene: &Scene,
+    query: &K,
+    at_boundary: Option<fn(&RayOut) -> K::Answer>,
     kernel: &KernelSpec,
     device: &OnDevice,
     rays: &Rays<f32>,
-    out: HitsOut<f32>,
+    out: S,
     opts: &CastOptions,
     timings: &mut GpuTimings,
 ) -> Result<()> {
     let setup = exact_setup(scene, device.max_steps)?;
     let walk = TetWalk::<f64, Tet20, Exact, NoObserver>::new(scene.locators(), setup);
-    let query = scene.closest();
     let points_slack = device.scene.points_slack;
     device.cast(
+        rays,
         out,
         opts,
         timings,
@@ -413,8 +478,9 @@ fn resumed(
             let (mut starts, mut prepared) = (Vec::with_capacity(n), Vec::with_capacity(n));
             let mut st = LocateState::for_chunk(k);
             for j in 0..n {
-                match walk.begin_elsewhere(&query, &rays.ray(k * CHUNK + j), &mut st) {
-                    Err(answer) => chunk.set(j, &answer),
+                let ray = rays.ray(k * CHUNK + j);
+                match walk.begin_elsewhere(query, &ray, &mut st) {
+                    Err(answer) => chunk.put(j, answer, &ray),
                     Ok((s, at)) => {
                         let r = (kernel.prepare)(&s, &scene.mesh);
                         prepared.push(RayIn {
@@ -430,9 +496,9 @@ fn resumed(
             }
             (starts, prepared)
         },
-        |s, o| match o.end {
-            END_BOUNDARY => boundary_miss(o),
-            _ => walk.walk_on_from(&query, s, plain_state(o)),
+        |s, o| match (o.end, at_boundary) {
+            (END_BOUNDARY, Some(answer)) => answer(o),
+            _ => walk.walk_on_from(query, s, plain_state(o)),
         },
     )
 }

@@ -12,7 +12,7 @@ use crate::accel::{BvhParams, OctreeParams, PortalezOctree, ReshetovBvh};
 use crate::error::try_vec;
 use crate::geom::real::Real;
 #[cfg(feature = "gpu")]
-use crate::scene::queries::{Closest, RayJob};
+use crate::scene::queries::{Closest, Column, RayJob};
 #[cfg(feature = "gpu")]
 use crate::scene::CastOptions;
 use crate::scene::{AccelKind, Scene};
@@ -136,17 +136,26 @@ impl PyScene {
         kind.0.visit(job)
     }
 
-    /// Casts the float32 rays of `request` on the GPU (start location and hits on the CPU,
-    /// the walk on the device). Returns the closest-hit columns and the seconds of each phase.
+    /// Casts the float32 rays of `request` on the GPU and answers query `kind`: "closest"
+    /// (start location and hits on the CPU, the walk on the device; any kernel) or "any"
+    /// (occlusion, the exact kernel). Returns the query's columns and the seconds of each
+    /// phase.
+    #[pyo3(signature = (request, kind="closest"))]
     fn cast_gpu<'py>(
         &self,
         py: Python<'py>,
         request: &PyRayRequest,
+        kind: &str,
     ) -> PyResult<(Bound<'py, PyDict>, Bound<'py, PyDict>)> {
         if request.opts.accel != AccelKind::TetWalk {
             return Err(PyValueError::new_err(format!(
                 "device=\"gpu\" walks the tetrahedralization; accel {:?} is CPU only",
                 request.opts.accel.name()
+            )));
+        }
+        if !matches!(kind, "closest" | "any") {
+            return Err(PyValueError::new_err(format!(
+                "the GPU answers the closest and any-hit queries (cast, occluded), not {kind:?}"
             )));
         }
         #[cfg(not(feature = "gpu"))]
@@ -166,17 +175,30 @@ impl PyScene {
                 ..Default::default()
             };
             let ask = request.ask;
-            let (method, layout) = (ask.method.map(|m| m.name()), ask.layout.map(|l| l.name()));
-            let mut out = Closest::output::<f32>(rays.len(), &ask)?;
+            let device = &loaded.device;
             // On this thread, as before: its batches stop at `threads::checkpoint`, which
             // polls here (inside `threads::install` the GPU's waits would not see Ctrl-C).
-            let timings = interruptible(py, || {
-                loaded
-                    .device
-                    .cast(scene, method, layout, &rays, out.out(), &opts)
-            })?;
-            let hits = columns_dict(py, Closest::columns(out)?)?;
-            Ok((hits, super::gpu::timings_dict(py, &timings)?))
+            let (columns, timings) = if kind == "any" {
+                if ask.method.is_some_and(|m| m.name() != "exact") {
+                    return Err(PyValueError::new_err(
+                        "occluded on the GPU takes the exact kernel (the default method)",
+                    ));
+                }
+                let mut status = try_vec(rays.len(), 0u8, "statuses")?;
+                let t = interruptible(py, || device.occluded(scene, &rays, &mut status, &opts))?;
+                (vec![Column::new("status", status)], t)
+            } else {
+                let (method, layout) = (ask.method.map(|m| m.name()), ask.layout.map(|l| l.name()));
+                let mut out = Closest::output::<f32>(rays.len(), &ask)?;
+                let t = interruptible(py, || {
+                    device.cast(scene, method, layout, &rays, out.out(), &opts)
+                })?;
+                (Closest::columns(out)?, t)
+            };
+            Ok((
+                columns_dict(py, columns)?,
+                super::gpu::timings_dict(py, &timings)?,
+            ))
         }
     }
 

@@ -9,6 +9,7 @@
 
 mod finish;
 mod host;
+mod occluded;
 #[cfg(feature = "gpu-octree")]
 mod octree;
 mod parity;
