@@ -31,7 +31,7 @@ use crate::layout::Tet20;
 use crate::locate::{LocateState, Start, WalkStart};
 use crate::query::{QueryKind, RayHit, Sink};
 use crate::scene::CastOptions;
-use crate::scene::{check_lengths, HitsOut, Rays, Scene, CHUNK};
+use crate::scene::{check_lengths, check_ray_count, HitsOut, Rays, Scene, CHUNK};
 use crate::threads::run_pieces;
 use crate::traverse::{Exact, NoObserver, Walk, WalkEnd, WalkSetup};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -143,14 +143,7 @@ impl DeviceScene {
         out: &mut [u8],
         opts: &CastOptions,
     ) -> Result<GpuTimings> {
-        if rays.origins.len() != 3 * out.len() || rays.directions.len() != 3 * out.len() {
-            return Err(Error::InvalidInput(format!(
-                "{} rays expected 3N origin and direction values, got {} and {}",
-                out.len(),
-                rays.origins.len(),
-                rays.directions.len()
-            )));
-        }
+        check_ray_count(rays, out.len())?;
         let kernel = KernelSpec::find(Some("exact"), Some("tet20"))?;
         let query = crate::query::AnyHit(scene.closest());
         self.on_device(

@@ -268,6 +268,19 @@ impl<R: Real> HitBuffers<R> {
     }
 }
 
+/// `rays` holds the origins and directions of `n` rays (3 values each).
+pub fn check_ray_count<R>(rays: &Rays<R>, n: usize) -> Result<()> {
+    if rays.origins.len() != 3 * n || rays.directions.len() != 3 * n {
+        return Err(Error::InvalidInput(format!(
+            "{} rays expected 3N origin and direction values, got {} and {}",
+            n,
+            rays.origins.len(),
+            rays.directions.len()
+        )));
+    }
+    Ok(())
+}
+
 /// Rays and outputs of one cast have matching lengths (the audit: empty or 2 per ray).
 pub fn check_lengths<R>(rays: &Rays<R>, out: &HitsOut<R>) -> Result<()> {
     let n = out.len();

@@ -1,7 +1,7 @@
 //! Casting: from the names Python passes (through the method and layout tables) to one
 //! monomorphized walk, run over 4096-ray chunks on the threads asked for.
 
-use super::{check_lengths, HitsOut, Rays, Scene};
+use super::{check_lengths, check_ray_count, HitsOut, Rays, Scene};
 use crate::accel::{Accel, AccelVisitor, TetWalk};
 pub use crate::accel::{AccelKind, Lanes, Packets};
 use crate::error::{Error, Result};
@@ -141,14 +141,7 @@ impl Scene {
         out: &mut [u8],
         opts: &CastOptions,
     ) -> Result<()> {
-        if rays.origins.len() != 3 * out.len() || rays.directions.len() != 3 * out.len() {
-            return Err(Error::InvalidInput(format!(
-                "{} rays expected 3N origin and direction values, got {} and {}",
-                out.len(),
-                rays.origins.len(),
-                rays.directions.len()
-            )));
-        }
+        check_ray_count(rays, out.len())?;
         self.dispatch(method, layout, rays, Job::Any(out), opts)
     }
 
@@ -172,14 +165,7 @@ impl Scene {
         out: &mut [Listed],
         opts: &CastOptions,
     ) -> Result<()> {
-        if rays.origins.len() != 3 * out.len() || rays.directions.len() != 3 * out.len() {
-            return Err(Error::InvalidInput(format!(
-                "{} rays expected 3N origin and direction values, got {} and {}",
-                out.len(),
-                rays.origins.len(),
-                rays.directions.len()
-            )));
-        }
+        check_ray_count(rays, out.len())?;
         self.dispatch(Method::Exact, layout, rays, Job::All(out), opts)
     }
 

@@ -26,7 +26,7 @@ use crate::threads::{checkpoint, run_pieces};
 use crate::traverse::Walk;
 use std::sync::{Arc, OnceLock};
 
-pub use buffers::{check_lengths, HitBuffers, HitsOut, Rays};
+pub use buffers::{check_lengths, check_ray_count, HitBuffers, HitsOut, Rays};
 pub use cast::{AccelKind, CastOptions, Lanes, Packets, CHUNK};
 pub use deform::Moved;
 

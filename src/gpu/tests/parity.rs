@@ -489,48 +489,42 @@ fn gpu_batches_do_not_change_results() {
         max_steps: Some(1 << 20),
         ..Default::default()
     };
-    let one = run(&scene, &o, &d, |r, out| {
-        cast_gpu(&scene, None, None, r, out, &opts).map(|_| ())
-    });
-    let mut timings = None;
-    let many = run(&scene, &o, &d, |r, out| {
-        let batching = Batching {
-            max_batch: 1000,
-            max_groups: Some(7),
-            copy_results: true,
-        };
-        let device = DeviceScene::default();
-        timings = Some(device.cast_with(&scene, &KERNELS[0], r, out, &opts, batching)?);
-        Ok(())
-    });
-    let t = timings.unwrap();
+    // One dispatch (mapped on lavapipe), and batches of 1000 rays copied through staging and
+    // readback buffers on a 2D grid of at most 7 workgroups a row.
+    let one = |o: &[f32], d: &[f32]| {
+        run(&scene, o, d, |r, out| {
+            cast_gpu(&scene, None, None, r, out, &opts).map(|_| ())
+        })
+    };
+    let batched = |o: &[f32], d: &[f32]| {
+        let mut timings = None;
+        let out = run(&scene, o, d, |r, out| {
+            let batching = Batching {
+                max_batch: 1000,
+                max_groups: Some(7),
+                copy_results: true,
+            };
+            let device = DeviceScene::default();
+            timings = Some(device.cast_with(&scene, &KERNELS[0], r, out, &opts, batching)?);
+            Ok(())
+        });
+        (out, timings.expect("the GPU cast ran"))
+    };
+    let (many, t) = batched(&o, &d);
     assert_eq!(t.batches, t.walked.div_ceil(1000), "{t:?}");
     assert!(t.batches > 10, "{t:?}");
     assert!(!t.shared_origin, "{t:?}");
-    assert_same_answers("gpu batches", &one, &many);
-    judged("gpu batches", &verdicts32(&o, &d, &tris), &one);
+    assert_same_answers("gpu batches", &one(&o, &d), &many);
+    judged("gpu batches", &verdicts32(&o, &d, &tris), &many);
 
     // The camera rays alone share one origin: the shared-origin kernel. Its results come
     // back batch by batch too; a chunk of 4096 rays is cut by the batches' ends (1000 rays)
     // and answered when the batch that completes it comes.
     let (oc, dc) = (&o[3 * 20_000..], &d[3 * 20_000..]);
-    let one = run(&scene, oc, dc, |r, out| {
-        cast_gpu(&scene, None, None, r, out, &opts).map(|_| ())
-    });
-    let many = run(&scene, oc, dc, |r, out| {
-        let batching = Batching {
-            max_batch: 1000,
-            max_groups: Some(7),
-            copy_results: true,
-        };
-        let device = DeviceScene::default();
-        timings = Some(device.cast_with(&scene, &KERNELS[0], r, out, &opts, batching)?);
-        Ok(())
-    });
-    let t = timings.unwrap();
+    let (many, t) = batched(oc, dc);
     assert!(t.shared_origin, "{t:?}");
     assert_eq!(t.batches, (oc.len() / 3).div_ceil(1000), "{t:?}");
-    assert_same_answers("gpu batches, one origin", &one, &many);
+    assert_same_answers("gpu batches, one origin", &one(oc, dc), &many);
     judged("gpu batches, one origin", &verdicts32(oc, dc, &tris), &many);
 }
 
