@@ -80,7 +80,7 @@ pub fn trace_each<R: Real, A: Accel<R> + ?Sized, K: QueryKind, S: Sink<K::Answer
     for j in 0..out.len() {
         let ray = ray(j);
         let answer = accel.trace(query, &ray, state);
-        out.put(j, answer, &ray);
+        out.put(j, answer);
     }
 }
 

@@ -38,7 +38,6 @@ struct PacketRay<G> {
     slab: Slab,
     gather: G,
     index: usize,
-    ray: Ray,
 }
 
 /// Float64 rounding unit (half of EPSILON).
@@ -356,9 +355,8 @@ impl Accel<f64> for BvhPackets<'_> {
                         gather: query.gather(&line),
                         line,
                         index: j as usize,
-                        ray,
                     }),
-                    Err(status) => out.put(j as usize, query.skipped(status), &ray),
+                    Err(status) => out.put(j as usize, query.skipped(status)),
                 }
             }
             if rays.is_empty() {
@@ -369,7 +367,7 @@ impl Accel<f64> for BvhPackets<'_> {
             let shared = rays.iter().all(|r| r.line.o.map(f64::to_bits) == o);
             self.walk_packet(&mut rays, shared, &mut state.1, &mut visited, &mut counts);
             for (r, &v) in rays.drain(..).zip(visited.iter()) {
-                out.put(r.index, query.gathered(r.gather, v), &r.ray);
+                out.put(r.index, query.gathered(r.gather, v));
             }
         }
         let c = &self.bvh.culling;
@@ -404,7 +402,6 @@ mod tests {
                     gather: (),
                     line,
                     index,
-                    ray,
                 }
             })
             .collect()

@@ -101,7 +101,7 @@ pub struct PlainState {
 }
 
 /// A lane (or a packet's ray): empty, or the index in its chunk, the ray and its walk.
-type Lane<R, M, P, O> = Option<(usize, Ray, Walking<R, M, P, O>)>;
+type Lane<R, M, P, O> = Option<(usize, Walking<R, M, P, O>)>;
 
 impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> Accel<R>
     for TetWalk<'_, R, L, M, O>
@@ -154,7 +154,7 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> Accel<R>
                     next += 1;
                     let ray = ray_at(j);
                     if let Some(w) = self.begin_plain(query, j, &ray, out, st) {
-                        *slot = Some((j, ray, w));
+                        *slot = Some((j, w));
                         active += 1;
                         break;
                     }
@@ -164,10 +164,10 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> Accel<R>
                 return;
             }
             for slot in lanes.iter_mut() {
-                let Some((_, _, w)) = slot else { continue };
+                let Some((_, w)) = slot else { continue };
                 if !plain_step::<R, L, M>(&self.setup, &w.prepared, &mut w.state) {
-                    let (j, ray, w) = slot.take().expect("an occupied lane");
-                    out.put(j, self.finish(query, w), &ray);
+                    let (j, w) = slot.take().expect("an occupied lane");
+                    out.put(j, self.finish(query, w));
                     active -= 1;
                 }
             }
@@ -189,12 +189,12 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
         st: &mut LocateState,
     ) -> Option<Walking<R, M, K::Policy, O>> {
         match self.begin(query, ray, st) {
-            Err(answer) => out.put(j, answer, ray),
+            Err(answer) => out.put(j, answer),
             Ok(w)
                 if M::CONTACTS
                     && M::may_touch(&w.prepared, &w.state.pa, &w.state.pb, &w.state.pc) =>
             {
-                out.put(j, self.finish(query, w), ray)
+                out.put(j, self.finish(query, w))
             }
             Ok(w) => return Some(w),
         }

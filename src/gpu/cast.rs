@@ -110,7 +110,6 @@ impl DeviceScene {
             // start.
             let cpu_walk = kernel.deferred_to.map(|f| f(scene)).transpose()?;
             device.cast(
-                rays,
                 out,
                 opts,
                 timings,
@@ -318,7 +317,6 @@ impl OnDevice<'_> {
     /// deferred.
     fn cast<A, S: Sink<A>>(
         &self,
-        rays: &Rays<f32>,
         out: S,
         opts: &CastOptions,
         timings: &mut GpuTimings,
@@ -354,7 +352,7 @@ impl OnDevice<'_> {
                     deferred.fetch_add(1, Ordering::Relaxed);
                 }
                 let j = *j as usize;
-                chunk.put(j, end(s, o), &rays.ray(k * CHUNK + j));
+                chunk.put(j, end(s, o));
             }
         };
         let all: Vec<&[RayIn]> = located.iter().map(|(_, r)| r.as_slice()).collect();
@@ -462,7 +460,6 @@ fn resumed<K: QueryKind, S: Sink<K::Answer>>(
     let walk = TetWalk::<f64, Tet20, Exact, NoObserver>::new(scene.locators(), setup);
     let points_slack = device.scene.points_slack;
     device.cast(
-        rays,
         out,
         opts,
         timings,
@@ -473,7 +470,7 @@ fn resumed<K: QueryKind, S: Sink<K::Answer>>(
             for j in 0..n {
                 let ray = rays.ray(k * CHUNK + j);
                 match walk.begin_elsewhere(query, &ray, &mut st) {
-                    Err(answer) => chunk.put(j, answer, &ray),
+                    Err(answer) => chunk.put(j, answer),
                     Ok((s, at)) => {
                         let r = (kernel.prepare)(&s, &scene.mesh);
                         prepared.push(RayIn {

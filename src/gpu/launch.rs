@@ -59,8 +59,6 @@ pub(crate) struct Launch<'a> {
 /// A kernel's ray buffers for batches of up to `batch` rays, and their bind group.
 pub(crate) struct RunBuffers {
     batch: usize,
-    /// Whether the results are mapped where the kernel wrote them (no readback buffer).
-    mapped: bool,
     bufs: RayBuffers,
     bind: wgpu::BindGroup,
 }
@@ -89,6 +87,13 @@ struct RayBuffers {
     shared: Option<wgpu::Buffer>,
     /// Where the device has timestamps: the pass's two, resolved and read back.
     stamps: Option<Stamps>,
+}
+
+impl RayBuffers {
+    /// Whether rays and results are mapped where the kernel reads and writes them.
+    fn mapped(&self) -> bool {
+        self.readback.is_none()
+    }
 }
 
 /// The kernel's begin and end timestamps (`Gpu::timestamps`).
@@ -124,18 +129,13 @@ impl Launch<'_> {
         let mut cache = self.cache.lock().unwrap_or_else(|e| e.into_inner());
         if cache
             .as_ref()
-            .is_none_or(|c| c.batch < batch || c.mapped != mapped)
+            .is_none_or(|c| c.batch < batch || c.bufs.mapped() != mapped)
         {
             // Dropped first: the old buffers and the new need not both fit.
             *cache = None;
             let bufs = self.allocate(batch, ray_bytes, mapped)?;
             let bind = self.bind(&bufs)?;
-            *cache = Some(RunBuffers {
-                batch,
-                mapped,
-                bufs,
-                bind,
-            });
+            *cache = Some(RunBuffers { batch, bufs, bind });
         }
         let RunBuffers { bufs, bind, .. } = cache.as_ref().expect("made just above");
         let max_dim = self
@@ -145,7 +145,8 @@ impl Launch<'_> {
             .min(g.limits.max_compute_workgroups_per_dimension)
             .max(1);
         // The rays in order, cut into batches of at most `batch`: each batch is the pieces of
-        // the chunks' slices it spans, written to the device as they lie (no staging copy).
+        // the chunks' slices it spans, written to the device as they lie (no copy of them
+        // gathered first).
         let mut rest = parts.iter().copied().filter(|p| !p.is_empty());
         let mut carry: &[T] = &[];
         let mut before = 0usize;
@@ -190,25 +191,15 @@ impl Launch<'_> {
                 })
             };
             use wgpu::BufferUsages as U;
+            // Mapped where they lie, or written through staging and copied out.
+            let (into, out_of) = if mapped {
+                (U::MAP_WRITE, U::MAP_READ)
+            } else {
+                (U::COPY_DST, U::COPY_SRC)
+            };
             RayBuffers {
-                rays: mk(
-                    "rays",
-                    batch as u64 * ray_bytes,
-                    if mapped {
-                        U::STORAGE | U::MAP_WRITE
-                    } else {
-                        U::STORAGE | U::COPY_DST
-                    },
-                ),
-                hits: mk(
-                    "hits",
-                    batch as u64 * out_bytes,
-                    if mapped {
-                        U::STORAGE | U::MAP_READ
-                    } else {
-                        U::STORAGE | U::COPY_SRC
-                    },
-                ),
+                rays: mk("rays", batch as u64 * ray_bytes, U::STORAGE | into),
+                hits: mk("hits", batch as u64 * out_bytes, U::STORAGE | out_of),
                 readback: (!mapped).then(|| {
                     mk(
                         "hits readback",
@@ -300,7 +291,7 @@ impl Launch<'_> {
     ) -> Result<()> {
         let g = self.g;
         let t = Instant::now();
-        let mapped = bufs.readback.is_none();
+        let mapped = bufs.mapped();
         if mapped {
             // Shared memory (`Gpu::mapped_results`): the rays go where the kernel reads them.
             let size = (n * std::mem::size_of::<T>()) as u64;

@@ -6,7 +6,6 @@
 use super::contact::{ExactRay, Meet, Range};
 use super::gather::{Every, Line};
 use super::{ClosestHit, Crossing, Decision, Query, QueryKind, Sink};
-use crate::geom::ray::Ray;
 use crate::locate::WalkStart;
 use crate::status::{FAILED, HIT, INVALID, MISS};
 use crate::traverse::{Contact, Touch, Walk, WalkEnd};
@@ -169,7 +168,7 @@ impl Sink<Listed> for &mut [Listed] {
         self.split_at_mut(n)
     }
     #[inline]
-    fn put(&mut self, j: usize, mut answer: Listed, _: &Ray) {
+    fn put(&mut self, j: usize, mut answer: Listed) {
         // As a closest hit (`HitsOut::set`): a point whose t overflows float64 (a direction so
         // short that t is beyond it) has no true t to report, so the ray is INVALID.
         if answer.status == HIT && answer.meets.iter().any(|m| !m.t.is_finite()) {

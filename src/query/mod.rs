@@ -14,7 +14,6 @@ pub mod contact;
 pub mod contains;
 pub mod gather;
 
-use crate::geom::ray::Ray;
 use crate::locate::WalkStart;
 use crate::traverse::Walk;
 use gather::{Gather, Line};
@@ -65,8 +64,8 @@ pub trait Sink<A>: Send + Sized {
     }
     /// The first `n` entries and the rest.
     fn split_at(self, n: usize) -> (Self, Self);
-    /// Writes entry j, the answer for `ray`.
-    fn put(&mut self, j: usize, answer: A, ray: &Ray);
+    /// Writes entry j, its ray's answer.
+    fn put(&mut self, j: usize, answer: A);
 }
 
 /// Splits `sink` into pieces of `size` entries (the last may be shorter).
@@ -91,7 +90,7 @@ impl Sink<u8> for &mut [u8] {
         self.split_at_mut(n)
     }
     #[inline]
-    fn put(&mut self, j: usize, answer: u8, _: &Ray) {
+    fn put(&mut self, j: usize, answer: u8) {
         self[j] = answer;
     }
 }

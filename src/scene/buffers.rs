@@ -191,7 +191,7 @@ impl<R: Real + Send> Sink<RayHit> for HitsOut<'_, R> {
         HitsOut::split_at(self, n)
     }
     #[inline]
-    fn put(&mut self, j: usize, r: RayHit, _ray: &Ray) {
+    fn put(&mut self, j: usize, r: RayHit) {
         self.set(j, &r);
         if !self.audit.is_empty() {
             self.audit[2 * j..2 * j + 2].copy_from_slice(&r.audit);

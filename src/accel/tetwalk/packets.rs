@@ -59,7 +59,7 @@ struct PacketRays {
 /// move).
 struct Run<R: Real, M: ExitMethod<R>, P, O> {
     started: Vec<Lane<R, M, P, O>>,
-    entering: Vec<(usize, Ray, WalkStart)>,
+    entering: Vec<(usize, WalkStart)>,
     /// One entering ray prepared: the others are its redirections (`ExitMethod::redirect`).
     prepared: Option<M::Ray>,
 }
@@ -80,14 +80,14 @@ impl<R: Real, M: ExitMethod<R>, P, O> Run<R, M, P, O> {
     /// Ray i's line (origin, direction as the walk has it).
     fn line(&self, i: u32) -> ([f64; 3], [f64; 3]) {
         if i & ENTERING != 0 {
-            let s = &self.entering[(i & !ENTERING) as usize].2;
+            let s = &self.entering[(i & !ENTERING) as usize].1;
             (s.o, s.dir)
         } else {
             M::line(
                 &self.started[i as usize]
                     .as_ref()
                     .expect("a started ray")
-                    .2
+                    .1
                     .prepared,
             )
         }
@@ -164,7 +164,7 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
             // would have put them.
             order.clear();
             order.extend(run.started.iter().enumerate().map(|(i, w)| {
-                let s = &w.as_ref().expect("a started ray").2.state;
+                let s = &w.as_ref().expect("a started ray").1.state;
                 (s.link, [s.a, s.b, s.c], s.t, s.steps, i as u32)
             }));
             order.sort_unstable();
@@ -213,7 +213,7 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
     ) {
         let ray = ray_at(j);
         if let Some(w) = self.begin_plain(query, j, &ray, out, st) {
-            run.started.push(Some((j, ray, w)));
+            run.started.push(Some((j, w)));
         }
     }
 
@@ -245,16 +245,16 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
             let ray = ray_at(j);
             match self.locators.exact_line(&ray) {
                 // Its answer whichever way it starts (location gives the same status).
-                Err(status) => out.put(j, query.skipped(status), &ray),
+                Err(status) => out.put(j, query.skipped(status)),
                 Ok((start, origin)) => {
                     // One origin: every ray is inside, or every one outside.
                     inside = origin == ExactOrigin::Inside;
-                    run.entering.push((j, ray, start));
+                    run.entering.push((j, start));
                 }
             }
         }
-        let first = &run.entering.first()?.2;
-        let dirs = DirBox::of(run.entering.iter().map(|x| &x.2.dir));
+        let first = &run.entering.first()?.1;
+        let dirs = DirBox::of(run.entering.iter().map(|x| &x.1.dir));
         let tets = &self.locators.mesh.tets;
         let together = if inside {
             self.start_exit_of_all(first.o, &dirs, st).map(|(t, i)| {
@@ -277,7 +277,7 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
             return together;
         }
         let entering = std::mem::take(&mut run.entering);
-        for &(j, _, _) in &entering {
+        for &(j, _) in &entering {
             self.start_alone(query, j, ray_at, out, st, run);
         }
         // Keep the room for the next run.
@@ -415,7 +415,7 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
         };
         for i in rays.iter().map(|r| r.index) {
             if i & ENTERING != 0 {
-                let (j, ray, start) = run.entering[(i & !ENTERING) as usize];
+                let (j, start) = run.entering[(i & !ENTERING) as usize];
                 let mesh = self.locators.mesh;
                 let prepared = match &run.prepared {
                     Some(like) => M::redirect(like, start.dir, &mesh.bounds),
@@ -424,11 +424,11 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
                 let observer = O::for_ray(start.point, start.dir, &mesh.bounds);
                 let (policy, state) = (query.policy(&start), state(&prepared));
                 let answer = self.walk_on(query, &start, &prepared, policy, observer, state);
-                out.put(j, answer, &ray);
+                out.put(j, answer);
             } else {
-                let (j, ray, mut w) = run.started[i as usize].take().expect("a walking ray");
+                let (j, mut w) = run.started[i as usize].take().expect("a walking ray");
                 w.state = state(&w.prepared);
-                out.put(j, self.finish(query, w), &ray);
+                out.put(j, self.finish(query, w));
             }
         }
     }
