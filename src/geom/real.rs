@@ -132,6 +132,20 @@ pub fn unit_scale_is_exact(d: V3<f64>) -> bool {
     if m == 0.0 || !m.is_finite() {
         return true;
     }
+    // Nearly every direction: components zero or within 2^±500. Scaling by 2^-e, e the
+    // largest's exponent (|e| ≤ 500), in two steps of at most 2^250 each, keeps every
+    // intermediate and result a normal number (≥ 2^-1001): exact, without trying it.
+    const LO: f64 = f64::from_bits((1023 - 500) << 52);
+    const HI: f64 = f64::from_bits((1023 + 500) << 52);
+    if m <= HI && d.iter().all(|&x| x == 0.0 || x.abs() >= LO) {
+        return true;
+    }
+    scales_back(d, m)
+}
+
+/// Whether [`unit_scale`] of `d` (largest magnitude `m`, finite and nonzero) multiplied back
+/// gives `d`.
+fn scales_back(d: V3<f64>, m: f64) -> bool {
     let e = exponent(m);
     unit_scale(d)
         .iter()
@@ -157,5 +171,47 @@ pub fn greater(a: f64, b: f64) -> f64 {
         b
     } else {
         a
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::Rng;
+
+    /// The shortcut of [`unit_scale_is_exact`] answers as multiplying back does, on
+    /// directions whose components' exponents range over all of float64's (subnormals,
+    /// zeros and the shortcut's edges 2^±500 included).
+    #[test]
+    fn unit_scale_shortcut_is_the_check() {
+        let mut rng = Rng::new(17);
+        let (mut fast, mut slow) = (0, 0);
+        for _ in 0..200_000 {
+            let d: V3<f64> = [0, 1, 2].map(|_| {
+                let e = match rng.below(4) {
+                    0 => 500 - rng.below(3) as i32 + rng.below(3) as i32,
+                    1 => -500 - rng.below(3) as i32 + rng.below(3) as i32,
+                    _ => rng.below(2098) as i32 - 1075,
+                };
+                let x = times_pow2(1.0 + rng.f(), e);
+                match rng.below(6) {
+                    0 => 0.0,
+                    1 => -x,
+                    _ => x,
+                }
+            });
+            let m = d.iter().fold(0f64, |m, x| m.max(x.abs()));
+            if m == 0.0 || !m.is_finite() {
+                continue;
+            }
+            let want = scales_back(d, m);
+            assert_eq!(unit_scale_is_exact(d), want, "{d:?}");
+            if want {
+                fast += 1;
+            } else {
+                slow += 1;
+            }
+        }
+        assert!(fast > 10_000 && slow > 10_000, "{fast} exact, {slow} not");
     }
 }
