@@ -370,7 +370,8 @@ impl ReshetovBvh {
             if node.count > 0 {
                 let range = node.first as usize..(node.first + node.count) as usize;
                 for j in range {
-                    if line.meets(&self.triangles[j]) && gather.offer(self.order[j]) {
+                    let at = line.meets_at(&self.triangles[j]);
+                    if at.is_some_and(|at| gather.offer_at(self.order[j], at)) {
                         return visited;
                     }
                 }

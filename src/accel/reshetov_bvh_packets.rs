@@ -288,7 +288,11 @@ impl BvhPackets<'_> {
                     let i = bits.trailing_zeros() as usize;
                     bits &= bits - 1;
                     let r = &mut rays[i];
-                    if r.line.meets(tri) && r.gather.offer(bvh.order[j]) {
+                    let settled = r
+                        .line
+                        .meets_at(tri)
+                        .is_some_and(|at| r.gather.offer_at(bvh.order[j], at));
+                    if settled {
                         live &= !(1 << i);
                         active &= !(1 << i);
                     }

@@ -144,13 +144,23 @@ fn plane_t_scaled(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3]) -> (f64, f64) {
 /// The exact t of the line o + t d on the plane of (a, b, c) compared with x: Less when the
 /// crossing comes before x. The plane must not be parallel to d.
 pub fn cmp_t(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3], x: f64) -> Ordering {
+    cmp_t_at(o, d, tri, x, plane_t(o, d, tri))
+}
+
+/// [`cmp_t`] given `plane_t(o, d, tri)` (one evaluation for several comparisons).
+pub fn cmp_t_at(
+    o: V3<f64>,
+    d: V3<f64>,
+    tri: &[V3<f64>; 3],
+    x: f64,
+    (t, err): (f64, f64),
+) -> Ordering {
     if x == f64::INFINITY {
         return Ordering::Less;
     }
     if x == f64::NEG_INFINITY {
         return Ordering::Greater;
     }
-    let (t, err) = plane_t(o, d, tri);
     if err.is_finite() && t.is_finite() {
         if t + err < x {
             return Ordering::Less;

@@ -6,7 +6,7 @@
 //! exact walk gives, whatever order the triangles come in.
 
 use super::contact::{meet_at, Meet};
-use crate::geom::exact::{beyond, cmp_plane_t, cmp_t, plane_t, triangle_sides};
+use crate::geom::exact::{beyond, cmp_plane_t, cmp_t_at, plane_t, triangle_sides};
 use crate::geom::ray::{checked_range, Ray};
 use crate::geom::real::unit_scale;
 use std::cmp::Ordering;
@@ -47,18 +47,29 @@ impl Line {
     /// lies in the triangle's plane, or the triangle has no area), each sign exact.
     #[inline]
     pub fn meets(&self, tri: &Tri) -> bool {
+        self.meets_at(tri).is_some()
+    }
+
+    /// [`Line::meets`], with the float64 crossing `plane_t` gave on the way (t and its
+    /// certified error bound: what [`Gather::offer_at`] orders by before anything exact).
+    #[inline]
+    pub fn meets_at(&self, tri: &Tri) -> Option<(f64, f64)> {
         let o = self.o;
         let s = triangle_sides(self.dir, o, tri);
         let (pos, neg) = (s.iter().any(|&x| x > 0), s.iter().any(|&x| x < 0));
         if pos == neg {
-            return false;
+            return None;
         }
-        // Exact t against [tmin, tmax] (tmin ≥ 0 also rules out crossings behind the origin).
-        cmp_t(o, self.d, tri, self.tmin) != Ordering::Less
-            && !(self.tmax.is_finite() && cmp_t(o, self.d, tri, self.tmax) == Ordering::Greater)
+        // Exact t against [tmin, tmax] (tmin ≥ 0 also rules out crossings behind the origin),
+        // the float crossing deciding where it is farther from the bound than its error.
+        let at = plane_t(o, self.d, tri);
+        let inside = cmp_t_at(o, self.d, tri, self.tmin, at) != Ordering::Less
+            && !(self.tmax.is_finite()
+                && cmp_t_at(o, self.d, tri, self.tmax, at) == Ordering::Greater)
             && self
                 .leaving
-                .is_none_or(|from| beyond(o, self.d, self.dir, &from, tri))
+                .is_none_or(|from| beyond(o, self.d, self.dir, &from, tri));
+        inside.then_some(at)
     }
 
     /// Which of two triangles the ray meets first: the sign of t1 − t2, exactly.
@@ -83,7 +94,12 @@ impl Line {
     /// An upper bound on the exact t where the ray crosses `tri`'s plane (tmax when the
     /// float64 evaluation cannot bound it).
     pub fn t_above(&self, tri: &Tri) -> f64 {
-        let (t, err) = plane_t(self.o, self.d, tri);
+        self.above(plane_t(self.o, self.d, tri))
+    }
+
+    /// [`Line::t_above`] of a crossing `plane_t` gave.
+    #[inline]
+    pub fn above(&self, (t, err): (f64, f64)) -> f64 {
         // Twice the certified error: the sum's own rounding is within the bound's slack.
         let above = t + 2.0 * err;
         if above.is_finite() {
@@ -101,6 +117,12 @@ pub trait Gather {
     /// Takes triangle `id` (the caller's numbering), which the ray meets at one point within
     /// [tmin, tmax] ([`Line::meets`]); true: the answer is settled, offer no more.
     fn offer(&mut self, id: u32) -> bool;
+    /// [`Gather::offer`] with the float crossing [`Line::meets_at`] gave (the same answer;
+    /// a gatherer that orders may decide by it where it is certain).
+    #[inline]
+    fn offer_at(&mut self, id: u32, _at: (f64, f64)) -> bool {
+        self.offer(id)
+    }
 }
 
 /// Closest hit: the triangle with the smallest exact t (ties: the smallest id, as the walk).
@@ -108,6 +130,8 @@ pub struct Nearest<'a> {
     pub line: Line,
     pub triangles: &'a [Tri],
     pub best: Option<u32>,
+    /// The best's float crossing (t, error bound).
+    best_at: (f64, f64),
     reach: f64,
 }
 
@@ -117,6 +141,7 @@ impl<'a> Nearest<'a> {
             line: *line,
             triangles,
             best: None,
+            best_at: (f64::NAN, f64::INFINITY),
             reach: line.tmax,
         }
     }
@@ -135,18 +160,41 @@ impl Gather for Nearest<'_> {
     }
 
     fn offer(&mut self, id: u32) -> bool {
-        let tri = &self.triangles[id as usize];
+        let at = plane_t(self.line.o, self.line.d, &self.triangles[id as usize]);
+        self.offer_at(id, at)
+    }
+
+    #[inline]
+    fn offer_at(&mut self, id: u32, at: (f64, f64)) -> bool {
+        let (t, err) = at;
+        let certain = t.is_finite() && err.is_finite();
+        // Surely beyond the best's exact t (reach bounds it from above): not better.
+        if self.best.is_some() && certain && t - err > self.reach {
+            return false;
+        }
         let better = match self.best {
             None => true,
-            Some(b) => match self.line.cmp(tri, &self.triangles[b as usize]) {
-                Ordering::Less => true,
-                Ordering::Equal => id < b,
-                Ordering::Greater => false,
-            },
+            Some(b) => {
+                let (bt, be) = self.best_at;
+                let order = if certain && bt.is_finite() && be.is_finite() && t + err < bt - be {
+                    Ordering::Less
+                } else if certain && bt.is_finite() && be.is_finite() && t - err > bt + be {
+                    Ordering::Greater
+                } else {
+                    self.line
+                        .cmp(&self.triangles[id as usize], &self.triangles[b as usize])
+                };
+                match order {
+                    Ordering::Less => true,
+                    Ordering::Equal => id < b,
+                    Ordering::Greater => false,
+                }
+            }
         };
         if better {
             self.best = Some(id);
-            self.reach = self.line.t_above(tri);
+            self.best_at = at;
+            self.reach = self.line.above(at);
         }
         false
     }

@@ -254,9 +254,12 @@ impl PortalezOctree {
             let [tc, to, leaf, nc] = self.record(addr);
             for j in to as usize..(to + tc) as usize {
                 let id = self.ids[j];
-                if line.meets(&self.triangles[j]) && !state.offered.contains(&id) {
+                let Some(at) = line.meets_at(&self.triangles[j]) else {
+                    continue;
+                };
+                if !state.offered.contains(&id) {
                     state.offered.push(id);
-                    if gather.offer(id) {
+                    if gather.offer_at(id, at) {
                         return Walked::Done(visited);
                     }
                 }
