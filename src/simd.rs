@@ -19,7 +19,7 @@ pub enum Simd {
     /// Portable code: baseline x86-64 (SSE2) or aarch64 (NEON).
     #[default]
     Scalar,
-    /// AVX2 kernels, on x86-64 CPUs that have AVX2.
+    /// AVX2 kernels, on x86-64 CPUs that have AVX2 and FMA.
     Avx2,
 }
 
@@ -55,7 +55,11 @@ impl Simd {
         match self {
             Simd::Scalar => true,
             #[cfg(target_arch = "x86_64")]
-            Simd::Avx2 => std::arch::is_x86_feature_detected!("avx2"),
+            // The BVH's box test fuses its multiply-adds (`accel::exact_bvh`).
+            Simd::Avx2 => {
+                std::arch::is_x86_feature_detected!("avx2")
+                    && std::arch::is_x86_feature_detected!("fma")
+            }
             #[cfg(not(target_arch = "x86_64"))]
             Simd::Avx2 => false,
         }

@@ -118,7 +118,7 @@ def test_packets_cull_and_answer_as_one_ray(accel):
 def test_bvh_options_and_shape():
     """The accel names, the BVH's parameters (checked), its shape and memory, and the
     refusals: an unknown accel, a float method, the GPU."""
-    assert tetrace.accels() == ["tetwalk", BVH, *PACKETS, OCTREE]
+    assert tetrace.accels() == ["tetwalk", BVH, *PACKETS, OCTREE, "exact_bvh"]
     scene = tetrace.default_scene()
     n_triangles = len(scene.faces)
     built = scene.build_bvh(cost_ratio=4.0, max_leaf=32, bins=8)
@@ -128,6 +128,46 @@ def test_bvh_options_and_shape():
     assert scene.memory()["bvh"] == built["bytes"] > 72 * n_triangles
     fine = scene.build_bvh(cost_ratio=0.0, max_leaf=1)
     assert fine["leaves"] >= built["leaves"]
+
+
+def test_exact_bvh_options_shape_and_refusals():
+    """The 8-wide BVH's parameters (checked, kept by save and load), its shape and memory,
+    and its answers: the exact walk's on the bundled scene's camera and random rays."""
+    scene = tetrace.default_scene()
+    n = len(scene.faces)
+    lo, hi = (np.asarray(x) for x in scene.domain)
+    rng = np.random.default_rng(9)
+    o = lo + rng.random((3000, 3)) * (hi - lo)
+    d = rng.normal(size=(3000, 3))
+    built = scene.build_exact_bvh(cost_ratio=2.0, max_leaf=4, bins=8, leaf_size=2)
+    assert (built["cost_ratio"], built["max_leaf"], built["bins"], built["leaf_size"]) == (
+        2.0,
+        4,
+        8,
+        2,
+    )
+    assert scene.exact_bvh_info() == built
+    assert scene.memory()["exact_bvh"] == built["bytes"] > 76 * n
+    # Eight children at most per node; a leaf holds at most max(max_leaf, leaf_size) = 4.
+    assert 1 <= built["children_per_node"] <= 8 and built["leaves"] * 4 >= n
+    for bad in (dict(max_leaf=17), dict(leaf_size=0), dict(bins=1), dict(cost_ratio=-1.0)):
+        with pytest.raises(ValueError, match=next(iter(bad))):
+            scene.build_exact_bvh(**bad)
+    with pytest.raises(ValueError, match="exit method"):
+        scene.cast(o, d, accel="exact_bvh", method="aman2022")
+    # The same answers as Reshetov's tree (the same tie rule), bit for bit, in both
+    # precisions; and the same any-hit statuses.
+    for dtype in (np.float32, np.float64):
+        o_, d_ = o.astype(dtype), d.astype(dtype)
+        a = scene.cast(o_, d_, accel="exact_bvh")
+        b = scene.cast(o_, d_, accel=BVH)
+        assert (a.status == HIT).sum() > 500
+        np.testing.assert_array_equal(a.status, b.status)
+        np.testing.assert_array_equal(a.triangle, b.triangle)
+        np.testing.assert_array_equal(a.t.view(np.uint8), b.t.view(np.uint8))
+        np.testing.assert_array_equal(
+            scene.occluded(o_, d_, accel="exact_bvh"), scene.occluded(o_, d_, accel=BVH)
+        )
     for bad in (
         dict(cost_ratio=-1.0),
         dict(cost_ratio=float("nan")),

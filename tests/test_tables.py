@@ -34,7 +34,10 @@ def test_python_lists_are_the_tables():
     assert tetrace.accels()[0] == "tetwalk"
 
 
-@pytest.mark.parametrize("structure, build", [("bvh", "build_bvh"), ("octree", "build_octree")])
+@pytest.mark.parametrize(
+    "structure, build",
+    [("bvh", "build_bvh"), ("octree", "build_octree"), ("exact_bvh", "build_exact_bvh")],
+)
 def test_structure_defaults_are_the_cores(structure, build):
     """The signature's defaults are read from the core, so they cannot drift from it."""
     defaults = _native.structure_defaults()[structure]

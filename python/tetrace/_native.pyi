@@ -153,6 +153,14 @@ class NativeScene:
         aperture: bool | None = None,
     ) -> dict[str, Any]: ...
     def bvh_info(self) -> dict[str, Any] | None: ...
+    def build_exact_bvh(
+        self,
+        cost_ratio: float | None = None,
+        max_leaf: int | None = None,
+        bins: int | None = None,
+        leaf_size: int | None = None,
+    ) -> dict[str, Any]: ...
+    def exact_bvh_info(self) -> dict[str, Any] | None: ...
     def build_octree(
         self,
         max_depth: int | None = None,

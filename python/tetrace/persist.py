@@ -32,6 +32,7 @@ def to_bytes(scene):
     for name, info, build in (
         ("bvh", scene.bvh_info(), scene.build_bvh),
         ("octree", scene.octree_info(), scene.build_octree),
+        ("exact_bvh", scene.exact_bvh_info(), scene.build_exact_bvh),
     ):
         if info is not None:
             structures[name] = {k: info[k] for k in inspect.signature(build).parameters}
@@ -118,7 +119,11 @@ def restore(cls, arrays, meta, source):
     last = dec("last_deformation")
     scene.last_deformation = None if last is None else Deformation(**last)
     structures = meta["structures"]
-    for name, build in (("bvh", scene.build_bvh), ("octree", scene.build_octree)):
+    for name, build in (
+        ("bvh", scene.build_bvh),
+        ("octree", scene.build_octree),
+        ("exact_bvh", scene.build_exact_bvh),
+    ):
         if name in structures:
             build(**structures[name])
     return scene

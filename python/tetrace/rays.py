@@ -496,7 +496,10 @@ accel : str, optional
     ``"reshetov_bvh_packets8"`` (that BVH walked by packets of 16 / 64 rays with
     the paper's frustum vertex culling; :meth:`bvh_info` counts what was culled)
     or ``"portalez_octree"`` (Portalez & Duguet's neighbour-linked octree, built on
-    first use or by :meth:`build_octree`). All keep the contract exactly and give
+    first use or by :meth:`build_octree`) or ``"exact_bvh"`` (an 8-wide BVH whose
+    boxes a ray tests eight at once, in float32 padded to be conservative, AVX2 where
+    the CPU has it; built on first use or by :meth:`build_exact_bvh`). All keep the
+    contract exactly and give
     the same answers; those other than the tet walk take only the ``exact``
     method, any layout, and the CPU.
 progress : bool, optional

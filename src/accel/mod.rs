@@ -6,6 +6,7 @@
 //! [`AccelKind`], [`ACCELS`], the structures they read and the dispatch), so a cast and the
 //! benchmarks drive them all the same way.
 
+pub mod exact_bvh;
 pub mod portalez_octree;
 pub mod reshetov_bvh;
 pub mod reshetov_bvh_packets;
@@ -16,6 +17,7 @@ use crate::geom::ray::Ray;
 use crate::geom::real::Real;
 use crate::query::{QueryKind, Sink};
 
+pub use exact_bvh::{ExactBvh, ExactBvhParams};
 pub use portalez_octree::{OctreeParams, PortalezOctree};
 pub use reshetov_bvh::{BvhParams, ReshetovBvh};
 pub use reshetov_bvh_packets::{BvhPackets, CullCounters};

@@ -7,8 +7,10 @@
 //! ([`ACCELS`]) and the dispatch ([`AccelKind::visit`]). A new accelerator is its file, a
 //! `Tested` row type and one row; a new structure is one more row in `structure_table!`.
 
-use super::{Accel, BvhPackets, PortalezOctree, ReshetovBvh};
+use super::exact_bvh::ExactBvhAt;
+use super::{Accel, BvhPackets, ExactBvh, PortalezOctree, ReshetovBvh};
 use crate::error::{Error, Result};
+use crate::simd::Simd;
 use std::sync::{Arc, RwLock};
 
 /// The caller's triangles, as structures are built from them.
@@ -159,6 +161,7 @@ pub trait StructureRow {
 structure_table! {
     bvh: ReshetovBvh,
     octree: PortalezOctree,
+    exact_bvh: ExactBvh,
 }
 
 impl StructureRow for ReshetovBvh {
@@ -175,6 +178,24 @@ impl StructureRow for ReshetovBvh {
             ("max_leaf", Param::U32(p.max_leaf)),
             ("bins", Param::U32(p.bins)),
             ("aperture", Param::Bool(p.aperture)),
+        ]
+    }
+}
+
+impl StructureRow for ExactBvh {
+    type Params = super::ExactBvhParams;
+    fn build_row(triangles: Triangles, params: Self::Params) -> Result<Self> {
+        ExactBvh::build(triangles, params)
+    }
+    fn bytes_row(&self) -> usize {
+        self.memory()
+    }
+    fn fields_row(p: &Self::Params) -> Vec<(&'static str, Param)> {
+        vec![
+            ("cost_ratio", Param::F64(p.cost_ratio)),
+            ("max_leaf", Param::U32(p.max_leaf)),
+            ("bins", Param::U32(p.bins)),
+            ("leaf_size", Param::U32(p.leaf_size)),
         ]
     }
 }
@@ -217,11 +238,11 @@ pub trait AccelVisitor {
 }
 
 /// An accelerator that tests triangles, as a row of the table: its name, the structure it
-/// reads and how it walks it.
+/// reads and how it walks it (at SIMD level `simd`, where it has vector kernels).
 pub trait Tested {
     const NAME: &'static str;
     type Over: Structure;
-    fn walk<V: AccelVisitor>(over: &Self::Over, v: V) -> V::Out;
+    fn walk<V: AccelVisitor>(over: &Self::Over, simd: Simd, v: V) -> V::Out;
 }
 
 /// Reshetov's BVH, one ray at a time.
@@ -229,7 +250,7 @@ pub struct OneRay;
 impl Tested for OneRay {
     const NAME: &'static str = "reshetov_bvh";
     type Over = ReshetovBvh;
-    fn walk<V: AccelVisitor>(bvh: &ReshetovBvh, v: V) -> V::Out {
+    fn walk<V: AccelVisitor>(bvh: &ReshetovBvh, _: Simd, v: V) -> V::Out {
         v.visit(bvh)
     }
 }
@@ -239,7 +260,7 @@ pub struct Packets16;
 impl Tested for Packets16 {
     const NAME: &'static str = "reshetov_bvh_packets";
     type Over = ReshetovBvh;
-    fn walk<V: AccelVisitor>(bvh: &ReshetovBvh, v: V) -> V::Out {
+    fn walk<V: AccelVisitor>(bvh: &ReshetovBvh, _: Simd, v: V) -> V::Out {
         v.visit(&BvhPackets { bvh, size: 16 })
     }
 }
@@ -249,7 +270,7 @@ pub struct Packets64;
 impl Tested for Packets64 {
     const NAME: &'static str = "reshetov_bvh_packets8";
     type Over = ReshetovBvh;
-    fn walk<V: AccelVisitor>(bvh: &ReshetovBvh, v: V) -> V::Out {
+    fn walk<V: AccelVisitor>(bvh: &ReshetovBvh, _: Simd, v: V) -> V::Out {
         v.visit(&BvhPackets { bvh, size: 64 })
     }
 }
@@ -259,8 +280,18 @@ pub struct Octree;
 impl Tested for Octree {
     const NAME: &'static str = "portalez_octree";
     type Over = PortalezOctree;
-    fn walk<V: AccelVisitor>(octree: &PortalezOctree, v: V) -> V::Out {
+    fn walk<V: AccelVisitor>(octree: &PortalezOctree, _: Simd, v: V) -> V::Out {
         v.visit(octree)
+    }
+}
+
+/// The exact 8-wide BVH, one ray at a time, its boxes tested eight at once.
+pub struct Wide;
+impl Tested for Wide {
+    const NAME: &'static str = "exact_bvh";
+    type Over = ExactBvh;
+    fn walk<V: AccelVisitor>(bvh: &ExactBvh, simd: Simd, v: V) -> V::Out {
+        v.visit(&ExactBvhAt { bvh, simd })
     }
 }
 
@@ -291,12 +322,13 @@ macro_rules! accel_table {
             }
 
             /// Calls `v` with the accelerator over its structure from `caches` (built now over
-            /// `triangles` with the defaults if none is); None for the tet walk, which is not
-            /// a triangle tester.
+            /// `triangles` with the defaults if none is), walking at SIMD level `simd`; None
+            /// for the tet walk, which is not a triangle tester.
             pub fn visit<V: AccelVisitor>(
                 self,
                 caches: &Structures,
                 triangles: Triangles,
+                simd: Simd,
                 v: V,
             ) -> Option<Result<V::Out>> {
                 match self {
@@ -304,7 +336,7 @@ macro_rules! accel_table {
                     $(AccelKind::$variant => Some(
                         caches
                             .get::<<$row as Tested>::Over>(triangles)
-                            .map(|s| <$row as Tested>::walk(&*s, v)),
+                            .map(|s| <$row as Tested>::walk(&*s, simd, v)),
                     )),*
                 }
             }
@@ -317,6 +349,7 @@ accel_table! {
     ReshetovBvhPackets: Packets16,
     ReshetovBvhPackets8: Packets64,
     PortalezOctree: Octree,
+    ExactBvh: Wide,
 }
 
 impl AccelKind {

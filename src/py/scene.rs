@@ -8,7 +8,9 @@ use super::query::columns_dict;
 use super::query::Job;
 use super::request::{threads_arg, PyRayRequest};
 use crate::accel::reshetov_bvh::nearest::NearestPoint;
-use crate::accel::{BvhParams, OctreeParams, PortalezOctree, ReshetovBvh};
+use crate::accel::{
+    BvhParams, ExactBvh, ExactBvhParams, OctreeParams, PortalezOctree, ReshetovBvh,
+};
 use crate::error::try_vec;
 use crate::geom::real::Real;
 #[cfg(feature = "gpu")]
@@ -301,6 +303,49 @@ impl PyScene {
             .transpose()
     }
 
+    /// Builds the exact 8-wide BVH with these parameters for the casts that follow (a cast
+    /// with `accel="exact_bvh"` builds one with the defaults when none is built); returns
+    /// what `exact_bvh_info` returns.
+    /// None for a parameter: the core's default (`structure_defaults()["exact_bvh"]`).
+    #[pyo3(signature = (cost_ratio=None, max_leaf=None, bins=None, leaf_size=None))]
+    fn build_exact_bvh<'py>(
+        &self,
+        py: Python<'py>,
+        cost_ratio: Option<f64>,
+        max_leaf: Option<u32>,
+        bins: Option<u32>,
+        leaf_size: Option<u32>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let d = ExactBvhParams::default();
+        let params = ExactBvhParams {
+            cost_ratio: cost_ratio.unwrap_or(d.cost_ratio),
+            max_leaf: max_leaf.unwrap_or(d.max_leaf),
+            bins: bins.unwrap_or(d.bins),
+            leaf_size: leaf_size.unwrap_or(d.leaf_size),
+        };
+        let scene = &self.loaded().scene;
+        let bvh = py.detach(|| {
+            guarded(|| {
+                scene
+                    .structures
+                    .build::<ExactBvh>(&scene.surface.triangles, params)
+            })
+        })?;
+        exact_bvh_info(py, &bvh)
+    }
+
+    /// The 8-wide BVH's shape (nodes, leaves, mean children, depth, bytes, its parameters),
+    /// or None when none is built.
+    fn exact_bvh_info<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        self.loaded()
+            .scene
+            .structures
+            .exact_bvh
+            .get()
+            .map(|b| exact_bvh_info(py, &b))
+            .transpose()
+    }
+
     /// Builds Portalez & Duguet's octree with these parameters for the casts that follow;
     /// returns what `octree_info` returns.
     /// None for a parameter: the core's default (`structure_defaults()["octree"]`).
@@ -496,6 +541,25 @@ fn octree_info<'py>(py: Python<'py>, octree: &PortalezOctree) -> PyResult<Bound<
     d.set_item("max_depth", octree.params.max_depth)?;
     d.set_item("leaf_size", octree.params.leaf_size)?;
     d.set_item("balance", octree.params.balance)?;
+    Ok(d)
+}
+
+fn exact_bvh_info<'py>(py: Python<'py>, bvh: &ExactBvh) -> PyResult<Bound<'py, PyDict>> {
+    let (leaves, children, depth) = bvh.shape();
+    let d = PyDict::new(py);
+    d.set_item("nodes", bvh.nodes.len())?;
+    d.set_item("leaves", leaves)?;
+    d.set_item("children_per_node", children)?;
+    d.set_item("depth", depth)?;
+    d.set_item("bytes", bvh.memory())?;
+    d.set_item(
+        "bytes_per_triangle",
+        bvh.memory() as f64 / bvh.order.len().max(1) as f64,
+    )?;
+    d.set_item("cost_ratio", bvh.params.cost_ratio)?;
+    d.set_item("max_leaf", bvh.params.max_leaf)?;
+    d.set_item("bins", bvh.params.bins)?;
+    d.set_item("leaf_size", bvh.params.leaf_size)?;
     Ok(d)
 }
 

@@ -225,7 +225,12 @@ impl Scene {
             opts,
         };
         opts.accel
-            .visit(&self.structures, &self.surface.triangles, visit)
+            .visit(
+                &self.structures,
+                &self.surface.triangles,
+                opts.simd_level()?,
+                visit,
+            )
             .unwrap_or_else(|| unreachable!("the tet walk tests no triangles"))?
     }
 

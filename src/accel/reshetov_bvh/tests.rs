@@ -21,7 +21,10 @@ fn bvh_answers_are_the_referees_and_the_walks() {
     for &accel in ACCEL_KINDS {
         if matches!(
             accel,
-            AccelKind::ReshetovBvh | AccelKind::ReshetovBvhPackets | AccelKind::ReshetovBvhPackets8
+            AccelKind::ReshetovBvh
+                | AccelKind::ReshetovBvhPackets
+                | AccelKind::ReshetovBvhPackets8
+                | AccelKind::ExactBvh
         ) {
             bvh_agrees(accel);
         }
@@ -136,17 +139,39 @@ fn bvh_agrees(accel: AccelKind) {
 
 /// Triangles far outside float32's range and rays with tiny and huge directions: the float32
 /// boxes are rounded outward (to infinity past float32's range) and the slab test is padded,
-/// so no triangle the ray meets is skipped. Judged against the referee on every ray.
+/// so no triangle the ray meets is skipped. Judged against the referee on every ray, for
+/// Reshetov's tree and for the 8-wide one at every SIMD level.
 #[test]
 fn bvh_is_exact_far_from_float32() {
+    use crate::accel::{ExactBvh, ExactBvhParams};
+    use crate::simd::Simd;
+    far_from_float32("reshetov_bvh", &|tris| {
+        let bvh = ReshetovBvh::build(tris, BvhParams::default()).unwrap();
+        Box::new(move |line, near| {
+            bvh.walk(line, near, &mut Vec::new());
+        })
+    });
+    for simd in Simd::supported_levels() {
+        far_from_float32(simd.name(), &move |tris| {
+            let bvh = ExactBvh::build(tris, ExactBvhParams::default()).unwrap();
+            Box::new(move |line, near| {
+                bvh.walk(line, near, simd, &mut Vec::new());
+            })
+        });
+    }
+}
+
+/// A tree built over the triangles given, as a walk of one ray.
+type Builds = dyn Fn(&[Tri]) -> Box<dyn Fn(&Line, &mut Nearest)>;
+
+fn far_from_float32(what: &str, build: &Builds) {
     let mut rng = Rng::xorshift(7);
     for scale in [1e-300, 1e-30, 1.0, 1e30, 1e300] {
         let at = |rng: &mut Rng| [0, 1, 2].map(|_| (rng.f() * 64.0).round() / 64.0 * scale);
         let tris: Vec<Tri> = (0..120)
             .map(|_| [at(&mut rng), at(&mut rng), at(&mut rng)])
             .collect();
-        let bvh = ReshetovBvh::build(&tris, BvhParams::default()).unwrap();
-        let mut stack = Vec::new();
+        let walk = build(&tris);
         let mut hits = 0;
         for i in 0..600 {
             let o = at(&mut rng);
@@ -168,7 +193,7 @@ fn bvh_is_exact_far_from_float32() {
             };
             let Ok(line) = Line::new(&ray) else { continue };
             let mut near = Nearest::new(&line, &tris);
-            bvh.walk(&line, &mut near, &mut stack);
+            walk(&line, &mut near);
             let want = referee::first_hit(o, d, 0.0, f64::INFINITY, &tris);
             match (near.meet(), &want) {
                 (None, None) => {}
@@ -176,19 +201,19 @@ fn bvh_is_exact_far_from_float32() {
                     hits += 1;
                     assert!(
                         v.ties.contains(&(m.triangle as usize)),
-                        "scale {scale} ray {i}: triangle {} not tied {:?}",
+                        "{what}: scale {scale} ray {i}: triangle {} not tied {:?}",
                         m.triangle,
                         v.ties
                     );
                 }
                 (got, want) => panic!(
-                    "scale {scale} ray {i}: bvh {:?} referee {:?}",
+                    "{what}: scale {scale} ray {i}: bvh {:?} referee {:?}",
                     got.map(|m| m.triangle),
                     want.as_ref().map(|v| &v.ties)
                 ),
             }
         }
-        assert!(hits > 300, "scale {scale}: {hits} hits");
+        assert!(hits > 300, "{what}: scale {scale}: {hits} hits");
     }
 }
 

@@ -1,0 +1,738 @@
+//! An exact 8-wide BVH (issue 35): the binned-SAH tree of `reshetov_bvh`, collapsed so that
+//! each node holds the boxes of up to eight children, tested for one ray at once in float32
+//! (AVX2 + FMA where the CPU has them; the portable code rounds the same operations the same
+//! way, so the two visit the same nodes in the same order).
+//!
+//! The tree decides nothing itself, as Reshetov's does not: a child is skipped only when the
+//! ray surely misses its box within [tmin, reach], and a triangle is offered to the query only
+//! when the ray meets it exactly (`query::gather::Line::meets`). The float32 box test is made
+//! conservative in three places (see [`RayBoxes`] for the bound):
+//! - the boxes are rounded outward from the float64 triangles' (`reshetov_bvh`);
+//! - the origin's rounding to float32 is folded into the per-axis constant of the fused
+//!   multiply-add, `t = fma(plane, 1/d, −c)`, so that `t` is below the exact entry (above the
+//!   exact exit) before its one rounding;
+//! - the entry and exit over the three axes are padded by a relative bound and an absolute one
+//!   for what underflows.
+//!
+//! A ray whose direction has a component whose float32 reciprocal is not a finite normal
+//! number (tiny or huge components) or whose origin is past float32's range is tested in
+//! float64 against the same boxes (`reshetov_bvh`'s slab test), as is a ray with a zero
+//! component in a tree with an infinite box. So every answer is the exact one, as the exact
+//! walk's and Reshetov's BVH's are.
+
+use super::reshetov_bvh::{BvhNode, Slab};
+use super::{Accel, BvhParams, ReshetovBvh};
+use crate::error::{Error, Result};
+use crate::geom::ray::Ray;
+use crate::query::gather::{Gather, Line, Tri};
+use crate::query::QueryKind;
+use crate::simd::Simd;
+
+/// Children per node.
+pub const WIDTH: usize = 8;
+
+/// One node, 224 bytes: its children's boxes in float32 rounded outward, one row per bound
+/// (lo x, lo y, lo z, hi x, hi y, hi z: the row of axis k's lower plane is k, its upper 3 + k),
+/// and what each child is ([`Child`]). An unused slot has the empty box (lo = f32::MAX, hi =
+/// −f32::MAX), which every ray misses on its first axis with a direction.
+#[repr(C, align(32))]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Node8 {
+    pub bounds: [[f32; WIDTH]; 6],
+    pub child: [u32; WIDTH],
+}
+
+const _: () = assert!(std::mem::size_of::<Node8>() == 224);
+const _: () = assert!(std::mem::align_of::<Node8>() == 32);
+
+/// A leaf child: this bit, its first triangle (in leaf order) shifted by [`COUNT_BITS`], and
+/// its triangle count less one in the low bits.
+const LEAF: u32 = 1 << 31;
+const COUNT_BITS: u32 = 4;
+/// An unused slot.
+const EMPTY: u32 = u32::MAX;
+/// A leaf holds at most this many triangles.
+pub const MAX_LEAF: u32 = 1 << COUNT_BITS;
+/// Leaf order holds fewer triangles than this.
+const MAX_TRIANGLES: usize = 1 << (31 - COUNT_BITS);
+
+/// What a child code names.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Child {
+    Node(u32),
+    /// Triangles `first..first + count` in leaf order.
+    Leaf {
+        first: u32,
+        count: u32,
+    },
+    Empty,
+}
+
+impl Child {
+    #[inline(always)]
+    pub fn of(code: u32) -> Child {
+        if code == EMPTY {
+            Child::Empty
+        } else if code & LEAF != 0 {
+            Child::Leaf {
+                first: (code & !LEAF) >> COUNT_BITS,
+                count: (code & (MAX_LEAF - 1)) + 1,
+            }
+        } else {
+            Child::Node(code)
+        }
+    }
+}
+
+impl Node8 {
+    const EMPTY: Node8 = Node8 {
+        bounds: [
+            [f32::MAX; WIDTH],
+            [f32::MAX; WIDTH],
+            [f32::MAX; WIDTH],
+            [-f32::MAX; WIDTH],
+            [-f32::MAX; WIDTH],
+            [-f32::MAX; WIDTH],
+        ],
+        child: [EMPTY; WIDTH],
+    };
+
+    fn set(&mut self, slot: usize, b: &BvhNode, code: u32) {
+        for k in 0..3 {
+            self.bounds[k][slot] = b.lo[k];
+            self.bounds[3 + k][slot] = b.hi[k];
+        }
+        self.child[slot] = code;
+    }
+
+    /// Child `slot`'s box as a binary node (what the float64 slab test reads).
+    fn slot_box(&self, slot: usize) -> BvhNode {
+        BvhNode {
+            lo: [0, 1, 2].map(|k| self.bounds[k][slot]),
+            first: 0,
+            hi: [0, 1, 2].map(|k| self.bounds[3 + k][slot]),
+            count: 0,
+        }
+    }
+}
+
+/// How the tree is built: the binary tree's parameters ([`BvhParams`]; its `aperture` is a
+/// packet setting and means nothing here), and the size below which a binary subtree becomes
+/// one leaf. `max_leaf` and `leaf_size` are at most [`MAX_LEAF`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ExactBvhParams {
+    pub cost_ratio: f64,
+    pub max_leaf: u32,
+    pub bins: u32,
+    pub leaf_size: u32,
+}
+
+impl Default for ExactBvhParams {
+    fn default() -> Self {
+        ExactBvhParams {
+            cost_ratio: 1.0,
+            max_leaf: 8,
+            bins: 16,
+            leaf_size: 4,
+        }
+    }
+}
+
+impl ExactBvhParams {
+    fn binary(&self) -> Result<BvhParams> {
+        for (name, v) in [("max_leaf", self.max_leaf), ("leaf_size", self.leaf_size)] {
+            if !(1..=MAX_LEAF).contains(&v) {
+                return Err(Error::InvalidOption(format!(
+                    "{name} must be in 1..={MAX_LEAF} for the 8-wide BVH, got {v}"
+                )));
+            }
+        }
+        let p = BvhParams {
+            cost_ratio: self.cost_ratio,
+            max_leaf: self.max_leaf,
+            bins: self.bins,
+            aperture: false,
+        };
+        p.check()?;
+        Ok(p)
+    }
+}
+
+/// The walk, written once: `$test(node, tmin, reach)` is the box test. A macro rather than a
+/// generic function so that the AVX2 walk's test is written inside the function that has
+/// the target features, where LLVM inlines it (through a generic function or a closure it
+/// stayed a call per node).
+macro_rules! walk_loop {
+    ($bvh:expr, $line:expr, $gather:expr, $stack:expr, |$node:ident, $tmin:ident, $reach:ident| $test:expr) => {{
+        let (bvh, line, gather, stack) = ($bvh, $line, $gather, $stack);
+        stack.clear();
+        stack.push((0, 0.0));
+        let mut visited = 0;
+        while let Some((code, near)) = stack.pop() {
+            // `near` is a lower bound on the entry, less an absolute slack for what underflows.
+            if (near as f64) - (f32::MIN_POSITIVE as f64) > gather.reach() {
+                continue;
+            }
+            // A box entered (the root has none of its own: a ray that misses every box of the
+            // scene visited nothing, as on Reshetov's tree).
+            visited += (code != 0) as u32;
+            match Child::of(code) {
+                Child::Node(k) => {
+                    let $node = &bvh.nodes[k as usize];
+                    let ($tmin, $reach) = (line.tmin, gather.reach());
+                    let (mask, nears) = $test;
+                    push_sorted(stack, $node, mask, &nears);
+                }
+                Child::Leaf { first, count } => {
+                    for j in first as usize..(first + count) as usize {
+                        let at = line.meets_at(&bvh.triangles[j]);
+                        if at.is_some_and(|at| gather.offer_at(bvh.order[j], at)) {
+                            return visited;
+                        }
+                    }
+                }
+                Child::Empty => {}
+            }
+        }
+        visited
+    }};
+}
+
+/// The same test in AVX2 + FMA, eight children at once: a macro, to be written inside a
+/// function compiled with those features (no closures: they do not take the features).
+#[cfg(target_arch = "x86_64")]
+macro_rules! avx2_box_test {
+    ($r:expr, $node:expr, $tmin:expr, $reach:expr) => {{
+        use std::arch::x86_64::*;
+        let (r, b): (&RayBoxes, &[[f32; WIDTH]; 6]) = ($r, &$node.bounds);
+        let (t0, t1) = RayBoxes::range($tmin, $reach);
+        // Rows are 32-byte aligned (Node8 is, and each row is 32 bytes).
+        let [n0, n1, n2] = r.near.map(|i| _mm256_load_ps(b[i].as_ptr()));
+        let [f0, f1, f2] = r.far.map(|i| _mm256_load_ps(b[i].as_ptr()));
+        let [i0, i1, i2] = r.inv.map(|x| _mm256_set1_ps(x));
+        let [cn0, cn1, cn2] = r.neg_c_near.map(|x| _mm256_set1_ps(x));
+        let [cf0, cf1, cf2] = r.neg_c_far.map(|x| _mm256_set1_ps(x));
+        let (tn0, tn1, tn2) = (
+            _mm256_fmadd_ps(n0, i0, cn0),
+            _mm256_fmadd_ps(n1, i1, cn1),
+            _mm256_fmadd_ps(n2, i2, cn2),
+        );
+        let (tf0, tf1, tf2) = (
+            _mm256_fmadd_ps(f0, i0, cf0),
+            _mm256_fmadd_ps(f1, i1, cf1),
+            _mm256_fmadd_ps(f2, i2, cf2),
+        );
+        // max(a, b) is b unless a > b, as `vmax`.
+        let near = _mm256_max_ps(
+            _mm256_max_ps(tn0, tn1),
+            _mm256_max_ps(tn2, _mm256_set1_ps(t0)),
+        );
+        let far = _mm256_min_ps(
+            _mm256_min_ps(tf0, tf1),
+            _mm256_min_ps(tf2, _mm256_set1_ps(t1)),
+        );
+        let near = _mm256_mul_ps(near, _mm256_set1_ps(1.0 - PAD));
+        let abs = _mm256_andnot_ps(_mm256_set1_ps(-0.0), far);
+        let far = _mm256_add_ps(
+            _mm256_fmadd_ps(abs, _mm256_set1_ps(PAD), far),
+            _mm256_set1_ps(TINY),
+        );
+        let mut hit = _mm256_cmp_ps::<_CMP_LE_OQ>(near, far);
+        if r.zero {
+            for k in 0..3 {
+                let lo = _mm256_load_ps(b[k].as_ptr());
+                let hi = _mm256_load_ps(b[3 + k].as_ptr());
+                let lo = _mm256_cmp_ps::<_CMP_LE_OQ>(lo, _mm256_set1_ps(r.o_up[k]));
+                let hi = _mm256_cmp_ps::<_CMP_LE_OQ>(_mm256_set1_ps(r.o_down[k]), hi);
+                hit = _mm256_and_ps(hit, _mm256_and_ps(lo, hi));
+            }
+        }
+        let mut nears = [0.0f32; WIDTH];
+        _mm256_storeu_ps(nears.as_mut_ptr(), near);
+        (_mm256_movemask_ps(hit) as u32, nears)
+    }};
+}
+
+/// The tree over a scene's triangles.
+#[derive(Clone, Debug)]
+pub struct ExactBvh {
+    /// Node 0 is the root.
+    pub nodes: Vec<Node8>,
+    /// The caller's triangle ids in leaf order.
+    pub order: Vec<u32>,
+    /// The triangles in leaf order (a leaf's are contiguous).
+    pub triangles: Vec<Tri>,
+    pub params: ExactBvhParams,
+    /// Whether some box has an infinite bound (a triangle past float32's range): then a ray
+    /// with a zero direction component is tested in float64 (0 × ∞ would be NaN).
+    infinite: bool,
+}
+
+impl ExactBvh {
+    /// Builds the tree over `triangles` (the caller's, in its numbering; their corners must be
+    /// finite).
+    pub fn build(triangles: &[Tri], params: ExactBvhParams) -> Result<ExactBvh> {
+        if triangles.len() >= MAX_TRIANGLES {
+            return Err(Error::InvalidInput(format!(
+                "{} triangles: the 8-wide BVH holds fewer than 2^{}",
+                triangles.len(),
+                31 - COUNT_BITS
+            )));
+        }
+        let binary = ReshetovBvh::build(triangles, params.binary()?)?;
+        let nodes = collapse(&binary.nodes, params.leaf_size);
+        let infinite = nodes
+            .iter()
+            .flat_map(|n| n.bounds.iter().flatten())
+            .any(|x| x.is_infinite());
+        Ok(ExactBvh {
+            nodes,
+            order: binary.order,
+            triangles: binary.triangles,
+            params,
+            infinite,
+        })
+    }
+
+    /// Bytes of the tree: nodes, the id order and the triangles in leaf order.
+    pub fn memory(&self) -> usize {
+        self.nodes.len() * std::mem::size_of::<Node8>()
+            + self.order.len() * 4
+            + self.triangles.len() * std::mem::size_of::<Tri>()
+    }
+
+    /// The number of leaves, the mean children per node, and the depth of the deepest leaf
+    /// (the root's children at depth 1).
+    pub fn shape(&self) -> (usize, f64, usize) {
+        let (mut leaves, mut children, mut depth) = (0, 0, 0);
+        let mut stack = vec![(0u32, 1usize)];
+        while let Some((k, d)) = stack.pop() {
+            for &code in &self.nodes[k as usize].child {
+                match Child::of(code) {
+                    Child::Node(c) => stack.push((c, d + 1)),
+                    Child::Leaf { .. } => {
+                        leaves += 1;
+                        depth = depth.max(d);
+                    }
+                    Child::Empty => continue,
+                }
+                children += 1;
+            }
+        }
+        (leaves, children as f64 / self.nodes.len() as f64, depth)
+    }
+
+    /// Offers `gather` every triangle the ray meets in range, nearest boxes first, skipping
+    /// boxes beyond its reach; the boxes entered (of inner nodes and leaves).
+    pub fn walk<G: Gather>(
+        &self,
+        line: &Line,
+        gather: &mut G,
+        simd: Simd,
+        stack: &mut Vec<(u32, f32)>,
+    ) -> u32 {
+        match RayBoxes::new(line, self.infinite) {
+            Some(r) => {
+                #[cfg(target_arch = "x86_64")]
+                if simd == Simd::Avx2 {
+                    // SAFETY: Simd::Avx2 is only chosen where the CPU has AVX2 and FMA
+                    // (`Simd::supported`).
+                    return unsafe { self.walk_avx2(line, gather, stack, r) };
+                }
+                let _ = simd;
+                self.walk_with(line, gather, stack, &r)
+            }
+            None => self.walk_with(line, gather, stack, &Wide64(Slab::new(line))),
+        }
+    }
+
+    /// The walk compiled for AVX2 and FMA, so that the box test is inlined into it (a
+    /// function with other target features cannot inline it). Rust never fuses `a * b + c` on
+    /// its own, so the rest of the walk rounds as the portable one does.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn walk_avx2<G: Gather>(
+        &self,
+        line: &Line,
+        gather: &mut G,
+        stack: &mut Vec<(u32, f32)>,
+        r: RayBoxes,
+    ) -> u32 {
+        walk_loop!(
+            self,
+            line,
+            gather,
+            stack,
+            |node, tmin, reach| avx2_box_test!(&r, node, tmin, reach)
+        )
+    }
+
+    #[inline(always)]
+    fn walk_with<G: Gather, T: BoxTest>(
+        &self,
+        line: &Line,
+        gather: &mut G,
+        stack: &mut Vec<(u32, f32)>,
+        test: &T,
+    ) -> u32 {
+        walk_loop!(self, line, gather, stack, |node, tmin, reach| test
+            .test(node, tmin, reach))
+    }
+}
+
+/// Pushes the children in `mask`, farthest first (the nearest is popped first); of equal
+/// entries the later slot is popped first, so the order is the same at every level.
+#[inline(always)]
+fn push_sorted(stack: &mut Vec<(u32, f32)>, node: &Node8, mask: u32, nears: &[f32; WIDTH]) {
+    let base = stack.len();
+    let mut m = mask;
+    while m != 0 {
+        let slot = m.trailing_zeros() as usize;
+        m &= m - 1;
+        let item = (node.child[slot], nears[slot]);
+        // Insertion: entries above `base` are in decreasing order of entry.
+        let mut i = stack.len();
+        stack.push(item);
+        while i > base && stack[i - 1].1 < item.1 {
+            stack[i] = stack[i - 1];
+            i -= 1;
+        }
+        stack[i] = item;
+    }
+}
+
+/// Collapses the binary tree (node 0 its root) into 8-wide nodes. A binary subtree of at
+/// most `leaf_size` triangles becomes one leaf (its triangles are contiguous in leaf order: the
+/// build splits ranges); an inner node's children are found by opening, among the binary
+/// nodes gathered so far, the inner one with the largest surface until there are eight or
+/// only leaves.
+fn collapse(binary: &[BvhNode], leaf_size: u32) -> Vec<Node8> {
+    let mut nodes = vec![Node8::EMPTY];
+    let root = &binary[0];
+    if root.count == 0 && root.first == 0 {
+        return nodes; // no triangles
+    }
+    // Each binary node's first triangle and count, children before parents.
+    let mut range = vec![(0u32, 0u32); binary.len()];
+    let mut order = vec![0usize];
+    let mut i = 0;
+    while i < order.len() {
+        let b = &binary[order[i]];
+        if b.count == 0 {
+            order.extend([b.first as usize, b.first as usize + 1]);
+        }
+        i += 1;
+    }
+    for &k in order.iter().rev() {
+        let b = &binary[k];
+        range[k] = if b.count > 0 {
+            (b.first, b.count)
+        } else {
+            let (l, r) = (range[b.first as usize], range[b.first as usize + 1]);
+            (l.0, l.1 + r.1)
+        };
+    }
+    let is_leaf = |k: usize| binary[k].count > 0 || range[k].1 <= leaf_size;
+    let half_area = |b: &BvhNode| {
+        let e = [0, 1, 2].map(|k| (b.hi[k] as f64 - b.lo[k] as f64).max(0.0));
+        e[0] * e[1] + e[1] * e[2] + e[2] * e[0]
+    };
+    let mut todo = vec![(0usize, 0usize)];
+    while let Some((w, b)) = todo.pop() {
+        let mut kids: Vec<usize> = if is_leaf(b) {
+            vec![b]
+        } else {
+            let f = binary[b].first as usize;
+            vec![f, f + 1]
+        };
+        while kids.len() < WIDTH {
+            let open = kids
+                .iter()
+                .enumerate()
+                .filter(|(_, &k)| !is_leaf(k))
+                .max_by(|(_, &a), (_, &c)| half_area(&binary[a]).total_cmp(&half_area(&binary[c])))
+                .map(|(i, _)| i);
+            let Some(i) = open else { break };
+            let f = binary[kids[i]].first as usize;
+            kids[i] = f;
+            kids.insert(i + 1, f + 1);
+        }
+        for (slot, &k) in kids.iter().enumerate() {
+            let code = if is_leaf(k) {
+                let (first, count) = range[k];
+                debug_assert!((1..=MAX_LEAF).contains(&count));
+                LEAF | (first << COUNT_BITS) | (count - 1)
+            } else {
+                let idx = nodes.len();
+                nodes.push(Node8::EMPTY);
+                todo.push((idx, k));
+                idx as u32
+            };
+            nodes[w].set(slot, &binary[k], code);
+        }
+    }
+    nodes
+}
+
+/// A box test of the eight children of a node: the mask of those the ray may meet within
+/// [tmin, reach] and, per child, a lower bound on where it enters.
+trait BoxTest {
+    fn test(&self, node: &Node8, tmin: f64, reach: f64) -> (u32, [f32; WIDTH]);
+}
+
+impl<F: Fn(&Node8, f64, f64) -> (u32, [f32; WIDTH])> BoxTest for F {
+    #[inline(always)]
+    fn test(&self, node: &Node8, tmin: f64, reach: f64) -> (u32, [f32; WIDTH]) {
+        self(node, tmin, reach)
+    }
+}
+
+/// The float32 unit roundoff.
+const U32: f32 = f32::EPSILON / 2.0;
+/// The entry is scaled down by (1 − PAD), the exit up by (1 + PAD): eight roundings, where
+/// the bound below needs three (the reciprocal's, the product's and the pad's own).
+const PAD: f32 = 8.0 * U32;
+/// Absolute slack for results that underflow (a subnormal's rounding is absolute).
+const TINY: f32 = f32::MIN_POSITIVE;
+
+/// One ray's float32 constants for the box test.
+///
+/// Per axis k with a direction: `inv` = 1/d rounded to float32 (1/d in float64, then to
+/// float32), and the entry and exit at plane b are `fma(b, inv, −c_near)` and
+/// `fma(b, inv, −c_far)`, where `c = o32 · inv` is exact in float64 (two 24-bit
+/// significands) and `c_near ≥ c + |o − o32| |inv|`, `c_far ≤ c − |o − o32| |inv|` (rounded
+/// outward to float32). Then `b · inv − c_near ≤ (b − o) · inv = t (1 + η)` with t the exact
+/// slab distance (b − o)/d and |η| ≤ u (the reciprocal's rounding), and the fma rounds once
+/// more; the max over the axes and tmin (≥ 0) is padded by its relative error once, as the
+/// min is (x − γ|x| is increasing, so padding the max is the max of the padded).
+///
+/// An axis with d = 0 bounds nothing in t (inv = 0, c_near = +∞, c_far = −∞: t = −∞ and +∞)
+/// and instead asks lo ≤ o ≤ hi, with o rounded down and up to float32.
+#[derive(Clone, Copy, Debug)]
+pub struct RayBoxes {
+    /// Per axis, the bound row of the plane it enters by and of the one it leaves by.
+    near: [usize; 3],
+    far: [usize; 3],
+    inv: [f32; 3],
+    neg_c_near: [f32; 3],
+    neg_c_far: [f32; 3],
+    /// Per axis with d = 0: o rounded down and up (else −inf, +inf: no condition).
+    o_down: [f32; 3],
+    o_up: [f32; 3],
+    zero: bool,
+}
+
+/// The smallest float32 ≥ x (NaN stays NaN).
+fn up32(x: f64) -> f32 {
+    let f = x as f32;
+    if (f as f64) < x {
+        f.next_up()
+    } else {
+        f
+    }
+}
+
+/// The largest float32 ≤ x.
+fn down32(x: f64) -> f32 {
+    let f = x as f32;
+    if (f as f64) > x {
+        f.next_down()
+    } else {
+        f
+    }
+}
+
+/// Relative and absolute slack of [`above32`] and [`below32`]: 2^-22 is four times the
+/// float32 rounding (2^-24) plus what the float64 sums round (2^-53 each); 2^-149 is the
+/// float32 rounding where it is absolute (subnormal results).
+const REL32: f64 = 1.0 / (1u64 << 22) as f64;
+const ABS32: f64 = f32::MIN_POSITIVE as f64 / (1u64 << 23) as f64;
+
+/// A float32 at least x (rounded to nearest after raising x by more than that rounding can
+/// take off; without branches, which the signs of random rays would mispredict). +inf stays.
+#[inline(always)]
+fn above32(x: f64) -> f32 {
+    (x + (x.abs() * REL32 + ABS32)) as f32
+}
+
+/// A float32 at most x, as [`above32`].
+#[inline(always)]
+fn below32(x: f64) -> f32 {
+    (x - (x.abs() * REL32 + ABS32)) as f32
+}
+
+impl RayBoxes {
+    /// None where the float32 test does not apply (see the module's notes).
+    #[inline]
+    pub fn new(line: &Line, infinite: bool) -> Option<RayBoxes> {
+        let mut r = RayBoxes {
+            near: [0, 1, 2],
+            far: [3, 4, 5],
+            inv: [0.0; 3],
+            neg_c_near: [f32::NEG_INFINITY; 3],
+            neg_c_far: [f32::INFINITY; 3],
+            o_down: [f32::NEG_INFINITY; 3],
+            o_up: [f32::INFINITY; 3],
+            zero: line.d.contains(&0.0),
+        };
+        if r.zero {
+            if infinite {
+                return None;
+            }
+            for k in 0..3 {
+                if line.d[k] == 0.0 {
+                    r.o_down[k] = down32(line.o[k]);
+                    r.o_up[k] = up32(line.o[k]);
+                }
+            }
+        }
+        let mut fine = true;
+        for k in 0..3 {
+            let (o, d) = (line.o[k], line.d[k]);
+            let o32 = o as f32;
+            fine &= o32.is_finite();
+            if d == 0.0 {
+                continue;
+            }
+            let inv = (1.0 / d) as f32;
+            fine &= inv.is_finite() && inv.abs() >= f32::MIN_POSITIVE;
+            let c = o32 as f64 * inv as f64; // exact: two 24-bit significands
+                                             // |o − o32| is exact (o32 is o's nearest float32); the product is rounded up by
+                                             // the factor, the sums by `above32` and `below32`.
+            let pad = ((o - o32 as f64).abs() * (inv as f64).abs()) * (1.0 + f64::EPSILON);
+            let (cn, cf) = (above32(c + pad), below32(c - pad));
+            debug_assert!(
+                !(cn.is_finite() && cf.is_finite())
+                    || (cn as f64 >= c + pad && (cf as f64) <= c - pad)
+            );
+            fine &= cn.is_finite() && cf.is_finite();
+            r.inv[k] = inv;
+            r.neg_c_near[k] = -cn;
+            r.neg_c_far[k] = -cf;
+            // The plane entered by: the lower where 1/d > 0, else the upper.
+            let neg = (inv < 0.0) as usize;
+            r.near[k] = k + 3 * neg;
+            r.far[k] = k + 3 * (1 - neg);
+        }
+        fine.then_some(r)
+    }
+
+    /// The ray's range in float32, rounded outward (tmin ≥ 0).
+    #[inline(always)]
+    fn range(tmin: f64, reach: f64) -> (f32, f32) {
+        (vmax(below32(tmin), 0.0), above32(reach))
+    }
+}
+
+/// `_mm256_max_ps` and `_mm256_min_ps`: the second operand unless the first is greater
+/// (less), so the portable test picks what the vector one does.
+#[inline(always)]
+fn vmax(a: f32, b: f32) -> f32 {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
+#[inline(always)]
+fn vmin(a: f32, b: f32) -> f32 {
+    if a < b {
+        a
+    } else {
+        b
+    }
+}
+
+impl BoxTest for RayBoxes {
+    #[inline(always)]
+    fn test(&self, node: &Node8, tmin: f64, reach: f64) -> (u32, [f32; WIDTH]) {
+        let (t0, t1) = RayBoxes::range(tmin, reach);
+        let b = &node.bounds;
+        let mut mask = 0;
+        let mut nears = [0.0; WIDTH];
+        for s in 0..WIDTH {
+            let tn = |k: usize| b[self.near[k]][s].mul_add(self.inv[k], self.neg_c_near[k]);
+            let tf = |k: usize| b[self.far[k]][s].mul_add(self.inv[k], self.neg_c_far[k]);
+            let near = vmax(vmax(tn(0), tn(1)), vmax(tn(2), t0));
+            let far = vmin(vmin(tf(0), tf(1)), vmin(tf(2), t1));
+            let near = near * (1.0 - PAD);
+            let far = far.abs().mul_add(PAD, far) + TINY;
+            let mut hit = near <= far;
+            if self.zero {
+                for k in 0..3 {
+                    hit &= b[k][s] <= self.o_up[k] && self.o_down[k] <= b[3 + k][s];
+                }
+            }
+            mask |= (hit as u32) << s;
+            nears[s] = near;
+        }
+        (mask, nears)
+    }
+}
+
+/// The AVX2 test as a function (what the tests call).
+#[cfg(all(test, target_arch = "x86_64"))]
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+unsafe fn avx2_test(r: &RayBoxes, node: &Node8, tmin: f64, reach: f64) -> (u32, [f32; WIDTH]) {
+    avx2_box_test!(r, node, tmin, reach)
+}
+
+/// Reshetov's float64 slab test on each child (rays the float32 test does not take).
+struct Wide64(Slab);
+
+impl BoxTest for Wide64 {
+    fn test(&self, node: &Node8, tmin: f64, reach: f64) -> (u32, [f32; WIDTH]) {
+        let mut mask = 0;
+        let mut nears = [0.0; WIDTH];
+        for (s, near) in nears.iter_mut().enumerate() {
+            if node.child[s] == EMPTY {
+                continue;
+            }
+            if let Some(t) = self.0.enter(&node.slot_box(s), tmin, reach) {
+                mask |= 1 << s;
+                // NaN (an entry past float64's range) prunes nothing.
+                *near = if t.is_nan() { 0.0 } else { down32(t.max(0.0)) };
+            }
+        }
+        (mask, nears)
+    }
+}
+
+/// The walk's state: the SIMD level and the traversal stack, kept from ray to ray.
+pub struct State {
+    simd: Simd,
+    stack: Vec<(u32, f32)>,
+}
+
+/// The tree walked at one SIMD level (what the accelerator table hands a cast).
+pub struct ExactBvhAt<'a> {
+    pub bvh: &'a ExactBvh,
+    pub simd: Simd,
+}
+
+impl Accel<f64> for ExactBvhAt<'_> {
+    const NAME: &'static str = "exact_bvh";
+    type State = State;
+
+    fn state(&self, _: usize) -> State {
+        State {
+            simd: self.simd,
+            stack: Vec::with_capacity(8 * 32),
+        }
+    }
+
+    fn trace<K: QueryKind>(&self, query: &K, ray: &Ray, st: &mut State) -> K::Answer {
+        let line = match Line::new(ray) {
+            Ok(line) => line,
+            Err(status) => return query.skipped(status),
+        };
+        let mut gather = query.gather(&line);
+        let visited = self.bvh.walk(&line, &mut gather, st.simd, &mut st.stack);
+        query.gathered(gather, visited)
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,353 @@
+//! The 8-wide tree's own invariants, and its box test against rays that touch a box exactly.
+//! Its answers are judged with the other accelerators': against the referee, the exact walk
+//! and Reshetov's BVH (`reshetov_bvh/tests.rs`, `query/tests`, the fuzz targets).
+
+use super::*;
+use crate::query::gather::Nearest;
+use crate::scene::{AccelKind, CastOptions, HitBuffers};
+use crate::testing::{Agreement, Rng};
+
+/// Random small triangles, zero-area ones, a point and 40 copies of one triangle.
+fn soup(rng: &mut Rng) -> Vec<Tri> {
+    let mut tris: Vec<Tri> = (0..1500)
+        .map(|_| {
+            let c = [0, 1, 2].map(|_| rng.f() * 10.0);
+            [0, 1, 2].map(|_| [0, 1, 2].map(|k| c[k] + rng.f() * 0.3))
+        })
+        .collect();
+    tris.push([[1.0, 1.0, 1.0]; 3]);
+    tris.push([[0.0; 3], [1.0, 1.0, 1.0], [2.0, 2.0, 2.0]]);
+    tris.extend(std::iter::repeat_n(
+        [[5.0, 5.0, 5.0], [6.0, 5.0, 5.0], [5.0, 6.0, 5.0]],
+        40,
+    ));
+    tris
+}
+
+/// Every triangle sits in exactly one leaf, of at most max_leaf triangles, and the box of the
+/// slot naming the leaf holds its corners; every inner node's slot box holds its children's
+/// boxes; unused slots have the empty box; for several parameter sets, and for no triangles.
+#[test]
+fn wide_tree_holds_every_triangle_once() {
+    let tris = soup(&mut Rng::xorshift(5));
+    for params in [
+        ExactBvhParams::default(),
+        ExactBvhParams {
+            cost_ratio: 0.0,
+            max_leaf: 1,
+            bins: 2,
+            leaf_size: 1,
+        },
+        ExactBvhParams {
+            cost_ratio: 8.0,
+            max_leaf: 16,
+            bins: 32,
+            leaf_size: 16,
+        },
+    ] {
+        let bvh = ExactBvh::build(&tris, params).unwrap();
+        let mut seen = vec![0u32; tris.len()];
+        let inside = |p: [f64; 3], node: &Node8, s: usize| {
+            (0..3).all(|k| node.bounds[k][s] as f64 <= p[k] && p[k] <= node.bounds[3 + k][s] as f64)
+        };
+        let (mut inner, mut stack) = (0, vec![0usize]);
+        while let Some(k) = stack.pop() {
+            inner += 1;
+            let node = &bvh.nodes[k];
+            for s in 0..WIDTH {
+                match Child::of(node.child[s]) {
+                    Child::Empty => {
+                        assert_eq!(node.bounds[0][s], f32::MAX, "node {k} slot {s}");
+                        assert_eq!(node.bounds[3][s], -f32::MAX, "node {k} slot {s}");
+                    }
+                    Child::Leaf { first, count } => {
+                        let most = params.max_leaf.max(params.leaf_size);
+                        assert!(count <= most, "{params:?}: leaf of {count}");
+                        for j in first as usize..(first + count) as usize {
+                            let id = bvh.order[j] as usize;
+                            seen[id] += 1;
+                            assert_eq!(bvh.triangles[j], tris[id]);
+                            assert!(
+                                tris[id].iter().all(|&p| inside(p, node, s)),
+                                "node {k} slot {s} holds triangle {id}"
+                            );
+                        }
+                    }
+                    Child::Node(c) => {
+                        let child = &bvh.nodes[c as usize];
+                        for cs in 0..WIDTH {
+                            if child.child[cs] == EMPTY {
+                                continue;
+                            }
+                            let lo = [0, 1, 2].map(|a| child.bounds[a][cs] as f64);
+                            let hi = [0, 1, 2].map(|a| child.bounds[3 + a][cs] as f64);
+                            assert!(inside(lo, node, s) && inside(hi, node, s));
+                        }
+                        stack.push(c as usize);
+                    }
+                }
+            }
+        }
+        assert_eq!(inner, bvh.nodes.len(), "every node reached once");
+        assert!(
+            seen.iter().all(|&n| n == 1),
+            "{params:?}: a triangle not in one leaf"
+        );
+        // Every node but the root has two children or more (a binary node opened).
+        for (k, node) in bvh.nodes.iter().enumerate().skip(1) {
+            let used = node.child.iter().filter(|&&c| c != EMPTY).count();
+            assert!(used >= 2, "{params:?}: node {k} has {used} children");
+        }
+    }
+    let empty = ExactBvh::build(&[], ExactBvhParams::default()).unwrap();
+    assert_eq!(empty.nodes.len(), 1);
+    assert!(empty.nodes[0].child.iter().all(|&c| c == EMPTY));
+    let too_big = ExactBvhParams {
+        max_leaf: MAX_LEAF + 1,
+        ..Default::default()
+    };
+    assert!(ExactBvh::build(&tris, too_big).is_err());
+}
+
+/// a − b where float64 holds it exactly (TwoSum's error is zero), per axis.
+fn exact_sub(a: [f64; 3], b: [f64; 3]) -> Option<[f64; 3]> {
+    let mut out = [0.0; 3];
+    for k in 0..3 {
+        let (x, y) = (a[k], -b[k]);
+        let s = x + y;
+        let bb = s - x;
+        let err = (x - (s - bb)) + (y - bb);
+        if err != 0.0 || !s.is_finite() || (b[k] != 0.0 && (b[k] / 2.0) * 2.0 != b[k]) {
+            return None;
+        }
+        out[k] = s;
+    }
+    Some(out)
+}
+
+/// The box tests a ray may take: the float32 one (portable and AVX2) where it applies, and
+/// the float64 one always.
+fn box_tests(line: &Line, infinite: bool) -> Vec<(&'static str, Box<dyn BoxTest>)> {
+    let mut out: Vec<(&'static str, Box<dyn BoxTest>)> =
+        vec![("float64", Box::new(Wide64(Slab::new(line))))];
+    if let Some(r) = RayBoxes::new(line, infinite) {
+        out.push(("float32", Box::new(r)));
+        #[cfg(target_arch = "x86_64")]
+        if Simd::Avx2.supported() {
+            // SAFETY: the CPU has AVX2 and FMA (`Simd::supported`).
+            let test = move |n: &Node8, a: f64, b: f64| unsafe { avx2_test(&r, n, a, b) };
+            out.push(("avx2", Box::new(test)));
+        }
+    }
+    out
+}
+
+/// A ray that meets a box exactly at one point of its boundary (a corner, an edge or a face:
+/// o + t·d = p exactly, with t a power of two), with tmin or tmax at that t or not, from
+/// origins that float32 cannot hold and directions with zero components: every box test
+/// keeps the box. Its entry bound is at most t. A box the ray passes an ulp beside is
+/// dropped by the float32 test often enough to show the test culls at all.
+#[test]
+fn box_tests_keep_every_box_a_ray_touches() {
+    let mut rng = Rng::xorshift(11);
+    let (mut kept, mut tested, mut culled_beside) = (0, 0, 0);
+    for i in 0..20_000 {
+        let scale = [1.0, 1e-3, 1e4, 1e-30, 1e30][i % 5];
+        let f32at = |rng: &mut Rng| ((rng.f() - 0.5) * scale) as f32;
+        let mut node = Node8::EMPTY;
+        let mut boxes = [[[0f32; 3]; 2]; WIDTH];
+        for (s, b) in boxes.iter_mut().enumerate() {
+            let [lo, hi] = b;
+            for (l, h) in lo.iter_mut().zip(hi.iter_mut()) {
+                let (a, c) = (f32at(&mut rng), f32at(&mut rng));
+                // Some flat boxes (a triangle in an axis plane).
+                let c = if rng.below(6) == 0 { a } else { c };
+                (*l, *h) = (a.min(c), a.max(c));
+            }
+            let bn = BvhNode {
+                lo: b[0],
+                first: 0,
+                hi: b[1],
+                count: 0,
+            };
+            node.set(s, &bn, LEAF | (s as u32) << COUNT_BITS);
+        }
+        let s = rng.below(WIDTH);
+        // A boundary point of box s: per axis lo, hi or (for at most two axes) inside.
+        let kinds = [0, 1, 2].map(|_| rng.below(3));
+        let inside_axes = kinds.iter().filter(|&&x| x == 2).count();
+        let p: [f64; 3] = [0, 1, 2].map(|k| {
+            let (lo, hi) = (boxes[s][0][k] as f64, boxes[s][1][k] as f64);
+            match (kinds[k], inside_axes) {
+                (0, _) | (2, 3) => lo,
+                (1, _) => hi,
+                _ => lo + (hi - lo) * 0.5,
+            }
+        });
+        // t = 2^e, and either d with few bits (o = p − t·d exact in float64, often a float32)
+        // or an origin of 53 bits within a factor of two of p per axis (p − o exact by
+        // Sterbenz's lemma, d = (p − o)/t exact), which float32 cannot hold. Some components
+        // of d zero.
+        let e = rng.below(40) as i32 - 20;
+        let t = 2f64.powi(e);
+        let (o, d) = if rng.below(2) == 0 {
+            let d: [f64; 3] = [0, 1, 2].map(|_| {
+                if rng.below(5) == 0 {
+                    0.0
+                } else {
+                    ((rng.f() - 0.5) * 64.0).round() / 16.0 * scale
+                }
+            });
+            let Some(o) = exact_sub(p, d.map(|x| t * x)) else {
+                continue; // not exact at this scale
+            };
+            (o, d)
+        } else {
+            let o: [f64; 3] = [0, 1, 2].map(|k| {
+                if rng.below(5) == 0 {
+                    p[k]
+                } else {
+                    p[k] * (0.5 + 1.5 * rng.f())
+                }
+            });
+            let Some(diff) = exact_sub(p, o) else {
+                continue;
+            };
+            (o, diff.map(|x| x / t))
+        };
+        if d == [0.0; 3] || (0..3).any(|k| o[k] + t * d[k] != p[k]) {
+            continue;
+        }
+        let (tmin, tmax) = match rng.below(4) {
+            0 => (0.0, f64::INFINITY),
+            1 => (t, t),
+            2 => (0.0, t),
+            _ => (t, f64::INFINITY),
+        };
+        let line = Line::new(&Ray {
+            o,
+            d,
+            tmin,
+            tmax,
+            leaving: None,
+        })
+        .unwrap();
+        for (name, test) in box_tests(&line, false) {
+            tested += 1;
+            let (mask, nears) = test.test(&node, line.tmin, line.tmax);
+            assert!(
+                mask & (1 << s) != 0,
+                "{name}: ray {i} o {o:?} d {d:?} [{tmin}, {tmax}] touches box {:?} at t = {t}",
+                boxes[s]
+            );
+            assert!(
+                nears[s] as f64 <= t,
+                "{name}: ray {i}: entry bound {} > {t}",
+                nears[s]
+            );
+            kept += 1;
+        }
+        // The same ray moved off the box by far more than the padding on an axis where p is
+        // on a bound and d is not zero: it misses; the float32 test sees that mostly.
+        if let Some(k) = (0..3).find(|&k| kinds[k] < 2 && d[k] != 0.0) {
+            let mut o2 = o;
+            let away = if kinds[k] == 0 { -1.0 } else { 1.0 };
+            o2[k] += away * (1e-3 * scale).max(p[k].abs() * 1e-3);
+            let line2 = Line::new(&Ray {
+                o: o2,
+                d,
+                tmin: t,
+                tmax: t,
+                leaving: None,
+            })
+            .unwrap();
+            if let Some(r) = RayBoxes::new(&line2, false) {
+                culled_beside += (r.test(&node, t, t).0 & (1 << s) == 0) as usize;
+            }
+        }
+    }
+    eprintln!("{kept} of {tested} kept, {culled_beside} culled beside");
+    assert!(tested > 30_000, "{tested} tests");
+    assert!(
+        culled_beside > 5_000,
+        "{culled_beside}: the float32 test culls too little"
+    );
+}
+
+/// The portable and AVX2 walks visit the same nodes and give the same answers, bit for bit
+/// (steps included), on the agreement rays; the answers are also Reshetov's BVH's.
+#[test]
+fn every_simd_level_walks_the_same_nodes() {
+    let case = Agreement::new(83);
+    let (g, n) = (&case.g, case.len());
+    let (tmin, tmax) = case.bounds(false);
+    let r64 = case.r64(&tmin, &tmax);
+    let cast = |accel, simd| {
+        let opts = CastOptions {
+            accel,
+            simd: Some(simd),
+            ..Default::default()
+        };
+        let mut h = HitBuffers::<f64>::new(n, false);
+        g.scene.cast(&r64, h.out(), &opts).unwrap();
+        h
+    };
+    let base = cast(AccelKind::ExactBvh, Simd::Scalar);
+    let reshetov = cast(AccelKind::ReshetovBvh, Simd::Scalar);
+    assert!(
+        base.status
+            .iter()
+            .filter(|&&s| s == crate::status::HIT)
+            .count()
+            > 1000
+    );
+    assert_eq!(base.status, reshetov.status);
+    assert_eq!(base.triangle, reshetov.triangle);
+    assert!(base
+        .t
+        .iter()
+        .zip(&reshetov.t)
+        .all(|(a, b)| a.to_bits() == b.to_bits()));
+    for simd in Simd::supported_levels() {
+        let h = cast(AccelKind::ExactBvh, simd);
+        assert_eq!(h.status, base.status, "{simd:?}");
+        assert_eq!(h.triangle, base.triangle, "{simd:?}");
+        assert_eq!(h.steps, base.steps, "{simd:?}: nodes visited");
+        assert!(h
+            .t
+            .iter()
+            .zip(&base.t)
+            .all(|(a, b)| a.to_bits() == b.to_bits()));
+    }
+    // Reached at all: the nodes visited are fewer than the binary tree's on average.
+    let wide: u64 = base.steps.iter().map(|&s| s as u64).sum();
+    let binary: u64 = reshetov.steps.iter().map(|&s| s as u64).sum();
+    eprintln!("nodes visited: 8-wide {wide}, binary {binary}");
+    assert!(wide < binary, "8-wide {wide}, binary {binary}");
+}
+
+/// A tree with an infinite box (a triangle past float32's range) and a ray with a zero
+/// direction component takes the float64 test, and still finds the hit.
+#[test]
+fn zero_components_in_an_infinite_tree_take_the_float64_test() {
+    let tris: Vec<Tri> = vec![
+        [[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0]],
+        [[1e300, 0.0, 5.0], [1e300, 1.0, 5.0], [-1e300, 0.0, 5.0]],
+    ];
+    let bvh = ExactBvh::build(&tris, ExactBvhParams::default()).unwrap();
+    assert!(bvh.infinite);
+    let ray = Ray {
+        o: [0.25, 0.25, 0.0],
+        d: [0.0, 0.0, 1.0],
+        tmin: 0.0,
+        tmax: f64::INFINITY,
+        leaving: None,
+    };
+    let line = Line::new(&ray).unwrap();
+    assert!(RayBoxes::new(&line, true).is_none());
+    for simd in Simd::supported_levels() {
+        let mut near = Nearest::new(&line, &tris);
+        bvh.walk(&line, &mut near, simd, &mut Vec::new());
+        assert_eq!(near.best, Some(0), "{simd:?}");
+    }
+}
