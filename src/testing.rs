@@ -177,6 +177,24 @@ pub(crate) fn windows(rays: &[Ray6], lo: f64) -> (Vec<f64>, Vec<f64>) {
 pub(crate) const ACCEL_KINDS: &[AccelKind] = AccelKind::ALL;
 
 /// The default cast options on `accel`.
+/// What the BVHs' tree tests build over: 1,500 small random triangles, two zero-area ones (a
+/// point, a segment) and 40 copies of one triangle (centres all equal).
+pub(crate) fn triangle_soup(rng: &mut Rng) -> Vec<[[f64; 3]; 3]> {
+    let mut tris: Vec<[[f64; 3]; 3]> = (0..1500)
+        .map(|_| {
+            let c = [0, 1, 2].map(|_| rng.f() * 10.0);
+            [0, 1, 2].map(|_| [0, 1, 2].map(|k| c[k] + rng.f() * 0.3))
+        })
+        .collect();
+    tris.push([[1.0, 1.0, 1.0]; 3]);
+    tris.push([[0.0; 3], [1.0, 1.0, 1.0], [2.0, 2.0, 2.0]]);
+    tris.extend(std::iter::repeat_n(
+        [[5.0, 5.0, 5.0], [6.0, 5.0, 5.0], [5.0, 6.0, 5.0]],
+        40,
+    ));
+    tris
+}
+
 pub(crate) fn on(accel: AccelKind) -> CastOptions {
     CastOptions {
         accel,

@@ -5,31 +5,14 @@
 use super::*;
 use crate::query::gather::Nearest;
 use crate::scene::{AccelKind, CastOptions, HitBuffers};
-use crate::testing::{Agreement, Rng};
-
-/// Random small triangles, zero-area ones, a point and 40 copies of one triangle.
-fn soup(rng: &mut Rng) -> Vec<Tri> {
-    let mut tris: Vec<Tri> = (0..1500)
-        .map(|_| {
-            let c = [0, 1, 2].map(|_| rng.f() * 10.0);
-            [0, 1, 2].map(|_| [0, 1, 2].map(|k| c[k] + rng.f() * 0.3))
-        })
-        .collect();
-    tris.push([[1.0, 1.0, 1.0]; 3]);
-    tris.push([[0.0; 3], [1.0, 1.0, 1.0], [2.0, 2.0, 2.0]]);
-    tris.extend(std::iter::repeat_n(
-        [[5.0, 5.0, 5.0], [6.0, 5.0, 5.0], [5.0, 6.0, 5.0]],
-        40,
-    ));
-    tris
-}
+use crate::testing::{triangle_soup, Agreement, Rng};
 
 /// Every triangle sits in exactly one leaf, of at most max_leaf triangles, and the box of the
 /// slot naming the leaf holds its corners; every inner node's slot box holds its children's
 /// boxes; unused slots have the empty box; for several parameter sets, and for no triangles.
 #[test]
 fn wide_tree_holds_every_triangle_once() {
-    let tris = soup(&mut Rng::xorshift(5));
+    let tris = triangle_soup(&mut Rng::xorshift(5));
     for params in [
         ExactBvhParams::default(),
         ExactBvhParams {

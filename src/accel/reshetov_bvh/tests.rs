@@ -222,20 +222,8 @@ fn far_from_float32(what: &str, build: &Builds) {
 /// parameter sets, degenerate triangles included.
 #[test]
 fn bvh_tree_holds_every_triangle_once() {
-    let mut rng = Rng::xorshift(5);
-    let mut tris: Vec<Tri> = (0..1500)
-        .map(|_| {
-            let c = [0, 1, 2].map(|_| rng.f() * 10.0);
-            [0, 1, 2].map(|_| [0, 1, 2].map(|k| c[k] + rng.f() * 0.3))
-        })
-        .collect();
     // Zero-area triangles, a point, and many copies of one triangle (centres all equal).
-    tris.push([[1.0, 1.0, 1.0]; 3]);
-    tris.push([[0.0; 3], [1.0, 1.0, 1.0], [2.0, 2.0, 2.0]]);
-    tris.extend(std::iter::repeat_n(
-        [[5.0, 5.0, 5.0], [6.0, 5.0, 5.0], [5.0, 6.0, 5.0]],
-        40,
-    ));
+    let tris = crate::testing::triangle_soup(&mut Rng::xorshift(5));
     for params in [
         BvhParams::default(),
         BvhParams {
