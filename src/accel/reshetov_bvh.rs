@@ -221,15 +221,21 @@ impl ReshetovBvh {
         }
         check_finite(triangles)?;
         let boxes: Vec<Aabb> = triangles.iter().map(Aabb::of).collect();
-        let centre = |k: u32| {
-            let b = &boxes[k as usize];
-            [0, 1, 2].map(|a| 0.5 * b.lo[a] + 0.5 * b.hi[a])
-        };
+        // Each box's centre, once (the binning reads it per axis at every level).
+        let centres: Vec<[f64; 3]> = boxes
+            .iter()
+            .map(|b| [0, 1, 2].map(|a| 0.5 * b.lo[a] + 0.5 * b.hi[a]))
+            .collect();
+        let centre = |k: u32| centres[k as usize];
         let mut order: Vec<u32> = (0..triangles.len() as u32).collect();
         let mut nodes = vec![Aabb::EMPTY.to_node(0, 0)];
         // (node, first, end) ranges of `order` still to split.
         let mut todo = vec![(0usize, 0usize, order.len())];
         let bins = params.bins as usize;
+        // The bins, made once and cleared per node and axis (not allocated per node).
+        let mut count = vec![0usize; bins];
+        let mut bbox = vec![Aabb::EMPTY; bins];
+        let mut right = vec![(0.0, 0usize); bins];
         while let Some((node, first, end)) = todo.pop() {
             let mut bounds = Aabb::EMPTY;
             let mut centres = Aabb::EMPTY;
@@ -254,15 +260,15 @@ impl ReshetovBvh {
                 }
                 let scale = bins as f64 / (c1 - c0);
                 let bin_of = |k: u32| (((centre(k)[axis] - c0) * scale) as usize).min(bins - 1);
-                let mut count = vec![0usize; bins];
-                let mut bbox = vec![Aabb::EMPTY; bins];
+                count.fill(0);
+                bbox.fill(Aabb::EMPTY);
                 for &k in &order[first..end] {
                     let b = bin_of(k);
                     count[b] += 1;
                     bbox[b].join(&boxes[k as usize]);
                 }
                 // Right-hand sweep, then left-hand with the cost of each cut.
-                let mut right = vec![(0.0, 0usize); bins];
+                right.fill((0.0, 0));
                 let (mut acc, mut m) = (Aabb::EMPTY, 0);
                 for b in (1..bins).rev() {
                     acc.join(&bbox[b]);
