@@ -208,6 +208,175 @@ impl Aabb {
     }
 }
 
+/// What a build reads: the triangles' boxes and centres, and the parameters.
+struct Builder<'a> {
+    boxes: &'a [Aabb],
+    centres: &'a [[f64; 3]],
+    params: BvhParams,
+}
+
+/// Subtrees of fewer triangles than this are built on one thread.
+const PARALLEL_MIN: usize = 8192;
+
+impl Builder<'_> {
+    /// The box of the triangles `order` names, and where the binned SAH splits them (after
+    /// partitioning `order` so the left part comes first), or None where they stay one leaf.
+    fn split(&self, order: &mut [u32], bins: &mut Bins) -> (Aabb, Option<usize>) {
+        let (boxes, params) = (self.boxes, self.params);
+        let centre = |k: u32| self.centres[k as usize];
+        let nbins = params.bins as usize;
+        let mut bounds = Aabb::EMPTY;
+        let mut centres = Aabb::EMPTY;
+        for &k in order.iter() {
+            bounds.join(&boxes[k as usize]);
+            centres.add(centre(k));
+        }
+        let n = order.len();
+        if n <= 1 {
+            return (bounds, None);
+        }
+        // The cheapest binned split: (cost, axis, bins left of it).
+        let mut best: Option<(f64, usize, usize)> = None;
+        let Bins { count, bbox, right } = bins;
+        for axis in 0..3 {
+            let (c0, c1) = (centres.lo[axis], centres.hi[axis]);
+            if c1 <= c0 {
+                continue; // every centre in one plane across this axis
+            }
+            let scale = nbins as f64 / (c1 - c0);
+            let bin_of = |k: u32| (((centre(k)[axis] - c0) * scale) as usize).min(nbins - 1);
+            count.fill(0);
+            bbox.fill(Aabb::EMPTY);
+            for &k in order.iter() {
+                let b = bin_of(k);
+                count[b] += 1;
+                bbox[b].join(&boxes[k as usize]);
+            }
+            // Right-hand sweep, then left-hand with the cost of each cut.
+            right.fill((0.0, 0));
+            let (mut acc, mut m) = (Aabb::EMPTY, 0);
+            for b in (1..nbins).rev() {
+                acc.join(&bbox[b]);
+                m += count[b];
+                right[b] = (acc.half_area(), m);
+            }
+            let (mut acc, mut m) = (Aabb::EMPTY, 0);
+            for cut in 1..nbins {
+                acc.join(&bbox[cut - 1]);
+                m += count[cut - 1];
+                let (ra, rn) = right[cut];
+                if m == 0 || rn == 0 {
+                    continue;
+                }
+                let cost = acc.half_area() * m as f64 + ra * rn as f64;
+                if best.is_none_or(|(c, _, _)| cost < c) {
+                    best = Some((cost, axis, cut));
+                }
+            }
+        }
+        let area = bounds.half_area();
+        // SAH in units of one triangle test: visiting costs cost_ratio.
+        let split_cost =
+            best.map(|(c, _, _)| params.cost_ratio + if area > 0.0 { c / area } else { n as f64 });
+        let fits = n <= params.max_leaf as usize;
+        if fits && split_cost.is_none_or(|c| c >= n as f64) {
+            return (bounds, None);
+        }
+        let mid = match best {
+            Some((_, axis, cut)) => {
+                let (c0, c1) = (centres.lo[axis], centres.hi[axis]);
+                let scale = nbins as f64 / (c1 - c0);
+                let mut m = 0;
+                for k in 0..order.len() {
+                    let b = (((centre(order[k])[axis] - c0) * scale) as usize).min(nbins - 1);
+                    if b < cut {
+                        order.swap(k, m);
+                        m += 1;
+                    }
+                }
+                m
+            }
+            // Every centre at one point: halve the range.
+            None => n / 2,
+        };
+        (bounds, Some(mid))
+    }
+
+    /// The tree over `order` (whose first entry is `offset` in leaf order) on this thread:
+    /// node 0 its root, each inner node's children a pair.
+    fn build_range(&self, order: &mut [u32], offset: usize) -> Vec<BvhNode> {
+        let mut bins = Bins::new(self.params.bins as usize);
+        let mut nodes = vec![Aabb::EMPTY.to_node(0, 0)];
+        // (node, first, end) ranges of `order` still to split.
+        let mut todo = vec![(0usize, 0usize, order.len())];
+        while let Some((node, first, end)) = todo.pop() {
+            let (bounds, mid) = self.split(&mut order[first..end], &mut bins);
+            let Some(mid) = mid else {
+                nodes[node] = bounds.to_node((offset + first) as u32, (end - first) as u32);
+                continue;
+            };
+            let left = nodes.len();
+            nodes.push(Aabb::EMPTY.to_node(0, 0));
+            nodes.push(Aabb::EMPTY.to_node(0, 0));
+            nodes[node] = bounds.to_node(left as u32, 0);
+            todo.push((left + 1, first + mid, end));
+            todo.push((left, first, first + mid));
+        }
+        nodes
+    }
+
+    /// [`Builder::build_range`], the two halves of a large range built side by side (rayon's
+    /// join, in the pool it runs in), then laid out as root, the two subtrees' roots (the
+    /// pair), the left subtree's other nodes, the right's.
+    fn build_par(&self, order: &mut [u32], offset: usize, depth: u32) -> Vec<BvhNode> {
+        if order.len() < PARALLEL_MIN || depth >= 6 {
+            return self.build_range(order, offset);
+        }
+        let (bounds, mid) = self.split(order, &mut Bins::new(self.params.bins as usize));
+        let Some(mid) = mid else {
+            return vec![bounds.to_node(offset as u32, order.len() as u32)];
+        };
+        let (lo, hi) = order.split_at_mut(mid);
+        let (l, r) = rayon::join(
+            || self.build_par(lo, offset, depth + 1),
+            || self.build_par(hi, offset + mid, depth + 1),
+        );
+        // Local index i ≥ 1 of the left subtree goes to i + 2; of the right, past the left's.
+        let (lbase, rbase) = (2, 2 + l.len() - 1);
+        let moved = |n: &BvhNode, base: usize| {
+            let mut n = *n;
+            if n.count == 0 && n.first != 0 {
+                n.first += base as u32;
+            }
+            n
+        };
+        let mut nodes = Vec::with_capacity(1 + l.len() + r.len());
+        nodes.push(bounds.to_node(1, 0));
+        nodes.push(moved(&l[0], lbase));
+        nodes.push(moved(&r[0], rbase));
+        nodes.extend(l[1..].iter().map(|n| moved(n, lbase)));
+        nodes.extend(r[1..].iter().map(|n| moved(n, rbase)));
+        nodes
+    }
+}
+
+/// A split's bin arrays, made once per thread and cleared per node and axis.
+struct Bins {
+    count: Vec<usize>,
+    bbox: Vec<Aabb>,
+    right: Vec<(f64, usize)>,
+}
+
+impl Bins {
+    fn new(bins: usize) -> Bins {
+        Bins {
+            count: vec![0; bins],
+            bbox: vec![Aabb::EMPTY; bins],
+            right: vec![(0.0, 0); bins],
+        }
+    }
+}
+
 impl ReshetovBvh {
     /// Builds the tree over `triangles` (the caller's, in its numbering; their corners must be
     /// finite).
@@ -226,103 +395,15 @@ impl ReshetovBvh {
             .iter()
             .map(|b| [0, 1, 2].map(|a| 0.5 * b.lo[a] + 0.5 * b.hi[a]))
             .collect();
-        let centre = |k: u32| centres[k as usize];
+        let builder = Builder {
+            boxes: &boxes,
+            centres: &centres,
+            params,
+        };
         let mut order: Vec<u32> = (0..triangles.len() as u32).collect();
-        let mut nodes = vec![Aabb::EMPTY.to_node(0, 0)];
-        // (node, first, end) ranges of `order` still to split.
-        let mut todo = vec![(0usize, 0usize, order.len())];
-        let bins = params.bins as usize;
-        // The bins, made once and cleared per node and axis (not allocated per node).
-        let mut count = vec![0usize; bins];
-        let mut bbox = vec![Aabb::EMPTY; bins];
-        let mut right = vec![(0.0, 0usize); bins];
-        while let Some((node, first, end)) = todo.pop() {
-            let mut bounds = Aabb::EMPTY;
-            let mut centres = Aabb::EMPTY;
-            for &k in &order[first..end] {
-                bounds.join(&boxes[k as usize]);
-                centres.add(centre(k));
-            }
-            let n = end - first;
-            let leaf = |nodes: &mut Vec<BvhNode>| {
-                nodes[node] = bounds.to_node(first as u32, n as u32);
-            };
-            if n <= 1 {
-                leaf(&mut nodes);
-                continue;
-            }
-            // The cheapest binned split: (cost, axis, bins left of it).
-            let mut best: Option<(f64, usize, usize)> = None;
-            for axis in 0..3 {
-                let (c0, c1) = (centres.lo[axis], centres.hi[axis]);
-                if c1 <= c0 {
-                    continue; // every centre in one plane across this axis
-                }
-                let scale = bins as f64 / (c1 - c0);
-                let bin_of = |k: u32| (((centre(k)[axis] - c0) * scale) as usize).min(bins - 1);
-                count.fill(0);
-                bbox.fill(Aabb::EMPTY);
-                for &k in &order[first..end] {
-                    let b = bin_of(k);
-                    count[b] += 1;
-                    bbox[b].join(&boxes[k as usize]);
-                }
-                // Right-hand sweep, then left-hand with the cost of each cut.
-                right.fill((0.0, 0));
-                let (mut acc, mut m) = (Aabb::EMPTY, 0);
-                for b in (1..bins).rev() {
-                    acc.join(&bbox[b]);
-                    m += count[b];
-                    right[b] = (acc.half_area(), m);
-                }
-                let (mut acc, mut m) = (Aabb::EMPTY, 0);
-                for cut in 1..bins {
-                    acc.join(&bbox[cut - 1]);
-                    m += count[cut - 1];
-                    let (ra, rn) = right[cut];
-                    if m == 0 || rn == 0 {
-                        continue;
-                    }
-                    let cost = acc.half_area() * m as f64 + ra * rn as f64;
-                    if best.is_none_or(|(c, _, _)| cost < c) {
-                        best = Some((cost, axis, cut));
-                    }
-                }
-            }
-            let area = bounds.half_area();
-            // SAH in units of one triangle test: visiting costs cost_ratio.
-            let split_cost = best
-                .map(|(c, _, _)| params.cost_ratio + if area > 0.0 { c / area } else { n as f64 });
-            let fits = n <= params.max_leaf as usize;
-            if fits && split_cost.is_none_or(|c| c >= n as f64) {
-                leaf(&mut nodes);
-                continue;
-            }
-            let mid = match best {
-                Some((_, axis, cut)) => {
-                    let (c0, c1) = (centres.lo[axis], centres.hi[axis]);
-                    let scale = bins as f64 / (c1 - c0);
-                    let slice = &mut order[first..end];
-                    let mut m = 0;
-                    for k in 0..slice.len() {
-                        let b = (((centre(slice[k])[axis] - c0) * scale) as usize).min(bins - 1);
-                        if b < cut {
-                            slice.swap(k, m);
-                            m += 1;
-                        }
-                    }
-                    first + m
-                }
-                // Every centre at one point: halve the range.
-                None => first + n / 2,
-            };
-            let left = nodes.len();
-            nodes.push(Aabb::EMPTY.to_node(0, 0));
-            nodes.push(Aabb::EMPTY.to_node(0, 0));
-            nodes[node] = bounds.to_node(left as u32, 0);
-            todo.push((left + 1, mid, end));
-            todo.push((left, first, mid));
-        }
+        // Large subtrees are built side by side (the splits, and so the tree, are the same
+        // whatever the thread count; only where its nodes lie in the array differs).
+        let nodes = crate::threads::install(None, || builder.build_par(&mut order, 0, 0))?;
         let tris = order.iter().map(|&k| triangles[k as usize]).collect();
         Ok(ReshetovBvh {
             nodes,

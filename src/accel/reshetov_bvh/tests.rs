@@ -370,3 +370,51 @@ fn bvh_cost_ratio_prunes_the_tree() {
         "ratio 8 already stops at every fitting node"
     );
 }
+
+/// A tree large enough to be built in parallel is the tree built on one thread: the same
+/// leaf order, and node for node (by structure, not by index) the same boxes and leaves; and
+/// it holds every triangle once.
+#[test]
+fn parallel_build_is_the_sequential_build() {
+    let mut rng = Rng::xorshift(12);
+    let tris: Vec<Tri> = (0..6 * PARALLEL_MIN)
+        .map(|_| {
+            let c = [0, 1, 2].map(|_| rng.f() * 100.0);
+            [0, 1, 2].map(|_| [0, 1, 2].map(|k| c[k] + rng.f()))
+        })
+        .collect();
+    let params = BvhParams::default();
+    let par = ReshetovBvh::build(&tris, params).unwrap();
+    let boxes: Vec<Aabb> = tris.iter().map(Aabb::of).collect();
+    let centres: Vec<[f64; 3]> = boxes
+        .iter()
+        .map(|b| [0, 1, 2].map(|a| 0.5 * b.lo[a] + 0.5 * b.hi[a]))
+        .collect();
+    let builder = Builder {
+        boxes: &boxes,
+        centres: &centres,
+        params,
+    };
+    let mut order: Vec<u32> = (0..tris.len() as u32).collect();
+    let seq = builder.build_range(&mut order, 0);
+    assert_eq!(par.order, order);
+    assert_eq!(par.nodes.len(), seq.len());
+    let mut stack = vec![(0usize, 0usize)];
+    let mut leaves = 0;
+    while let Some((a, b)) = stack.pop() {
+        let (x, y) = (par.nodes[a], seq[b]);
+        assert_eq!(
+            (x.lo, x.hi, x.count),
+            (y.lo, y.hi, y.count),
+            "nodes {a} and {b}"
+        );
+        if x.count > 0 {
+            assert_eq!(x.first, y.first);
+            leaves += x.count as usize;
+        } else {
+            let (i, j) = (x.first as usize, y.first as usize);
+            stack.extend([(i, j), (i + 1, j + 1)]);
+        }
+    }
+    assert_eq!(leaves, tris.len());
+}
