@@ -20,7 +20,7 @@
 //! component in a tree with an infinite box. So every answer is the exact one, as the exact
 //! walk's and Reshetov's BVH's are.
 
-use super::reshetov_bvh::{BvhNode, Slab};
+use super::reshetov_bvh::{down32, up32, BvhNode, Slab};
 use super::{Accel, BvhParams, ReshetovBvh};
 use crate::error::{Error, Result};
 use crate::geom::ray::Ray;
@@ -480,6 +480,8 @@ trait BoxTest {
     fn test(&self, node: &Node8, tmin: f64, reach: f64) -> (u32, [f32; WIDTH]);
 }
 
+/// A closure as a box test (the tests' AVX2 test; the walk expands that one in place).
+#[cfg(test)]
 impl<F: Fn(&Node8, f64, f64) -> (u32, [f32; WIDTH])> BoxTest for F {
     #[inline(always)]
     fn test(&self, node: &Node8, tmin: f64, reach: f64) -> (u32, [f32; WIDTH]) {
@@ -520,26 +522,6 @@ pub struct RayBoxes {
     o_down: [f32; 3],
     o_up: [f32; 3],
     zero: bool,
-}
-
-/// The smallest float32 ≥ x (NaN stays NaN).
-fn up32(x: f64) -> f32 {
-    let f = x as f32;
-    if (f as f64) < x {
-        f.next_up()
-    } else {
-        f
-    }
-}
-
-/// The largest float32 ≤ x.
-fn down32(x: f64) -> f32 {
-    let f = x as f32;
-    if (f as f64) > x {
-        f.next_down()
-    } else {
-        f
-    }
 }
 
 /// Relative and absolute slack of [`above32`] and [`below32`]: 2^-22 is four times the

@@ -142,6 +142,26 @@ pub struct ReshetovBvh {
     pub culling: CullCounters,
 }
 
+/// The smallest float32 ≥ x (NaN stays NaN).
+pub(crate) fn up32(x: f64) -> f32 {
+    let f = x as f32;
+    if (f as f64) < x {
+        f.next_up()
+    } else {
+        f
+    }
+}
+
+/// The largest float32 ≤ x.
+pub(crate) fn down32(x: f64) -> f32 {
+    let f = x as f32;
+    if (f as f64) > x {
+        f.next_down()
+    } else {
+        f
+    }
+}
+
 /// A float64 box.
 #[derive(Clone, Copy, Debug)]
 struct Aabb {
@@ -183,46 +203,44 @@ impl Aabb {
 
     /// In float32, rounded outward: every point of the float64 box is in it.
     fn to_node(self, first: u32, count: u32) -> BvhNode {
-        let down = |x: f64| {
-            let f = x as f32;
-            if f as f64 > x {
-                f.next_down()
-            } else {
-                f
-            }
-        };
-        let up = |x: f64| {
-            let f = x as f32;
-            if (f as f64) < x {
-                f.next_up()
-            } else {
-                f
-            }
-        };
         BvhNode {
-            lo: self.lo.map(down),
+            lo: self.lo.map(down32),
             first,
-            hi: self.hi.map(up),
+            hi: self.hi.map(up32),
             count,
         }
     }
 }
 
 /// What a build reads: the triangles' boxes and centres, and the parameters.
-struct Builder<'a> {
-    boxes: &'a [Aabb],
-    centres: &'a [[f64; 3]],
+struct Builder {
+    boxes: Vec<Aabb>,
+    /// Each box's centre, once (the binning reads it per axis at every level).
+    centres: Vec<[f64; 3]>,
     params: BvhParams,
 }
 
 /// Subtrees of fewer triangles than this are built on one thread.
 const PARALLEL_MIN: usize = 8192;
 
-impl Builder<'_> {
+impl Builder {
+    fn new(triangles: &[Tri], params: BvhParams) -> Builder {
+        let boxes: Vec<Aabb> = triangles.iter().map(Aabb::of).collect();
+        let centres = boxes
+            .iter()
+            .map(|b| [0, 1, 2].map(|a| 0.5 * b.lo[a] + 0.5 * b.hi[a]))
+            .collect();
+        Builder {
+            boxes,
+            centres,
+            params,
+        }
+    }
+
     /// The box of the triangles `order` names, and where the binned SAH splits them (after
     /// partitioning `order` so the left part comes first), or None where they stay one leaf.
     fn split(&self, order: &mut [u32], bins: &mut Bins) -> (Aabb, Option<usize>) {
-        let (boxes, params) = (self.boxes, self.params);
+        let (boxes, params) = (&self.boxes, self.params);
         let centre = |k: u32| self.centres[k as usize];
         let nbins = params.bins as usize;
         let mut bounds = Aabb::EMPTY;
@@ -389,17 +407,7 @@ impl ReshetovBvh {
             )));
         }
         check_finite(triangles)?;
-        let boxes: Vec<Aabb> = triangles.iter().map(Aabb::of).collect();
-        // Each box's centre, once (the binning reads it per axis at every level).
-        let centres: Vec<[f64; 3]> = boxes
-            .iter()
-            .map(|b| [0, 1, 2].map(|a| 0.5 * b.lo[a] + 0.5 * b.hi[a]))
-            .collect();
-        let builder = Builder {
-            boxes: &boxes,
-            centres: &centres,
-            params,
-        };
+        let builder = Builder::new(triangles, params);
         let mut order: Vec<u32> = (0..triangles.len() as u32).collect();
         // Large subtrees are built side by side (the splits, and so the tree, are the same
         // whatever the thread count; only where its nodes lie in the array differs).

@@ -193,7 +193,18 @@ pub fn cmp_t_at(
 /// Which of two triangles' planes the line o + t d crosses first: the sign of t1 − t2,
 /// exactly. Neither plane may be parallel to d (a triangle met at one point is not).
 pub fn cmp_plane_t(o: V3<f64>, d: V3<f64>, tri1: &[V3<f64>; 3], tri2: &[V3<f64>; 3]) -> Ordering {
-    let ((t1, e1), (t2, e2)) = (plane_t(o, d, tri1), plane_t(o, d, tri2));
+    cmp_plane_t_at(o, d, tri1, tri2, plane_t(o, d, tri1), plane_t(o, d, tri2))
+}
+
+/// [`cmp_plane_t`] given `plane_t` of both triangles (computed once for several comparisons).
+pub fn cmp_plane_t_at(
+    o: V3<f64>,
+    d: V3<f64>,
+    tri1: &[V3<f64>; 3],
+    tri2: &[V3<f64>; 3],
+    (t1, e1): (f64, f64),
+    (t2, e2): (f64, f64),
+) -> Ordering {
     if [t1, e1, t2, e2].iter().all(|x| x.is_finite()) {
         if t1 + e1 < t2 - e2 {
             return Ordering::Less;

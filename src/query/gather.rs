@@ -6,7 +6,7 @@
 //! exact walk gives, whatever order the triangles come in.
 
 use super::contact::{meet_at, Meet};
-use crate::geom::exact::{beyond, cmp_plane_t, cmp_t_at, plane_t, triangle_sides};
+use crate::geom::exact::{beyond, cmp_plane_t, cmp_plane_t_at, cmp_t_at, plane_t, triangle_sides};
 use crate::geom::ray::{checked_range, Ray};
 use crate::geom::real::unit_scale;
 use std::cmp::Ordering;
@@ -175,16 +175,8 @@ impl Gather for Nearest<'_> {
         let better = match self.best {
             None => true,
             Some(b) => {
-                let (bt, be) = self.best_at;
-                let order = if certain && bt.is_finite() && be.is_finite() && t + err < bt - be {
-                    Ordering::Less
-                } else if certain && bt.is_finite() && be.is_finite() && t - err > bt + be {
-                    Ordering::Greater
-                } else {
-                    self.line
-                        .cmp(&self.triangles[id as usize], &self.triangles[b as usize])
-                };
-                match order {
+                let (tri, best) = (&self.triangles[id as usize], &self.triangles[b as usize]);
+                match cmp_plane_t_at(self.line.o, self.line.d, tri, best, at, self.best_at) {
                     Ordering::Less => true,
                     Ordering::Equal => id < b,
                     Ordering::Greater => false,

@@ -385,16 +385,7 @@ fn parallel_build_is_the_sequential_build() {
         .collect();
     let params = BvhParams::default();
     let par = ReshetovBvh::build(&tris, params).unwrap();
-    let boxes: Vec<Aabb> = tris.iter().map(Aabb::of).collect();
-    let centres: Vec<[f64; 3]> = boxes
-        .iter()
-        .map(|b| [0, 1, 2].map(|a| 0.5 * b.lo[a] + 0.5 * b.hi[a]))
-        .collect();
-    let builder = Builder {
-        boxes: &boxes,
-        centres: &centres,
-        params,
-    };
+    let builder = Builder::new(&tris, params);
     let mut order: Vec<u32> = (0..tris.len() as u32).collect();
     let seq = builder.build_range(&mut order, 0);
     assert_eq!(par.order, order);
