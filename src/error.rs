@@ -59,6 +59,19 @@ pub fn try_vec<T: Clone>(n: usize, value: T, what: &str) -> Result<Vec<T>> {
     Ok(v)
 }
 
+/// A vector of `n` zeros, or [`Error::OutOfMemory`] naming `what` and the bytes. The memory
+/// comes zeroed from the allocator (calloc: a large block is fresh pages, zero from the OS,
+/// touched first by whichever thread writes the answer there), where [`try_vec`] would write
+/// every byte once on this thread before the cast writes it again.
+pub fn try_zeroed_vec<T: bytemuck::Zeroable>(n: usize, what: &str) -> Result<Vec<T>> {
+    bytemuck::allocation::try_zeroed_slice_box(n)
+        .map(Vec::from)
+        .map_err(|()| Error::OutOfMemory {
+            bytes: n.saturating_mul(std::mem::size_of::<T>()),
+            what: what.to_string(),
+        })
+}
+
 /// An empty vector with room for `n`, or [`Error::OutOfMemory`] naming `what` and the bytes
 /// (outputs whose length the caller's rays decide, filled by pushing).
 pub fn try_with_capacity<T>(n: usize, what: &str) -> Result<Vec<T>> {

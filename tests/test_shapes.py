@@ -115,6 +115,26 @@ def test_normal_is_the_unit_normal_of_the_callers_winding(sphere):
     assert np.isnan(miss.normal).all() and miss.geometry.tolist() == [-1]
 
 
+def test_normals_are_gathered_as_numpy_takes_them():
+    """The core's parallel gather of the hits' normals (``_native.take_rows``) is
+    ``np.take`` with -1 taking the last (NaN) row, in both precisions and past one piece;
+    an index outside [-1, F) is a ValueError naming it, not a read past the table."""
+    from tetrace import _native
+
+    rng = np.random.default_rng(5)
+    for dt in (np.float32, np.float64):
+        rows = np.vstack([rng.normal(size=(40, 3)), np.full((1, 3), np.nan)]).astype(dt)
+        index = rng.integers(-1, 40, size=70_001).astype(np.int32)
+        got = _native.take_rows(rows, index, 2)
+        assert got.dtype == dt and got.shape == (70_001, 3)
+        np.testing.assert_array_equal(got, np.take(rows, index, axis=0))
+        for bad in (40, -2):
+            index[123] = bad
+            with pytest.raises(ValueError, match=f"index {bad} is outside"):
+                _native.take_rows(rows, index)
+            index[123] = 0
+
+
 def test_hits_reshape_and_validation():
     h = Hits.misses(6).reshape((2, 3))
     assert h.shape == (2, 3) and h.point.shape == (2, 3, 3) and h.normal is None

@@ -169,15 +169,17 @@ class Hits:
         return Hits(**fields)
 
     @classmethod
-    def from_core(cls, r, normal_rows, geometries, timings=None) -> Hits:
+    def from_core(cls, r, normal_rows, geometries, timings=None, threads=None) -> Hits:
         """Hits from the core's flat answer ``r`` (``NativeScene.query("closest", ...)`` or
         a GPU cast): the scene triangle split into mesh and triangle in it
         (:func:`locate`), the hit triangle's row of ``normal_rows`` (``(F + 1, 3)`` in the
-        rays' dtype, the last row ``nan``: a miss's triangle -1 takes it), and a GPU
-        cast's ``timings``."""
+        rays' dtype, the last row ``nan``: a miss's triangle -1 takes it; gathered on
+        ``threads`` threads, None: all), and a GPU cast's ``timings``."""
+        from . import _native
+
         scene_triangle = np.asarray(r["triangle"])
         geometry, triangle = locate(geometries, scene_triangle)
-        normal = np.take(normal_rows, scene_triangle, axis=0)
+        normal = _native.take_rows(normal_rows, scene_triangle, threads)
         return cls(
             **dict(r, triangle=triangle),
             normal=normal,

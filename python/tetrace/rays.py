@@ -360,6 +360,7 @@ class RayRequest:
         if want is not None:
             o, d = o.astype(want, copy=False), d.astype(want, copy=False)
         self.o, self.d, self.shape, self.invalid = o, d, batch.shape, invalid
+        self.threads = threads
         lo = prepare_bounds(tmin, len(o), "tmin", batch.shape)
         hi = prepare_bounds(tmax, len(o), "tmax", batch.shape)
         start_ids = None

@@ -278,7 +278,7 @@ class Scene:
             r = q.run(self._native, "closest", "casting")
         q.check(r["status"])
         rows = self._normal_rows(np.asarray(r["t"]).dtype)
-        return Hits.from_core(r, rows, self.geometries, timings).reshape(q.shape)
+        return Hits.from_core(r, rows, self.geometries, timings, q.threads).reshape(q.shape)
 
     def _request(self, args):
         """The :class:`~tetrace.rays.RayRequest` of a ray query's arguments (the public

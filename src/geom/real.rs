@@ -11,6 +11,7 @@ pub trait Real:
     + Debug
     + PartialOrd
     + Default
+    + bytemuck::Zeroable
     + Add<Output = Self>
     + Sub<Output = Self>
     + Mul<Output = Self>

@@ -91,7 +91,7 @@ impl DeviceScene {
                 let query = scene.closest();
                 let slack = device.scene.points_slack;
                 let shared = match rays.leaving {
-                    None => shared_origin(scene, rays, &query, slack),
+                    None => shared_origin(scene, rays, &query, slack, opts.threads),
                     Some(_) => None,
                 };
                 return match shared {

@@ -1,6 +1,10 @@
 //! numpy arrays in and out: contiguity and shape checks with messages naming the argument.
 
-use numpy::{Element, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{
+    Element, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods,
+};
+
+use super::errors::guarded;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
@@ -31,4 +35,49 @@ pub(crate) fn rows<T: Copy, const K: usize>(flat: &[T]) -> Vec<[T; K]> {
     flat.chunks_exact(K)
         .map(|c| std::array::from_fn(|i| c[i]))
         .collect()
+}
+
+/// `rows[index]` for an `(F + 1, 3)` float32 or float64 table and int32 indices, −1 taking
+/// the last row, filled on the pool's threads into an array numpy allocates: the hits'
+/// normals (`Hits.from_core`), one parallel pass in place of `np.take` on one thread.
+#[pyfunction]
+#[pyo3(signature = (rows, index, threads=None))]
+pub(crate) fn take_rows<'py>(
+    py: Python<'py>,
+    rows: &Bound<'py, PyAny>,
+    index: PyReadonlyArray1<'py, i32>,
+    threads: Option<usize>,
+) -> PyResult<Bound<'py, PyAny>> {
+    fn typed<'py, T: Element + bytemuck::Pod + Send + Sync>(
+        py: Python<'py>,
+        rows: PyReadonlyArray2<'py, T>,
+        index: &[i32],
+        threads: Option<usize>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        check_cols(&rows, 3, "rows")?;
+        let table: &[[T; 3]] = bytemuck::cast_slice(slice(&rows, "rows")?);
+        // SAFETY: uninitialized, but every row is written below before numpy or Python reads
+        // it; on an error the array is dropped unread.
+        let out = unsafe { PyArray2::<T>::new(py, [index.len(), 3], false) };
+        {
+            let mut w = out.readwrite();
+            let flat = w.as_slice_mut()?;
+            let dest: &mut [[T; 3]] = bytemuck::cast_slice_mut(flat);
+            py.detach(|| {
+                guarded(|| crate::scene::buffers::take_rows(table, index, dest, threads))
+            })?;
+        }
+        Ok(out.into_any())
+    }
+    let ix = slice(&index, "index")?;
+    if let Ok(r) = rows.extract::<PyReadonlyArray2<'py, f32>>() {
+        typed(py, r, ix, threads)
+    } else {
+        typed(
+            py,
+            rows.extract::<PyReadonlyArray2<'py, f64>>()?,
+            ix,
+            threads,
+        )
+    }
 }

@@ -11,7 +11,7 @@ use crate::accel::reshetov_bvh::nearest::NearestPoint;
 use crate::accel::{
     BvhParams, ExactBvh, ExactBvhParams, OctreeParams, PortalezOctree, ReshetovBvh,
 };
-use crate::error::try_vec;
+use crate::error::{try_vec, try_zeroed_vec};
 use crate::geom::real::Real;
 #[cfg(feature = "gpu")]
 use crate::scene::queries::{Closest, Column, RayJob};
@@ -186,7 +186,7 @@ impl PyScene {
                         "occluded on the GPU takes the exact kernel (the default method)",
                     ));
                 }
-                let mut status = try_vec(rays.len(), 0u8, "statuses")?;
+                let mut status = try_zeroed_vec::<u8>(rays.len(), "statuses")?;
                 let t = interruptible(py, || device.occluded(scene, &rays, &mut status, &opts))?;
                 (vec![Column::new("status", status)], t)
             } else {
@@ -517,7 +517,7 @@ fn contains_impl<'py, R: Real + Element>(
 ) -> PyResult<Bound<'py, PyArray1<bool>>> {
     let n = check_cols(&points, 3, "points")?;
     let p = slice(&points, "points")?;
-    let mut out = try_vec(n, false, "the answers of contains")?;
+    let mut out = try_zeroed_vec::<bool>(n, "the answers of contains")?;
     interruptible(py, || scene.contains(p, &mut out, threads))?;
     Ok(out.into_pyarray(py))
 }

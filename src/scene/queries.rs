@@ -6,7 +6,7 @@
 //! is its job type here (over a `query/` policy) and a row.
 
 use super::{CastOptions, HitBuffers, Rays, Scene};
-use crate::error::{try_vec, try_with_capacity, Error, Result};
+use crate::error::{try_vec, try_with_capacity, try_zeroed_vec, Error, Result};
 use crate::geom::real::Real;
 use crate::layout::LayoutKind;
 use crate::query::Listed;
@@ -174,7 +174,7 @@ impl RayJob for Any {
     const NAME: &'static str = "any";
     type Out<R: Real> = Vec<u8>;
     fn output<R: Real>(n: usize, _: &Ask) -> Result<Vec<u8>> {
-        try_vec(n, 0, "the answers of occluded")
+        try_zeroed_vec(n, "the answers of occluded")
     }
     fn run<R: Real>(
         scene: &Scene,

@@ -97,7 +97,8 @@ def gpu_cast_timed(scene, o, d, repeat, **kw):
     Returns
     -------
     best : dict
-        The phases (seconds) of the cast with the shortest kernel time, with ``wall`` added.
+        The phases (seconds) of the fastest cast, numpy to numpy, with ``wall`` (its whole
+        call) and ``kernel_min`` (the least kernel time of any cast) added.
     host : float
         The least host time per ray over the casts: the whole call, numpy to numpy, less the
         kernel's timestamped time (issue 34's measure), in seconds.
@@ -108,16 +109,19 @@ def gpu_cast_timed(scene, o, d, repeat, **kw):
     """
     first = scene.cast(o[:1], d[:1], device="gpu", **kw)
     scene_upload = first.timings["scene_upload"]
-    best, host, hits = None, float("inf"), None
+    best, host, hits, kernel_min = None, float("inf"), None, float("inf")
     for _ in range(max(int(repeat), 1)):
+        # The last cast's arrays are freed before the clock starts, not inside the timed call.
+        hits = None
         t0 = time.perf_counter()
         hits = scene.cast(o, d, device="gpu", **kw)
         wall = time.perf_counter() - t0
         t = dict(hits.timings, wall=wall)
-        if best is None or t["kernel"] < best["kernel"]:
+        kernel_min = min(kernel_min, t["kernel"])
+        if best is None or wall < best["wall"]:
             best = t
         host = min(host, (wall - t["kernel"]) / max(len(o), 1))
-    return best, host, hits, scene_upload
+    return dict(best, kernel_min=kernel_min), host, hits, scene_upload
 
 
 class CameraRun:

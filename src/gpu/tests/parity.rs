@@ -442,7 +442,7 @@ fn gpu_shared_origin_is_taken_only_where_it_holds() {
             tmax: &[tmax],
             leaving: None,
         };
-        crate::gpu::origin::shared_origin(&scene, &rays, &query, 0.0).is_some()
+        crate::gpu::origin::shared_origin(&scene, &rays, &query, 0.0, None).is_some()
     };
     let inside = [0.431f32, 0.377, 0.619, 0.431, 0.377, 0.619];
     let outside = [-0.5f32, 0.377, 0.619, -0.5, 0.377, 0.619];

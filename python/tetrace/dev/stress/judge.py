@@ -68,7 +68,7 @@ def audited_cast(
     )
     r = q.run(scene._native, "closest", "casting")
     audit = r.pop("audit")
-    return Hits.from_core(r, scene.normals(), scene.geometries), audit
+    return Hits.from_core(r, scene._normal_rows(dt), scene.geometries, threads=threads), audit
 
 
 def judge_cast(hits, audit, verdict):
