@@ -121,7 +121,7 @@ def test_bad_mesh(case, tmp_path):
     if isinstance(expected, str):
         skip = [int(expected.rsplit("-", 1)[1])] if "without" in expected else []
         v, f = tetrace.io.load_triangles(mesh)
-        scene = tetrace.Scene.from_mesh(mesh, timeout=15)
+        scene = tetrace.Scene.from_mesh(mesh, timeout=15, lazy=False)
         assert scene.n_triangles == len(f)
         # Dropped by cleaning (collinear up to rounding), and only those.
         kept = scene.tetrahedralization.clean.triangle_ids
@@ -130,7 +130,7 @@ def test_bad_mesh(case, tmp_path):
     else:
         kind, words = expected
         with pytest.raises(kind) as info:
-            tetrace.Scene.from_mesh(mesh, timeout=15)
+            tetrace.Scene.from_mesh(mesh, timeout=15, lazy=False)
         message = str(info.value)
         assert isinstance(info.value, (MeshingError, ValueError, TypeError)), type(info.value)
         for word in words:

@@ -102,7 +102,7 @@ def test_zero_area_needle_is_degenerate(needle):
     cm = clean(v, f)
     assert len(cm.faces) == 0 and cm.dropped_degenerate == 1
     with pytest.raises(MeshingError) as info:
-        tetrace.Scene.from_mesh((v, f))
+        tetrace.Scene.from_mesh((v, f), lazy=False)
     message = str(info.value)
     assert "degenerate" in message and "triangle 0" in message
     assert "collinear" in message
@@ -112,7 +112,7 @@ def test_zero_area_needle_is_degenerate(needle):
 @pytest.mark.parametrize("needle", [ROUNDED_NEEDLE, EXACT_NEEDLE], ids=["rounded", "exact"])
 def test_zero_area_needle_among_triangles_is_dropped(needle):
     v, f, k = _with_sphere(needle)
-    scene = tetrace.Scene.from_mesh((v, f))
+    scene = tetrace.Scene.from_mesh((v, f), lazy=False)
     cm = scene.tetrahedralization.clean
     assert cm.dropped_degenerate == 1 and k not in cm.triangle_ids
     assert not scene.tetrahedralization.repaired
@@ -132,17 +132,17 @@ def test_thin_needle_is_named_not_blamed_on_self_intersection(have_igl, monkeypa
     f = np.vstack([s.faces, [[8, 9, 10]]])
     # Alone, nothing can be meshed: the error names triangle 12 as a needle.
     with pytest.raises(MeshingError) as info:
-        tetrace.Scene.from_mesh((v[8:], f[12:] - 8))
+        tetrace.Scene.from_mesh((v[8:], f[12:] - 8), lazy=False)
     message = str(info.value)
     assert "degenerate needle" in message and "triangle 0" in message
     assert "install libigl" not in message
     if have_igl:
         # Beside other triangles, snap rounding flattens it and the box meshes.
-        scene = tetrace.Scene.from_mesh((v, f))
+        scene = tetrace.Scene.from_mesh((v, f), lazy=False)
         assert 12 not in scene.tetrahedralization.clean.triangle_ids
     else:
         with pytest.raises(MeshingError, match=r"degenerate needle.*triangle 12"):
-            tetrace.Scene.from_mesh((v, f))
+            tetrace.Scene.from_mesh((v, f), lazy=False)
 
 
 def test_errors_name_the_file(tmp_path):
@@ -150,4 +150,4 @@ def test_errors_name_the_file(tmp_path):
     path = tmp_path / "needle_only.obj"
     path.write_text("v 0 0 0\nv 1 2 3\nv 0.5 1 1.5\nf 1 2 3\n")
     with pytest.raises(MeshingError, match=r"^needle_only\.obj: .*degenerate"):
-        tetrace.Scene.from_mesh(path)
+        tetrace.Scene.from_mesh(path, lazy=False)

@@ -579,8 +579,10 @@ def _judge_ftetwild(scene, n_res, n_random=50_000):
         surface = on_surface.first_hits(o, d)
         inp = None
         for method in (None, "robust"):
-            h = scene.cast(o, d, method=method)
-            name = f"{kind} {method or 'default'}"
+            # The walks through fTetWild's tetrahedralization (the CPU default, the exact BVH,
+            # reads the input's triangles: judged below).
+            h = scene.cast(o, d, method=method, accel="tetwalk")
+            name = f"{kind} {method or 'exact'} walk"
             if inp is None:
                 inp = on_input.first_hits(o, d, hint=h.triangle)
                 must, late = _must_hit(o, d, v, f, inp, surface, eps_abs)
@@ -604,6 +606,10 @@ def _judge_ftetwild(scene, n_res, n_random=50_000):
             )
             outside = _named_outside(h, surface, face_triangle, offsets, ids)
             assert not outside, (name, "names a triangle its face may not name", outside[:10])
+        # The CPU default answers on the input itself, exactly: every ray right.
+        score = agreement(scene.cast(o, d), inp)
+        print(f"{kind} exact BVH against the input: {score}")
+        assert score.right == score.rays == len(o), (kind, score)
         k = np.flatnonzero(surface.hit)
         x = o[k] + surface.t[k][:, None] * d[k]
         to_input = np.sqrt(igl.point_mesh_squared_distance(x, v, f)[0])
@@ -751,8 +757,10 @@ def test_happy_buddha_builds_after_snap_rounding(scene_path):
         clean = on_clean.first_hits(o, d)
         inp = None
         for method in (None, "robust"):
-            h = scene.cast(o, d, method=method)
-            name = f"happy_buddha {kind} {method or 'default'}"
+            # The walks through the snapped scene TetGen meshed (the CPU default, the exact
+            # BVH, reads the input's triangles: judged below).
+            h = scene.cast(o, d, method=method, accel="tetwalk")
+            name = f"happy_buddha {kind} {method or 'exact'} walk"
             hit = h.status == tetrace.HIT
             if inp is None:
                 inp = on_input.first_hits(o, d, hint=h.triangle)
@@ -774,6 +782,10 @@ def test_happy_buddha_builds_after_snap_rounding(scene_path):
                 if h.triangle[i] not in ids[clean.tie_set(i)]
             ]
             assert not outside, (name, "triangle outside the tie set", outside[:10])
+        # The CPU default answers on the input itself, exactly: every ray right.
+        score = agreement(scene.cast(o, d), inp)
+        print(f"happy_buddha {kind} exact BVH against the input: {score}")
+        assert score.right == score.rays == len(o), (kind, score)
 
 
 def test_neighbour_triangles_share_a_vertex_across_merged_copies():

@@ -30,7 +30,7 @@ def _rays():
 
 def _same(a, b):
     o, d = _rays()
-    ha, hb = a.cast(o, d), b.cast(o, d)
+    ha, hb = a.cast(o, d, accel="tetwalk"), b.cast(o, d, accel="tetwalk")
     for field in ("t", "triangle", "u", "v", "status", "tet", "steps"):
         np.testing.assert_array_equal(getattr(ha, field), getattr(hb, field))
     np.testing.assert_array_equal(a.tetrahedralization.tets, b.tetrahedralization.tets)
@@ -38,15 +38,22 @@ def _same(a, b):
 
 def test_progress_names_each_stage_and_attempt(capsys, monkeypatch):
     monkeypatch.setenv("CI", "true")  # an explicit True wins over CI
-    on = tetrace.Scene.from_mesh((V, F), progress=True)
+    on = tetrace.Scene.from_mesh((V, F), progress=True, lazy=False)
     err = capsys.readouterr().err
     assert "clean the mesh (4 triangles)" in err, err
     assert "TetGen attempt 1: preset 'quality', on the scene as given" in err, err
     assert "build the scene" in err, err
     assert " s, done" in err, err
-    off = tetrace.Scene.from_mesh((V, F), progress=False)
+    off = tetrace.Scene.from_mesh((V, F), progress=False, lazy=False)
     assert capsys.readouterr().err == ""
     _same(on, off)
+    # Meshing deferred to build_ct reports the same stages.
+    later = tetrace.Scene.from_mesh((V, F), progress=True)
+    assert capsys.readouterr().err == ""  # nothing meshed yet
+    later.build_ct(progress=True)
+    err = capsys.readouterr().err
+    assert "TetGen attempt 1: preset 'quality', on the scene as given" in err, err
+    _same(on, later)
 
 
 def test_failed_attempts_are_each_shown(capsys):
@@ -65,7 +72,7 @@ def test_ci_turns_auto_off(capsys, monkeypatch, ci):
     monkeypatch.setenv("CI", ci)
     monkeypatch.setattr("sys.stderr", _Tty())
     assert not progress.enabled(None)
-    tetrace.Scene.from_mesh((V, F))
+    tetrace.Scene.from_mesh((V, F), lazy=False)
     assert capsys.readouterr().err == ""
 
 
@@ -73,17 +80,17 @@ def test_auto_follows_the_terminal(monkeypatch):
     monkeypatch.delenv("CI", raising=False)
     monkeypatch.setattr("sys.stderr", io.StringIO())
     assert not progress.enabled(None)
-    tetrace.Scene.from_mesh((V, F))
+    tetrace.Scene.from_mesh((V, F), lazy=False)
     assert __import__("sys").stderr.getvalue() == ""
     tty = _Tty()
     monkeypatch.setattr("sys.stderr", tty)
     assert progress.enabled(None)
-    tetrace.Scene.from_mesh((V, F))
+    tetrace.Scene.from_mesh((V, F), lazy=False)
     assert "TetGen attempt 1" in tty.getvalue()
 
 
 def test_auto_mesher_counts_candidates(capsys):
-    tetrace.Scene.from_mesh((V, F), mesher="auto", progress=True)
+    tetrace.Scene.from_mesh((V, F), mesher="auto", progress=True, lazy=False)
     err = capsys.readouterr().err
     assert "mesher='auto': candidates" in err, err
     assert "quality7" in err, err

@@ -628,7 +628,9 @@ class FakeNative:
 def fake_scenes(monkeypatch):
     """A two-mesh scene (the cube twice) whose query kinds answer from FakeNative."""
     v, f = _cube()
-    scene = tetrace.Scene.from_meshes([(v, f), (v + [2.0, 0, 0], f)])
+    # Tetrahedralized now: the stand-in wraps the core that answers, which a later build
+    # of the tetrahedralization would replace.
+    scene = tetrace.Scene.from_meshes([(v, f), (v + [2.0, 0, 0], f)], lazy=False)
     monkeypatch.setattr(scene, "_native", FakeNative(scene._native, scene.vertices, scene.faces))
     return scene
 

@@ -44,8 +44,14 @@ def test_hits_fields(spot):
         np.testing.assert_allclose(
             (1 - u - v) * p[:, 0] + u * p[:, 1] + v * p[:, 2], h.point[hit], atol=1e-5
         )
-        assert np.all((h.tet[hit] >= 0) & (h.tet[hit] < spot.n_tets))
-        assert np.all(h.steps[hit] >= 1)
+        # The CPU default (the exact BVH) walks no tets and counts the boxes a ray entered;
+        # the tet walk names the tet each hit's walk ended in.
+        assert np.all(h.tet == -1) and np.all(h.steps[hit] >= 1)
+        w = spot.cast(o.astype(dtype), d.astype(dtype), accel="tetwalk")
+        for f in ("status", "triangle", "t", "u", "v", "point"):
+            np.testing.assert_array_equal(getattr(w, f), getattr(h, f), err_msg=f)
+        assert np.all((w.tet[hit] >= 0) & (w.tet[hit] < spot.n_tets))
+        assert np.all(w.steps[hit] >= 1)
 
 
 def test_ray_forms_are_equivalent(spot):
@@ -158,7 +164,13 @@ def test_integer_and_empty_rays(spot):
 
 
 def test_memory_and_sizes(spot):
-    m = spot.memory()
+    lazy = tetrace.Scene.from_mesh(tetrace.scene.default_scene_path())
+    m = lazy.memory()
+    assert not lazy.has_ct and "not built" in repr(lazy)
+    assert m["points_f64"] == m["locator"] == m[f"tets_{tetrace._native.DEFAULT_LAYOUT}"] == 0
+    lazy.cast(np.zeros(3), np.ones(3))
+    assert lazy.memory()["exact_bvh"] > 0 and not lazy.has_ct
+    m = spot.build_ct().memory()
     default = tetrace._native.DEFAULT_LAYOUT
     assert {"points_f64", "points_f32", "constrained", "locator", f"tets_{default}"} <= set(m)
     assert m[f"tets_{default}"] == spot.n_tets * spot.bytes_per_tet

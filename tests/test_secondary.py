@@ -368,8 +368,8 @@ def test_threads_packets_and_float32_change_no_answer(case):
 def test_gpu_casts_from_hits_are_the_cpu_exact_casts(case):
     """``start=hits`` on the GPU (exact kernel): each ray begins where the CPU exact walk
     begins it, next to its hit's tet, the GPU takes the plain steps, the CPU the rest. Every
-    column equals the CPU's float32 cast from the same hits, bit for bit, and the referee finds
-    every ray right."""
+    column equals the CPU exact walk's float32 cast from the same hits, bit for bit (the CPU
+    default's hits and t, u, v, point too), and the referee finds every ray right."""
     from conftest import gpu_device
 
     gpu_device()
@@ -380,7 +380,10 @@ def test_gpu_casts_from_hits_are_the_cpu_exact_casts(case):
     for kind, d in _secondary_directions(hits32, d32, np.random.default_rng(5)).items():
         d = d.astype(np.float32)
         got = _cast_judged(scene, v, f, hits32, d, device="gpu")
-        cpu = scene.cast(start=hits32, directions=d)
+        # The CPU exact walk from the same hits (the CPU default's hits name no tet: both
+        # walks begin next to the hit's triangle), and the CPU default (the exact BVH).
+        cpu = scene.cast(start=hits32, directions=d, accel="tetwalk")
+        bvh = scene.cast(start=hits32, directions=d)
         for tmax in (np.inf, 1.0):
             np.testing.assert_array_equal(
                 scene.occluded(start=hits32, directions=d, tmax=tmax, device="gpu"),
@@ -390,6 +393,10 @@ def test_gpu_casts_from_hits_are_the_cpu_exact_casts(case):
         for field in ("status", "triangle", "t", "u", "v", "point", "tet", "steps", "normal"):
             np.testing.assert_array_equal(
                 getattr(got, field), getattr(cpu, field), f"{kind} {field}"
+            )
+        for field in ("status", "triangle", "t", "u", "v", "point", "normal"):
+            np.testing.assert_array_equal(
+                getattr(got, field), getattr(bvh, field), f"{kind} {field}, exact BVH"
             )
         # Not one origin: the resumed kernel, which the CPU hands each begun walk.
         assert got.timings is not None and not got.timings["shared_origin"], kind

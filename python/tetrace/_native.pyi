@@ -111,6 +111,10 @@ class RayRequest:
     def __len__(self) -> int: ...
     @property
     def precision(self) -> str: ...
+    # The accelerator a CPU query takes: the one named, else "exact_bvh" for the exact method
+    # with no layout, max_steps or audit, "tetwalk" otherwise.
+    @property
+    def accel(self) -> str: ...
 
 @final
 class NativeScene:
@@ -126,6 +130,18 @@ class NativeScene:
         # face naming it may lie on instead (fTetWild); the ray's crossing nearest the face wins.
         alternatives: tuple[npt.NDArray[np.uint32], npt.NDArray[np.uint32]] | None = None,
     ) -> NativeScene: ...
+    # The caller's triangles (F, 3, 3) alone in the domain box [lo, hi], before any
+    # tetrahedralization: the BVHs, the octree and closest points answer; a tet walk
+    # (accel "tetwalk", the GPU, parity contains, update_points) is a ValueError.
+    @staticmethod
+    def surface_only(
+        triangles: npt.NDArray[np.float64],
+        lo: tuple[float, float, float] | npt.NDArray[np.float64],
+        hi: tuple[float, float, float] | npt.NDArray[np.float64],
+    ) -> NativeScene: ...
+    # Whether the scene holds its tetrahedralization (False: surface_only).
+    @property
+    def has_ct(self) -> bool: ...
     # One binding for every ray query of the table (queries()): "closest" -> the Hits fields
     # ("t", "u", "v", "point" (N, 3), "triangle", "tet", "steps", "status", and "audit" (N, 2)
     # when the request audits); "any" -> "status" (HIT: something lies in [tmin, tmax]);

@@ -11,7 +11,14 @@ import numpy as np
 from . import _native
 from .accuracy import measure_accuracy
 
-__all__ = ["MESH_OPTIONS", "native_scene", "from_mesh", "triangle_normals"]
+__all__ = [
+    "MESH_OPTIONS",
+    "native_scene",
+    "surface_scene",
+    "from_mesh",
+    "build_ct",
+    "triangle_normals",
+]
 
 #: The options of :meth:`tetrace.Scene.from_mesh` that reach the mesher, kept on the scene
 #: (``_build_options``): a rebuild (``update_vertices``) meshes again with them.
@@ -53,33 +60,73 @@ def native_scene(tet, vertices, faces, hilbert):
     )
 
 
-def from_mesh(cls, mesh, options, hilbert, progress):
-    """The body of :meth:`tetrace.Scene.from_mesh` (which documents it): a ``cls`` meshed
-    from ``mesh`` with ``options`` (:data:`MESH_OPTIONS`)."""
+def surface_scene(vertices, faces, *, margin, contain):
+    """The compiled core of the caller's triangles alone (``NativeScene.surface_only``), in
+    the domain box the mesher would wrap them in: what the BVHs, the octree and closest points
+    read before (or without) a tetrahedralization."""
+    from .mesh.clean import domain_box
+
+    lo, hi = domain_box(vertices, margin=margin, contain=contain)
+    triangles = np.ascontiguousarray(np.asarray(vertices, np.float64)[faces])
+    return _native.NativeScene.surface_only(triangles, tuple(lo), tuple(hi))
+
+
+def _tetrahedralize(cls, vertices, faces, options, name):
+    """The tetrahedralization of ``(vertices, faces)`` with :meth:`~tetrace.Scene.from_mesh`'s
+    ``options``."""
+    from .mesh import FTETWILD_EDGE_LENGTH, FTETWILD_EPSILON, tetrahedralize
+
+    epsilon, edge_length = options["epsilon"], options["edge_length"]
+    return tetrahedralize(
+        (vertices, faces),
+        **dict(
+            options,
+            epsilon=FTETWILD_EPSILON if epsilon is None else epsilon,
+            edge_length=FTETWILD_EDGE_LENGTH if edge_length is None else edge_length,
+        ),
+        measure=partial(measure_accuracy, cls),
+        name=name,
+    )
+
+
+def from_mesh(cls, mesh, options, hilbert, progress, lazy=True):
+    """The body of :meth:`tetrace.Scene.from_mesh` (which documents it): a ``cls`` of
+    ``mesh`` with ``options`` (:data:`MESH_OPTIONS`), meshed now unless ``lazy``."""
     from .io import _mesh_name, is_trimesh_scene
-    from .mesh import FTETWILD_EDGE_LENGTH, FTETWILD_EPSILON, load_triangles, tetrahedralize
+    from .mesh import load_triangles
     from .progress import reporting, stage
 
+    if not isinstance(lazy, bool):
+        raise TypeError(f"lazy must be True or False, got {lazy!r}")
     if is_trimesh_scene(mesh):
-        # Meshed as one, like its path, but with the per-mesh ids from_meshes records.
-        return cls.from_meshes(mesh, hilbert=hilbert, progress=progress, **options)
+        # Meshed as one, like its path, but with the per-mesh ids from_meshes record.
+        return cls.from_meshes(mesh, hilbert=hilbert, progress=progress, lazy=lazy, **options)
     with reporting(progress):
         vertices, faces = load_triangles(mesh)
-        epsilon, edge_length = options["epsilon"], options["edge_length"]
-        tet = tetrahedralize(
-            (vertices, faces),
-            **dict(
-                options,
-                epsilon=FTETWILD_EPSILON if epsilon is None else epsilon,
-                edge_length=FTETWILD_EDGE_LENGTH if edge_length is None else edge_length,
-            ),
-            measure=partial(measure_accuracy, cls),
-            name=_mesh_name(mesh),
-        )
+        name = _mesh_name(mesh)
+        if lazy:
+            return cls._without_ct(vertices, faces, options, hilbert, name)
+        tet = _tetrahedralize(cls, vertices, faces, options, name)
         with stage(f"build the scene ({len(tet.tets)} tets)"):
             scene = cls(tet, vertices, faces, hilbert=hilbert)
     scene._build_options = options
+    scene._mesh_name = name
     return scene
+
+
+def build_ct(scene, progress):
+    """The body of :meth:`tetrace.Scene.build_ct`: mesh ``scene``'s triangles with the options
+    it was made with and install the tetrahedralization (its BVHs are kept)."""
+    from .progress import reporting, stage
+
+    with reporting(progress):
+        tet = _tetrahedralize(
+            type(scene), scene.vertices, scene.faces, scene._build_options, scene._mesh_name
+        )
+        with stage(f"build the scene ({len(tet.tets)} tets)"):
+            loaded = scene.build_times.get("total", 0.0)
+            scene._install_ct(tet)
+            scene.build_times["surface"] = loaded
 
 
 def triangle_normals(vertices, faces):

@@ -143,7 +143,7 @@ def rebuild(scene, V):
     """Mesh the scene again from vertices ``V`` with the options it was built with;
     the BVH and octree are built again with the parameters they had."""
     fresh = type(scene).from_mesh(
-        (V, np.asarray(scene.faces)), hilbert=scene.hilbert, **scene._build_options
+        (V, np.asarray(scene.faces)), hilbert=scene.hilbert, lazy=False, **scene._build_options
     )
     # The core's rule of a move (a structure built with other than the default parameters
     # is built again now, a default one on its next use), applied to the new scene before

@@ -63,9 +63,11 @@ class Hits:
         floating point). ``nan`` on miss.
     tet : numpy.ndarray
         ``(N,)`` int32. Tetrahedron where the walk ended, ``-1`` if none (always
-        ``-1`` for casters that do not walk tetrahedra, such as Embree).
+        ``-1`` for casters that do not walk tetrahedra: the CPU default
+        ``accel="exact_bvh"``, the other BVHs and the octree, Embree).
     steps : numpy.ndarray
-        ``(N,)`` uint32. Number of tetrahedra visited (``0`` for Embree).
+        ``(N,)`` uint32. Number of tetrahedra visited by a tet walk (``accel="tetwalk"``,
+        the GPU); the nodes a ray entered for a BVH or the octree; ``0`` for Embree.
     status : numpy.ndarray
         ``(N,)`` uint8. One of :data:`MISS`, :data:`HIT`, :data:`FAILED`, :data:`INVALID`.
     normal : numpy.ndarray or None

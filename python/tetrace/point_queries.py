@@ -52,7 +52,8 @@ def surface_info(scene):
 def inside(scene, flat, mode, threads):
     """Containment of the ``(N, 3)`` float64 points by the resolved ``mode``."""
     if mode == "parity":
-        return np.asarray(scene._native.contains(flat, threads), dtype=bool)
+        # The parity of the tetrahedralization's regions: built now if it is not yet.
+        return np.asarray(scene.build_ct()._native.contains(flat, threads), dtype=bool)
     from .winding import winding_numbers
 
     s = scene._surface_info()

@@ -490,19 +490,23 @@ packet : bool
     rays while every ray leaves a tet by the same face, exactly. Answers are the
     same, bit for bit, either way; ``False`` walks every ray on its own.
 accel : str, optional
-    Acceleration structure, one of :func:`tetrace.accels`: ``"tetwalk"`` (the
-    default, the walk through the tetrahedralization), ``"reshetov_bvh"``
+    Acceleration structure, one of :func:`tetrace.accels`. None (the default) takes
+    ``"exact_bvh"`` on the CPU for the ``exact`` method with no ``layout`` named (an
+    8-wide BVH over the caller's triangles whose boxes a ray tests eight at once, in
+    float32 padded to be conservative, AVX2 where the CPU has it; built on first use or
+    by :meth:`build_exact_bvh`), and the tet walk otherwise (a paper's ``method``, a
+    ``layout``, a ``max_steps``, and ``device="gpu"``, which always walks tets). The others:
+    ``"tetwalk"`` (the walk through the tetrahedralization), ``"reshetov_bvh"``
     (Reshetov 2007's BVH over the same triangles, built on first use or by
     :meth:`build_bvh`, one ray at a time) or ``"reshetov_bvh_packets"`` /
     ``"reshetov_bvh_packets8"`` (that BVH walked by packets of 16 / 64 rays with
     the paper's frustum vertex culling; :meth:`bvh_info` counts what was culled)
     or ``"portalez_octree"`` (Portalez & Duguet's neighbour-linked octree, built on
-    first use or by :meth:`build_octree`) or ``"exact_bvh"`` (an 8-wide BVH whose
-    boxes a ray tests eight at once, in float32 padded to be conservative, AVX2 where
-    the CPU has it; built on first use or by :meth:`build_exact_bvh`). All keep the
-    contract exactly and give
-    the same answers; those other than the tet walk take only the ``exact``
-    method, any layout, and the CPU.
+    first use or by :meth:`build_octree`). All keep the contract exactly and give
+    the same ``status``, ``triangle``, ``t``, ``u``, ``v`` and ``point``; ``tet`` and
+    ``steps`` are the walk's with ``"tetwalk"`` and, with the others, -1 and the
+    nodes (boxes or cells) the ray entered. Those other than the tet walk take only
+    the ``exact`` method, any layout, and the CPU.
 progress : bool, optional
     A bar of the rays done (tqdm, on stderr) for a cast that runs more than
     :data:`tetrace.progress.CAST_DELAY_S` seconds; None (the default): on in a

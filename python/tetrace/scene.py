@@ -55,7 +55,8 @@ class Scene:
     Attributes
     ----------
     tetrahedralization : tetrace.mesh.Tetrahedralization
-        What the mesher produced (points, tets, constrained faces, timings).
+        What the mesher produced (points, tets, constrained faces, timings); meshed when
+        first needed (:meth:`build_ct`).
     vertices, faces : numpy.ndarray
         The caller's mesh, as given (a :meth:`from_meshes` scene: the meshes
         concatenated in order): hit ``scene_triangle`` ids index ``faces``.
@@ -67,7 +68,11 @@ class Scene:
     """
 
     def __init__(self, tetrahedralization, vertices, faces, *, hilbert=True):
-        self.tetrahedralization = tet = tetrahedralization
+        self._setup(vertices, faces, hilbert)
+        self._install_ct(tetrahedralization)
+
+    def _setup(self, vertices, faces, hilbert):
+        """The state every scene has, with or without its tetrahedralization."""
         self.vertices = vertices
         self.faces = faces
         #: tetrace.meshes.Geometries or None: the meshes of a :meth:`from_meshes` scene
@@ -78,8 +83,6 @@ class Scene:
         # contains(mode="parity") has warned that the mesh is open.
         self._surface = None
         self._parity_warned = False
-        t0 = time.perf_counter()
-        self._native = construct.native_scene(tet, vertices, faces, hilbert)
         self.hilbert = bool(hilbert)
         #: Deformation or None: what the last :meth:`update_vertices` did.
         self.last_deformation = None
@@ -91,10 +94,88 @@ class Scene:
         # (tetrahedralization, vertices) as last built, once a move has replaced them: the
         # point map and a saved scene start from it.
         self._rest = None
+        # The tetrahedralization, or None until a query needs it (from_mesh's lazy=True),
+        # and the name its meshing reports.
+        self._tet = None
+        self._mesh_name = None
+
+    def _install_ct(self, tet):
+        """Make ``tet`` the scene's tetrahedralization and its core the scene's, keeping the
+        BVHs and octree a core without it had built (over the same triangles: shared)."""
+        t0 = time.perf_counter()
+        native = construct.native_scene(tet, self.vertices, self.faces, self.hilbert)
+        old = self.__dict__.get("_native")
+        if old is not None:
+            native.adopt_structures(old)
         rust = time.perf_counter() - t0
+        self._native, self._tet = native, tet
         self.build_times = dict(tet.timings)
         self.build_times["rust"] = rust
         self.build_times["total"] = tet.timings.get("total", 0.0) + rust
+
+    @classmethod
+    def _without_ct(cls, vertices, faces, options, hilbert, name):
+        """A scene of the caller's triangles alone, in the domain box ``options`` give; its
+        tetrahedralization is built by the first query that needs one (:meth:`build_ct`)."""
+        scene = cls.__new__(cls)
+        scene._setup(vertices, faces, hilbert)
+        scene._build_options = options
+        scene._mesh_name = name
+        t0 = time.perf_counter()
+        scene._native = construct.surface_scene(
+            vertices, faces, margin=options["margin"], contain=options["contain"]
+        )
+        rust = time.perf_counter() - t0
+        scene.build_times = {"rust": rust, "total": rust}
+        return scene
+
+    @property
+    def tetrahedralization(self):
+        """tetrace.mesh.Tetrahedralization : What the mesher produced (points, tets,
+        constrained faces, timings); built now if the scene has none yet
+        (:meth:`build_ct`)."""
+        self.build_ct()
+        return self._tet
+
+    @tetrahedralization.setter
+    def tetrahedralization(self, tet):
+        self._tet = tet
+
+    @property
+    def has_ct(self):
+        """bool : Whether the tetrahedralization is built (:meth:`from_mesh` leaves it to
+        the first query that walks tets, or to :meth:`build_ct`)."""
+        return self._tet is not None
+
+    def build_ct(self, progress=None):
+        """Build the constrained tetrahedralization now, if the scene has none yet.
+
+        :meth:`from_mesh` builds only what CPU queries need (the exact BVH, at the first
+        cast); the tetrahedralization is meshed when something walks tets: a cast with
+        ``accel="tetwalk"``, a paper's ``method``, a ``layout`` or ``device="gpu"``,
+        ``contains(mode="parity")``, :meth:`update_vertices`, :meth:`save` and pickling,
+        and the tetrahedralization's own attributes (:attr:`n_tets`, :meth:`tets`, ...).
+        It is meshed with the options :meth:`from_mesh` was given.
+
+        Parameters
+        ----------
+        progress : bool, optional
+            A status line per meshing stage on stderr (:meth:`from_mesh`'s ``progress``).
+
+        Returns
+        -------
+        Scene
+            This scene.
+
+        Raises
+        ------
+        tetrace.MeshingError
+            The scene cannot be meshed; the scene stays as it was (its queries that need no
+            tetrahedralization still answer).
+        """
+        if self._tet is None:
+            construct.build_ct(self, progress)
+        return self
 
     @classmethod
     def from_mesh(
@@ -115,8 +196,9 @@ class Scene:
         accuracy=None,
         hilbert=True,
         progress=None,
+        lazy=True,
     ):
-        """Tetrahedralize a triangle scene.
+        """A triangle scene, ready for ray queries; tetrahedralized when first needed.
 
         Parameters
         ----------
@@ -173,6 +255,12 @@ class Scene:
             running time, fTetWild, the build) and ``mesher="auto"``'s candidates as a bar.
             None (default): on in a terminal or Jupyter unless ``CI`` is set
             (:mod:`tetrace.progress`). The scene is the same.
+        lazy : bool
+            True (the default): load the triangles and mesh nothing yet. CPU queries
+            answer on the exact BVH (``accel="exact_bvh"``, built by the first, as fast as
+            Embree's build); the tetrahedralization is meshed, with the options above, by
+            the first query that walks tets (:meth:`build_ct` lists them). False: mesh it
+            now, as :meth:`build_ct` would.
 
         Returns
         -------
@@ -181,10 +269,12 @@ class Scene:
         Raises
         ------
         tetrace.MeshingError
-            The scene cannot be meshed; the message names the stage and the cause.
+            The mesh cannot be read, or (``lazy=False``, or later when the
+            tetrahedralization is built) the scene cannot be meshed; the message names the
+            stage and the cause.
         """
         options = {k: v for k, v in locals().items() if k in construct.MESH_OPTIONS}
-        return construct.from_mesh(cls, mesh, options, hilbert, progress)
+        return construct.from_mesh(cls, mesh, options, hilbert, progress, lazy)
 
     @classmethod
     def from_meshes(cls, meshes, preset="quality", **mesh_options):
@@ -273,12 +363,19 @@ class Scene:
         q = self._request(locals())
         timings = None
         if gpu.wanted(device, q.precision, method, layout, accel, start):
-            r, timings = self._native.cast_gpu(q.native)
+            r, timings = self.build_ct()._native.cast_gpu(q.native)
         else:
-            r = q.run(self._native, "closest", "casting")
+            r = q.run(self._core(q), "closest", "casting")
         q.check(r["status"])
         rows = self._normal_rows(np.asarray(r["t"]).dtype)
         return Hits.from_core(r, rows, self.geometries, timings, q.threads).reshape(q.shape)
+
+    def _core(self, q):
+        """The compiled core that answers request ``q`` on the CPU: a request that walks
+        tets (its accel resolved to ``"tetwalk"``) builds the tetrahedralization first."""
+        if q.native.accel == "tetwalk":
+            self.build_ct()
+        return self._native
 
     def _request(self, args):
         """The :class:`~tetrace.rays.RayRequest` of a ray query's arguments (the public
@@ -375,9 +472,9 @@ class Scene:
         if gpu.wanted(device, q.precision, method, layout, accel, start) and (
             device == "gpu" or method in (None, "exact")
         ):
-            status = self._native.cast_gpu(q.native, "any")[0]["status"]
+            status = self.build_ct()._native.cast_gpu(q.native, "any")[0]["status"]
         else:
-            status = q.run(self._native, "any", "occluded")["status"]
+            status = q.run(self._core(q), "any", "occluded")["status"]
         q.check(status)
         status = status.reshape(q.shape)
         hit = status == HIT
@@ -425,7 +522,7 @@ class Scene:
             ``origin + t* direction``, rounded).
         """
         q = self._request(locals())
-        r = q.run(self._native, "all", "intersections")
+        r = q.run(self._core(q), "all", "intersections")
         q.check(r["status"])
         return Intersections.from_core(r, q.shape, self.geometries)
 
@@ -471,7 +568,7 @@ class Scene:
             uint8, the same shape (``return_status=True`` only).
         """
         q = self._request(locals())
-        r = q.run(self._native, "count", "counting")
+        r = q.run(self._core(q), "count", "counting")
         status = np.asarray(r["status"])
         q.check(status)
         count = np.asarray(r["count"]).astype(np.int32, copy=True)
@@ -797,17 +894,17 @@ class Scene:
             The move needs a rebuild and meshing the new vertices fails; the scene is
             unchanged.
         """
-        return deform.update_vertices(self, vertices)
+        return deform.update_vertices(self.build_ct(), vertices)
 
     @property
     def n_tets(self):
-        """int : Tetrahedra in the tetrahedralization."""
-        return self._native.n_tets
+        """int : Tetrahedra in the tetrahedralization (built now if it is not yet)."""
+        return self.build_ct()._native.n_tets
 
     @property
     def n_points(self):
         """int : Points of the tetrahedralization (scene vertices, box corners, Steiner points)."""
-        return self._native.n_points
+        return self.build_ct()._native.n_points
 
     @property
     def n_triangles(self):
@@ -816,8 +913,9 @@ class Scene:
 
     @property
     def domain(self):
-        """numpy.ndarray : ``(2, 3)`` lower and upper corners of the domain box."""
-        return np.array(self._native.bounds)
+        """numpy.ndarray : ``(2, 3)`` lower and upper corners of the domain box (the
+        tetrahedralization's, built now if it is not yet)."""
+        return np.array(self.build_ct()._native.bounds)
 
     @property
     def bytes_per_tet(self):
@@ -842,7 +940,7 @@ class Scene:
         tetrace.TooLargeError
             The mesh exceeds the layout's limits (e.g. tet16's 24-bit links).
         """
-        return self._native.prepare_layout(layout)
+        return self.build_ct()._native.prepare_layout(layout)
 
     def memory(self):
         """Bytes used by each part of the traversal structure.
@@ -856,9 +954,16 @@ class Scene:
             layout's buffers on the GPU (records, and float32 points for tet20), and
             ``gpu_rays`` for the ray buffers GPU casts keep for the next cast, and
             ``gpu_entry_grid`` for the box's entry grid (uploaded by the first GPU cast of
-            rays from one origin outside the box).
+            rays from one origin outside the box), and ``bvh``, ``octree``, ``exact_bvh``
+            for the structures built over the triangles. Before the tetrahedralization is
+            built (:meth:`build_ct`) its parts are 0.
         """
-        return dict(self._native.memory())
+        m = dict(self._native.memory())
+        if self._tet is None:
+            # Until the tetrahedralization is built the core holds the domain box as six tets
+            # in its place: the scene's tetrahedralization takes no bytes yet.
+            m = {k: v if k in _DEFAULTS or k.startswith("gpu") else 0 for k, v in m.items()}
+        return m
 
     def tets(self):
         """Return the positively oriented tets, ``(T, 4)`` uint32 indices into ``points()``.
@@ -866,11 +971,11 @@ class Scene:
         ``Hits.tet`` indexes these rows. Points and tets are renumbered along a Hilbert
         curve at build time, so they differ in order from ``tetrahedralization``.
         """
-        return self._native.tets()
+        return self.build_ct()._native.tets()
 
     def points(self):
         """Return the ``(P, 3)`` float64 points, in the order ``tets()`` indexes."""
-        return self._native.points()
+        return self.build_ct()._native.points()
 
     # ------------------------------------------------------------------ save and load
 
@@ -887,7 +992,7 @@ class Scene:
         bytes
             Loaded back by :meth:`from_bytes`; every query answers the same, bit for bit.
         """
-        return persist.to_bytes(self)
+        return persist.to_bytes(self.build_ct())
 
     @classmethod
     def from_bytes(cls, data, *, source="<bytes>"):
@@ -956,7 +1061,9 @@ class Scene:
         return Scene.from_bytes(self.to_bytes(), source="<deepcopy>")
 
     def __repr__(self):
-        tz = self.tetrahedralization
+        if self._tet is None:
+            return f"Scene({self.n_triangles} triangles, tetrahedralization not built yet)"
+        tz = self._tet
         return (
             f"Scene({self.n_triangles} triangles, {self.n_tets} tets, {self.n_points} points, "
             f"mesher={getattr(tz, 'mesher', 'tetgen')!r}, preset={tz.preset!r})"

@@ -37,6 +37,9 @@ pub struct PyRayRequest {
     start: Option<Start>,
     pub(crate) opts: CastOptions,
     pub(crate) ask: Ask,
+    /// Whether the caller named the accelerator (else `opts.accel` is the CPU default,
+    /// [`Ask::default_accel`], and the GPU walks the tets as it always does).
+    pub(crate) accel_named: bool,
     n: usize,
 }
 
@@ -111,11 +114,22 @@ impl PyRayRequest {
                 )))
             }
         };
+        let ask = Ask {
+            method: method.map(|m| m.0),
+            layout: layout.map(|l| l.0),
+            audit,
+        };
         let opts = CastOptions {
             threads,
             max_steps,
             packets: if packet { Packets::Auto } else { Packets::Off },
-            accel: accel.map_or(AccelKind::default(), |a| a.0),
+            // A step guard is the walk's: a query given one walks tets unless it names another
+            // accelerator.
+            accel: match &accel {
+                Some(a) => a.0,
+                None if max_steps.is_some() => AccelKind::TetWalk,
+                None => ask.default_accel(),
+            },
             ..Default::default()
         };
         Ok(PyRayRequest {
@@ -124,11 +138,8 @@ impl PyRayRequest {
             tmax: tmax.unbind(),
             start: start.map(|(a, b)| (a.unbind(), b.unbind())),
             opts,
-            ask: Ask {
-                method: method.map(|m| m.0),
-                layout: layout.map(|l| l.0),
-                audit,
-            },
+            ask,
+            accel_named: accel.is_some(),
             n,
         })
     }
@@ -139,6 +150,13 @@ impl PyRayRequest {
     }
 
     /// "f32" or "f64".
+    /// The accelerator a CPU query takes: the one named, else the default for the method,
+    /// layout and audit asked for (`Ask::default_accel`).
+    #[getter]
+    fn accel(&self) -> &'static str {
+        self.opts.accel.name()
+    }
+
     #[getter]
     fn precision(&self) -> &'static str {
         match self.arrays {

@@ -39,15 +39,19 @@ pub struct PyScene {
 /// A scene and what lives beside it.
 struct Loaded {
     scene: Scene,
+    /// Whether the scene holds the caller's tetrahedralization (else it is
+    /// `Scene::surface_only`'s box: the triangles alone, which no tet walk may cross).
+    ct: bool,
     /// The scene's buffers on the GPU, uploaded per layout by the first GPU cast with it.
     #[cfg(feature = "gpu")]
     device: crate::gpu::DeviceScene,
 }
 
 impl Loaded {
-    fn new(scene: Scene) -> Arc<Loaded> {
+    fn new(scene: Scene, ct: bool) -> Arc<Loaded> {
         Arc::new(Loaded {
             scene,
+            ct,
             #[cfg(feature = "gpu")]
             device: Default::default(),
         })
@@ -58,6 +62,20 @@ impl PyScene {
     /// The scene as it is now (held by the caller for the whole call).
     fn loaded(&self) -> Arc<Loaded> {
         self.state.read().unwrap_or_else(|e| e.into_inner()).clone()
+    }
+
+    /// The scene as it is now, if it holds its tetrahedralization; else a clear error where
+    /// `what` would walk tets through the placeholder box and meet no triangle (Python's
+    /// `Scene` builds the CT before asking: this is the core's own guard).
+    fn with_ct(&self, what: &str) -> PyResult<Arc<Loaded>> {
+        let loaded = self.loaded();
+        if !loaded.ct {
+            return Err(PyValueError::new_err(format!(
+                "{what} walks the tetrahedralization, which this scene has not built \
+                 (Scene.build_ct() builds it)"
+            )));
+        }
+        Ok(loaded)
     }
 }
 
@@ -90,10 +108,7 @@ impl PyScene {
         let t: Vec<[u32; 4]> = rows(slice(&tets, "tets")?);
         let f: Vec<[u32; 3]> = rows(slice(&faces, "faces")?);
         let ft = slice(&face_triangle, "face_triangle")?;
-        let tri: Vec<[[f64; 3]; 3]> = rows::<f64, 9>(slice(&triangles, "triangles")?)
-            .into_iter()
-            .map(|r| [[r[0], r[1], r[2]], [r[3], r[4], r[5]], [r[6], r[7], r[8]]])
-            .collect();
+        let tri = triangle_rows(slice(&triangles, "triangles")?);
         let alternatives = match &alternatives {
             Some((offsets, ids)) => Some((
                 slice(offsets, "alternatives offsets")?.to_vec(),
@@ -113,8 +128,39 @@ impl PyScene {
             })?
         })?;
         Ok(PyScene {
-            state: RwLock::new(Loaded::new(inner)),
+            state: RwLock::new(Loaded::new(inner, true)),
         })
+    }
+
+    /// A scene of the caller's `triangles` ((F, 3, 3) float64) alone, in the domain box
+    /// [`lo`, `hi`] and before any tetrahedralization (`Scene::surface_only`): the BVHs, the
+    /// octree and the closest points answer on it; a tet walk is refused.
+    #[staticmethod]
+    fn surface_only(
+        py: Python<'_>,
+        triangles: PyReadonlyArray3<'_, f64>,
+        lo: [f64; 3],
+        hi: [f64; 3],
+    ) -> PyResult<Self> {
+        let ts = triangles.shape();
+        if ts[1] != 3 || ts[2] != 3 {
+            return Err(PyValueError::new_err(format!(
+                "triangles must have shape (F, 3, 3), got {ts:?}"
+            )));
+        }
+        let tri = triangle_rows(slice(&triangles, "triangles")?);
+        let inner = interruptible(py, || {
+            crate::threads::install(None, || Scene::surface_only(tri, lo, hi))?
+        })?;
+        Ok(PyScene {
+            state: RwLock::new(Loaded::new(inner, false)),
+        })
+    }
+
+    /// Whether the scene holds its tetrahedralization (False: `surface_only`).
+    #[getter]
+    fn has_ct(&self) -> bool {
+        self.loaded().ct
     }
 
     /// Answers the query named `kind` (one of `queries()`) for the rays of `request`: a dict
@@ -128,7 +174,11 @@ impl PyScene {
         request: &PyRayRequest,
         progress: Option<Py<PyAny>>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let loaded = self.loaded();
+        let loaded = if request.opts.accel == AccelKind::TetWalk {
+            self.with_ct("a query with accel=\"tetwalk\" (or a method, layout or audit)")?
+        } else {
+            self.loaded()
+        };
         let job = Job {
             py,
             scene: &loaded.scene,
@@ -149,7 +199,7 @@ impl PyScene {
         request: &PyRayRequest,
         kind: &str,
     ) -> PyResult<(Bound<'py, PyDict>, Bound<'py, PyDict>)> {
-        if request.opts.accel != AccelKind::TetWalk {
+        if request.accel_named && request.opts.accel != AccelKind::TetWalk {
             return Err(PyValueError::new_err(format!(
                 "device=\"gpu\" walks the tetrahedralization; accel {:?} is CPU only",
                 request.opts.accel.name()
@@ -167,7 +217,7 @@ impl PyScene {
         }
         #[cfg(feature = "gpu")]
         {
-            let loaded = self.loaded();
+            let loaded = self.with_ct("device=\"gpu\"")?;
             let scene = &loaded.scene;
             let rays = request.f32_rays(py)?;
             let rays = rays.rays(scene)?;
@@ -216,10 +266,10 @@ impl PyScene {
     ) -> PyResult<Bound<'py, PyArray1<bool>>> {
         let threads = threads_arg(threads)?;
         if let Ok(p) = points.extract::<PyReadonlyArray2<'py, f32>>() {
-            return contains_impl(py, &self.loaded().scene, p, threads);
+            return contains_impl(py, &self.with_ct("contains (parity)")?.scene, p, threads);
         }
         if let Ok(p) = points.extract::<PyReadonlyArray2<'py, f64>>() {
-            return contains_impl(py, &self.loaded().scene, p, threads);
+            return contains_impl(py, &self.with_ct("contains (parity)")?.scene, p, threads);
         }
         let shape = points.getattr("shape").map(|s| s.to_string());
         let dtype = points.getattr("dtype").map(|s| s.to_string());
@@ -378,13 +428,26 @@ impl PyScene {
             .transpose()
     }
 
-    /// Takes over the structures `other` built (a scene meshed again from moved vertices):
-    /// the rule of a move (`Structures::moved`) over this scene's triangles, so a structure
-    /// built with other than the default parameters is built again now with them.
+    /// Takes over the structures `other` built. Over the same triangles, bit for bit (the
+    /// tetrahedralization built for a scene that had none), they are shared as they are;
+    /// over others (a scene meshed again from moved vertices), the rule of a move
+    /// (`Structures::moved`), so a structure built with other than the default parameters
+    /// is built again now with them.
     fn adopt_structures(&self, py: Python<'_>, other: &PyScene) -> PyResult<()> {
         let (this, from) = (self.loaded(), other.loaded());
+        let (mine, theirs) = (&this.scene.surface.triangles, &from.scene.surface.triangles);
+        let same = mine.len() == theirs.len()
+            && mine
+                .iter()
+                .flatten()
+                .flatten()
+                .map(|x| x.to_bits())
+                .eq(theirs.iter().flatten().flatten().map(|x| x.to_bits()));
         let moved = py.detach(|| {
             guarded(|| {
+                if same {
+                    return Ok(from.scene.structures.share());
+                }
                 crate::threads::install(None, || {
                     from.scene.structures.moved(&this.scene.surface.triangles)
                 })?
@@ -423,10 +486,8 @@ impl PyScene {
             )));
         }
         let p: Vec<[f64; 3]> = rows(slice(&points, "points")?);
-        let tri: Vec<[[f64; 3]; 3]> = rows::<f64, 9>(slice(&triangles, "triangles")?)
-            .into_iter()
-            .map(|r| [[r[0], r[1], r[2]], [r[3], r[4], r[5]], [r[6], r[7], r[8]]])
-            .collect();
+        let tri = triangle_rows(slice(&triangles, "triangles")?);
+        self.with_ct("update_points")?;
         let mut slot = self.state.write().unwrap_or_else(|e| e.into_inner());
         let target: &mut Arc<Loaded> = &mut slot;
         // In tetrace's pool (fork-safe), as the constructor.
@@ -445,7 +506,7 @@ impl PyScene {
                 None => {
                     let (copy, moved) = target.scene.moved_copy(&p, tri)?;
                     if let Some(scene) = copy {
-                        *target = Loaded::new(scene);
+                        *target = Loaded::new(scene, true);
                     }
                     Ok(moved)
                 }
@@ -509,6 +570,14 @@ impl PyScene {
 
 /// Validates, answers with the GIL released, returns the answers (the vector becomes the numpy
 /// array without a copy).
+/// (F, 3, 3) values, flat, as F triangles.
+fn triangle_rows(flat: &[f64]) -> Vec<[[f64; 3]; 3]> {
+    rows::<f64, 9>(flat)
+        .into_iter()
+        .map(|r| [[r[0], r[1], r[2]], [r[3], r[4], r[5]], [r[6], r[7], r[8]]])
+        .collect()
+}
+
 fn contains_impl<'py, R: Real + Element>(
     py: Python<'py>,
     scene: &Scene,

@@ -160,6 +160,40 @@ impl Scene {
         Ok(scene)
     }
 
+    /// A scene of the caller's triangles alone, before (or without) a tetrahedralization: the
+    /// box [lo, hi] cut into Kuhn's six tets around its diagonal, with no constrained face.
+    /// What reads only the triangles answers on it as on the tetrahedralized scene: the
+    /// triangle-testing accelerators (the BVHs, the octree) and the closest points. A tet walk
+    /// through it would meet no triangle, so the bindings refuse one (`PyScene`). Every
+    /// triangle must lie strictly inside the box, as in a tetrahedralized scene's domain.
+    pub fn surface_only(
+        triangles: Vec<[[f64; 3]; 3]>,
+        lo: [f64; 3],
+        hi: [f64; 3],
+    ) -> Result<Scene> {
+        crate::mesh::surface::check_finite(&triangles)?;
+        if !(0..3).all(|a| lo[a].is_finite() && hi[a].is_finite() && lo[a] < hi[a]) {
+            return Err(Error::InvalidInput(format!(
+                "the domain box {lo:?} to {hi:?} is not a finite box"
+            )));
+        }
+        let inside = |p: &[f64; 3]| (0..3).all(|a| lo[a] < p[a] && p[a] < hi[a]);
+        if let Some(k) = triangles.iter().position(|t| !t.iter().all(inside)) {
+            return Err(Error::InvalidInput(format!(
+                "triangle {k} is not strictly inside the domain box {lo:?} to {hi:?}"
+            )));
+        }
+        // Corner i takes hi on axis a where bit a of i is set.
+        let points: Vec<[f64; 3]> = (0..8)
+            .map(|i| [0, 1, 2].map(|a| if i >> a & 1 == 1 { hi[a] } else { lo[a] }))
+            .collect();
+        // One tet per order of the axes: 0, then one axis, then two, then the far corner.
+        let tets: Vec<[u32; 4]> = [(1, 2), (1, 4), (2, 1), (2, 4), (4, 1), (4, 2)]
+            .map(|(a, b)| [0, a, a | b, 7])
+            .to_vec();
+        Scene::build_with(points, &tets, &[], &[], triangles, false)
+    }
+
     /// See [`Surface::set_alternatives`].
     pub fn set_alternatives(&mut self, offsets: Vec<u32>, ids: Vec<u32>) -> Result<()> {
         self.surface.set_alternatives(offsets, ids)

@@ -5,7 +5,7 @@
 //! rows. The bindings take a query by name and one request for every kind, so a new query kind
 //! is its job type here (over a `query/` policy) and a row.
 
-use super::{CastOptions, HitBuffers, Rays, Scene};
+use super::{AccelKind, CastOptions, HitBuffers, Rays, Scene};
 use crate::error::{try_vec, try_with_capacity, try_zeroed_vec, Error, Result};
 use crate::geom::real::Real;
 use crate::layout::LayoutKind;
@@ -22,6 +22,20 @@ pub struct Ask {
 }
 
 impl Ask {
+    /// The accelerator a CPU query takes when none is named: the exact 8-wide BVH
+    /// (`accel::exact_bvh`) where the exact method's answers are asked for with no layout and
+    /// no audit (its status, triangle, t, u, v and point are the exact walk's, bit for bit;
+    /// issue 35), else the tet walk, which is what a named method, a layout or the audit of
+    /// rejected exit faces is about.
+    pub fn default_accel(&self) -> AccelKind {
+        let exact = self.method.is_none_or(|m| m == Method::DEFAULT);
+        if exact && self.layout.is_none() && !self.audit {
+            AccelKind::ExactBvh
+        } else {
+            AccelKind::TetWalk
+        }
+    }
+
     pub fn method(&self) -> Method {
         self.method.unwrap_or(Method::DEFAULT)
     }

@@ -102,7 +102,7 @@ def run_deform(
 
     path = path or _default_path() or default_scene_path()
     t0 = time.perf_counter()
-    scene = Scene.from_mesh(str(path))
+    scene = Scene.from_mesh(str(path), lazy=False)
     build = time.perf_counter() - t0
     rest = np.array(scene.vertices, dtype=np.float64)
     faces = np.asarray(scene.faces)
@@ -133,7 +133,7 @@ def run_deform(
         )
         if rebuild_every and k % rebuild_every == 0:
             t = time.perf_counter()
-            Scene.from_mesh((V, faces))
+            Scene.from_mesh((V, faces), lazy=False)
             row["rebuild_s"] = time.perf_counter() - t
         t = time.perf_counter()
         emb = embree_scene((V, faces))

@@ -167,7 +167,7 @@ def run_growth(
             v, f, name, eye=eye, spacing=spacing, stadium_size=stadium_size
         )
         # The domain holds the eye in every world, so every walk starts inside it alike.
-        scene = Scene.from_mesh((wv, wf), preset, contain=eye[None])
+        scene = Scene.from_mesh((wv, wf), preset, contain=eye[None], lazy=False)
         bt = scene.build_times
         ours = TetraceCaster(scene, _native.DEFAULT_METHOD, _native.DEFAULT_LAYOUT, "f32")
         embreex = EmbreexCaster(wv, wf)

@@ -235,7 +235,7 @@ def run_scene_settings(
         kwargs = SETTINGS[setting]
         t0 = time.perf_counter()
         try:
-            scene = Scene.from_mesh((v, f), **kwargs)
+            scene = Scene.from_mesh((v, f), lazy=False, **kwargs)
         except MeshingError as exc:
             out(f"  {name} / {setting}: not built: {exc}")
             rows.append(

@@ -192,7 +192,9 @@ def run_scene_bench(
     methods = (
         all_methods() + [a for a in _native.accels() if a != "tetwalk"]
         if methods in (["all"], "all")
-        else (methods or [_native.DEFAULT_METHOD])
+        # By default the exact walk (the method of the papers' tables) and the CPU default,
+        # the exact BVH.
+        else (methods or [_native.DEFAULT_METHOD, "exact_bvh"])
     )
     layouts = (
         all_layouts() if layouts in (["all"], "all") else (layouts or [_native.DEFAULT_LAYOUT])
@@ -201,7 +203,9 @@ def run_scene_bench(
     name = os.path.basename(path)
     # A file Scene.save wrote (".tetrace") is loaded, not meshed again: what a machine
     # without the meshers (a GPU box) benches.
-    scene = Scene.load(path) if path.endswith(".tetrace") else Scene.from_mesh(path, preset)
+    scene = (
+        Scene.load(path) if path.endswith(".tetrace") else Scene.from_mesh(path, preset, lazy=False)
+    )
     scenes = {"hilbert": scene}
     if "mesher" in orders:
         scenes["mesher"] = Scene(

@@ -92,7 +92,13 @@ def run_scene(
     t0 = time.perf_counter()
     try:
         scene = Scene.from_mesh(
-            (v, f), preset, mesher=mesher, timeout=timeout, epsilon=epsilon, accuracy=accuracy
+            (v, f),
+            preset,
+            mesher=mesher,
+            timeout=timeout,
+            epsilon=epsilon,
+            accuracy=accuracy,
+            lazy=False,
         )
     except MeshingError as exc:
         row.update(ok=False, error=str(exc), seconds=time.perf_counter() - t0)

@@ -66,7 +66,8 @@ def audited_cast(
         invalid="mark",
         audit=True,
     )
-    r = q.run(scene._native, "closest", "casting")
+    # The audit observes the tet walk: the tetrahedralization is built if it is not yet.
+    r = q.run(scene._core(q), "closest", "casting")
     audit = r.pop("audit")
     return Hits.from_core(r, scene._normal_rows(dt), scene.geometries, threads=threads), audit
 
