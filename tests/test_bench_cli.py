@@ -87,3 +87,29 @@ def test_warp_peer_prints_no_cuda_warning(warp):
     )
     assert ours == plain.replace(next(ln for ln in plain.splitlines(True) if "CUDA" in ln), "")
     assert "CUDA" not in ours
+
+
+def test_first_answers_are_timed_in_fresh_processes_and_right():
+    """``bench first`` on the bundled scene: both casters answer in their own process, and
+    tetrace's hits are the exact referee's count on the same rays (embreex's float32 answers
+    are its own)."""
+    import numpy as np
+
+    from tetrace.bench.first_answer import run_first
+    from tetrace.dev.camera import random_rays
+    from tetrace.mesh import load_triangles
+    from tetrace.referee import Referee
+    from tetrace.scene import default_scene_path
+
+    lines = []
+    (row,) = run_first(None, threads=2, rays=3000, repeat=1, seed=7, out=lines.append)
+    v, f = load_triangles(str(default_scene_path()))
+    o, d = random_rays(np.array([v.min(0), v.max(0)]), 3000, 7, dtype=np.float32)
+    want = int(Referee(v, f).first_hits(o, d).hit.sum())
+    assert row["tetrace"]["hits"] == want > 0 and row["embreex"]["hits"] > 0
+    for caster in ("embreex", "tetrace"):
+        r = row[caster]
+        assert r["build"] > 0 and r["cast"] > 0 and r["first"] == r["build"] + r["cast"]
+    assert row["ratio"] == row["embreex"]["first"] / row["tetrace"]["first"]
+    assert row["mesh"] == "spot.obj" and row["triangles"] == len(f)
+    assert any("spot.obj" in line for line in lines)

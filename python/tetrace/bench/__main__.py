@@ -262,6 +262,10 @@ SUBCOMMANDS = {
         "exit-face micro-benchmark: ns per exit-face decision on random tets",
         exitface_main,
     ),
+    "first": (
+        "time to first answers: from_mesh and one cast in a fresh process, against embreex",
+        _lazy("first_answer", "first_main"),
+    ),
     "gpu": (
         "the GPU cast numpy to numpy, phase by phase, on saved scenes, beside CPU and embreex",
         gpu_main,
