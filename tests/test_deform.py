@@ -111,19 +111,19 @@ def run_frames(scene, what, *, res=48, n_random=2000):
 
 
 def test_bundled_scene_follows_smooth_frames(embree):
-    scene = tetrace.Scene.from_mesh(tetrace.default_scene_path())
+    scene = tetrace.Scene.from_mesh(tetrace.default_scene_path(), lazy=False)
     run_frames(scene, "spot")
 
 
 def test_bunny_follows_smooth_frames_and_every_query(scene_path, embree):
-    scene = tetrace.Scene.from_mesh(scene_path("bunny.obj"), margin=BUNNY_MARGIN)
+    scene = tetrace.Scene.from_mesh(scene_path("bunny.obj"), margin=BUNNY_MARGIN, lazy=False)
     scene.build_bvh(max_leaf=4)  # non-default parameters: kept across the moves
     o, d = run_frames(scene, "bunny")
     assert scene.bvh_info()["max_leaf"] == 4
     # Every query kind answers on the moved mesh: against the referee, and against a scene
     # meshed from scratch on the same vertices (exact answers do not depend on the mesh).
     V, F = np.asarray(scene.vertices), np.asarray(scene.faces)
-    fresh = tetrace.Scene.from_mesh((V, F), margin=BUNNY_MARGIN)
+    fresh = tetrace.Scene.from_mesh((V, F), margin=BUNNY_MARGIN, lazy=False)
     referee = Referee(V, F)
     verdict = referee.first_hits(o, d)
     for accel in ("reshetov_bvh", "portalez_octree"):
@@ -145,7 +145,7 @@ def test_steiner_points_on_triangles_follow_them(embree):
     """A volume bound makes TetGen split the caller's triangles (Steiner points on
     constrained faces) and refine the box's sides: those follow their triangle, these stay,
     and every frame is still a move, answered right."""
-    scene = tetrace.Scene.from_mesh(tetrace.default_scene_path(), maxvolume=1e-3)
+    scene = tetrace.Scene.from_mesh(tetrace.default_scene_path(), maxvolume=1e-3, lazy=False)
     o, d = rays_for(np.asarray(scene.vertices), 32, 1000)
     rest = np.array(scene.vertices, dtype=np.float64)
     for k in (2, 5, 8):
@@ -169,7 +169,7 @@ def device():
 def test_gpu_buffers_follow_the_move(device):
     """A GPU cast before the move uploads the scene; after it, the robust kernel still
     matches its CPU twin ray for ray (docs/gpu.md), on the moved points."""
-    scene = tetrace.Scene.from_mesh(tetrace.default_scene_path())
+    scene = tetrace.Scene.from_mesh(tetrace.default_scene_path(), lazy=False)
     o, d = rays_for(np.asarray(scene.vertices), 48, 2000)
     o, d = o.astype(np.float32), d.astype(np.float32)
     kw = dict(method="robust", layout="tet20")
@@ -184,7 +184,7 @@ def test_gpu_buffers_follow_the_move(device):
 
 
 def test_inverting_frames_rebuild_and_stay_right(embree):
-    scene = tetrace.Scene.from_mesh(tetrace.default_scene_path())
+    scene = tetrace.Scene.from_mesh(tetrace.default_scene_path(), lazy=False)
     rest = np.array(scene.vertices, dtype=np.float64)
     o, d = rays_for(rest, 48, 2000)
     # A large bend (20x the smooth frames'): thin tets invert.
@@ -215,7 +215,7 @@ def test_inverting_frames_rebuild_and_stay_right(embree):
 
 
 def test_bad_input_raises_and_leaves_the_scene(embree):
-    scene = tetrace.Scene.from_mesh(tetrace.default_scene_path())
+    scene = tetrace.Scene.from_mesh(tetrace.default_scene_path(), lazy=False)
     V = np.array(scene.vertices)
     o, d = rays_for(V, 16, 500)
     before = scene.cast(o, d)
@@ -258,7 +258,7 @@ def test_scenes_that_cannot_follow_in_place_rebuild():
          [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]]
     )  # fmt: skip
     v = np.concatenate([cube_v, cube_v + 0.5])
-    scene = tetrace.Scene.from_mesh((v, np.concatenate([cube_f, cube_f + 8])))
+    scene = tetrace.Scene.from_mesh((v, np.concatenate([cube_f, cube_f + 8])), lazy=False)
     assert scene.tetrahedralization.repaired
     V = np.array(scene.vertices) * 1.01
     report = scene.update_vertices(V)

@@ -75,7 +75,6 @@ TRIGGERS = {
     "a paper's method": lambda s, o, d: s.cast(o, d, method="aman2022"),
     "a layout": lambda s, o, d: s.occluded(o, d, layout="tet32"),
     "parity contains": lambda s, o, d: s.contains(o[:10], mode="parity"),
-    "update_vertices": lambda s, o, d: s.update_vertices(s.vertices),
     "n_tets": lambda s, o, d: s.n_tets,
     "tets()": lambda s, o, d: s.tets(),
     "domain": lambda s, o, d: s.domain,
@@ -167,3 +166,37 @@ def test_bad_input_is_refused_before_anything_is_meshed(mesh, words):
     """What is wrong with the input itself is said at from_mesh, as when it meshed at once."""
     with pytest.raises(MeshingError, match=words):
         tetrace.Scene.from_mesh(mesh)
+
+
+def test_a_scene_without_its_tetrahedralization_moves_its_triangles_alone(monkeypatch):
+    """update_vertices before the CT is built meshes nothing; every query answers on the
+    moved triangles (as a scene meshed from them does, and right by the referee); a BVH
+    built with other than the default parameters is built again with them; a later
+    build_ct meshes the moved triangles."""
+    built = []
+    mesh = construct._tetrahedralize
+    monkeypatch.setattr(construct, "_tetrahedralize", lambda *a: built.append(1) or mesh(*a))
+    lazy = _lazy()
+    lazy.build_exact_bvh(leaf_size=2)
+    info = lazy.exact_bvh_info()
+    v = lazy.vertices
+    moved = v + 0.05 * np.sin(v[:, [1, 2, 0]] * 7.0) * (v.max(0) - v.min(0))
+    report = lazy.update_vertices(moved)
+    assert report.action == "moved" and report.frames == 1 and built == []
+    assert not lazy.has_ct and np.array_equal(lazy.vertices, moved)
+    params = ("cost_ratio", "max_leaf", "bins", "leaf_size")
+    assert {k: lazy.exact_bvh_info()[k] for k in params} == {k: info[k] for k in params}
+    o, d = _rays(lazy)
+    h = lazy.cast(o, d)
+    score = agreement(h, Referee(moved, lazy.faces).first_hits(o, d))
+    assert score.right == score.rays == len(o), score
+    meshed = tetrace.Scene.from_mesh((moved, lazy.faces), lazy=False)
+    assert built == [1]
+    walk = meshed.cast(o, d, accel="tetwalk")
+    for f in ("status", "triangle", "t", "u", "v", "point", "normal"):
+        np.testing.assert_array_equal(getattr(h, f), getattr(walk, f), err_msg=f)
+    lazy.build_ct()
+    assert built == [1, 1] and lazy.n_tets == meshed.n_tets
+    np.testing.assert_array_equal(lazy.cast(o, d, accel="tetwalk").t, walk.t)
+    with pytest.raises(ValueError, match="shape"):
+        _lazy().update_vertices(moved[:-1])

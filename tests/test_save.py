@@ -139,7 +139,7 @@ def test_the_header_is_endian_explicit_json(spot):
 
 
 def test_deformed_scene_round_trip_stays_moved_and_keeps_deforming(tmp_path):
-    scene = tetrace.Scene.from_mesh(tetrace.default_scene_path())  # not the shared one
+    scene = tetrace.Scene.from_mesh(tetrace.default_scene_path(), lazy=False)  # not the shared one
     rest = np.array(scene.vertices)
     for k in (1, 2):
         assert scene.update_vertices(bend(rest, k)).action == "moved"

@@ -23,8 +23,10 @@ class Deformation:
     ----------
     action : {"moved", "rebuilt"}
         ``"moved"``: the tetrahedralization kept its topology and took the new positions
-        (every tet stayed positively oriented, exactly). ``"rebuilt"``: the scene was
-        meshed again from the new vertices, with the options it was built with.
+        (every tet stayed positively oriented, exactly), or, on a scene whose
+        tetrahedralization is not built yet, the triangles took them (nothing meshed).
+        ``"rebuilt"``: the scene was meshed again from the new vertices, with the options
+        it was built with.
     inverted : int
         Tets whose orientation with the proposed positions was not positive (inverted or
         flat), counted exactly; 0 when the move was not tried (see ``reason``).
@@ -54,6 +56,25 @@ def update_vertices(scene, vertices):
     t_start = time.perf_counter()
     V = check_new_vertices(scene, vertices)
     seconds = dict(map=0.0, points=0.0, update=0.0, rebuild=0.0, total=0.0)
+    if scene._tet is None:
+        # No tetrahedralization yet: nothing to keep valid and nothing to mesh. The core of
+        # the triangles alone is made again for the new positions; the BVHs follow the rule
+        # of a move (built again now with other than the default parameters, else on their
+        # next use). A later build_ct meshes the moved triangles.
+        from . import construct
+
+        t = time.perf_counter()
+        options = scene._build_options
+        fresh = construct.surface_scene(
+            V, scene.faces, margin=options["margin"], contain=options["contain"]
+        )
+        fresh.adopt_structures(scene._native)
+        scene._native = fresh
+        set_vertices(scene, V)
+        scene._frames += 1
+        seconds["update"] = time.perf_counter() - t
+        seconds["total"] = time.perf_counter() - t_start
+        return report(scene, "moved", 0, 0, "", seconds)
     if scene._point_map is None:
         from .mesh.deform import PointMap
 

@@ -152,10 +152,11 @@ class Scene:
 
         :meth:`from_mesh` builds only what CPU queries need (the exact BVH, at the first
         cast); the tetrahedralization is meshed when something walks tets: a cast with
-        ``accel="tetwalk"``, a paper's ``method``, a ``layout`` or ``device="gpu"``,
-        ``contains(mode="parity")``, :meth:`update_vertices`, :meth:`save` and pickling,
-        and the tetrahedralization's own attributes (:attr:`n_tets`, :meth:`tets`, ...).
-        It is meshed with the options :meth:`from_mesh` was given.
+        ``accel="tetwalk"``, a paper's ``method``, a ``layout``, ``max_steps`` or
+        ``device="gpu"``, ``contains(mode="parity")``, :meth:`save` and pickling, and the
+        tetrahedralization's own attributes (:attr:`n_tets`, :meth:`tets`, ...). It is
+        meshed with the options :meth:`from_mesh` was given, from the vertices as they are
+        then (:meth:`update_vertices` before it moves the triangles alone).
 
         Parameters
         ----------
@@ -869,8 +870,10 @@ class Scene:
         Lagae & Dutré 2008: the tetrahedralization keeps its topology and every point moves
         (the rule is in ``docs/deformation.md``). If every tet stays positively oriented
         (checked exactly) and every point in the domain box, the core takes the new points;
-        else the scene is meshed again with the options it was built with. Either way every
-        query answers on the moved mesh, with the same contract.
+        else the scene is meshed again with the options it was built with. A scene whose
+        tetrahedralization is not built yet (:meth:`build_ct`) moves its triangles alone and
+        meshes nothing. Either way every query answers on the moved mesh, with the same
+        contract.
 
         Parameters
         ----------
@@ -894,7 +897,7 @@ class Scene:
             The move needs a rebuild and meshing the new vertices fails; the scene is
             unchanged.
         """
-        return deform.update_vertices(self.build_ct(), vertices)
+        return deform.update_vertices(self, vertices)
 
     @property
     def n_tets(self):
