@@ -60,13 +60,14 @@ def native_scene(tet, vertices, faces, hilbert):
     )
 
 
-def surface_scene(vertices, faces, *, margin, contain):
+def surface_scene(vertices, faces, options):
     """The compiled core of the caller's triangles alone (``NativeScene.surface_only``), in
-    the domain box the mesher would wrap them in: what the BVHs, the octree and closest points
-    read before (or without) a tetrahedralization."""
+    the domain box :meth:`~tetrace.Scene.from_mesh`'s ``options`` (``margin``, ``contain``)
+    would have the mesher wrap them in: what the BVHs, the octree and closest points read
+    before (or without) a tetrahedralization."""
     from .mesh.clean import domain_box
 
-    lo, hi = domain_box(vertices, margin=margin, contain=contain)
+    lo, hi = domain_box(vertices, margin=options["margin"], contain=options["contain"])
     triangles = np.ascontiguousarray(np.asarray(vertices, np.float64)[faces])
     return _native.NativeScene.surface_only(triangles, tuple(lo), tuple(hi))
 

@@ -64,10 +64,7 @@ def update_vertices(scene, vertices):
         from . import construct
 
         t = time.perf_counter()
-        options = scene._build_options
-        fresh = construct.surface_scene(
-            V, scene.faces, margin=options["margin"], contain=options["contain"]
-        )
+        fresh = construct.surface_scene(V, scene.faces, scene._build_options)
         fresh.adopt_structures(scene._native)
         scene._native = fresh
         set_vertices(scene, V)

@@ -122,9 +122,7 @@ class Scene:
         scene._build_options = options
         scene._mesh_name = name
         t0 = time.perf_counter()
-        scene._native = construct.surface_scene(
-            vertices, faces, margin=options["margin"], contain=options["contain"]
-        )
+        scene._native = construct.surface_scene(vertices, faces, options)
         rust = time.perf_counter() - t0
         scene.build_times = {"rust": rust, "total": rust}
         return scene

@@ -87,8 +87,11 @@ fn all_at(origins: &[f32], o: [f32; 3], threads: Option<usize>) -> bool {
             .all(|p| [p[0].to_bits(), p[1].to_bits(), p[2].to_bits()] == bits)
     };
     let (first, rest) = origins.split_at(origins.len().min(PIECE));
-    if !same(first) || rest.is_empty() {
-        return same(first) && rest.is_empty();
+    if !same(first) {
+        return false;
+    }
+    if rest.is_empty() {
+        return true;
     }
     match crate::threads::pool(threads) {
         Ok(pool) => pool.install(|| rest.par_chunks(PIECE).all(same)),

@@ -5,7 +5,6 @@
 
 use super::arrays::{check_cols, slice};
 use super::names::{AccelArg, LayoutArg, MethodArg};
-use crate::accel::AccelKind;
 use crate::geom::real::Real;
 use crate::scene::buffers::LeavingRays;
 use crate::scene::queries::Ask;
@@ -123,13 +122,7 @@ impl PyRayRequest {
             threads,
             max_steps,
             packets: if packet { Packets::Auto } else { Packets::Off },
-            // A step guard is the walk's: a query given one walks tets unless it names another
-            // accelerator.
-            accel: match &accel {
-                Some(a) => a.0,
-                None if max_steps.is_some() => AccelKind::TetWalk,
-                None => ask.default_accel(),
-            },
+            accel: accel.as_ref().map_or(ask.default_accel(max_steps), |a| a.0),
             ..Default::default()
         };
         Ok(PyRayRequest {
@@ -149,14 +142,14 @@ impl PyRayRequest {
         self.n
     }
 
-    /// "f32" or "f64".
     /// The accelerator a CPU query takes: the one named, else the default for the method,
-    /// layout and audit asked for (`Ask::default_accel`).
+    /// layout, step guard and audit asked for (`Ask::default_accel`).
     #[getter]
     fn accel(&self) -> &'static str {
         self.opts.accel.name()
     }
 
+    /// "f32" or "f64".
     #[getter]
     fn precision(&self) -> &'static str {
         match self.arrays {

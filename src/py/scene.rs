@@ -568,8 +568,6 @@ impl PyScene {
     }
 }
 
-/// Validates, answers with the GIL released, returns the answers (the vector becomes the numpy
-/// array without a copy).
 /// (F, 3, 3) values, flat, as F triangles.
 fn triangle_rows(flat: &[f64]) -> Vec<[[f64; 3]; 3]> {
     rows::<f64, 9>(flat)
@@ -578,6 +576,8 @@ fn triangle_rows(flat: &[f64]) -> Vec<[[f64; 3]; 3]> {
         .collect()
 }
 
+/// Validates, answers with the GIL released, returns the answers (the vector becomes the numpy
+/// array without a copy).
 fn contains_impl<'py, R: Real + Element>(
     py: Python<'py>,
     scene: &Scene,

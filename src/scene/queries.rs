@@ -23,13 +23,13 @@ pub struct Ask {
 
 impl Ask {
     /// The accelerator a CPU query takes when none is named: the exact 8-wide BVH
-    /// (`accel::exact_bvh`) where the exact method's answers are asked for with no layout and
-    /// no audit (its status, triangle, t, u, v and point are the exact walk's, bit for bit;
-    /// issue 35), else the tet walk, which is what a named method, a layout or the audit of
-    /// rejected exit faces is about.
-    pub fn default_accel(&self) -> AccelKind {
+    /// (`accel::exact_bvh`) where the exact method's answers are asked for with no layout, no
+    /// step guard (`max_steps`) and no audit (its status, triangle, t, u, v and point are the
+    /// exact walk's, bit for bit; issue 35), else the tet walk, which is what a named method,
+    /// a layout, a step guard or the audit of rejected exit faces is about.
+    pub fn default_accel(&self, max_steps: Option<u32>) -> AccelKind {
         let exact = self.method.is_none_or(|m| m == Method::DEFAULT);
-        if exact && self.layout.is_none() && !self.audit {
+        if exact && self.layout.is_none() && max_steps.is_none() && !self.audit {
             AccelKind::ExactBvh
         } else {
             AccelKind::TetWalk
