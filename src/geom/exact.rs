@@ -10,12 +10,12 @@ use super::real::{exponent, times_pow2, V3};
 use super::rounded::{rounded_hit, RoundedHit};
 use std::cmp::Ordering;
 
-const EPS: f64 = f64::EPSILON * 0.5;
+pub(super) const EPS: f64 = f64::EPSILON * 0.5;
 /// Shewchuk's bound for a 3×3 determinant whose rows are differences of inputs, relative to
 /// its permanent: (7 + 56ε)ε. Rounded up.
-const DET_BOUND: f64 = 8.0 * EPS;
+pub(super) const DET_BOUND: f64 = 8.0 * EPS;
 /// Below this permanent, products may underflow and the bound no longer holds: exact.
-const TINY: f64 = 1e-250;
+pub(super) const TINY: f64 = 1e-250;
 
 fn rat(x: f64) -> Dyadic {
     Dyadic::from_f64(x)
@@ -30,7 +30,7 @@ fn sign_of(x: &Dyadic) -> i8 {
 }
 
 #[inline(always)]
-fn det_perm(a: V3<f64>, b: V3<f64>, c: V3<f64>) -> (f64, f64) {
+pub(super) fn det_perm(a: V3<f64>, b: V3<f64>, c: V3<f64>) -> (f64, f64) {
     let m0 = b[1] * c[2] - b[2] * c[1];
     let m1 = b[0] * c[2] - b[2] * c[0];
     let m2 = b[0] * c[1] - b[1] * c[0];

@@ -3,6 +3,7 @@
 
 pub mod dyadic;
 pub mod exact;
+pub mod narrow;
 pub mod onb;
 pub mod predicates;
 pub mod ray;

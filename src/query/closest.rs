@@ -4,6 +4,7 @@
 use super::contact::{ExactRay, Meet, Range};
 use super::gather::{Line, Nearest};
 use super::{Crossing, Decision, Query, QueryKind};
+use crate::geom::narrow::triangle_hit32;
 use crate::geom::rounded::RoundedHit;
 use crate::geom::triangle::{intersect_triangle, on_triangle};
 use crate::locate::WalkStart;
@@ -48,6 +49,10 @@ pub struct ClosestHit<'a> {
     pub mesh: &'a TetMesh,
     pub surface: &'a Surface,
     pub incidence: &'a Incidence,
+    /// The answers are stored in float32: an accelerator that tests triangles rounds the hit
+    /// straight to float32 where a float64 evaluation shows those bits
+    /// (`geom::narrow::triangle_hit32`), the same the faithful values round to.
+    pub narrow: bool,
 }
 
 /// The closest-hit walk policy. A float method's walk stops at the first constrained face
@@ -135,9 +140,25 @@ impl<'a> QueryKind for ClosestHit<'a> {
             steps: visited,
             ..RayHit::nothing(MISS)
         };
-        if let Some(m) = g.meet() {
-            r.status = HIT;
-            (r.t, r.u, r.v, r.point, r.triangle) = (m.t, m.u, m.v, m.point, m.triangle as i32);
+        let Some(id) = g.best else {
+            return r;
+        };
+        let line = &g.line;
+        let fast = self
+            .narrow
+            .then(|| triangle_hit32(line.o, line.d, &g.triangles[id as usize]))
+            .flatten();
+        r.status = HIT;
+        r.triangle = id as i32;
+        match fast {
+            Some(h) => {
+                (r.t, r.u, r.v) = (h.t.into(), h.u.into(), h.v.into());
+                r.point = h.point.map(f64::from);
+            }
+            None => {
+                let m = line.meet(&g.triangles[id as usize], id);
+                (r.t, r.u, r.v, r.point) = (m.t, m.u, m.v, m.point);
+            }
         }
         r
     }

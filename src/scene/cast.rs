@@ -7,7 +7,7 @@ pub use crate::accel::{AccelKind, Lanes, Packets};
 use crate::error::{Error, Result};
 use crate::geom::real::Real;
 use crate::layout::{Layout, LayoutKind, LayoutVisitor};
-use crate::query::{chunks, AllHits, AnyHit, Listed, QueryKind, Sink};
+use crate::query::{chunks, AllHits, AnyHit, ClosestHit, Listed, QueryKind, Sink};
 use crate::simd::Simd;
 use crate::threads::run_pieces;
 use crate::traverse::robust::ExactAudit;
@@ -242,7 +242,11 @@ impl Scene {
         job: Job<R>,
         opts: &CastOptions,
     ) -> Result<()> {
-        let closest = self.closest();
+        // Float32 answers may be rounded straight to float32 (the same bits).
+        let closest = ClosestHit {
+            narrow: R::NAME == "f32",
+            ..self.closest()
+        };
         match job {
             Job::Closest(out) => {
                 if !out.audit.is_empty() {

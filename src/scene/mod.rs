@@ -276,6 +276,7 @@ impl Scene {
             mesh: &self.mesh,
             surface: &self.surface,
             incidence: &self.incidence,
+            narrow: false,
         }
     }
 

@@ -50,16 +50,19 @@ fn bvh_agrees(accel: AccelKind) {
                     if f32_rays {
                         let mut h = HitBuffers::<f32>::new(n, false);
                         g.scene.cast(&r32, h.out(), opts).unwrap();
-                        let t = h.t.iter().map(|&t| t as f64).collect::<Vec<_>>();
-                        (h.status, t, h.triangle)
+                        let wide = |x: &[f32]| x.iter().map(|&x| x as f64).collect::<Vec<_>>();
+                        let uvp = [wide(&h.u), wide(&h.v), wide(&h.point)];
+                        (h.status, wide(&h.t), h.triangle, uvp)
                     } else {
                         let mut h = HitBuffers::<f64>::new(n, false);
                         g.scene.cast(&r64, h.out(), opts).unwrap();
-                        (h.status, h.t, h.triangle)
+                        (h.status, h.t, h.triangle, [h.u, h.v, h.point])
                     }
                 };
-                let (bs, bt, btri) = cast(&bvh_opts);
-                let (ws, wt, wtri) = cast(&walk_opts);
+                // The walk rounds each hit by the double-double path; the BVH's float32
+                // answers mostly by `triangle_hit32`: the same bits in every column.
+                let (bs, bt, btri, buvp) = cast(&bvh_opts);
+                let (ws, wt, wtri, wuvp) = cast(&walk_opts);
                 for i in 0..n {
                     let ray = if f32_rays { r32.ray(i) } else { r64.ray(i) };
                     let v = referee::first_hit(ray.o, ray.d, ray.tmin.max(0.0), ray.tmax, &g.tris);
@@ -92,6 +95,16 @@ fn bvh_agrees(accel: AccelKind) {
                     } else if bs[i] == HIT {
                         assert_eq!(btri[i], wtri[i], "seed {seed} ray {i}: triangle");
                         assert_eq!(bt[i].to_bits(), wt[i].to_bits(), "seed {seed} ray {i}: t");
+                        for (c, (b, w)) in buvp.iter().zip(&wuvp).enumerate() {
+                            let k = if c == 2 { 3 * i..3 * i + 3 } else { i..i + 1 };
+                            let bits =
+                                |x: &[f64]| x.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                            assert_eq!(
+                                bits(&b[k.clone()]),
+                                bits(&w[k]),
+                                "seed {seed} ray {i}: u, v, point ({c})"
+                            );
+                        }
                     }
                 }
             }

@@ -3,6 +3,8 @@
 //! angles where the old formula lost digits, and where the filter must hand over.
 
 use super::*;
+use crate::geom::narrow::triangle_hit32;
+use crate::geom::real::exponent;
 use crate::rng::Rng;
 use num_bigint::BigInt;
 use num_rational::BigRational;
@@ -90,10 +92,70 @@ fn check(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3], what: &str) -> Option<Round
             for (k, (got, want)) in h.point.iter().zip(&p).enumerate() {
                 assert!(within_ulp(*got, want), "{what}: point[{k}] {got} vs {want}");
             }
+            check32(
+                o,
+                d,
+                tri,
+                &h,
+                &[t, u, v, p[0].clone(), p[1].clone(), p[2].clone()],
+                what,
+            );
             Some(h)
         }
         (g, w) => panic!("{what}: got {g:?}, exact {:?}", w.map(|x| x.0)),
     }
+}
+
+/// The float32 neighbours of a finite float32 y, as float64 (±inf past the range).
+fn neighbours32(y: f32) -> (f64, f64) {
+    let step = |up: bool| {
+        if y == 0.0 {
+            let tiny = f32::from_bits(1) as f64;
+            return if up { tiny } else { -tiny };
+        }
+        // Away from zero is bits + 1 on either sign.
+        let away = (y > 0.0) == up;
+        f32::from_bits(if away {
+            y.to_bits() + 1
+        } else {
+            y.to_bits() - 1
+        }) as f64
+    };
+    (step(false), step(true))
+}
+
+/// What a float32 output stores: where `triangle_hit32` answers, its values are the faithful
+/// ones' float32 roundings bit for bit (what the slow path stores), and each is the float32
+/// nearest the exact value, with the exact value strictly between the rounding boundaries
+/// (rationals). True when it answered.
+fn check32(
+    o: V3<f64>,
+    d: V3<f64>,
+    tri: &[V3<f64>; 3],
+    h: &RoundedHit,
+    exact: &[Q; 6],
+    what: &str,
+) -> bool {
+    let Some(n) = triangle_hit32(o, d, tri) else {
+        return false;
+    };
+    let slow = [h.t, h.u, h.v, h.point[0], h.point[1], h.point[2]];
+    let fast = [n.t, n.u, n.v, n.point[0], n.point[1], n.point[2]];
+    for (i, ((&f, &s), x)) in fast.iter().zip(&slow).zip(exact).enumerate() {
+        assert_eq!(
+            f.to_bits(),
+            (s as f32).to_bits(),
+            "{what}: value {i}: {f} vs {s}"
+        );
+        let (below, above) = neighbours32(f);
+        let y = q(f as f64);
+        let two = q(2.0);
+        assert!(
+            (q(below) + &y) / &two < *x && (above.is_infinite() || *x < (&y + q(above)) / &two),
+            "{what}: value {i}: {f} is not the float32 nearest {x}"
+        );
+    }
+    true
 }
 
 fn unit(rng: &mut Rng) -> V3<f64> {
@@ -280,4 +342,100 @@ fn dyadic_quotients_round_to_nearest() {
     assert_eq!(Dyadic::quotient(&sub, &Dyadic::from_f64(1.5)), 5e-324);
     assert_eq!(Dyadic::quotient(&one, &sub), f64::INFINITY);
     assert_eq!(Dyadic::quotient(&-&one, &Dyadic::from_f64(3.0)), -1.0 / 3.0);
+}
+
+/// Rays of every family above through a float32 output: `triangle_hit32` answers most hits
+/// (`check` judges each answer), so the slow path is the exception.
+#[test]
+fn float32_outputs_mostly_skip_the_slow_path() {
+    let mut rng = Rng::new(0x3232);
+    let (mut fast, mut hits) = (0, 0);
+    for i in 0..2000u64 {
+        let tri = random_triangle(&mut rng, [0.0; 3], 1.0);
+        let target = aim(&mut rng, &tri, 0);
+        let o = unit(&mut rng).map(|x| x * (2.0 + 100.0 * rng.f()));
+        let d = [0, 1, 2].map(|k| target[k] - o[k]);
+        let Some(h) = check(o, d, &tri, &format!("case {i}")) else {
+            continue;
+        };
+        let (t, u, v, p) = exact(o, d, &tri).unwrap();
+        hits += 1;
+        fast += check32(
+            o,
+            d,
+            &tri,
+            &h,
+            &[t, u, v, p[0].clone(), p[1].clone(), p[2].clone()],
+            "again",
+        ) as u32;
+    }
+    assert!(
+        fast * 100 >= hits * 95,
+        "{fast} of {hits} hits answered in float64"
+    );
+}
+
+/// A hit whose exact t lies on a float32 rounding boundary (the midpoint of two float32s) or a
+/// few float64 ulps from one: `triangle_hit32` declines where the boundary is within its bound
+/// (always, on the boundary itself), and is right wherever it answers. The line from the
+/// origin along a direction of powers of two passes the triangle's centroid P = m d at exactly
+/// t = m; the cases where a corner is not exact in float64 are skipped (and counted).
+#[test]
+fn float32_rounding_boundaries_are_left_to_the_slow_path() {
+    let mut rng = Rng::new(0xb0da);
+    let (mut kept, mut fast, mut on_boundary) = (0, 0, 0);
+    for i in 0..4000u64 {
+        let y = (1.0 + rng.f()) as f32 * 2f32.powi(rng.below(20) as i32 - 10);
+        let mid = (y as f64 + f32::from_bits(y.to_bits() + 1) as f64) / 2.0;
+        let k = rng.below(9) as i64 - 4;
+        let t = f64::from_bits((mid.to_bits() as i64 + k) as u64);
+        let pow = |rng: &mut Rng| {
+            2f64.powi(-(rng.below(4) as i32)) * if rng.chance(0.5) { 1.0 } else { -1.0 }
+        };
+        let mut d = [pow(&mut rng), pow(&mut rng), pow(&mut rng)];
+        d.rotate_left(rng.below(3));
+        let p = d.map(|x| x * t);
+        // Two corners that move p's coordinates towards zero by multiples of 2^-10 of their
+        // binades (exact: below |p|/4, on p's grid), the third closing the centroid (exact,
+        // or the case is skipped).
+        let off = |rng: &mut Rng| {
+            p.map(|x| -x.signum() * (1 + rng.below(200)) as f64 * 2f64.powi(exponent(x.abs()) - 10))
+        };
+        let (oa, ob) = (off(&mut rng), off(&mut rng));
+        let a = [0, 1, 2].map(|j| p[j] + oa[j]);
+        let b = [0, 1, 2].map(|j| p[j] + ob[j]);
+        let c = [0, 1, 2].map(|j| p[j] - oa[j] - ob[j]);
+        let tri = [a, b, c];
+        let o = [0.0; 3];
+        let centred = (0..3).all(|j| q(a[j]) + q(b[j]) + q(c[j]) == q(3.0) * q(p[j]));
+        let Some((te, u, v, pt)) = exact(o, d, &tri) else {
+            continue;
+        };
+        if !centred || te != q(t) {
+            continue;
+        }
+        kept += 1;
+        let h = rounded_hit(o, d, &tri).unwrap();
+        let answered = check32(
+            o,
+            d,
+            &tri,
+            &h,
+            &[te, u, v, pt[0].clone(), pt[1].clone(), pt[2].clone()],
+            &format!("case {i}"),
+        );
+        fast += answered as u32;
+        if k == 0 {
+            on_boundary += 1;
+            assert!(
+                !answered,
+                "case {i}: t = {t} is a float32 rounding boundary, yet answered"
+            );
+        }
+    }
+    assert!(
+        kept >= 1000 && on_boundary >= 100,
+        "{kept} cases kept, {on_boundary} on a boundary"
+    );
+    assert!(fast < kept, "every case answered: no boundary was near");
 }
