@@ -279,7 +279,7 @@ impl ExactBvh {
                 31 - COUNT_BITS
             )));
         }
-        let binary = ReshetovBvh::build(triangles, params.binary()?)?;
+        let binary = ReshetovBvh::build_to(triangles, params.binary()?, params.leaf_size as usize)?;
         let nodes = collapse(&binary.nodes, params.leaf_size);
         let infinite = nodes
             .iter()

@@ -162,133 +162,228 @@ pub(crate) fn down32(x: f64) -> f32 {
     }
 }
 
-/// A float64 box.
-#[derive(Clone, Copy, Debug)]
-struct Aabb {
-    lo: [f64; 3],
-    hi: [f64; 3],
-}
-
-impl Aabb {
-    const EMPTY: Aabb = Aabb {
-        lo: [f64::INFINITY; 3],
-        hi: [f64::NEG_INFINITY; 3],
-    };
-
-    fn add(&mut self, p: [f64; 3]) {
-        self.lo = [0, 1, 2].map(|k| self.lo[k].min(p[k]));
-        self.hi = [0, 1, 2].map(|k| self.hi[k].max(p[k]));
-    }
-
-    /// The union (an empty box, whose lo is +inf and hi −inf, adds nothing).
-    fn join(&mut self, b: &Aabb) {
-        self.lo = [0, 1, 2].map(|k| self.lo[k].min(b.lo[k]));
-        self.hi = [0, 1, 2].map(|k| self.hi[k].max(b.hi[k]));
-    }
-
-    fn of(tri: &Tri) -> Aabb {
-        let mut b = Aabb::EMPTY;
-        tri.iter().for_each(|&p| b.add(p));
+/// `a.min(b)` and `a.max(b)` as one instruction each (`minss`, `maxss`: the second operand
+/// unless the first is smaller, larger). The build's boxes are outward roundings of finite
+/// numbers: never NaN, so the NaN rules of `f32::min` (several instructions) buy nothing.
+#[inline(always)]
+fn min32(a: f32, b: f32) -> f32 {
+    if a < b {
+        a
+    } else {
         b
     }
+}
 
-    /// Half the surface area (the SAH needs ratios only); 0 when empty.
+#[inline(always)]
+fn max32(a: f32, b: f32) -> f32 {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
+/// A box in float32, rounded outward from the float64 triangle's: the union of such boxes is
+/// the outward rounding of the float64 union (rounding is monotone), so a node's box is what
+/// rounding its float64 box outward gives. Four lanes, so that a union is one `minps` and one
+/// `maxps`; lane 3 is no coordinate (a [`Prim`] keeps its id there, a union whatever the
+/// minimum of such lanes is) and nothing reads it as one.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(16))]
+struct Box32 {
+    lo: [f32; 4],
+    hi: [f32; 4],
+}
+
+impl Box32 {
+    const EMPTY: Box32 = Box32 {
+        lo: [f32::INFINITY; 4],
+        hi: [f32::NEG_INFINITY; 4],
+    };
+
+    /// The union (an empty box, whose lo is +inf and hi −inf, adds nothing).
+    #[inline(always)]
+    fn join(&mut self, b: &Box32) {
+        for k in 0..4 {
+            self.lo[k] = min32(self.lo[k], b.lo[k]);
+            self.hi[k] = max32(self.hi[k], b.hi[k]);
+        }
+    }
+
+    /// Half the surface area, in float64 (the SAH needs ratios only); 0 when empty.
     fn half_area(&self) -> f64 {
-        let e = [0, 1, 2].map(|k| (self.hi[k] - self.lo[k]).max(0.0));
         if self.lo[0] > self.hi[0] {
             return 0.0;
         }
+        let e = [0, 1, 2].map(|k| (self.hi[k] as f64 - self.lo[k] as f64).max(0.0));
         e[0] * e[1] + e[1] * e[2] + e[2] * e[0]
     }
 
-    /// In float32, rounded outward: every point of the float64 box is in it.
     fn to_node(self, first: u32, count: u32) -> BvhNode {
         BvhNode {
-            lo: self.lo.map(down32),
+            lo: [self.lo[0], self.lo[1], self.lo[2]],
             first,
-            hi: self.hi.map(up32),
+            hi: [self.hi[0], self.hi[1], self.hi[2]],
             count,
         }
     }
 }
 
-/// What a build reads: the triangles' boxes and centres, and the parameters.
+/// What the build sorts: a triangle's box, with its id in lane 3 of `lo` ([`ID_TAG`]), 32
+/// bytes, in one array that the partitions reorder in place, so every pass of the build reads
+/// memory in order (through an index array, each read was a cache miss on a large scene).
+#[derive(Clone, Copy, Debug)]
+struct Prim(Box32);
+
+/// The bits of lane 3 of a [`Prim`]'s `lo` are `ID_TAG | id`: a normal float32 in [2, 4) for
+/// every id below 2^30 (the build refuses more triangles), so the lane's arithmetic in the
+/// binning never meets a subnormal (a microcode assist on x86) nor a NaN.
+const ID_TAG: u32 = 0x4000_0000;
+
+const _: () = assert!(std::mem::size_of::<Prim>() == 32);
+
+impl Prim {
+    fn of(id: usize, tri: &Tri) -> Prim {
+        let lo = [0, 1, 2].map(|k| down32(tri[0][k].min(tri[1][k]).min(tri[2][k])));
+        let hi = [0, 1, 2].map(|k| up32(tri[0][k].max(tri[1][k]).max(tri[2][k])));
+        Prim(Box32 {
+            lo: [lo[0], lo[1], lo[2], f32::from_bits(ID_TAG | id as u32)],
+            hi: [hi[0], hi[1], hi[2], 0.0],
+        })
+    }
+
+    /// One per triangle, in the caller's order.
+    fn all(triangles: &[Tri]) -> Vec<Prim> {
+        triangles
+            .iter()
+            .enumerate()
+            .map(|(k, t)| Prim::of(k, t))
+            .collect()
+    }
+
+    fn id(&self) -> u32 {
+        self.0.lo[3].to_bits() & !ID_TAG
+    }
+}
+
+/// The binning of the three axes: per axis, keys (the box's centre doubled, `lo + hi`: only
+/// their order matters) in [c0, c0 + last / scale] to bins 0..=last. The split's counts and
+/// its partition both go through [`Axes::bins`], so they agree on every triangle (a NaN key,
+/// from a box infinite both ways, goes to bin 0).
+#[derive(Clone, Copy)]
+struct Axes {
+    c0: [f32; 4],
+    scale: [f32; 4],
+    last: f32,
+}
+
+impl Axes {
+    #[inline(always)]
+    fn bins(&self, b: &Box32) -> [u32; 4] {
+        let mut out = [0; 4];
+        for k in 0..4 {
+            let x = (b.lo[k] + b.hi[k] - self.c0[k]) * self.scale[k];
+            // In [0, last] and not NaN (max32 takes 0 for a NaN), so the conversion is exact
+            // and in range: no saturating conversion (a dozen instructions) is needed.
+            let x = min32(max32(x, 0.0), self.last);
+            // SAFETY: x is finite and in [0, 255] (last < bins ≤ 256).
+            out[k] = unsafe { x.to_int_unchecked::<u32>() };
+        }
+        out
+    }
+}
+
+/// What a build reads: the parameters (the triangles' boxes travel in the `Prim` array).
 struct Builder {
-    boxes: Vec<Aabb>,
-    /// Each box's centre, once (the binning reads it per axis at every level).
-    centres: Vec<[f64; 3]>,
     params: BvhParams,
+    /// Ranges of at most this many triangles are leaves, unsplit (1 for Reshetov's tree; the
+    /// 8-wide tree's leaf size, whose collapse makes such a subtree one leaf anyway).
+    min_split: usize,
 }
 
 /// Subtrees of fewer triangles than this are built on one thread.
 const PARALLEL_MIN: usize = 8192;
 
 impl Builder {
-    fn new(triangles: &[Tri], params: BvhParams) -> Builder {
-        let boxes: Vec<Aabb> = triangles.iter().map(Aabb::of).collect();
-        let centres = boxes
-            .iter()
-            .map(|b| [0, 1, 2].map(|a| 0.5 * b.lo[a] + 0.5 * b.hi[a]))
-            .collect();
-        Builder {
-            boxes,
-            centres,
-            params,
-        }
-    }
-
-    /// The box of the triangles `order` names, and where the binned SAH splits them (after
-    /// partitioning `order` so the left part comes first), or None where they stay one leaf.
-    fn split(&self, order: &mut [u32], bins: &mut Bins) -> (Aabb, Option<usize>) {
-        let (boxes, params) = (&self.boxes, self.params);
-        let centre = |k: u32| self.centres[k as usize];
+    /// The box of `prims`, and where the binned SAH splits them (after partitioning `prims`
+    /// so the left part comes first), or None where they stay one leaf.
+    fn split(&self, prims: &mut [Prim], bins: &mut Bins) -> (Box32, Option<usize>) {
+        let params = self.params;
         let nbins = params.bins as usize;
-        let mut bounds = Aabb::EMPTY;
-        let mut centres = Aabb::EMPTY;
-        for &k in order.iter() {
-            bounds.join(&boxes[k as usize]);
-            centres.add(centre(k));
+        let mut bounds = Box32::EMPTY;
+        let (mut c_lo, mut c_hi) = ([f32::INFINITY; 4], [f32::NEG_INFINITY; 4]);
+        for Prim(b) in prims.iter() {
+            bounds.join(b);
+            for k in 0..4 {
+                c_lo[k] = min32(c_lo[k], b.lo[k] + b.hi[k]);
+                c_hi[k] = max32(c_hi[k], b.lo[k] + b.hi[k]);
+            }
         }
-        let n = order.len();
-        if n <= 1 {
+        let n = prims.len();
+        if n <= self.min_split {
             return (bounds, None);
         }
-        // The cheapest binned split: (cost, axis, bins left of it).
-        let mut best: Option<(f64, usize, usize)> = None;
+        // Axes whose keys span a range (else every centre lies in one plane across it, and
+        // all go to bin 0 of a scale 0, which no cut reads).
+        let ranged = [0, 1, 2].map(|a| c_hi[a] > c_lo[a]);
+        let mut axes = Axes {
+            c0: c_lo,
+            scale: [0.0; 4],
+            last: (nbins - 1) as f32,
+        };
+        for a in (0..3).filter(|&a| ranged[a]) {
+            axes.scale[a] = nbins as f32 / (c_hi[a] - c_lo[a]);
+        }
+        // The three axes binned in one pass over the triangles.
         let Bins { count, bbox, right } = bins;
-        for axis in 0..3 {
-            let (c0, c1) = (centres.lo[axis], centres.hi[axis]);
-            if c1 <= c0 {
-                continue; // every centre in one plane across this axis
+        let (count, bbox) = (&mut count[..3 * nbins], &mut bbox[..3 * nbins]);
+        count.fill(0);
+        bbox.fill(Box32::EMPTY);
+        {
+            let (c0, rest) = count.split_at_mut(nbins);
+            let (c1, c2) = rest.split_at_mut(nbins);
+            let (b0, rest) = bbox.split_at_mut(nbins);
+            let (b1, b2) = rest.split_at_mut(nbins);
+            for Prim(b) in prims.iter() {
+                let k = axes.bins(b).map(|k| k as usize);
+                c0[k[0]] += 1;
+                c1[k[1]] += 1;
+                c2[k[2]] += 1;
+                b0[k[0]].join(b);
+                b1[k[1]].join(b);
+                b2[k[2]].join(b);
             }
-            let scale = nbins as f64 / (c1 - c0);
-            let bin_of = |k: u32| (((centre(k)[axis] - c0) * scale) as usize).min(nbins - 1);
-            count.fill(0);
-            bbox.fill(Aabb::EMPTY);
-            for &k in order.iter() {
-                let b = bin_of(k);
-                count[b] += 1;
-                bbox[b].join(&boxes[k as usize]);
-            }
+        }
+        // The cheapest binned split: (cost, axis, bins left of it). An empty bin changes
+        // neither side of the cuts around it, so its cut costs what the one before did (not
+        // less: not taken) and is not evaluated.
+        let mut best: Option<(f64, usize, usize)> = None;
+        for a in (0..3).filter(|&a| ranged[a]) {
+            let (count, bbox) = (&count[a * nbins..][..nbins], &bbox[a * nbins..][..nbins]);
             // Right-hand sweep, then left-hand with the cost of each cut.
-            right.fill((0.0, 0));
-            let (mut acc, mut m) = (Aabb::EMPTY, 0);
+            let (mut acc, mut m, mut area) = (Box32::EMPTY, 0, 0.0);
             for b in (1..nbins).rev() {
-                acc.join(&bbox[b]);
-                m += count[b];
-                right[b] = (acc.half_area(), m);
+                if count[b] != 0 {
+                    acc.join(&bbox[b]);
+                    m += count[b];
+                    area = acc.half_area();
+                }
+                right[b] = (area, m);
             }
-            let (mut acc, mut m) = (Aabb::EMPTY, 0);
+            let (mut acc, mut m) = (Box32::EMPTY, 0);
             for cut in 1..nbins {
+                if count[cut - 1] == 0 {
+                    continue;
+                }
                 acc.join(&bbox[cut - 1]);
                 m += count[cut - 1];
                 let (ra, rn) = right[cut];
-                if m == 0 || rn == 0 {
+                if rn == 0 {
                     continue;
                 }
                 let cost = acc.half_area() * m as f64 + ra * rn as f64;
                 if best.is_none_or(|(c, _, _)| cost < c) {
-                    best = Some((cost, axis, cut));
+                    best = Some((cost, a, cut));
                 }
             }
         }
@@ -301,18 +396,25 @@ impl Builder {
             return (bounds, None);
         }
         let mid = match best {
-            Some((_, axis, cut)) => {
-                let (c0, c1) = (centres.lo[axis], centres.hi[axis]);
-                let scale = nbins as f64 / (c1 - c0);
-                let mut m = 0;
-                for k in 0..order.len() {
-                    let b = (((centre(order[k])[axis] - c0) * scale) as usize).min(nbins - 1);
-                    if b < cut {
-                        order.swap(k, m);
-                        m += 1;
+            Some((_, a, cut)) => {
+                // Hoare's partition: the left part, bins below `cut`, first.
+                let left = |p: &Prim| (axes.bins(&p.0)[a] as usize) < cut;
+                let (mut i, mut j) = (0, n);
+                loop {
+                    while i < j && left(&prims[i]) {
+                        i += 1;
                     }
+                    while i < j && !left(&prims[j - 1]) {
+                        j -= 1;
+                    }
+                    if i >= j {
+                        break;
+                    }
+                    prims.swap(i, j - 1);
+                    i += 1;
+                    j -= 1;
                 }
-                m
+                i
             }
             // Every centre at one point: halve the range.
             None => n / 2,
@@ -320,22 +422,22 @@ impl Builder {
         (bounds, Some(mid))
     }
 
-    /// The tree over `order` (whose first entry is `offset` in leaf order) on this thread:
+    /// The tree over `prims` (whose first entry is `offset` in leaf order) on this thread:
     /// node 0 its root, each inner node's children a pair.
-    fn build_range(&self, order: &mut [u32], offset: usize) -> Vec<BvhNode> {
+    fn build_range(&self, prims: &mut [Prim], offset: usize) -> Vec<BvhNode> {
         let mut bins = Bins::new(self.params.bins as usize);
-        let mut nodes = vec![Aabb::EMPTY.to_node(0, 0)];
-        // (node, first, end) ranges of `order` still to split.
-        let mut todo = vec![(0usize, 0usize, order.len())];
+        let mut nodes = vec![Box32::EMPTY.to_node(0, 0)];
+        // (node, first, end) ranges of `prims` still to split.
+        let mut todo = vec![(0usize, 0usize, prims.len())];
         while let Some((node, first, end)) = todo.pop() {
-            let (bounds, mid) = self.split(&mut order[first..end], &mut bins);
+            let (bounds, mid) = self.split(&mut prims[first..end], &mut bins);
             let Some(mid) = mid else {
                 nodes[node] = bounds.to_node((offset + first) as u32, (end - first) as u32);
                 continue;
             };
             let left = nodes.len();
-            nodes.push(Aabb::EMPTY.to_node(0, 0));
-            nodes.push(Aabb::EMPTY.to_node(0, 0));
+            nodes.push(Box32::EMPTY.to_node(0, 0));
+            nodes.push(Box32::EMPTY.to_node(0, 0));
             nodes[node] = bounds.to_node(left as u32, 0);
             todo.push((left + 1, first + mid, end));
             todo.push((left, first, first + mid));
@@ -346,15 +448,15 @@ impl Builder {
     /// [`Builder::build_range`], the two halves of a large range built side by side (rayon's
     /// join, in the pool it runs in), then laid out as root, the two subtrees' roots (the
     /// pair), the left subtree's other nodes, the right's.
-    fn build_par(&self, order: &mut [u32], offset: usize, depth: u32) -> Vec<BvhNode> {
-        if order.len() < PARALLEL_MIN || depth >= 6 {
-            return self.build_range(order, offset);
+    fn build_par(&self, prims: &mut [Prim], offset: usize, depth: u32) -> Vec<BvhNode> {
+        if prims.len() < PARALLEL_MIN || depth >= 6 {
+            return self.build_range(prims, offset);
         }
-        let (bounds, mid) = self.split(order, &mut Bins::new(self.params.bins as usize));
+        let (bounds, mid) = self.split(prims, &mut Bins::new(self.params.bins as usize));
         let Some(mid) = mid else {
-            return vec![bounds.to_node(offset as u32, order.len() as u32)];
+            return vec![bounds.to_node(offset as u32, prims.len() as u32)];
         };
-        let (lo, hi) = order.split_at_mut(mid);
+        let (lo, hi) = prims.split_at_mut(mid);
         let (l, r) = rayon::join(
             || self.build_par(lo, offset, depth + 1),
             || self.build_par(hi, offset + mid, depth + 1),
@@ -378,18 +480,19 @@ impl Builder {
     }
 }
 
-/// A split's bin arrays, made once per thread and cleared per node and axis.
+/// A split's bin arrays (three axes' bins side by side), made once per thread and cleared per
+/// node.
 struct Bins {
     count: Vec<usize>,
-    bbox: Vec<Aabb>,
+    bbox: Vec<Box32>,
     right: Vec<(f64, usize)>,
 }
 
 impl Bins {
     fn new(bins: usize) -> Bins {
         Bins {
-            count: vec![0; bins],
-            bbox: vec![Aabb::EMPTY; bins],
+            count: vec![0; 3 * bins],
+            bbox: vec![Box32::EMPTY; 3 * bins],
             right: vec![(0.0, 0); bins],
         }
     }
@@ -399,19 +502,33 @@ impl ReshetovBvh {
     /// Builds the tree over `triangles` (the caller's, in its numbering; their corners must be
     /// finite).
     pub fn build(triangles: &[Tri], params: BvhParams) -> Result<ReshetovBvh> {
+        ReshetovBvh::build_to(triangles, params, 1)
+    }
+
+    /// [`ReshetovBvh::build`] with every range of at most `min_split` (≥ 1) triangles left
+    /// one leaf (the 8-wide tree's build: what it collapses into one leaf is not split).
+    pub(crate) fn build_to(
+        triangles: &[Tri],
+        params: BvhParams,
+        min_split: usize,
+    ) -> Result<ReshetovBvh> {
         params.check()?;
-        if triangles.len() >= u32::MAX as usize / 2 {
+        if triangles.len() > ID_TAG as usize {
             return Err(Error::InvalidInput(format!(
-                "{} triangles: a BVH holds fewer than 2^31",
+                "{} triangles: a BVH holds at most 2^30",
                 triangles.len()
             )));
         }
         check_finite(triangles)?;
-        let builder = Builder::new(triangles, params);
-        let mut order: Vec<u32> = (0..triangles.len() as u32).collect();
+        let builder = Builder {
+            params,
+            min_split: min_split.max(1),
+        };
+        let mut prims = Prim::all(triangles);
         // Large subtrees are built side by side (the splits, and so the tree, are the same
         // whatever the thread count; only where its nodes lie in the array differs).
-        let nodes = crate::threads::install(None, || builder.build_par(&mut order, 0, 0))?;
+        let nodes = crate::threads::install(None, || builder.build_par(&mut prims, 0, 0))?;
+        let order: Vec<u32> = prims.iter().map(Prim::id).collect();
         let tris = order.iter().map(|&k| triangles[k as usize]).collect();
         Ok(ReshetovBvh {
             nodes,

@@ -398,9 +398,13 @@ fn parallel_build_is_the_sequential_build() {
         .collect();
     let params = BvhParams::default();
     let par = ReshetovBvh::build(&tris, params).unwrap();
-    let builder = Builder::new(&tris, params);
-    let mut order: Vec<u32> = (0..tris.len() as u32).collect();
-    let seq = builder.build_range(&mut order, 0);
+    let builder = Builder {
+        params,
+        min_split: 1,
+    };
+    let mut prims = Prim::all(&tris);
+    let seq = builder.build_range(&mut prims, 0);
+    let order: Vec<u32> = prims.iter().map(Prim::id).collect();
     assert_eq!(par.order, order);
     assert_eq!(par.nodes.len(), seq.len());
     let mut stack = vec![(0usize, 0usize)];
