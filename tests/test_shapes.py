@@ -135,6 +135,32 @@ def test_normals_are_gathered_as_numpy_takes_them():
             index[123] = 0
 
 
+def test_triangle_normals_are_numpys_bit_for_bit():
+    """The core's normal table (``_native.triangle_normals``, what ``Scene.normals`` reads) is
+    ``np.cross`` normalized by ``np.linalg.norm``, bit for bit, past one parallel piece, with
+    NaN rows for zero-area triangles and a NaN row last; a face naming no vertex is a
+    ValueError naming it."""
+    from tetrace import _native
+
+    rng = np.random.default_rng(7)
+    v = rng.normal(size=(5_000, 3)) * 10.0 ** rng.integers(-8, 8, size=(5_000, 1))
+    f = rng.integers(0, len(v), size=(40_000, 3))
+    f[:100, 1] = f[:100, 0]  # zero area
+    got = _native.triangle_normals(v, f, 2)
+    p = v[f]
+    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    length = np.linalg.norm(n, axis=1, keepdims=True)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        want = np.where(length > 0, n / length, np.nan)
+    assert got.shape == (len(f) + 1, 3) and np.isnan(got[-1]).all()
+    assert np.isnan(got[:100]).all()
+    np.testing.assert_array_equal(got[:-1], want)
+    for bad in (len(v), -1):
+        f[123, 2] = bad
+        with pytest.raises(ValueError, match=f"vertex {bad}, outside"):
+            _native.triangle_normals(v, f)
+
+
 def test_hits_reshape_and_validation():
     h = Hits.misses(6).reshape((2, 3))
     assert h.shape == (2, 3) and h.point.shape == (2, 3, 3) and h.normal is None

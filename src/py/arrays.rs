@@ -81,3 +81,28 @@ pub(crate) fn take_rows<'py>(
         )
     }
 }
+
+/// The triangles' unit normals, `(F + 1, 3)` float64 with a NaN row last
+/// ([`crate::scene::buffers::triangle_normals`]).
+#[pyfunction]
+#[pyo3(signature = (vertices, faces, threads=None))]
+pub(crate) fn triangle_normals<'py>(
+    py: Python<'py>,
+    vertices: PyReadonlyArray2<'py, f64>,
+    faces: PyReadonlyArray2<'py, i64>,
+    threads: Option<usize>,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    check_cols(&vertices, 3, "vertices")?;
+    let nf = check_cols(&faces, 3, "faces")?;
+    let v: &[[f64; 3]] = bytemuck::cast_slice(slice(&vertices, "vertices")?);
+    let f: &[[i64; 3]] = bytemuck::cast_slice(slice(&faces, "faces")?);
+    // SAFETY: uninitialized, but every row is written below before numpy or Python reads it;
+    // on an error the array is dropped unread.
+    let out = unsafe { PyArray2::<f64>::new(py, [nf + 1, 3], false) };
+    {
+        let mut w = out.readwrite();
+        let dest: &mut [[f64; 3]] = bytemuck::cast_slice_mut(w.as_slice_mut()?);
+        py.detach(|| guarded(|| crate::scene::buffers::triangle_normals(v, f, dest, threads)))?;
+    }
+    Ok(out)
+}
