@@ -13,9 +13,9 @@ use std::cmp::Ordering;
 pub(super) const EPS: f64 = f64::EPSILON * 0.5;
 /// Shewchuk's bound for a 3×3 determinant whose rows are differences of inputs, relative to
 /// its permanent: (7 + 56ε)ε. Rounded up.
-pub(super) const DET_BOUND: f64 = 8.0 * EPS;
+pub(crate) const DET_BOUND: f64 = 8.0 * EPS;
 /// Below this permanent, products may underflow and the bound no longer holds: exact.
-pub(super) const TINY: f64 = 1e-250;
+pub(crate) const TINY: f64 = 1e-250;
 
 fn rat(x: f64) -> Dyadic {
     Dyadic::from_f64(x)

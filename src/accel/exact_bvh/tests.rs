@@ -334,3 +334,71 @@ fn zero_components_in_an_infinite_tree_take_the_float64_test() {
         assert_eq!(near.best, Some(0), "{simd:?}");
     }
 }
+
+/// The AVX2 leaf filter leaves out only triangles the ray misses (`Line::meets`, exact): on
+/// leaves of 1 to 16 triangles around a shared vertex and shared edges (a fan), with rays
+/// aimed at the shared vertex, at points of the shared edges and inside, from grid origins
+/// (side products exactly zero) and random ones at scales 1e-6 to 1e6. It must also leave
+/// out most of the triangles missed, or it would be no filter.
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn the_leaf_filter_leaves_out_only_triangles_the_ray_misses() {
+    if !Simd::Avx2.supported() {
+        eprintln!("no AVX2 on this CPU: the filter never runs here");
+        return;
+    }
+    let mut rng = Rng::xorshift(23);
+    let (mut met, mut missed, mut left_out) = (0, 0, 0);
+    for i in 0..20_000u64 {
+        let grid = i % 2 == 0;
+        let scale = [1.0, 1e-6, 1e6][(i / 2 % 3) as usize];
+        let x = |rng: &mut Rng| {
+            if grid {
+                ((rng.f() * 8.0).floor() - 4.0) * scale
+            } else {
+                (rng.f() * 2.0 - 1.0) * scale
+            }
+        };
+        // A fan of n triangles around a centre: consecutive ones share an edge.
+        let n = 1 + rng.below(16);
+        let centre = [x(&mut rng), x(&mut rng), x(&mut rng)];
+        let rim: Vec<[f64; 3]> = (0..=n)
+            .map(|_| [x(&mut rng), x(&mut rng), x(&mut rng)])
+            .collect();
+        let tris: Vec<Tri> = (0..n).map(|j| [centre, rim[j], rim[j + 1]]).collect();
+        // Aim at the centre, a rim vertex, the midpoint of a spoke (exact on the grid), or
+        // inside a triangle.
+        let j = rng.below(n);
+        let target = match rng.below(4) {
+            0 => centre,
+            1 => rim[j],
+            2 => [0, 1, 2].map(|k| 0.5 * centre[k] + 0.5 * rim[j][k]),
+            _ => [0, 1, 2].map(|k| (centre[k] + rim[j][k] + rim[j + 1][k]) / 3.0),
+        };
+        let o = [x(&mut rng), x(&mut rng), x(&mut rng)];
+        let d = [0, 1, 2].map(|k| target[k] - o[k]);
+        let Ok(line) = Line::new(&Ray::new(o, d, 0.0, f64::INFINITY)) else {
+            continue;
+        };
+        // SAFETY: the CPU has AVX2 and FMA (checked above).
+        let may = unsafe { may_meet_avx2(&line, &tris) };
+        for (k, tri) in tris.iter().enumerate() {
+            let kept = may >> k & 1 != 0;
+            if line.meets(tri) {
+                met += 1;
+                assert!(
+                    kept,
+                    "case {i}: triangle {k} of {n} is met but left out: o {o:?} d {d:?}"
+                );
+            } else {
+                missed += 1;
+                left_out += !kept as u32;
+            }
+        }
+    }
+    assert!(met > 10_000, "{met} triangles met");
+    assert!(
+        left_out * 10 >= missed * 6,
+        "{left_out} of {missed} missed triangles left out"
+    );
+}
