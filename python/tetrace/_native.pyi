@@ -16,6 +16,7 @@ __all__ = [
     "structure_defaults",
     "check_threads",
     "take_rows",
+    "triangle_normals",
     "layouts",
     "simd_levels",
     "exitface_bench",

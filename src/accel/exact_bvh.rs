@@ -456,7 +456,12 @@ unsafe fn may_meet_avx2(line: &Line, tris: &[Tri]) -> u32 {
     for (block, four) in tris.chunks(4).enumerate() {
         // Four triangles (a short block repeats its last: those lanes are not read).
         let last = four.len() - 1;
-        let t = [&four[0], &four[1.min(last)], &four[2.min(last)], &four[last]];
+        let t = [
+            &four[0],
+            &four[1.min(last)],
+            &four[2.min(last)],
+            &four[last],
+        ];
         // Corner v's coordinate k minus the origin's, per lane.
         let mut p = [[_mm256_setzero_pd(); 3]; 3];
         for v in 0..3 {

@@ -281,13 +281,13 @@ impl Axes {
     #[inline(always)]
     fn bins(&self, b: &Box32) -> [u32; 4] {
         let mut out = [0; 4];
-        for k in 0..4 {
+        for (k, out) in out.iter_mut().enumerate() {
             let x = (b.lo[k] + b.hi[k] - self.c0[k]) * self.scale[k];
             // In [0, last] and not NaN (max32 takes 0 for a NaN), so the conversion is exact
             // and in range: no saturating conversion (a dozen instructions) is needed.
             let x = min32(max32(x, 0.0), self.last);
             // SAFETY: x is finite and in [0, 255] (last < bins ≤ 256).
-            out[k] = unsafe { x.to_int_unchecked::<u32>() };
+            *out = unsafe { x.to_int_unchecked::<u32>() };
         }
         out
     }

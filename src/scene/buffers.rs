@@ -324,7 +324,6 @@ pub fn triangle_normals(
     out: &mut [[f64; 3]],
     threads: Option<usize>,
 ) -> Result<()> {
-    use rayon::prelude::*;
     const PIECE: usize = 1 << 14;
     if out.len() != faces.len() + 1 {
         return Err(Error::InvalidInput(format!(
@@ -362,16 +361,7 @@ pub fn triangle_normals(
         }
         Ok(())
     };
-    let done = if faces.len() <= PIECE {
-        fill((rows, faces))
-    } else {
-        crate::threads::install(threads, || {
-            rows.par_chunks_mut(PIECE)
-                .zip(faces.par_chunks(PIECE))
-                .try_for_each(fill)
-        })?
-    };
-    done.map_err(|v| {
+    in_pieces(rows, faces, PIECE, threads, fill)?.map_err(|v| {
         Error::InvalidInput(format!(
             "a face names vertex {v}, outside 0..{n} (triangle_normals)"
         ))
@@ -389,7 +379,6 @@ pub fn take_rows<T: Copy + Send + Sync>(
     out: &mut [[T; 3]],
     threads: Option<usize>,
 ) -> Result<()> {
-    use rayon::prelude::*;
     const PIECE: usize = 1 << 15;
     let last = rows.len().checked_sub(1).ok_or_else(|| {
         Error::InvalidInput("take_rows needs at least one row (the miss's)".into())
@@ -412,16 +401,29 @@ pub fn take_rows<T: Copy + Send + Sync>(
         }
         Ok(())
     };
-    let done = if index.len() <= PIECE {
-        fill((out, index))
-    } else {
-        crate::threads::install(threads, || {
-            out.par_chunks_mut(PIECE)
-                .zip(index.par_chunks(PIECE))
-                .try_for_each(fill)
-        })?
-    };
-    done.map_err(|i| Error::InvalidInput(format!("take_rows: index {i} is outside [-1, {last})")))
+    in_pieces(out, index, PIECE, threads, fill)?
+        .map_err(|i| Error::InvalidInput(format!("take_rows: index {i} is outside [-1, {last})")))
+}
+
+/// `fill` over matching pieces of `out` and `input` (`piece` entries of `out` for `piece` of
+/// `input`) on the pool's threads, or at once on this thread when there is one piece; the
+/// first piece's error, if any (the pool's own failure is the outer error).
+fn in_pieces<O: Send, I: Sync, E: Send>(
+    out: &mut [O],
+    input: &[I],
+    piece: usize,
+    threads: Option<usize>,
+    fill: impl Fn((&mut [O], &[I])) -> std::result::Result<(), E> + Send + Sync,
+) -> Result<std::result::Result<(), E>> {
+    use rayon::prelude::*;
+    if input.len() <= piece {
+        return Ok(fill((out, input)));
+    }
+    crate::threads::install(threads, || {
+        out.par_chunks_mut(piece)
+            .zip(input.par_chunks(piece))
+            .try_for_each(fill)
+    })
 }
 
 #[cfg(test)]
