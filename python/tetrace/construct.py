@@ -131,11 +131,11 @@ def build_ct(scene, progress):
 
 
 def triangle_normals(vertices, faces):
-    """:meth:`tetrace.Scene.normals` (which documents them), read-only: computed by the core
-    on every core, the same bits as ``np.cross`` and ``np.linalg.norm`` give."""
+    """:meth:`tetrace.Scene.normals` (which documents them) with a row of ``nan`` appended
+    (a miss's, for the hits' gather), ``(F + 1, 3)``, read-only: computed by the core on
+    every core, the same bits as ``np.cross`` and ``np.linalg.norm`` give."""
     rows = _native.triangle_normals(
         np.ascontiguousarray(vertices, np.float64), np.ascontiguousarray(faces, np.int64)
     )
-    n = rows[:-1]
-    n.setflags(write=False)
-    return n
+    rows.setflags(write=False)
+    return rows

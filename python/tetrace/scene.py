@@ -391,25 +391,32 @@ class Scene:
         numpy.ndarray
             ``(F, 3)`` float64: ``cross(p1 - p0, p2 - p0)`` normalized, with ``p0, p1, p2``
             the triangle's vertices in the caller's face order (its winding); ``nan``
-            for a zero-area triangle (one no ray hits). Computed once.
+            for a zero-area triangle (one no ray hits). Computed once (read-only).
         """
+        return self._normal_table()[:-1]
+
+    def _normal_table(self):
+        """:meth:`normals` with a row of ``nan`` appended, as the core computes them (kept
+        until the vertices change)."""
         if self._normals is None:
             self._normals = construct.triangle_normals(self.vertices, self.faces)
         return self._normals
 
     def _normal_rows(self, dtype):
-        """:meth:`normals` in ``dtype`` with a row of ``nan`` appended: a hit's normal is its
-        triangle's row and a miss's (triangle -1) the last, so one ``take`` fills every ray's
-        (no mask, no second pass). Kept per dtype until the normals change."""
-        normals = self.normals()
-        cache = self.__dict__.get("_normal_rows_cache")
-        if cache is None or cache[0] is not normals:
-            cache = (normals, {})
-            self._normal_rows_cache = cache
+        """:meth:`_normal_table` in ``dtype``: a hit's normal is its triangle's row and a
+        miss's (triangle -1) the last, so one ``take`` fills every ray's (no mask, no second
+        pass). The float64 table itself; another dtype's copy kept until the normals
+        change."""
+        table = self._normal_table()
         key = np.dtype(dtype)
+        if key == table.dtype:
+            return table
+        cache = self.__dict__.get("_normal_rows_cache")
+        if cache is None or cache[0] is not table:
+            cache = (table, {})
+            self._normal_rows_cache = cache
         if key not in cache[1]:
-            nan = np.full((1, 3), np.nan)
-            cache[1][key] = np.ascontiguousarray(np.vstack([normals, nan]), dtype=key)
+            cache[1][key] = table.astype(key)
         return cache[1][key]
 
     @property

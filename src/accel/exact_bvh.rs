@@ -20,7 +20,7 @@
 //! component in a tree with an infinite box. So every answer is the exact one, as the exact
 //! walk's and Reshetov's BVH's are.
 
-use super::reshetov_bvh::{down32, up32, BvhNode, Slab};
+use super::reshetov_bvh::{down32, max32, min32, up32, BvhNode, Slab};
 use super::{Accel, BvhParams, ReshetovBvh};
 use crate::error::{Error, Result};
 use crate::geom::ray::Ray;
@@ -242,7 +242,7 @@ macro_rules! avx2_box_test {
             _mm256_fmadd_ps(f1, i1, cf1),
             _mm256_fmadd_ps(f2, i2, cf2),
         );
-        // max(a, b) is b unless a > b, as `vmax`.
+        // max(a, b) is b unless a > b, as `max32`.
         let near = _mm256_max_ps(
             _mm256_max_ps(tn0, tn1),
             _mm256_max_ps(tn2, _mm256_set1_ps(t0)),
@@ -422,7 +422,7 @@ fn push_sorted(stack: &mut Vec<(u32, f32)>, node: &Node8, mask: u32, nears: &[f3
     }
 }
 
-/// Of up to 32 triangles, those the ray may meet (bit j for `tris[j]`): a triangle is left out
+/// Of a leaf's triangles (at most [`MAX_LEAF`]), those the ray may meet (bit j for `tris[j]`): a triangle is left out
 /// only when two of its side products have certain opposite signs, decided as
 /// `geom::exact::triangle_sides` decides them (the same float64 products and sums in the same
 /// order, four triangles at once, the same certification `|det| > DET_BOUND · perm` with the
@@ -452,6 +452,7 @@ unsafe fn may_meet_avx2(line: &Line, tris: &[Tri]) -> u32 {
         _mm256_set1_pd(TINY),
         _mm256_set1_pd(f64::INFINITY),
     );
+    debug_assert!(tris.len() <= 32, "a bit per triangle in a u32");
     let mut may = 0u32;
     for (block, four) in tris.chunks(4).enumerate() {
         // Four triangles (a short block repeats its last: those lanes are not read).
@@ -718,27 +719,7 @@ impl RayBoxes {
     /// The ray's range in float32, rounded outward (tmin ≥ 0).
     #[inline(always)]
     fn range(tmin: f64, reach: f64) -> (f32, f32) {
-        (vmax(below32(tmin), 0.0), above32(reach))
-    }
-}
-
-/// `_mm256_max_ps` and `_mm256_min_ps`: the second operand unless the first is greater
-/// (less), so the portable test picks what the vector one does.
-#[inline(always)]
-fn vmax(a: f32, b: f32) -> f32 {
-    if a > b {
-        a
-    } else {
-        b
-    }
-}
-
-#[inline(always)]
-fn vmin(a: f32, b: f32) -> f32 {
-    if a < b {
-        a
-    } else {
-        b
+        (max32(below32(tmin), 0.0), above32(reach))
     }
 }
 
@@ -752,8 +733,8 @@ impl BoxTest for RayBoxes {
         for s in 0..WIDTH {
             let tn = |k: usize| b[self.near[k]][s].mul_add(self.inv[k], self.neg_c_near[k]);
             let tf = |k: usize| b[self.far[k]][s].mul_add(self.inv[k], self.neg_c_far[k]);
-            let near = vmax(vmax(tn(0), tn(1)), vmax(tn(2), t0));
-            let far = vmin(vmin(tf(0), tf(1)), vmin(tf(2), t1));
+            let near = max32(max32(tn(0), tn(1)), max32(tn(2), t0));
+            let far = min32(min32(tf(0), tf(1)), min32(tf(2), t1));
             let near = near * (1.0 - PAD);
             let far = far.abs().mul_add(PAD, far) + TINY;
             let mut hit = near <= far;

@@ -162,11 +162,13 @@ pub(crate) fn down32(x: f64) -> f32 {
     }
 }
 
-/// `a.min(b)` and `a.max(b)` as one instruction each (`minss`, `maxss`: the second operand
-/// unless the first is smaller, larger). The build's boxes are outward roundings of finite
-/// numbers: never NaN, so the NaN rules of `f32::min` (several instructions) buy nothing.
+/// `a.min(b)` and `a.max(b)` as one instruction each: the second operand unless the first is
+/// smaller (larger), as `minss`/`_mm256_min_ps` and `maxss`/`_mm256_max_ps` pick, so a
+/// portable box test picks what the vector one does (`exact_bvh`) and a NaN first operand
+/// gives the second. The build's boxes are outward roundings of finite numbers: the NaN
+/// rules of `f32::min` (several instructions) buy nothing there.
 #[inline(always)]
-fn min32(a: f32, b: f32) -> f32 {
+pub(crate) fn min32(a: f32, b: f32) -> f32 {
     if a < b {
         a
     } else {
@@ -175,7 +177,7 @@ fn min32(a: f32, b: f32) -> f32 {
 }
 
 #[inline(always)]
-fn max32(a: f32, b: f32) -> f32 {
+pub(crate) fn max32(a: f32, b: f32) -> f32 {
     if a > b {
         a
     } else {
