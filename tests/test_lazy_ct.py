@@ -5,7 +5,6 @@ whatever walks tets builds it, once, with the options from_mesh was given, keepi
 built before; a scene TetGen cannot mesh still answers; and the core refuses to walk the
 placeholder box it holds until then."""
 
-import pickle
 
 import numpy as np
 import pytest
@@ -79,8 +78,6 @@ TRIGGERS = {
     "tets()": lambda s, o, d: s.tets(),
     "domain": lambda s, o, d: s.domain,
     "tetrahedralization": lambda s, o, d: s.tetrahedralization,
-    "to_bytes": lambda s, o, d: s.to_bytes(),
-    "pickle": lambda s, o, d: pickle.dumps(s),
     "build_ct": lambda s, o, d: s.build_ct(),
 }
 

@@ -35,7 +35,7 @@ def icosphere(subdivisions):
 
 @pytest.fixture(scope="module")
 def spot():
-    return tetrace.default_scene()
+    return tetrace.Scene.from_mesh(tetrace.default_scene_path(), lazy=False)
 
 
 def bend(rest, k, amplitude=0.005):
@@ -58,8 +58,9 @@ def rays(scene, n=3000, seed=1):
     return o, d
 
 
-def assert_same_answers(a, b, accels=("tetwalk", "reshetov_bvh")):
-    """Every field of every query kind equal, bit for bit (NaN where NaN)."""
+def assert_same_answers(a, b, accels=("tetwalk", "reshetov_bvh"), tets=True):
+    """Every field of every query kind equal, bit for bit (NaN where NaN); the tets and
+    points too unless not ``tets`` (scenes whose tetrahedralization must stay unbuilt)."""
     o, d = rays(a)
     for accel in accels:
         for dtype in (np.float64, np.float32):
@@ -76,13 +77,15 @@ def assert_same_answers(a, b, accels=("tetwalk", "reshetov_bvh")):
         assert np.array_equal(ia.offsets, ib.offsets) and np.array_equal(ia.t, ib.t)
         assert np.array_equal(ia.triangle, ib.triangle)
     assert np.array_equal(a.occluded(o, d), b.occluded(o, d))
-    assert np.array_equal(a.contains(o), b.contains(o))
+    mode = None if tets else "winding"  # parity walks the tetrahedralization
+    assert np.array_equal(a.contains(o, mode=mode), b.contains(o, mode=mode))
     # Secondary rays start from the hit's tet: tet numbering must be the same too.
     h = a.cast(o, d)
     s = d * np.array([1.0, -1.0, 1.0])
     sa, sb = a.cast(start=h, directions=s), b.cast(start=h, directions=s)
     assert np.array_equal(sa.t, sb.t) and np.array_equal(sa.triangle, sb.triangle)
-    assert np.array_equal(a.tets(), b.tets()) and np.array_equal(a.points(), b.points())
+    if tets:
+        assert np.array_equal(a.tets(), b.tets()) and np.array_equal(a.points(), b.points())
 
 
 def assert_same_python_state(a, b):
@@ -127,7 +130,9 @@ def test_the_header_is_endian_explicit_json(spot):
     data = spot.to_bytes()
     assert data.startswith(scenefile.MAGIC)
     version, length, crc = struct.unpack_from("<IQI", data, len(scenefile.MAGIC))
-    assert version == scenefile.FORMAT_VERSION == 1
+    # A scene with its tetrahedralization is written as version 1 (older builds read it);
+    # version 2 is a scene saved without one (test_a_lazy_scene_saves_and_pickles_unmeshed).
+    assert spot.has_ct and version == 1 and scenefile.FORMAT_VERSION == 2
     start = len(scenefile.MAGIC) + 16
     header = json.loads(data[start : start + length])
     assert zlib.crc32(data[start : start + length]) == crc
@@ -201,12 +206,60 @@ def test_pickle_and_deepcopy_do_not_mesh_and_are_independent(spot, monkeypatch):
     assert_same_answers(twin, again, accels=("tetwalk",))
 
 
+def test_a_lazy_scene_saves_and_pickles_unmeshed(spot, tmp_path, monkeypatch):
+    """A scene whose tetrahedralization is not built is saved without it (format version 2):
+    nothing is meshed to save, pickle or load it, the loaded scene answers every query
+    without a tetrahedralization as the original does, and when something walks tets it is
+    meshed from the same triangles and options (the same tets as the original's)."""
+    from tetrace import construct
+
+    meshed = []
+    mesh = construct._tetrahedralize
+    monkeypatch.setattr(construct, "_tetrahedralize", lambda *a: meshed.append(1) or mesh(*a))
+    lazy = tetrace.Scene.from_mesh(tetrace.default_scene_path(), margin=0.25)
+    lazy.build_bvh(max_leaf=3)
+    rest = np.array(lazy.vertices)
+    assert lazy.update_vertices(bend(rest, 1)).action == "moved"  # triangles alone
+    data = lazy.to_bytes()
+    assert struct.unpack_from("<I", data, len(scenefile.MAGIC))[0] == 2
+    path = tmp_path / "lazy.tetrace"
+    lazy.save(path)
+    copies = [
+        tetrace.Scene.load(path),
+        pickle.loads(pickle.dumps(lazy)),
+        copy.deepcopy(lazy),
+    ]
+    assert meshed == [] and not lazy.has_ct
+    for back in copies:
+        assert not back.has_ct and "not built" in repr(back)
+        assert np.array_equal(back.vertices, lazy.vertices) and back.hilbert == lazy.hilbert
+        assert back.build_times == lazy.build_times and back._frames == lazy._frames == 1
+        assert back.last_deformation == lazy.last_deformation
+        assert back._build_options.keys() == lazy._build_options.keys()
+        assert back._build_options["margin"] == 0.25
+        assert back.bvh_info()["max_leaf"] == 3
+        assert back.to_bytes() == data
+        assert_same_answers(lazy, back, accels=("exact_bvh", "reshetov_bvh"), tets=False)
+    assert meshed == [] and not any(s.has_ct for s in [lazy, *copies])
+    # Meshed when a query walks tets: the same tetrahedralization from the same options.
+    back = copies[0]
+    o, d = rays(lazy)
+    walked, walked_back = lazy.cast(o, d, accel="tetwalk"), back.cast(o, d, accel="tetwalk")
+    assert meshed == [1, 1] and lazy.has_ct and back.has_ct
+    assert np.array_equal(lazy.tets(), back.tets()) and np.array_equal(lazy.points(), back.points())
+    for name in ("t", "triangle", "tet", "status"):
+        assert np.array_equal(getattr(walked, name), getattr(walked_back, name), equal_nan=True)
+    # Saved once meshed, it is version 1 again.
+    assert struct.unpack_from("<I", back.to_bytes(), len(scenefile.MAGIC))[0] == 1
+
+
 def test_from_meshes_scene_keeps_its_geometries(tmp_path):
     v, f = icosphere(2)
     scene = tetrace.Scene.from_meshes(
         [(v, f), (v * 0.5 + [3.0, 0, 0], f)],
         preset="constrained",
         contain=np.array([[0.0, 0.0, 4.0]]),
+        lazy=False,
     )
     scene.save(tmp_path / "two.tetrace")
     loaded = tetrace.Scene.load(tmp_path / "two.tetrace")
@@ -226,7 +279,7 @@ def test_from_meshes_scene_keeps_its_geometries(tmp_path):
 def test_ftetwild_scene_round_trip():
     # fTetWild's faces name neighbour triangles (recomputed on load from the saved cleaned
     # mesh): the hits must still be the same.
-    scene = tetrace.Scene.from_mesh(icosphere(2), mesher="ftetwild")
+    scene = tetrace.Scene.from_mesh(icosphere(2), mesher="ftetwild", lazy=False)
     loaded = tetrace.Scene.from_bytes(scene.to_bytes())
     assert loaded.tetrahedralization.mesher == "ftetwild"
     assert loaded.tetrahedralization.surface_distance == scene.tetrahedralization.surface_distance
@@ -265,7 +318,7 @@ def test_metadata_encoding_round_trips_exactly():
 
 @pytest.fixture(scope="module")
 def small():
-    return tetrace.Scene.from_mesh(icosphere(1), preset="constrained")
+    return tetrace.Scene.from_mesh(icosphere(1), preset="constrained", lazy=False)
 
 
 def header_span(data):
@@ -293,7 +346,7 @@ def test_newer_version_names_both(small, tmp_path):
     data = bytearray(small.to_bytes())
     struct.pack_into("<I", data, len(scenefile.MAGIC), 7)
     msg = load_error(tmp_path, bytes(data))
-    assert "format version 7" in msg and "format version 1" in msg
+    assert "format version 7" in msg and f"format version {scenefile.FORMAT_VERSION}" in msg
 
 
 def test_truncated_at_many_offsets(small, tmp_path):

@@ -27,7 +27,11 @@ def to_bytes(scene):
     def enc(value, path):
         return scenefile.encode(value, arrays, path, seen)
 
-    rest_tz, rest_vertices = scene._rest or (scene.tetrahedralization, scene.vertices)
+    # A scene whose tetrahedralization is not built yet is saved without one (format
+    # version 2): saving or pickling a lazy scene must not mesh it (minutes on big scenes,
+    # and a dask worker that only casts never needs it). Loading gives a lazy scene again.
+    tz = scene._tet
+    rest_tz, rest_vertices = scene._rest or (tz, scene.vertices)
     structures = {}
     for name, info, build in (
         ("bvh", scene.bvh_info(), scene.build_bvh),
@@ -40,11 +44,12 @@ def to_bytes(scene):
     meta = dict(
         kind="tetrace.Scene",
         hilbert=scene.hilbert,
-        tetrahedralization=enc(tz_fields(scene.tetrahedralization), "tz"),
+        tetrahedralization=None if tz is None else enc(tz_fields(tz), "tz"),
+        mesh_name=scene._mesh_name,
         vertices=enc(np.asarray(scene.vertices), "vertices"),
         faces=enc(np.asarray(scene.faces), "faces"),
         moved=scene._rest is not None,
-        rest_tetrahedralization=enc(tz_fields(rest_tz), "rest_tz"),
+        rest_tetrahedralization=None if rest_tz is None else enc(tz_fields(rest_tz), "rest_tz"),
         rest_vertices=enc(np.asarray(rest_vertices), "rest_vertices"),
         geometries=None
         if geometries is None
@@ -58,7 +63,9 @@ def to_bytes(scene):
         last_deformation=enc(scene.last_deformation, "last_deformation"),
         structures=structures,
     )
-    return scenefile.pack(arrays, meta, package_version=_native.__version__)
+    return scenefile.pack(
+        arrays, meta, package_version=_native.__version__, version=1 if tz is not None else 2
+    )
 
 
 def from_bytes(cls, data, source):
@@ -82,12 +89,18 @@ def restore(cls, arrays, meta, source):
         kind = meta.get("kind") if isinstance(meta, dict) else type(meta).__name__
         raise ValueError(f"holds {kind!r}, not a tetrace.Scene")
     dec = lambda key: scenefile.decode(meta[key], arrays)  # noqa: E731
-    tz, vertices, faces = (
-        tz_from_fields(dec("tetrahedralization")),
-        dec("vertices"),
-        dec("faces"),
-    )
+    vertices, faces = dec("vertices"), dec("faces")
     moved = bool(meta["moved"])
+    if meta["tetrahedralization"] is None:
+        if moved:
+            raise ValueError("a moved scene saved without its tetrahedralization")
+        # Saved before its tetrahedralization was built: the same lazy scene (the domain
+        # box comes from the options it was made with, so every answer is the same).
+        scene = cls._without_ct(
+            vertices, faces, dec("build_options"), bool(meta["hilbert"]), meta.get("mesh_name")
+        )
+        return restore_state(scene, meta, dec)
+    tz = tz_from_fields(dec("tetrahedralization"))
     rest_tz, rest_vertices = tz, vertices
     if moved:
         rest_tz, rest_vertices = (
@@ -108,6 +121,13 @@ def restore(cls, arrays, meta, source):
             )
         scene.tetrahedralization, scene._rest = tz, (rest_tz, rest_vertices)
         set_vertices(scene, vertices)
+    scene._mesh_name = meta.get("mesh_name")
+    return restore_state(scene, meta, dec)
+
+
+def restore_state(scene, meta, dec):
+    """``scene`` given the saved state every scene has (with or without its
+    tetrahedralization): geometries, options, timings, deformation record, structures."""
     geometries = dec("geometries")
     if geometries is not None:
         from .meshes import Geometries

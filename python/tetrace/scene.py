@@ -151,8 +151,8 @@ class Scene:
         :meth:`from_mesh` builds only what CPU queries need (the exact BVH, at the first
         cast); the tetrahedralization is meshed when something walks tets: a cast with
         ``accel="tetwalk"``, a paper's ``method``, a ``layout``, ``max_steps`` or
-        ``device="gpu"``, ``contains(mode="parity")``, :meth:`save` and pickling, and the
-        tetrahedralization's own attributes (:attr:`n_tets`, :meth:`tets`, ...). It is
+        ``device="gpu"``, ``contains(mode="parity")``, and the tetrahedralization's own
+        attributes (:attr:`n_tets`, :meth:`tets`, ...). It is
         meshed with the options :meth:`from_mesh` was given, from the vertices as they are
         then (:meth:`update_vertices` before it moves the triangles alone).
 
@@ -993,14 +993,16 @@ class Scene:
         It rebuilds the scene exactly, without meshing: the tetrahedralization as last built,
         a moved scene's positions and rest state (it keeps deforming as the original would),
         the caller's meshes, the meshing options, build times, last deformation report and
-        the parameters of a built BVH or octree.
+        the parameters of a built BVH or octree. A scene whose tetrahedralization is not
+        built yet (:attr:`has_ct` false) is saved without one and is not meshed to save
+        it: the loaded scene meshes it when a query needs it, as the original would have.
 
         Returns
         -------
         bytes
             Loaded back by :meth:`from_bytes`; every query answers the same, bit for bit.
         """
-        return persist.to_bytes(self.build_ct())
+        return persist.to_bytes(self)
 
     @classmethod
     def from_bytes(cls, data, *, source="<bytes>"):

@@ -47,8 +47,10 @@ __all__ = [
 #: The first bytes of every scene file (PNG-style: a non-ASCII byte, then line endings and
 #: a DOS end-of-file, so that text-mode transfers are caught).
 MAGIC = b"\x89TETRACE\r\n\x1a\n"
-#: The format version this build writes, and the newest it reads.
-FORMAT_VERSION = 1
+#: The newest format version this build writes and reads. Version 2 lets a scene be saved
+#: without its tetrahedralization (``meta["tetrahedralization"]`` null: a lazy scene, meshed
+#: when a query needs it); a scene with one is written as version 1, which older builds read.
+FORMAT_VERSION = 2
 
 _PREFIX = struct.Struct("<IQI")  # version, header length, header CRC32
 _ALIGN = 8
@@ -60,7 +62,7 @@ def _pad(n):
     return -n % _ALIGN
 
 
-def pack(arrays, meta, *, package_version=""):
+def pack(arrays, meta, *, package_version="", version=FORMAT_VERSION):
     """Serialize named arrays and a JSON-able ``meta`` object.
 
     Parameters
@@ -71,6 +73,9 @@ def pack(arrays, meta, *, package_version=""):
         Anything :func:`json.dumps` takes (``NaN``/``Infinity`` allowed).
     package_version : str
         The writer's tetrace version, recorded in the header.
+    version : int
+        The format version to record: the oldest that describes ``meta`` (so that older
+        builds read what they can), at most :data:`FORMAT_VERSION`.
 
     Returns
     -------
@@ -103,7 +108,9 @@ def pack(arrays, meta, *, package_version=""):
         separators=(",", ":"),
         allow_nan=True,
     ).encode("utf-8")
-    head = MAGIC + _PREFIX.pack(FORMAT_VERSION, len(header), zlib.crc32(header)) + header
+    if not 1 <= version <= FORMAT_VERSION:
+        raise ValueError(f"format version {version} is not one this build writes")
+    head = MAGIC + _PREFIX.pack(version, len(header), zlib.crc32(header)) + header
     return b"".join([head, b"\0" * _pad(len(head)), *blobs])
 
 
