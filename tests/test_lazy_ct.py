@@ -5,7 +5,6 @@ whatever walks tets builds it, once, with the options from_mesh was given, keepi
 built before; a scene TetGen cannot mesh still answers; and the core refuses to walk the
 placeholder box it holds until then."""
 
-
 import numpy as np
 import pytest
 
@@ -73,7 +72,6 @@ TRIGGERS = {
     "accel=tetwalk": lambda s, o, d: s.cast(o, d, accel="tetwalk"),
     "a paper's method": lambda s, o, d: s.cast(o, d, method="aman2022"),
     "a layout": lambda s, o, d: s.occluded(o, d, layout="tet32"),
-    "parity contains": lambda s, o, d: s.contains(o[:10], mode="parity"),
     "n_tets": lambda s, o, d: s.n_tets,
     "tets()": lambda s, o, d: s.tets(),
     "domain": lambda s, o, d: s.domain,

@@ -167,6 +167,14 @@ class NativeScene:
     def contains(
         self, points: npt.NDArray[np.floating], threads: int | None = None
     ) -> npt.NDArray[np.bool_]: ...
+    # (N, 3) float64 points, (F,) bool triangles that count -> (N,) uint8: 0 outside,
+    # 1 inside, 2 undecided (one ray's crossings on the exact BVH; no tetrahedralization).
+    def ray_parity(
+        self,
+        points: npt.NDArray[np.float64],
+        keep: npt.NDArray[np.bool_],
+        threads: int | None = None,
+    ) -> npt.NDArray[np.uint8]: ...
     # (N, 3) float64 points -> "point" (N, 3), "triangle" int32, "u", "v", "distance".
     def closest_points(
         self, points: npt.NDArray[np.float64], threads: int | None = None

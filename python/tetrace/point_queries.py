@@ -16,6 +16,9 @@ from .hits import ClosestPoints, locate
 
 __all__ = ["contains_mode", "inside", "closest_points", "surface_info"]
 
+#: ``_native.Scene.ray_parity``'s answer for a point no direction decided.
+RAY_UNDECIDED = 2
+
 
 def contains_mode(scene, mode):
     """``mode`` checked and resolved (None: by ``scene.is_closed``), warning once per scene
@@ -52,12 +55,30 @@ def surface_info(scene):
 def inside(scene, flat, mode, threads):
     """Containment of the ``(N, 3)`` float64 points by the resolved ``mode``."""
     if mode == "parity":
-        # The parity of the tetrahedralization's regions: built now if it is not yet.
-        return np.asarray(scene.build_ct()._native.contains(flat, threads), dtype=bool)
+        if scene.has_ct or not scene.is_closed:
+            # The parity of the tetrahedralization's regions (the fewest crossings to
+            # outside): built now if it is not yet. On an open surface that rule is not one
+            # ray's count, so it needs the tetrahedralization.
+            return np.asarray(scene.build_ct()._native.contains(flat, threads), dtype=bool)
+        # A closed surface with no tetrahedralization: one exact ray's crossings of the
+        # cleaned triangles on the exact BVH give the same answer (query/ray_parity.rs), with
+        # no meshing. A point every direction fails for (on lines and planes through mesh
+        # features in all of them) is decided on the tetrahedralization.
+        side = ray_sides(scene, flat, threads)
+        undecided = np.flatnonzero(side == RAY_UNDECIDED)
+        if len(undecided):
+            side[undecided] = scene.build_ct()._native.contains(flat[undecided], threads)
+        return side == 1
     from .winding import winding_numbers
 
     s = scene._surface_info()
     return winding_numbers(s.vertices, s.faces, flat) >= 0.5
+
+
+def ray_sides(scene, flat, threads):
+    """Each point's side by one ray's crossings of the cleaned triangles on the exact BVH:
+    0 outside, 1 inside, :data:`RAY_UNDECIDED` (``_native.Scene.ray_parity``)."""
+    return scene._native.ray_parity(flat, scene._surface_info().kept, threads)
 
 
 def closest_points(scene, flat, shape, threads):

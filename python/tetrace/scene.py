@@ -151,10 +151,11 @@ class Scene:
         :meth:`from_mesh` builds only what CPU queries need (the exact BVH, at the first
         cast); the tetrahedralization is meshed when something walks tets: a cast with
         ``accel="tetwalk"``, a paper's ``method``, a ``layout``, ``max_steps`` or
-        ``device="gpu"``, ``contains(mode="parity")``, and the tetrahedralization's own
-        attributes (:attr:`n_tets`, :meth:`tets`, ...). It is
-        meshed with the options :meth:`from_mesh` was given, from the vertices as they are
-        then (:meth:`update_vertices` before it moves the triangles alone).
+        ``device="gpu"``, ``contains(mode="parity")`` on a surface that is not closed (or
+        for a point no ray decides), and the tetrahedralization's own attributes
+        (:attr:`n_tets`, :meth:`tets`, ...). It is meshed with the options :meth:`from_mesh`
+        was given, from the vertices as they are then (:meth:`update_vertices` before it
+        moves the triangles alone).
 
         Parameters
         ----------
@@ -804,11 +805,15 @@ class Scene:
         Two rules; :attr:`is_closed` picks one unless ``mode`` does:
 
         * ``"parity"``, for closed surfaces, **exact**: inside when a ray from the point
-          crosses the surface an odd number of times, decided with exact predicates on the
-          tetrahedralization (no ray is cast). Points on the surface are inside, points
-          outside the domain box outside; nested shells alternate, overlaps are outside. On
-          an open surface every point escapes through a hole, so asking for it there warns
-          (:class:`UserWarning`, once per scene object).
+          crosses the surface an odd number of times. Points on the surface are inside,
+          points outside the domain box outside; nested shells alternate, overlaps are
+          outside. On a closed surface any ray gives the same parity: without a
+          tetrahedralization one ray's crossings are counted on the exact BVH with exact
+          predicates (a ray that meets an edge or a corner, or runs in a triangle's plane, is
+          replaced by another; nothing is meshed); with one, the point's tet gives its
+          region's parity. On an open surface every point escapes through a hole, so asking
+          for it there warns (:class:`UserWarning`, once per scene object) and the answer is
+          the tetrahedralization's (the fewest crossings to outside, odd), built if needed.
         * ``"winding"``, for open, cracked or non-manifold surfaces: inside when the
           generalized winding number (Jacobson et al. 2013) is at least 1/2: 1 inside a
           closed outward surface, 0 outside, smooth across a hole (points well inside a scan

@@ -66,6 +66,9 @@ class Surface:
     misoriented : int
         Edges shared by exactly two triangles that run along it the same way (their normals
         disagree about which side is out).
+    kept : numpy.ndarray
+        ``(F,)`` bool over the caller's triangles: the ones cleaning keeps (``faces``' rows),
+        the triangles whose crossings the parity counts.
     """
 
     vertices: np.ndarray
@@ -74,6 +77,7 @@ class Surface:
     odd: int
     non_manifold: int
     misoriented: int
+    kept: np.ndarray
 
     @property
     def closed(self) -> bool:
@@ -109,6 +113,8 @@ def surface(vertices, faces) -> Surface:
     from .mesh.clean import clean
 
     cm = clean(vertices, faces)
+    kept = np.zeros(len(np.asarray(faces).reshape(-1, 3)), dtype=bool)
+    kept[np.asarray(cm.triangle_ids, np.int64)] = True
     f = np.asarray(cm.faces, np.int64).reshape(-1, 3)
     n = max(len(cm.vertices), 1)
     a = f.ravel()
@@ -130,6 +136,7 @@ def surface(vertices, faces) -> Surface:
         odd=int(np.count_nonzero(count % 2 == 1)),
         non_manifold=int(np.count_nonzero(count > 2)),
         misoriented=int(np.count_nonzero((count == 2) & (n_forward != 1))),
+        kept=kept,
     )
 
 

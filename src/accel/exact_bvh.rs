@@ -205,8 +205,11 @@ macro_rules! walk_loop {
                         if !test {
                             continue;
                         }
-                        let at = line.meets_at(&bvh.triangles[j]);
-                        if at.is_some_and(|at| gather.offer_at(bvh.order[j], at)) {
+                        let settled = match line.meets_at(&bvh.triangles[j]) {
+                            Some(at) => gather.offer_at(bvh.order[j], at),
+                            None => G::IN_PLANE && gather.in_plane(bvh.order[j]),
+                        };
+                        if settled {
                             return visited;
                         }
                     }

@@ -286,6 +286,31 @@ impl PyScene {
         }
     }
 
+    /// Containment by one ray's crossings, on the exact BVH (no tetrahedralization needed):
+    /// per row of `points` ((N, 3) float64), 0 outside, 1 inside or on a kept triangle, 2
+    /// undecided (every direction met a kept triangle's edge or corner or lay in its plane);
+    /// `keep` ((F,) bool): which of the caller's triangles count. The scene's parity rule on
+    /// a closed surface (`query::ray_parity`). Returns (N,) uint8.
+    #[pyo3(signature = (points, keep, threads=None))]
+    fn ray_parity<'py>(
+        &self,
+        py: Python<'py>,
+        points: PyReadonlyArray2<'py, f64>,
+        keep: PyReadonlyArray1<'py, bool>,
+        threads: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyArray1<u8>>> {
+        let threads = threads_arg(threads)?;
+        let n = check_cols(&points, 3, "points")?;
+        let p = slice(&points, "points")?;
+        let keep = keep.as_slice().map_err(|_| {
+            PyValueError::new_err("keep must be a contiguous (F,) bool array")
+        })?;
+        let mut out = try_zeroed_vec::<u8>(n, "the answers of ray_parity")?;
+        let loaded = self.loaded();
+        interruptible(py, || loaded.scene.ray_parity(p, keep, &mut out, threads))?;
+        Ok(out.into_pyarray(py))
+    }
+
     /// The scene's point nearest each row of `points` ((N, 3) float64, finite), found on the
     /// BVH: a dict of "point" (N, 3), "triangle" (N,) int32 (-1: the scene has none), "u",
     /// "v" (barycentrics of the triangle's second and third corners) and "distance".

@@ -123,6 +123,16 @@ pub trait Gather {
     fn offer_at(&mut self, id: u32, _at: (f64, f64)) -> bool {
         self.offer(id)
     }
+    /// Whether the accelerator tells [`Gather::in_plane`] of the triangles it tests and the
+    /// ray does not meet at one point (a constant, so that the gatherers that do not ask pay
+    /// nothing; only the exact BVH tells).
+    const IN_PLANE: bool = false;
+    /// Triangle `id`, tested and not met at one point (its plane may hold the line: the
+    /// query decides); true: the answer is settled, offer no more.
+    #[inline]
+    fn in_plane(&mut self, _id: u32) -> bool {
+        false
+    }
 }
 
 /// Closest hit: the triangle with the smallest exact t (ties: the smallest id, as the walk).

@@ -13,6 +13,7 @@ pub mod closest;
 pub mod contact;
 pub mod contains;
 pub mod gather;
+pub mod ray_parity;
 
 use crate::locate::WalkStart;
 use crate::traverse::Walk;

@@ -9,7 +9,9 @@ pub mod queries;
 
 use crate::accel::reshetov_bvh::nearest::NearestPoint;
 pub use crate::accel::Built;
-use crate::accel::{BvhParams, OctreeParams, PortalezOctree, ReshetovBvh, Structures};
+use crate::accel::{
+    BvhParams, ExactBvh, OctreeParams, PortalezOctree, ReshetovBvh, Structures,
+};
 use crate::error::{Error, Result};
 use crate::geom::real::Real;
 use crate::layout::{LayoutKind, Layouts};
@@ -18,6 +20,7 @@ use crate::locate::{BoundaryLocator, GridLocator, Locators};
 use crate::locate::{LocateState, Start, WalkStart};
 use crate::mesh::{Incidence, Surface, TetMesh};
 use crate::query::contains::{self, Containment, Parity};
+use crate::query::ray_parity;
 use crate::query::ClosestHit;
 #[cfg(feature = "gpu")]
 use crate::query::RayHit;
@@ -298,6 +301,29 @@ impl Scene {
             parity,
         }
         .points(points, out, threads)
+    }
+
+    /// Containment by the parity of one ray's crossings, on the exact BVH and without the
+    /// tetrahedralization ([`crate::query::ray_parity`], which says when it is
+    /// [`Scene::contains`]'s rule): `out[i]` is `OUTSIDE`, `INSIDE` or `UNDECIDED` for point
+    /// i (3N values); `keep[i]`: whether the caller's triangle i counts.
+    pub fn ray_parity<R: Real>(
+        &self,
+        points: &[R],
+        keep: &[bool],
+        out: &mut [u8],
+        threads: Option<usize>,
+    ) -> Result<()> {
+        let triangles = &self.surface.triangles;
+        if keep.len() != triangles.len() {
+            return Err(Error::InvalidInput(format!(
+                "keep has {} entries for the scene's {} triangles",
+                keep.len(),
+                triangles.len()
+            )));
+        }
+        let bvh: Arc<ExactBvh> = self.structures.get(triangles)?;
+        ray_parity::sides(&bvh, triangles, keep, points, out, threads)
     }
 
     /// The scene's point nearest each point (`points`: x y z of each, 3N values, finite), on
