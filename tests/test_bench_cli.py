@@ -113,3 +113,20 @@ def test_first_answers_are_timed_in_fresh_processes_and_right():
     assert row["ratio"] == row["embreex"]["first"] / row["tetrace"]["first"]
     assert row["mesh"] == "spot.obj" and row["triangles"] == len(f)
     assert any("spot.obj" in line for line in lines)
+
+
+def test_random_rays_bench_walks_no_tets_and_is_judged(tmp_path, capsys):
+    """``--rays random`` benches rays from anywhere in any direction; with only an
+    accelerator's rows the scene is never meshed, and every row is judged by the referee."""
+    import json
+
+    out = tmp_path / "r.json"
+    argv = ["--rays", "random", "--width", "24", "--height", "20", "--method", "exact_bvh"]
+    argv += ["--precision", "f32", "--threads", "1", "--repeat", "1", "--json", str(out)]
+    assert main(argv) == 0
+    printed = capsys.readouterr().out
+    assert "480 random rays" in printed and "no tetrahedralization" in printed
+    res = json.loads(out.read_text())
+    assert res["rays_kind"] == "random" and res["rays"] == 480 and res["tets"] is None
+    ours = [r for r in res["runs"] if r["caster"] == "tetrace"]
+    assert len(ours) == 1 and ours[0]["right"] == 1.0

@@ -341,6 +341,13 @@ def main(argv=None):
         default=1.6,
         help="camera distance from the scene centre, in bounding radii",
     )
+    p.add_argument(
+        "--rays",
+        choices=["camera", "random"],
+        default="camera",
+        help="camera: the pinhole camera (default); random: width x height rays from "
+        "anywhere in the grown scene box in any direction",
+    )
     p.add_argument("--image", default=None, help="write a shaded PNG of the camera's hits here")
     p.add_argument("--json", default=None, help="also write the results as JSON here")
     p.add_argument(
@@ -398,6 +405,7 @@ def main(argv=None):
         orders=both(args.order, ("hilbert", "mesher")),
         threads=both(args.threads, ("1", "all")),
         devices=both(args.device, ("cpu", "gpu")),
+        rays=args.rays,
     )
     return 0
 

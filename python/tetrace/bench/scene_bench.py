@@ -8,7 +8,7 @@ import os
 
 import numpy as np
 
-from ..dev.camera import orbit_view, pinhole
+from ..dev.camera import orbit_view, pinhole, random_rays
 from ..dev.compare import agreement
 from ..scene import LAYOUT_BYTES, Scene, default_scene_path, simd_levels
 
@@ -137,6 +137,7 @@ def run_scene_bench(
     orders=("hilbert",),
     threads=("1", "all"),
     devices=("cpu",),
+    rays="camera",
     out=print,
 ):
     """Build a scene, cast a pinhole camera with tetrace, embreex and the peers that import
@@ -174,6 +175,10 @@ def run_scene_bench(
         the default kernel; ``"all"``: every kernel) and reports kernel Mrays/s (rays the GPU
         walked per second of kernel time) apart from ray upload, readback, the CPU's start
         location and hit finishing, and the one-time scene upload.
+    rays : {"camera", "random"}
+        ``"camera"``: the pinhole camera's ``width x height`` rays, in image order;
+        ``"random"``: as many rays with origins uniform in the scene's box grown by a quarter
+        on each side and directions uniform on the sphere (seed 0).
     out : callable
         Where lines go (print by default).
 
@@ -186,7 +191,17 @@ def run_scene_bench(
     from ..baselines.embree import cpu_count
     from ..scene import layouts as all_layouts
     from ..scene import methods as all_methods
-    from .casters import EmbreexCaster, TetraceCaster, optional_peers, rays_for, timed
+    from .casters import (
+        EmbreexCaster,
+        TetraceCaster,
+        is_accel,
+        optional_peers,
+        rays_for,
+        timed,
+    )
+
+    if rays not in ("camera", "random"):
+        raise ValueError(f"rays must be 'camera' or 'random', got {rays!r}")
 
     methods_arg, layouts_arg = methods, layouts
     methods = (
@@ -203,8 +218,17 @@ def run_scene_bench(
     name = os.path.basename(path)
     # A file Scene.save wrote (".tetrace") is loaded, not meshed again: what a machine
     # without the meshers (a GPU box) benches.
+    # The tetrahedralization is meshed only when something walks tets: an accelerator's
+    # rows (the exact BVH) need none, and TetGen takes minutes on some scenes.
+    walks = (
+        any(m == "tetwalk" or not is_accel(m) for m in methods)
+        or "gpu" in devices
+        or "mesher" in orders
+    )
     scene = (
-        Scene.load(path) if path.endswith(".tetrace") else Scene.from_mesh(path, preset, lazy=False)
+        Scene.load(path)
+        if path.endswith(".tetrace")
+        else Scene.from_mesh(path, preset, lazy=not walks)
     )
     scenes = {"hilbert": scene}
     if "mesher" in orders:
@@ -214,10 +238,13 @@ def run_scene_bench(
     bt = scene.build_times
     v, f = scene.vertices, scene.faces
     bounds = np.array([v.min(0), v.max(0)])
-    eye, target, up = orbit_view(bounds, azimuth, elevation, distance)
-    o64, d64 = pinhole(
-        eye, target, up, fov_deg=FOV_DEG, width=width, height=height, dtype=np.float64
-    )
+    if rays == "camera":
+        eye, target, up = orbit_view(bounds, azimuth, elevation, distance)
+        o64, d64 = pinhole(
+            eye, target, up, fov_deg=FOV_DEG, width=width, height=height, dtype=np.float64
+        )
+    else:
+        o64, d64 = random_rays(bounds, width * height, seed=0, dtype=np.float64)
     n = len(o64)
     # Every caster gets these float32 rays (float64 walks: the same values, widened exactly).
     o32, d32 = o64.astype(np.float32), d64.astype(np.float32)
@@ -232,8 +259,9 @@ def run_scene_bench(
         "preset": preset,
         "rays": n,
         "triangles": int(len(f)),
-        "tets": scene.n_tets,
-        "points": scene.n_points,
+        "rays_kind": rays,
+        "tets": scene.n_tets if scene.has_ct else None,
+        "points": scene.n_points if scene.has_ct else None,
         "build_seconds": {k: float(x) for k, x in bt.items()},
         "embree_build_seconds": float(embreex.build_seconds),
         "runs": [],
@@ -342,7 +370,12 @@ def run_scene_bench(
     hit_frac = float(judge.verdict.hit.mean())  # the exact share, not a caster's
     out(
         f"tetrace bench: {name} ({len(f):,} triangles), preset {preset!r}, "
-        f"{width}x{height} pinhole camera, {hit_frac * 100:.1f}% of rays hit, best of {repeat}"
+        + (
+            f"{width}x{height} pinhole camera"
+            if rays == "camera"
+            else f"{width * height:,} random rays (origins in the grown box, any direction)"
+        )
+        + f", {hit_frac * 100:.1f}% of rays hit, best of {repeat}"
     )
     out(
         f"build: tetgen {bt.get('tetgen', 0):.2f} s (clean {bt.get('clean', 0):.2f} s, "
@@ -352,7 +385,11 @@ def run_scene_bench(
     mem = scene.memory()
     results["memory"] = mem
     out(
-        f"structure: {scene.n_tets:,} tets, {scene.n_points:,} points; memory MB: "
+        (
+            f"structure: {scene.n_tets:,} tets, {scene.n_points:,} points; memory MB: "
+            if scene.has_ct
+            else "structure: no tetrahedralization (nothing benched walks tets); memory MB: "
+        )
         + ", ".join(f"{k} {b / 1e6:.1f}" for k, b in mem.items())
     )
     out(
@@ -416,7 +453,7 @@ def run_scene_bench(
                 ],
             )
         )
-    if image and last32 is not None:
+    if image and last32 is not None and rays == "camera":
         from ..dev.image import lambert, save_png
 
         save_png(image, lambert(last32, d32, v, f, width, height), cmap="gray", vmin=0, vmax=1)
