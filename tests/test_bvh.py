@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import tetrace
+from tetrace.dev.compare import agreement
 from tetrace.dev.stress import FAMILIES, SHARED_SCENES, build_scene, cases, make_case, subset
 from tetrace.hits import HIT
 from tetrace.referee import Referee, judge, judge_lists
@@ -118,7 +119,14 @@ def test_packets_cull_and_answer_as_one_ray(accel):
 def test_bvh_options_and_shape():
     """The accel names, the BVH's parameters (checked), its shape and memory, and the
     refusals: an unknown accel, a float method, the GPU."""
-    assert tetrace.accels() == ["tetwalk", BVH, *PACKETS, OCTREE, "exact_bvh"]
+    assert tetrace.accels() == [
+        "tetwalk",
+        BVH,
+        *PACKETS,
+        OCTREE,
+        "exact_bvh",
+        "exact_bvh_packets",
+    ]
     scene = tetrace.default_scene()
     n_triangles = len(scene.faces)
     built = scene.build_bvh(cost_ratio=4.0, max_leaf=32, bins=8)
@@ -209,3 +217,30 @@ def test_bvh_sweep_measures_every_tree(embree):
     fine, coarse = rows[1], rows[1 + len(WALKS)]
     assert coarse["leaves"] < fine["leaves"] and coarse["bytes"] < fine["bytes"]
     assert any("BVH sweep" in line for line in lines)
+
+
+@pytest.mark.parametrize("precision", PRECISIONS)
+def test_exact_bvh_packets_answer_as_one_ray(precision):
+    """The exact BVH walked by packets (consecutive camera rays share the eye) answers every
+    column as the one-ray walk, bit for bit, and rightly by the referee; a chunk of rays with
+    their own origins walks them alone, with the same answers."""
+    from tetrace.dev.camera import orbit_views, pinhole
+
+    scene = tetrace.default_scene()
+    v, f = scene.vertices, scene.faces
+    eye, target, up = orbit_views(np.array([v.min(0), v.max(0)]), n=1, distance=1.6)[0]
+    dtype = np.float32 if precision == "f32" else np.float64
+    o, d = pinhole(eye, target, up, fov_deg=40.0, width=64, height=48, dtype=dtype)
+    o, d = o.reshape(-1, 3), d.reshape(-1, 3)
+    # The same rays again, each from its own point on its line (no packets form).
+    step = np.random.default_rng(2).uniform(0.0, 0.5, (len(o), 1))
+    o2 = (o + step * d).astype(dtype)
+    for origins in (o, o2):
+        packets = scene.cast(origins, d, accel="exact_bvh_packets")
+        one = scene.cast(origins, d, accel="exact_bvh")
+        assert (one.status == HIT).sum() > 500
+        for field in ("status", "t", "triangle", "u", "v", "point", "normal"):
+            np.testing.assert_array_equal(getattr(packets, field), getattr(one, field), field)
+    r = Referee(v, f).first_hits(o, d)
+    score = agreement(scene.cast(o, d, accel="exact_bvh_packets"), r)
+    assert score.right == score.rays == len(o), score

@@ -502,11 +502,13 @@ accel : str, optional
     ``"reshetov_bvh_packets8"`` (that BVH walked by packets of 16 / 64 rays with
     the paper's frustum vertex culling; :meth:`bvh_info` counts what was culled)
     or ``"portalez_octree"`` (Portalez & Duguet's neighbour-linked octree, built on
-    first use or by :meth:`build_octree`). All keep the contract exactly and give
-    the same ``status``, ``triangle``, ``t``, ``u``, ``v`` and ``point``; ``tet`` and
-    ``steps`` are the walk's with ``"tetwalk"`` and, with the others, -1 and the
-    nodes (boxes or cells) the ray entered. Those other than the tet walk take only
-    the ``exact`` method, any layout, and the CPU.
+    first use or by :meth:`build_octree`) or ``"exact_bvh_packets"`` (the exact BVH
+    walked by packets of up to 64 consecutive rays that share an origin, each ray testing
+    its own boxes and triangles; rays with their own origins walk alone). All keep the
+    contract exactly and give the same ``status``, ``triangle``, ``t``, ``u``, ``v`` and
+    ``point``; ``tet`` and ``steps`` are the walk's with ``"tetwalk"`` and, with the
+    others, -1 and the nodes (boxes or cells) the ray entered. Those other than the tet
+    walk take only the ``exact`` method, any layout, and the CPU.
 progress : bool, optional
     A bar of the rays done (tqdm, on stderr) for a cast that runs more than
     :data:`tetrace.progress.CAST_DELAY_S` seconds; None (the default): on in a

@@ -816,5 +816,8 @@ impl Accel<f64> for ExactBvhAt<'_> {
     }
 }
 
+mod packets;
+pub use packets::{ExactBvhPackets, PacketState};
+
 #[cfg(test)]
 mod tests;

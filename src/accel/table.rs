@@ -7,7 +7,7 @@
 //! ([`ACCELS`]) and the dispatch ([`AccelKind::visit`]). A new accelerator is its file, a
 //! `Tested` row type and one row; a new structure is one more row in `structure_table!`.
 
-use super::exact_bvh::ExactBvhAt;
+use super::exact_bvh::{ExactBvhAt, ExactBvhPackets};
 use super::{Accel, BvhPackets, ExactBvh, PortalezOctree, ReshetovBvh};
 use crate::error::{Error, Result};
 use crate::simd::Simd;
@@ -295,6 +295,16 @@ impl Tested for Wide {
     }
 }
 
+/// The same tree walked by packets of up to 64 rays that share an origin.
+pub struct WidePackets;
+impl Tested for WidePackets {
+    const NAME: &'static str = "exact_bvh_packets";
+    type Over = ExactBvh;
+    fn walk<V: AccelVisitor>(bvh: &ExactBvh, simd: Simd, v: V) -> V::Out {
+        v.visit(&ExactBvhPackets { bvh, simd })
+    }
+}
+
 macro_rules! accel_table {
     ($($variant:ident: $row:ty),* $(,)?) => {
         /// Which acceleration structure a cast runs: the tet walk through the constrained
@@ -350,6 +360,7 @@ accel_table! {
     ReshetovBvhPackets8: Packets64,
     PortalezOctree: Octree,
     ExactBvh: Wide,
+    ExactBvhPackets: WidePackets,
 }
 
 impl AccelKind {

@@ -4,7 +4,7 @@
 
 use super::*;
 use crate::query::gather::Nearest;
-use crate::scene::{AccelKind, CastOptions, HitBuffers};
+use crate::scene::{AccelKind, CastOptions, HitBuffers, Rays};
 use crate::testing::{triangle_soup, Agreement, Rng};
 
 /// Every triangle sits in exactly one leaf, of at most max_leaf triangles, and the box of the
@@ -401,4 +401,106 @@ fn the_leaf_filter_leaves_out_only_triangles_the_ray_misses() {
         left_out * 10 >= missed * 6,
         "{left_out} of {missed} missed triangles left out"
     );
+}
+
+/// Packets answer as one ray walks, bit for bit: rays from shared origins (every grid point:
+/// inside, on the surface, on triangles' vertices) towards every grid point and the midpoints
+/// of grid steps (through vertices, along edges, in the faces' planes, exactly: the grid is
+/// dyadic), with and without windows. Every column of closest hits but `steps` in both
+/// precisions, any hits and all hits equal those of the one-ray walk at every SIMD level.
+#[test]
+fn packets_answer_as_one_ray_walks() {
+    use crate::layout::LayoutKind;
+    use crate::query::Listed;
+    use crate::testing::{grid_scene_inside, windows};
+    use crate::traverse::Method;
+    let mut rng = Rng::xorshift(84);
+    let g = grid_scene_inside(&mut rng, 4, 0.0, 0.35);
+    let mut rays = Vec::new();
+    for (k, &o) in g.pts.iter().enumerate() {
+        // A few origins' rays at all, to keep it short; packets of up to 64, then a rest.
+        if k % 7 != 3 {
+            continue;
+        }
+        for q in &g.pts {
+            let mid = [0, 1, 2].map(|a| q[a] + 0.125);
+            for target in [*q, mid] {
+                let d = [0, 1, 2].map(|a| target[a] - o[a]);
+                if d != [0.0; 3] {
+                    rays.push((o, d));
+                }
+            }
+        }
+    }
+    let n = rays.len();
+    let o: Vec<f64> = rays.iter().flat_map(|r| r.0).collect();
+    let d: Vec<f64> = rays.iter().flat_map(|r| r.1).collect();
+    let (o32, d32): (Vec<f32>, Vec<f32>) = (
+        o.iter().map(|&x| x as f32).collect(),
+        d.iter().map(|&x| x as f32).collect(),
+    );
+    let opts = |accel, simd| CastOptions {
+        accel,
+        simd: Some(simd),
+        ..Default::default()
+    };
+    let bits = |x: &[f64]| x.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    let mut hits = 0;
+    for window in [false, true] {
+        let (tmin, tmax) = if window {
+            windows(&rays, 0.25)
+        } else {
+            (vec![0.0; n], vec![f64::INFINITY; n])
+        };
+        let r64 = Rays {
+            origins: &o,
+            directions: &d,
+            tmin: &tmin,
+            tmax: &tmax,
+            leaving: None,
+        };
+        let r32 = Rays {
+            origins: &o32,
+            directions: &d32,
+            tmin: &tmin,
+            tmax: &tmax,
+            leaving: None,
+        };
+        let closest = |opts: &CastOptions| {
+            let mut h = HitBuffers::<f64>::new(n, false);
+            g.scene.cast(&r64, h.out(), opts).unwrap();
+            let mut h32 = HitBuffers::<f32>::new(n, false);
+            g.scene.cast(&r32, h32.out(), opts).unwrap();
+            let wide = |x: &[f32]| x.iter().map(|&x| x as f64).collect::<Vec<_>>();
+            let cols = [&h.t, &h.u, &h.v, &h.point].map(|c| bits(c));
+            let cols32 = [&h32.t, &h32.u, &h32.v, &h32.point].map(|c| bits(&wide(c)));
+            (h.status, h.triangle, h.tet, cols, h32.status, h32.triangle, cols32)
+        };
+        let any = |opts: &CastOptions| {
+            let mut out = vec![0u8; n];
+            let m = (Method::DEFAULT, LayoutKind::DEFAULT);
+            g.scene.occluded(m.0, m.1, &r64, &mut out, opts).unwrap();
+            out
+        };
+        let all = |opts: &CastOptions| {
+            let mut out = vec![Listed::default(); n];
+            g.scene.intersections(&r64, &mut out, opts).unwrap();
+            out.iter()
+                .map(|l| {
+                    let m = l.meets.iter().map(|m| (m.t.to_bits(), m.triangle, bits(&m.point)));
+                    (l.status, m.collect::<Vec<_>>())
+                })
+                .collect::<Vec<_>>()
+        };
+        let one = opts(AccelKind::ExactBvh, Simd::Scalar);
+        let (want, want_any, want_all) = (closest(&one), any(&one), all(&one));
+        hits += want.0.iter().filter(|&&s| s == crate::status::HIT).count();
+        for simd in Simd::supported_levels() {
+            let packets = opts(AccelKind::ExactBvhPackets, simd);
+            assert!(closest(&packets) == want, "{simd:?} window {window}: closest hits");
+            assert_eq!(any(&packets), want_any, "{simd:?} window {window}: any hits");
+            assert!(all(&packets) == want_all, "{simd:?} window {window}: all hits");
+        }
+    }
+    assert!(hits > n / 2, "{hits} hits of {} rays", 2 * n);
 }

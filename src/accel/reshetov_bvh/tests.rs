@@ -25,6 +25,7 @@ fn bvh_answers_are_the_referees_and_the_walks() {
                 | AccelKind::ReshetovBvhPackets
                 | AccelKind::ReshetovBvhPackets8
                 | AccelKind::ExactBvh
+                | AccelKind::ExactBvhPackets
         ) {
             bvh_agrees(accel);
         }
