@@ -354,7 +354,7 @@ impl ExactBvh {
         simd: Simd,
         stack: &mut Vec<(u32, f32)>,
     ) -> u32 {
-        match RayBoxes::new(line, self.infinite) {
+        match RayBoxes::at(simd, line, self.infinite) {
             Some(r) => {
                 #[cfg(target_arch = "x86_64")]
                 if simd == Simd::Avx2 {
@@ -362,7 +362,6 @@ impl ExactBvh {
                     // (`Simd::supported`).
                     return unsafe { self.walk_avx2(line, gather, stack, r) };
                 }
-                let _ = simd;
                 self.walk_with(line, gather, stack, &r)
             }
             None => self.walk_with(line, gather, stack, &Wide64(Slab::new(line))),
@@ -664,6 +663,18 @@ fn below32(x: f64) -> f32 {
 }
 
 impl RayBoxes {
+    /// [`RayBoxes::new`], in AVX2 at that level (the same constants).
+    #[inline]
+    pub fn at(simd: Simd, line: &Line, infinite: bool) -> Option<RayBoxes> {
+        #[cfg(target_arch = "x86_64")]
+        if simd == Simd::Avx2 {
+            // SAFETY: Simd::Avx2 is only chosen where the CPU has AVX2.
+            return unsafe { RayBoxes::new_avx2(line, infinite) };
+        }
+        let _ = simd;
+        RayBoxes::new(line, infinite)
+    }
+
     /// None where the float32 test does not apply (see the module's notes).
     #[inline]
     pub fn new(line: &Line, infinite: bool) -> Option<RayBoxes> {
@@ -717,6 +728,72 @@ impl RayBoxes {
             r.far[k] = k + 3 * (1 - neg);
         }
         fine.then_some(r)
+    }
+
+    /// [`RayBoxes::new`] in AVX2 for a direction with no zero component (the three axes in
+    /// three lanes of float64; else the portable code): the same operations in the same order,
+    /// each rounded once as the scalar code rounds it (no fused multiply-add, conversions to
+    /// float32 to nearest), so the same constants bit for bit and the same None.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn new_avx2(line: &Line, infinite: bool) -> Option<RayBoxes> {
+        use std::arch::x86_64::*;
+        let (o, d) = (line.o, line.d);
+        if d.contains(&0.0) {
+            return RayBoxes::new(line, infinite);
+        }
+        // Lane 3 is a harmless axis (o = 0, d = 1) whose answers are not read.
+        let dv = _mm256_set_pd(1.0, d[2], d[1], d[0]);
+        let ov = _mm256_set_pd(0.0, o[2], o[1], o[0]);
+        let sign = _mm256_set1_pd(-0.0);
+        let abs = |x: __m256d| _mm256_andnot_pd(sign, x);
+        let o32 = _mm256_cvtpd_ps(ov);
+        let inv = _mm256_cvtpd_ps(_mm256_div_pd(_mm256_set1_pd(1.0), dv));
+        let (o32d, invd) = (_mm256_cvtps_pd(o32), _mm256_cvtps_pd(inv));
+        let c = _mm256_mul_pd(o32d, invd);
+        let pad = _mm256_mul_pd(
+            _mm256_mul_pd(abs(_mm256_sub_pd(ov, o32d)), abs(invd)),
+            _mm256_set1_pd(1.0 + f64::EPSILON),
+        );
+        // above32 and below32: x ± (|x| · REL32 + ABS32), then to float32.
+        let slack = |x: __m256d| {
+            _mm256_add_pd(
+                _mm256_mul_pd(abs(x), _mm256_set1_pd(REL32)),
+                _mm256_set1_pd(ABS32),
+            )
+        };
+        let up = _mm256_add_pd(c, pad);
+        let down = _mm256_sub_pd(c, pad);
+        let cn = _mm256_cvtpd_ps(_mm256_add_pd(up, slack(up)));
+        let cf = _mm256_cvtpd_ps(_mm256_sub_pd(down, slack(down)));
+        // Finite float32s (|x| < inf; NaN fails), and reciprocals not below the normals.
+        let abs32 = |x: __m128| _mm_andnot_ps(_mm_set1_ps(-0.0), x);
+        let below = |x: __m128, bound: f32| _mm_cmplt_ps(abs32(x), _mm_set1_ps(bound));
+        let fine = _mm_and_ps(
+            _mm_and_ps(below(o32, f32::INFINITY), below(inv, f32::INFINITY)),
+            _mm_and_ps(below(cn, f32::INFINITY), below(cf, f32::INFINITY)),
+        );
+        let normal = _mm_cmpge_ps(abs32(inv), _mm_set1_ps(f32::MIN_POSITIVE));
+        if _mm_movemask_ps(_mm_and_ps(fine, normal)) & 0b111 != 0b111 {
+            return None;
+        }
+        let mut lanes = [[0f32; 4]; 3];
+        _mm_storeu_ps(lanes[0].as_mut_ptr(), inv);
+        _mm_storeu_ps(lanes[1].as_mut_ptr(), cn);
+        _mm_storeu_ps(lanes[2].as_mut_ptr(), cf);
+        let [inv, cn, cf] = lanes;
+        let neg = |k: usize| (inv[k] < 0.0) as usize;
+        Some(RayBoxes {
+            near: [0, 1, 2].map(|k| k + 3 * neg(k)),
+            far: [0, 1, 2].map(|k| k + 3 * (1 - neg(k))),
+            inv: [inv[0], inv[1], inv[2]],
+            neg_c_near: [-cn[0], -cn[1], -cn[2]],
+            neg_c_far: [-cf[0], -cf[1], -cf[2]],
+            o_down: [f32::NEG_INFINITY; 3],
+            o_up: [f32::INFINITY; 3],
+            zero: false,
+        })
     }
 
     /// The ray's range in float32, rounded outward (tmin ≥ 0).

@@ -244,7 +244,7 @@ impl Accel<f64> for ExactBvhPackets<'_> {
                     continue;
                 }
             };
-            match RayBoxes::new(&line, self.bvh.infinite) {
+            match RayBoxes::at(self.simd, &line, self.bvh.infinite) {
                 Some(boxes) => rays.push(PacketRay {
                     gather: query.gather(&line),
                     line,

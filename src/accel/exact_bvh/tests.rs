@@ -504,3 +504,58 @@ fn packets_answer_as_one_ray_walks() {
     }
     assert!(hits > n / 2, "{hits} hits of {} rays", 2 * n);
 }
+
+/// The AVX2 `RayBoxes` constants are the portable ones, bit for bit, and None for the same
+/// rays: directions and origins of every magnitude (float32's normals, subnormals and beyond
+/// its range on both sides), signs, and zero components (which take the portable code).
+#[test]
+fn ray_boxes_are_the_same_at_every_simd_level() {
+    let mut rng = Rng::xorshift(85);
+    let scales = [1e-300, 1e-45, 1e-39, 1e-30, 1e-8, 1.0, 3.0, 1e8, 1e30, 3.5e38, 1e300];
+    let (mut some, mut none) = (0, 0);
+    for k in 0..20_000 {
+        let pick = |rng: &mut Rng| {
+            let s = scales[rng.below(scales.len())];
+            let x = (rng.f() * 2.0 - 1.0) * s;
+            if rng.chance(0.05) {
+                0.0
+            } else {
+                x
+            }
+        };
+        let o = [0, 1, 2].map(|_| pick(&mut rng));
+        let d = [0, 1, 2].map(|_| pick(&mut rng));
+        let Ok(line) = Line::new(&Ray::new(o, d, 0.0, f64::INFINITY)) else {
+            continue;
+        };
+        let infinite = k % 2 == 0;
+        let want = RayBoxes::new(&line, infinite);
+        let bits = |r: &RayBoxes| {
+            let f = |x: &[f32; 3]| x.map(f32::to_bits);
+            (
+                r.near,
+                r.far,
+                f(&r.inv),
+                f(&r.neg_c_near),
+                f(&r.neg_c_far),
+                f(&r.o_down),
+                f(&r.o_up),
+                r.zero,
+            )
+        };
+        for simd in Simd::supported_levels() {
+            let got = RayBoxes::at(simd, &line, infinite);
+            assert_eq!(
+                got.as_ref().map(bits),
+                want.as_ref().map(bits),
+                "{simd:?}: o {o:?} d {d:?}"
+            );
+        }
+        if want.is_some() {
+            some += 1;
+        } else {
+            none += 1;
+        }
+    }
+    assert!(some > 1500 && none > 1000, "{some} taken, {none} refused");
+}
