@@ -237,10 +237,12 @@ def test_exact_bvh_packets_answer_as_one_ray(precision):
     o2 = (o + step * d).astype(dtype)
     for origins in (o, o2):
         packets = scene.cast(origins, d, accel="exact_bvh_packets")
-        one = scene.cast(origins, d, accel="exact_bvh")
+        one = scene.cast(origins, d, accel="exact_bvh", packet=False)
+        default = scene.cast(origins, d)  # the CPU default
         assert (one.status == HIT).sum() > 500
         for field in ("status", "t", "triangle", "u", "v", "point", "normal"):
             np.testing.assert_array_equal(getattr(packets, field), getattr(one, field), field)
+            np.testing.assert_array_equal(getattr(default, field), getattr(one, field), field)
     r = Referee(v, f).first_hits(o, d)
     score = agreement(scene.cast(o, d, accel="exact_bvh_packets"), r)
     assert score.right == score.rays == len(o), score

@@ -407,16 +407,28 @@ impl ExactBvh {
 /// entries the later slot is popped first, so the order is the same at every level.
 #[inline(always)]
 fn push_sorted(stack: &mut Vec<(u32, f32)>, node: &Node8, mask: u32, nears: &[f32; WIDTH]) {
+    push_by_entry(stack, mask, |s| (node.child[s], nears[s]), |e| e.1);
+}
+
+/// Pushes `item(slot)` for each slot in `mask` in decreasing order of `entry` (insertion
+/// among the entries pushed here), so that the nearest is popped first; of equal entries the
+/// later slot is popped first. One ray's walk and the packets' push through it.
+#[inline(always)]
+fn push_by_entry<T: Copy>(
+    stack: &mut Vec<T>,
+    mask: u32,
+    item: impl Fn(usize) -> T,
+    entry: impl Fn(&T) -> f32,
+) {
     let base = stack.len();
     let mut m = mask;
     while m != 0 {
         let slot = m.trailing_zeros() as usize;
         m &= m - 1;
-        let item = (node.child[slot], nears[slot]);
-        // Insertion: entries above `base` are in decreasing order of entry.
+        let item = item(slot);
         let mut i = stack.len();
         stack.push(item);
-        while i > base && stack[i - 1].1 < item.1 {
+        while i > base && entry(&stack[i - 1]) < entry(&item) {
             stack[i] = stack[i - 1];
             i -= 1;
         }

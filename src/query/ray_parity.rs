@@ -129,20 +129,9 @@ impl Gather for Crossings<'_> {
     }
 }
 
-/// One point's answer ([`OUTSIDE`], [`INSIDE`] or [`UNDECIDED`]).
+/// One point's answer ([`OUTSIDE`], [`INSIDE`] or [`UNDECIDED`]), and the directions given
+/// up before it.
 pub fn side_of(
-    bvh: &ExactBvh,
-    triangles: &[Tri],
-    keep: &[bool],
-    p: [f64; 3],
-    simd: Simd,
-    stack: &mut Vec<(u32, f32)>,
-) -> u8 {
-    side_and_tries(bvh, triangles, keep, p, simd, stack).0
-}
-
-/// [`side_of`], and the directions given up before the answer.
-fn side_and_tries(
     bvh: &ExactBvh,
     triangles: &[Tri],
     keep: &[bool],
@@ -175,7 +164,7 @@ fn side_and_tries(
     (UNDECIDED, TRIES)
 }
 
-/// [`side_of`] for every point (`points`: x y z of each, 3N values) into `out` (N), in
+/// [`side_of`]'s answer for every point (`points`: x y z of each, 3N values) into `out` (N), in
 /// parallel; `triangles`: the caller's, as `bvh` was built from them; `keep[i]`: whether
 /// triangle i counts.
 pub fn sides<R: Real>(
@@ -196,7 +185,7 @@ pub fn sides<R: Real>(
         let mut stack = Vec::with_capacity(64);
         for (j, slot) in o.iter_mut().enumerate() {
             let p = [0, 1, 2].map(|a| pts[3 * j + a].to_f64());
-            *slot = side_of(bvh, triangles, keep, p, simd, &mut stack);
+            *slot = side_of(bvh, triangles, keep, p, simd, &mut stack).0;
         }
     })
 }

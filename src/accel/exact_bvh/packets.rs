@@ -13,13 +13,15 @@
 //! What is shared is the walk's bookkeeping: one stack pop, child decoding, sort and push per
 //! node for the packet rather than per ray. Rays are grouped as they come (consecutive rays
 //! of a chunk with the same origin bits, up to 64): a camera's rays in image order make
-//! packets of neighbouring pixels, with no sort. A ray the float32 box test does not take
-//! (see [`RayBoxes::new`]) and a packet of one walk alone, as [`ExactBvhAt`] walks them.
+//! packets of neighbouring pixels, with no sort. A chunk whose first two rays have their own
+//! origins, a ray the float32 box test does not take (see [`RayBoxes::new`]) and a packet of
+//! one walk alone, as [`ExactBvhAt`] walks them. Not the CPU default: on the bench
+//! scenes it was 0.64–1.16× the one-ray walk's speed on camera rays (docs/bvh.md).
 
 #[cfg(target_arch = "x86_64")]
 use super::{PAD, TINY};
-use super::{Child, ExactBvh, ExactBvhAt, Node8, RayBoxes, State, WIDTH};
-use crate::accel::Accel;
+use super::{push_by_entry, Child, ExactBvh, ExactBvhAt, Node8, RayBoxes, State, WIDTH};
+use crate::accel::{trace_each, Accel};
 use crate::geom::ray::Ray;
 use crate::query::gather::{Gather, Line};
 use crate::query::{QueryKind, Sink};
@@ -100,7 +102,8 @@ macro_rules! packet_loop {
                         }
                     }
                     let children = (0..WIDTH).fold(0u32, |m, s| m | ((who[s] != 0) as u32) << s);
-                    push_packets(stack, $node, children, &nearest, &who);
+                    // Farthest first, as one ray's walk pushes them.
+                    push_by_entry(stack, children, |s| ($node.child[s], who[s], nearest[s]), |e| e.2);
                 }
                 Child::Leaf { first, count } => {
                     let range = first as usize..(first + count) as usize;
@@ -136,32 +139,6 @@ macro_rules! packet_loop {
             }
         }
     }};
-}
-
-/// Pushes the children in `mask` with their rays, farthest first (the nearest is popped
-/// first; of equal entries the later slot first), as `push_sorted` does for one ray.
-#[inline(always)]
-fn push_packets(
-    stack: &mut Vec<(u32, u64, f32)>,
-    node: &Node8,
-    mask: u32,
-    nears: &[f32; WIDTH],
-    who: &[u64; WIDTH],
-) {
-    let base = stack.len();
-    let mut m = mask;
-    while m != 0 {
-        let slot = m.trailing_zeros() as usize;
-        m &= m - 1;
-        let item = (node.child[slot], who[slot], nears[slot]);
-        let mut i = stack.len();
-        stack.push(item);
-        while i > base && stack[i - 1].2 < item.2 {
-            stack[i] = stack[i - 1];
-            i -= 1;
-        }
-        stack[i] = item;
-    }
 }
 
 impl ExactBvhPackets<'_> {
@@ -223,6 +200,11 @@ impl Accel<f64> for ExactBvhPackets<'_> {
         state: &mut PacketState,
     ) {
         let n = out.len();
+        // A chunk whose first two rays have their own origins (random rays, secondary rays)
+        // is walked ray by ray, without a packet's cost.
+        if n < 2 || ray_at(0).o.map(f64::to_bits) != ray_at(1).o.map(f64::to_bits) {
+            return trace_each(self, query, ray_at, out, state);
+        }
         let mut rays: Vec<PacketRay<K::Gather>> = Vec::with_capacity(MAX_PACKET);
         let mut origin = None;
         let mut j = 0;

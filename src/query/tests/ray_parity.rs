@@ -43,7 +43,7 @@ fn sides_at_every_level(tris: &[Tri], keep: &[bool], points: &[[f64; 3]]) -> Vec
     for simd in Simd::supported_levels() {
         let got: Vec<_> = points
             .iter()
-            .map(|&p| side_and_tries(&bvh, tris, keep, p, simd, &mut stack))
+            .map(|&p| side_of(&bvh, tris, keep, p, simd, &mut stack))
             .collect();
         match &first {
             Some(f) => assert_eq!(f, &got, "{simd:?} answers otherwise"),
