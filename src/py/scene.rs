@@ -302,9 +302,9 @@ impl PyScene {
         let threads = threads_arg(threads)?;
         let n = check_cols(&points, 3, "points")?;
         let p = slice(&points, "points")?;
-        let keep = keep.as_slice().map_err(|_| {
-            PyValueError::new_err("keep must be a contiguous (F,) bool array")
-        })?;
+        let keep = keep
+            .as_slice()
+            .map_err(|_| PyValueError::new_err("keep must be a contiguous (F,) bool array"))?;
         let mut out = try_zeroed_vec::<u8>(n, "the answers of ray_parity")?;
         let loaded = self.loaded();
         interruptible(py, || loaded.scene.ray_parity(p, keep, &mut out, threads))?;

@@ -9,9 +9,7 @@ pub mod queries;
 
 use crate::accel::reshetov_bvh::nearest::NearestPoint;
 pub use crate::accel::Built;
-use crate::accel::{
-    BvhParams, ExactBvh, OctreeParams, PortalezOctree, ReshetovBvh, Structures,
-};
+use crate::accel::{BvhParams, ExactBvh, OctreeParams, PortalezOctree, ReshetovBvh, Structures};
 use crate::error::{Error, Result};
 use crate::geom::real::Real;
 use crate::layout::{LayoutKind, Layouts};

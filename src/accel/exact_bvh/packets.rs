@@ -18,9 +18,9 @@
 //! one walk alone, as [`ExactBvhAt`] walks them. Not the CPU default: on the bench
 //! scenes it was 0.64–1.16× the one-ray walk's speed on camera rays (docs/bvh.md).
 
+use super::{push_by_entry, Child, ExactBvh, ExactBvhAt, Node8, RayBoxes, State, WIDTH};
 #[cfg(target_arch = "x86_64")]
 use super::{PAD, TINY};
-use super::{push_by_entry, Child, ExactBvh, ExactBvhAt, Node8, RayBoxes, State, WIDTH};
 use crate::accel::{trace_each, Accel};
 use crate::geom::ray::Ray;
 use crate::query::gather::{Gather, Line};
@@ -103,7 +103,12 @@ macro_rules! packet_loop {
                     }
                     let children = (0..WIDTH).fold(0u32, |m, s| m | ((who[s] != 0) as u32) << s);
                     // Farthest first, as one ray's walk pushes them.
-                    push_by_entry(stack, children, |s| ($node.child[s], who[s], nearest[s]), |e| e.2);
+                    push_by_entry(
+                        stack,
+                        children,
+                        |s| ($node.child[s], who[s], nearest[s]),
+                        |e| e.2,
+                    );
                 }
                 Child::Leaf { first, count } => {
                     let range = first as usize..(first + count) as usize;
@@ -257,7 +262,9 @@ impl ExactBvhPackets<'_> {
         state: &mut PacketState,
     ) {
         if let [one] = rays.as_mut_slice() {
-            one.visited = self.bvh.walk(&one.line, &mut one.gather, self.simd, &mut state.one.stack);
+            one.visited =
+                self.bvh
+                    .walk(&one.line, &mut one.gather, self.simd, &mut state.one.stack);
         } else {
             self.walk_packet(rays, &mut state.stack);
         }

@@ -480,7 +480,15 @@ fn packets_answer_as_one_ray_walks() {
             let wide = |x: &[f32]| x.iter().map(|&x| x as f64).collect::<Vec<_>>();
             let cols = [&h.t, &h.u, &h.v, &h.point].map(|c| bits(c));
             let cols32 = [&h32.t, &h32.u, &h32.v, &h32.point].map(|c| bits(&wide(c)));
-            (h.status, h.triangle, h.tet, cols, h32.status, h32.triangle, cols32)
+            (
+                h.status,
+                h.triangle,
+                h.tet,
+                cols,
+                h32.status,
+                h32.triangle,
+                cols32,
+            )
         };
         let any = |opts: &CastOptions| {
             let mut out = vec![0u8; n];
@@ -493,7 +501,10 @@ fn packets_answer_as_one_ray_walks() {
             g.scene.intersections(&r64, &mut out, opts).unwrap();
             out.iter()
                 .map(|l| {
-                    let m = l.meets.iter().map(|m| (m.t.to_bits(), m.triangle, bits(&m.point)));
+                    let m = l
+                        .meets
+                        .iter()
+                        .map(|m| (m.t.to_bits(), m.triangle, bits(&m.point)));
                     (l.status, m.collect::<Vec<_>>())
                 })
                 .collect::<Vec<_>>()
@@ -503,9 +514,19 @@ fn packets_answer_as_one_ray_walks() {
         hits += want.0.iter().filter(|&&s| s == crate::status::HIT).count();
         for simd in Simd::supported_levels() {
             let packets = opts(AccelKind::ExactBvhPackets, simd);
-            assert!(closest(&packets) == want, "{simd:?} window {window}: closest hits");
-            assert_eq!(any(&packets), want_any, "{simd:?} window {window}: any hits");
-            assert!(all(&packets) == want_all, "{simd:?} window {window}: all hits");
+            assert!(
+                closest(&packets) == want,
+                "{simd:?} window {window}: closest hits"
+            );
+            assert_eq!(
+                any(&packets),
+                want_any,
+                "{simd:?} window {window}: any hits"
+            );
+            assert!(
+                all(&packets) == want_all,
+                "{simd:?} window {window}: all hits"
+            );
         }
     }
     assert!(hits > n / 2, "{hits} hits of {} rays", 2 * n);
@@ -517,7 +538,9 @@ fn packets_answer_as_one_ray_walks() {
 #[test]
 fn ray_boxes_are_the_same_at_every_simd_level() {
     let mut rng = Rng::xorshift(85);
-    let scales = [1e-300, 1e-45, 1e-39, 1e-30, 1e-8, 1.0, 3.0, 1e8, 1e30, 3.5e38, 1e300];
+    let scales = [
+        1e-300, 1e-45, 1e-39, 1e-30, 1e-8, 1.0, 3.0, 1e8, 1e30, 3.5e38, 1e300,
+    ];
     let (mut some, mut none) = (0, 0);
     for k in 0..20_000 {
         let pick = |rng: &mut Rng| {

@@ -9,9 +9,8 @@ use crate::testing::Rng;
 
 /// The 12 triangles of the closed box [lo, hi].
 fn box_triangles(lo: [f64; 3], hi: [f64; 3]) -> Vec<Tri> {
-    let c = |i: usize| -> [f64; 3] {
-        [0, 1, 2].map(|a| if i >> a & 1 == 1 { hi[a] } else { lo[a] })
-    };
+    let c =
+        |i: usize| -> [f64; 3] { [0, 1, 2].map(|a| if i >> a & 1 == 1 { hi[a] } else { lo[a] }) };
     // Each face as two triangles of its four corners (corner bits: x = 1, y = 2, z = 4).
     let faces = [
         [0, 2, 6, 4],
@@ -72,11 +71,20 @@ fn boxes_alone_nested_and_overlapping_answer_as_geometry_says() {
     let cases: [(&str, Vec<Box3>); 4] = [
         ("one box", vec![([0.0; 3], [1.0; 3])]),
         ("nested", vec![([0.0; 3], [3.0; 3]), ([1.0; 3], [2.0; 3])]),
-        ("overlapping", vec![([0.0; 3], [2.0; 3]), ([1.0, 0.5, 1.0], [3.0, 2.5, 3.0])]),
-        ("sharing a face", vec![([0.0; 3], [1.0; 3]), ([1.0, 0.0, 0.0], [2.0, 1.0, 1.0])]),
+        (
+            "overlapping",
+            vec![([0.0; 3], [2.0; 3]), ([1.0, 0.5, 1.0], [3.0, 2.5, 3.0])],
+        ),
+        (
+            "sharing a face",
+            vec![([0.0; 3], [1.0; 3]), ([1.0, 0.0, 0.0], [2.0, 1.0, 1.0])],
+        ),
     ];
     for (name, boxes) in cases {
-        let tris: Vec<Tri> = boxes.iter().flat_map(|&(lo, hi)| box_triangles(lo, hi)).collect();
+        let tris: Vec<Tri> = boxes
+            .iter()
+            .flat_map(|&(lo, hi)| box_triangles(lo, hi))
+            .collect();
         let keep = vec![true; tris.len()];
         let got = sides_at_every_level(&tris, &keep, &points);
         let (mut inside, mut retried) = (0, 0);
@@ -84,16 +92,29 @@ fn boxes_alone_nested_and_overlapping_answer_as_geometry_says() {
             // On a face of any box: inside. Else an odd number of open boxes hold it. (Two
             // boxes sharing a face: the shared face's two copies are both kept here, so points
             // on it are on the surface and points off it see each copy once per crossing.)
-            let on = boxes.iter().any(|&(lo, hi)| closed_in(*p, lo, hi) && !open_in(*p, lo, hi));
-            let odd = boxes.iter().filter(|&&(lo, hi)| open_in(*p, lo, hi)).count() % 2 == 1;
+            let on = boxes
+                .iter()
+                .any(|&(lo, hi)| closed_in(*p, lo, hi) && !open_in(*p, lo, hi));
+            let odd = boxes
+                .iter()
+                .filter(|&&(lo, hi)| open_in(*p, lo, hi))
+                .count()
+                % 2
+                == 1;
             let want = if on || odd { INSIDE } else { OUTSIDE };
-            assert_eq!(side, want, "{name}: point {p:?} ({tries} directions given up)");
+            assert_eq!(
+                side, want,
+                "{name}: point {p:?} ({tries} directions given up)"
+            );
             inside += (side == INSIDE) as usize;
             retried += (tries > 0) as usize;
         }
         assert!(inside > 100, "{name}: {inside} points inside");
         // Generic directions: grid points and box corners do not line up with them.
-        assert!(retried * 100 < points.len(), "{name}: {retried} points retried");
+        assert!(
+            retried * 100 < points.len(),
+            "{name}: {retried} points retried"
+        );
     }
 }
 
@@ -133,7 +154,11 @@ fn a_ray_in_a_triangles_plane_is_given_up_and_the_next_direction_answers() {
     // The origin lies on the edge (4w, -4w) of this triangle, whose plane holds direction 0:
     // that ray meets no triangle at one point, and counting it would say outside.
     let w = [0.0, 0.0, 1.0];
-    let tri: Tri = [on_ray(0, 2).map(|x| -x), w.map(|x| 4.0 * x), w.map(|x| -4.0 * x)];
+    let tri: Tri = [
+        on_ray(0, 2).map(|x| -x),
+        w.map(|x| 4.0 * x),
+        w.map(|x| -4.0 * x),
+    ];
     let got = sides_at_every_level(&[tri], &[true], &[[0.0; 3]]);
     assert_eq!(got[0], (INSIDE, 1));
     // Not kept: nothing counts, the first ray answers.
@@ -149,7 +174,11 @@ fn a_point_every_direction_fails_is_undecided_and_the_rest_answer() {
     let got = sides_at_every_level(&tris, &keep, &[[0.0; 3], far, [f64::NAN, 0.0, 0.0]]);
     assert_eq!(got[0], (UNDECIDED, TRIES));
     assert_eq!(got[1].0, OUTSIDE);
-    assert_eq!(got[2], (OUTSIDE, 0), "a point that is not finite is outside");
+    assert_eq!(
+        got[2],
+        (OUTSIDE, 0),
+        "a point that is not finite is outside"
+    );
 }
 
 #[test]
@@ -174,7 +203,10 @@ fn triangles_left_out_do_not_count() {
 fn directions_are_distinct_and_off_the_axes() {
     for k in 0..TRIES {
         let d = direction(k);
-        assert!(d.iter().all(|&x| x != 0.0 && (-1.0..1.0).contains(&x)), "{k}: {d:?}");
+        assert!(
+            d.iter().all(|&x| x != 0.0 && (-1.0..1.0).contains(&x)),
+            "{k}: {d:?}"
+        );
         for j in 0..k {
             let e = direction(j);
             let cross = [
@@ -182,7 +214,10 @@ fn directions_are_distinct_and_off_the_axes() {
                 d[2] * e[0] - d[0] * e[2],
                 d[0] * e[1] - d[1] * e[0],
             ];
-            assert!(cross.iter().any(|x| x.abs() > 1e-3), "{j} and {k} nearly parallel");
+            assert!(
+                cross.iter().any(|x| x.abs() > 1e-3),
+                "{j} and {k} nearly parallel"
+            );
         }
     }
 }
