@@ -1,6 +1,7 @@
 """Parity containment without a tetrahedralization (issue 35: every query kind on the exact
 BVH, nothing meshed): on a closed surface ``contains`` counts one exact ray's crossings of the
-cleaned triangles (``src/query/ray_parity.rs``), which is the tetrahedralization's rule there.
+cleaned triangles (``src/accel/exact_bvh/ray_parity.rs``), which is the tetrahedralization's
+rule there.
 
 Judged by analytic geometry (boxes alone, nested and overlapping, at grid points on their
 faces, edges and corners) and by the tetrahedralization's exact parity (a different algorithm:
@@ -126,7 +127,7 @@ def test_shared_scene_answers_are_the_tetrahedralizations(scene_path, meshed):
 
 def test_points_no_ray_decides_are_decided_on_the_tetrahedralization(meshed, monkeypatch):
     # The core leaves a point undecided only when all its directions meet an edge, a corner
-    # or a triangle's plane (src/query/tests/ray_parity.rs builds one); forced here.
+    # or a triangle's plane (src/accel/exact_bvh/ray_parity/tests.rs builds one); forced here.
     v, f = boxes(([0, 0, 0], [3, 3, 3]), ([1, 1, 1], [2, 2, 2]))
     scene = tetrace.Scene.from_mesh((v, f))
     sides = point_queries.ray_sides

@@ -61,9 +61,10 @@ def inside(scene, flat, mode, threads):
             # ray's count, so it needs the tetrahedralization.
             return np.asarray(scene.build_ct()._native.contains(flat, threads), dtype=bool)
         # A closed surface with no tetrahedralization: one exact ray's crossings of the
-        # cleaned triangles on the exact BVH give the same answer (query/ray_parity.rs), with
-        # no meshing. A point every direction fails for (on lines and planes through mesh
-        # features in all of them) is decided on the tetrahedralization.
+        # cleaned triangles on the exact BVH give the same answer, with no meshing
+        # (src/accel/exact_bvh/ray_parity.rs). A point every direction fails for (on lines
+        # and planes through mesh features in all of them) is decided on the
+        # tetrahedralization.
         side = ray_sides(scene, flat, threads)
         undecided = np.flatnonzero(side == RAY_UNDECIDED)
         if len(undecided):

@@ -906,6 +906,7 @@ impl Accel<f64> for ExactBvhAt<'_> {
 }
 
 mod packets;
+pub mod ray_parity;
 pub use packets::{ExactBvhPackets, PacketState};
 
 #[cfg(test)]

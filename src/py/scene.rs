@@ -290,7 +290,7 @@ impl PyScene {
     /// per row of `points` ((N, 3) float64), 0 outside, 1 inside or on a kept triangle, 2
     /// undecided (every direction met a kept triangle's edge or corner or lay in its plane);
     /// `keep` ((F,) bool): which of the caller's triangles count. The scene's parity rule on
-    /// a closed surface (`query::ray_parity`). Returns (N,) uint8.
+    /// a closed surface (`accel::exact_bvh::ray_parity`). Returns (N,) uint8.
     #[pyo3(signature = (points, keep, threads=None))]
     fn ray_parity<'py>(
         &self,

@@ -13,7 +13,6 @@ pub mod closest;
 pub mod contact;
 pub mod contains;
 pub mod gather;
-pub mod ray_parity;
 
 use crate::locate::WalkStart;
 use crate::traverse::Walk;

@@ -7,6 +7,7 @@ pub mod cast;
 pub mod deform;
 pub mod queries;
 
+use crate::accel::exact_bvh::ray_parity;
 use crate::accel::reshetov_bvh::nearest::NearestPoint;
 pub use crate::accel::Built;
 use crate::accel::{BvhParams, ExactBvh, OctreeParams, PortalezOctree, ReshetovBvh, Structures};
@@ -18,7 +19,6 @@ use crate::locate::{BoundaryLocator, GridLocator, Locators};
 use crate::locate::{LocateState, Start, WalkStart};
 use crate::mesh::{Incidence, Surface, TetMesh};
 use crate::query::contains::{self, Containment, Parity};
-use crate::query::ray_parity;
 use crate::query::ClosestHit;
 #[cfg(feature = "gpu")]
 use crate::query::RayHit;
@@ -302,7 +302,7 @@ impl Scene {
     }
 
     /// Containment by the parity of one ray's crossings, on the exact BVH and without the
-    /// tetrahedralization ([`crate::query::ray_parity`], which says when it is
+    /// tetrahedralization ([`ray_parity`], which says when it is
     /// [`Scene::contains`]'s rule): `out[i]` is `OUTSIDE`, `INSIDE` or `UNDECIDED` for point
     /// i (3N values); `keep[i]`: whether the caller's triangle i counts.
     pub fn ray_parity<R: Real>(

@@ -1,10 +1,10 @@
 //! Containment without a tetrahedralization: the parity of the crossings of one ray from the
-//! point, counted exactly on the exact BVH (`accel::exact_bvh`).
+//! point, counted exactly on the exact BVH.
 //!
 //! **The rule it computes.** On a closed surface (every edge shared by an even number of
 //! triangles: a cycle mod 2) the number of crossings of a path from a point to far away has the
 //! same parity for every path that crosses the surface only through triangle interiors, so one
-//! ray's count decides it. That is the rule [`super::contains`] computes on the
+//! ray's count decides it. That is the rule [`crate::query::contains`] computes on the
 //! tetrahedralization (the fewest crossings to outside the domain box, odd: inside), so on a
 //! closed surface the two give the same answer for every point; points on the surface (on a
 //! triangle, its edge or its corner) are inside by both. On an open surface they differ (a
@@ -26,13 +26,13 @@
 //! them; none of the tests' grids, vertices and edge points needed a second direction more
 //! than rarely.
 
-use super::gather::{Gather, Line, Tri};
-use crate::accel::ExactBvh;
+use super::ExactBvh;
 use crate::error::Result;
 use crate::geom::exact::triangle_sides;
 use crate::geom::predicates::orient;
 use crate::geom::ray::Ray;
 use crate::geom::real::Real;
+use crate::query::gather::{Gather, Line, Tri};
 use crate::simd::Simd;
 use crate::threads::run_pieces;
 
@@ -175,7 +175,7 @@ pub fn sides<R: Real>(
     out: &mut [u8],
     threads: Option<usize>,
 ) -> Result<()> {
-    super::contains::check(points.len(), out.len(), threads)?;
+    crate::query::contains::check(points.len(), out.len(), threads)?;
     let simd = Simd::from_env()?;
     let pieces: Vec<_> = points
         .chunks(3 * CHUNK)
@@ -191,5 +191,4 @@ pub fn sides<R: Real>(
 }
 
 #[cfg(test)]
-#[path = "tests/ray_parity.rs"]
 mod tests;
