@@ -124,29 +124,42 @@ fn on_ray(k: usize, e: i32) -> [f64; 3] {
     direction(k).map(|x| x * 2f64.powi(e))
 }
 
-/// A closed tetrahedron with one corner exactly on direction k's ray from the origin and the
-/// rest farther along it.
+/// Whether `v` points into the cone of [`tetra_hit_at_a_corner`]'s corner (+x, -y, +z).
+fn in_corner_cone(v: [f64; 3]) -> bool {
+    v[0] >= 0.0 && v[1] <= 0.0 && v[2] >= 0.0
+}
+
+/// A closed tetrahedron with one corner exactly on direction k's ray from the origin, the
+/// others along +x, -y and +z from it. Where that corner's cone holds neither the direction
+/// nor its opposite, the ray touches the tetrahedron at the corner alone, in none of its
+/// faces' planes.
 fn tetra_hit_at_a_corner(k: usize) -> Vec<Tri> {
-    let (a, b) = (on_ray(k, 1), on_ray(k, 2));
-    let c = [b[0] + 0.25, b[1], b[2]];
-    let d = [b[0], b[1] + 0.25, b[2] - 0.125];
-    vec![[a, c, b], [a, b, d], [a, d, c], [b, c, d]]
+    let a = on_ray(k, 1);
+    let b = [a[0] + 0.5, a[1], a[2]];
+    let c = [a[0], a[1] - 0.5, a[2]];
+    let d = [a[0], a[1], a[2] + 0.5];
+    vec![[a, b, c], [a, c, d], [a, d, b], [b, d, c]]
 }
 
 #[test]
 fn a_ray_through_a_corner_is_given_up_and_the_next_direction_answers() {
+    // Direction 0 touches the corner alone: counting the three faces there as crossings
+    // would make the origin inside.
+    let dir = direction(0);
+    assert!(
+        !in_corner_cone(dir) && !in_corner_cone(dir.map(|x| -x)),
+        "{dir:?}"
+    );
     let tris = tetra_hit_at_a_corner(0);
     let keep = vec![true; tris.len()];
-    let corners = [tris[0][0], tris[0][1], tris[0][2], tris[3][2]];
+    let corners = [tris[0][0], tris[0][1], tris[0][2], tris[1][2]];
     let centroid = [0, 1, 2].map(|a| corners.iter().map(|c| c[a]).sum::<f64>() / 4.0);
     let got = sides_at_every_level(&tris, &keep, &[[0.0; 3], centroid, on_ray(0, 1)]);
-    // The origin's first ray meets the corner (three triangles there, each side product of
-    // two edges zero): given up; the second misses the tetrahedron.
+    // The origin's first ray touches the corner alone (three triangles there, each with two
+    // side products zero): given up; the second misses the tetrahedron.
     assert_eq!(got[0], (OUTSIDE, 1));
     assert_eq!(got[1].0, INSIDE);
-    // The corner itself is on the surface (its first ray also runs through the far corner b,
-    // which may be offered first and give that ray up).
-    assert_eq!(got[2].0, INSIDE);
+    assert_eq!(got[2].0, INSIDE, "the corner itself is on the surface");
 }
 
 #[test]
