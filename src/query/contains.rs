@@ -147,6 +147,36 @@ pub struct Containment<'a> {
 
 /// Refuses arguments no containment query can run with: `points` must hold 3 values per
 /// entry of `out`, and `threads` must not be `Some(0)`.
+/// `answer(p, state)` for every point p (`points`: x y z of each, 3N values) into `out` (N),
+/// in pieces of [`CHUNK`] points on the pool's threads (interruptible, `run_pieces`), after
+/// [`check`]; `state(k)` is made fresh for piece k, so answers do not depend on the schedule.
+/// The driver of every point query (containment, by the tetrahedralization or by rays, and
+/// the closest points).
+pub fn per_point<R: Real, O: Send, S>(
+    points: &[R],
+    out: &mut [O],
+    threads: Option<usize>,
+    state: impl Fn(usize) -> S + Sync + Send,
+    answer: impl Fn([f64; 3], &mut S) -> O + Sync + Send,
+) -> Result<()> {
+    check(points.len(), out.len(), threads)?;
+    let pieces: Vec<_> = points
+        .chunks(3 * CHUNK)
+        .zip(out.chunks_mut(CHUNK))
+        .enumerate()
+        .collect();
+    run_pieces(
+        pieces,
+        threads,
+        |(k, (pts, o)): (usize, (&[R], &mut [O]))| {
+            let mut st = state(k);
+            for (j, slot) in o.iter_mut().enumerate() {
+                *slot = answer([0, 1, 2].map(|a| pts[3 * j + a].to_f64()), &mut st);
+            }
+        },
+    )
+}
+
 pub fn check(n_values: usize, n_out: usize, threads: Option<usize>) -> Result<()> {
     if n_values != 3 * n_out {
         return Err(Error::InvalidInput(format!(
@@ -172,21 +202,14 @@ impl Containment<'_> {
         out: &mut [bool],
         threads: Option<usize>,
     ) -> Result<()> {
-        check(points.len(), out.len(), threads)?;
-        let run = |(k, (pts, o)): (usize, (&[R], &mut [bool]))| {
+        per_point(
+            points,
+            out,
+            threads,
             // A nonzero xorshift seed per chunk (the walks' random face order).
-            let mut rng = 0x9E37_79B9u32 ^ (k as u32).wrapping_mul(0x85EB_CA6B) | 1;
-            for (j, slot) in o.iter_mut().enumerate() {
-                let p = [0, 1, 2].map(|a| pts[3 * j + a].to_f64());
-                *slot = self.point(p, &mut rng);
-            }
-        };
-        let pieces: Vec<_> = points
-            .chunks(3 * CHUNK)
-            .zip(out.chunks_mut(CHUNK))
-            .enumerate()
-            .collect();
-        run_pieces(pieces, threads, run)
+            |k| 0x9E37_79B9u32 ^ (k as u32).wrapping_mul(0x85EB_CA6B) | 1,
+            |p, rng| self.point(p, rng),
+        )
     }
 
     /// Whether the point p is inside; `rng`: the walks' xorshift state (nonzero).

@@ -22,7 +22,7 @@ use crate::query::contains::{self, Containment, Parity};
 use crate::query::ClosestHit;
 #[cfg(feature = "gpu")]
 use crate::query::RayHit;
-use crate::threads::{checkpoint, run_pieces};
+use crate::threads::checkpoint;
 #[cfg(feature = "gpu")]
 use crate::traverse::Walk;
 use std::sync::{Arc, OnceLock};
@@ -341,17 +341,13 @@ impl Scene {
             )));
         }
         let bvh = self.bvh()?;
-        let pieces: Vec<_> = points
-            .chunks(3 * CHUNK)
-            .zip(out.chunks_mut(CHUNK))
-            .collect();
-        run_pieces(pieces, threads, |(pts, o): (&[R], &mut [NearestPoint])| {
-            let mut stack = Vec::with_capacity(64);
-            for (j, slot) in o.iter_mut().enumerate() {
-                let p = [0, 1, 2].map(|a| pts[3 * j + a].to_f64());
-                *slot = bvh.nearest(p, &mut stack);
-            }
-        })
+        contains::per_point(
+            points,
+            out,
+            threads,
+            |_| Vec::with_capacity(64),
+            |p, stack| bvh.nearest(p, stack),
+        )
     }
 
     /// Where ray i of `rays` starts (the GPU cast's first half, as the CPU cast locates).

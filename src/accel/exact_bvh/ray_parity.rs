@@ -34,7 +34,6 @@ use crate::geom::ray::Ray;
 use crate::geom::real::Real;
 use crate::query::gather::{Gather, Line, Tri};
 use crate::simd::Simd;
-use crate::threads::run_pieces;
 
 /// The point is outside: an even count (or a coordinate that is not finite).
 pub const OUTSIDE: u8 = 0;
@@ -45,9 +44,6 @@ pub const UNDECIDED: u8 = 2;
 
 /// Directions tried per point before it is left [`UNDECIDED`].
 pub const TRIES: usize = 16;
-
-/// Points per parallel task.
-const CHUNK: usize = 2048;
 
 /// The k-th direction: a point of the additive recurrence with the plastic-number ratios
 /// (Roberts' R3 sequence) in [-1, 1)³, so no two are parallel and none lies on an axis or a
@@ -175,19 +171,14 @@ pub fn sides<R: Real>(
     out: &mut [u8],
     threads: Option<usize>,
 ) -> Result<()> {
-    crate::query::contains::check(points.len(), out.len(), threads)?;
     let simd = Simd::from_env()?;
-    let pieces: Vec<_> = points
-        .chunks(3 * CHUNK)
-        .zip(out.chunks_mut(CHUNK))
-        .collect();
-    run_pieces(pieces, threads, |(pts, o): (&[R], &mut [u8])| {
-        let mut stack = Vec::with_capacity(64);
-        for (j, slot) in o.iter_mut().enumerate() {
-            let p = [0, 1, 2].map(|a| pts[3 * j + a].to_f64());
-            *slot = side_of(bvh, triangles, keep, p, simd, &mut stack).0;
-        }
-    })
+    crate::query::contains::per_point(
+        points,
+        out,
+        threads,
+        |_| Vec::with_capacity(64),
+        |p, stack| side_of(bvh, triangles, keep, p, simd, stack).0,
+    )
 }
 
 #[cfg(test)]
