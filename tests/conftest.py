@@ -182,3 +182,15 @@ def mitsuba():
         if mi is None:
             skip_or_fail(f"{why} (pip install mitsuba; apt-get install libllvm15)")
     return mi
+
+
+def own_default_scene():
+    """The bundled scene as an object of the test's own, for tests that rebuild its structures.
+
+    :func:`tetrace.default_scene` returns one cached object per process, which every test
+    on the worker shares; a test that builds its BVH, exact BVH or octree with other
+    parameters would change the answers (``steps``) that later tests see. This copy shares
+    the cached scene's tetrahedralization (no second meshing) and nothing else.
+    """
+    shared = tetrace.default_scene()
+    return tetrace.Scene(shared.tetrahedralization, shared.vertices, shared.faces)

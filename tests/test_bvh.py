@@ -19,6 +19,8 @@ from tetrace.dev.stress import FAMILIES, SHARED_SCENES, build_scene, cases, make
 from tetrace.hits import HIT
 from tetrace.referee import Referee, judge, judge_lists
 
+from conftest import own_default_scene
+
 #: Rays per family (the certified candidates of each family).
 N = 600
 PRECISIONS = ("f32", "f64")
@@ -96,7 +98,7 @@ def test_packets_cull_and_answer_as_one_ray(accel):
     is computed: above 0, below 1, as rays hit) and every answer is the one-ray tree's."""
     from tetrace.dev.camera import orbit_views, pinhole
 
-    scene = tetrace.default_scene()
+    scene = own_default_scene()
     v = scene.vertices
     eye, target, up = orbit_views(np.array([v.min(0), v.max(0)]), n=1, distance=1.6)[0]
     o, d = pinhole(eye, target, up, fov_deg=40.0, width=64, height=64)
@@ -127,7 +129,7 @@ def test_bvh_options_and_shape():
         "exact_bvh",
         "exact_bvh_packets",
     ]
-    scene = tetrace.default_scene()
+    scene = own_default_scene()
     n_triangles = len(scene.faces)
     built = scene.build_bvh(cost_ratio=4.0, max_leaf=32, bins=8)
     assert built["leaves"] * 32 >= n_triangles and built["nodes"] == 2 * built["leaves"] - 1
@@ -141,7 +143,7 @@ def test_bvh_options_and_shape():
 def test_exact_bvh_options_shape_and_refusals():
     """The 8-wide BVH's parameters (checked, kept by save and load), its shape and memory,
     and its answers: the exact walk's on the bundled scene's camera and random rays."""
-    scene = tetrace.default_scene()
+    scene = own_default_scene()
     n = len(scene.faces)
     lo, hi = (np.asarray(x) for x in scene.domain)
     rng = np.random.default_rng(9)

@@ -9,8 +9,9 @@ invariants.
 import numpy as np
 import pytest
 
-import tetrace
 from tetrace.hits import HIT
+
+from conftest import own_default_scene
 
 OCTREE = "portalez_octree"
 
@@ -27,7 +28,7 @@ def test_octree_statistics_and_balance():
     """Leaves, links per leaf, bytes per part: computed and consistent; the balanced tree has
     at least the unbalanced one's leaves and at most 4 links per face (24 per leaf); casts on
     both give the walk's answers."""
-    scene = tetrace.default_scene()
+    scene = own_default_scene()
     o, d = _camera(scene)
     walk = scene.cast(o, d)
     assert (walk.status == HIT).sum() > 500
@@ -58,7 +59,7 @@ def test_octree_statistics_and_balance():
 
 
 def test_octree_refuses_bad_parameters_and_methods():
-    scene = tetrace.default_scene()
+    scene = own_default_scene()
     for bad in (dict(max_depth=17), dict(leaf_size=0), dict(leaf_size=1 << 17)):
         with pytest.raises(ValueError, match=next(iter(bad))):
             scene.build_octree(**bad)

@@ -11,7 +11,12 @@ __all__ = ["default_scene", "cast"]
 
 @lru_cache(maxsize=1)
 def default_scene():
-    """Return the bundled default scene, built once per process with the default preset."""
+    """Return the bundled default scene, built once per process with the default preset.
+
+    Every call returns the same object: building its structures with other parameters
+    (``build_exact_bvh``, ``build_bvh``, ``build_octree``) or moving its vertices changes it
+    for every caller. ``Scene.from_mesh(default_scene_path())`` gives a scene of your own.
+    """
     return Scene.from_mesh(str(default_scene_path()))
 
 
