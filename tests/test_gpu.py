@@ -27,7 +27,7 @@ import tetrace
 from tetrace import gpu
 from tetrace.dev.camera import orbit_views, pinhole, random_rays
 from tetrace.dev.compare import agreement
-from tetrace.referee import Referee
+from tetrace.referee import Referee, judge_lists
 
 from conftest import gpu_device
 
@@ -364,6 +364,42 @@ def test_occluded_on_the_gpu_is_the_cpu_exact_walk(spot, device):
         spot.occluded(o, d, device="auto", method="aman2022", precision="f32"),
         spot.occluded(o, d, method="aman2022", precision="f32"),
     )
+
+
+def test_intersections_and_counts_on_the_gpu_are_the_cpu_exact_walk(spot, device):
+    """``intersections`` and ``count_intersections`` with ``device="gpu"``: the exact kernel
+    with the all-hits query. On camera and random rays, unbounded and with short ``tmax``,
+    every column is the CPU default's (float32 rays), the lists are the referee's crossings,
+    and the counts are the lists' lengths. Other kernels and accelerators are refused."""
+    v = spot.vertices
+    bounds = np.array([v.min(0), v.max(0)])
+    eye, target, up = orbit_views(bounds, n=1, distance=1.6)[0]
+    o, d = pinhole(eye, target, up, fov_deg=40.0, width=96, height=72, dtype=np.float32)
+    ro, rd = random_rays(bounds, 6_000, seed=11, grow=0.25, dtype=np.float32)
+    referee = Referee(spot.vertices, spot.faces)
+    for what, oo, dd in (("camera", o, d), ("random", ro, rd)):
+        oo = np.broadcast_to(oo, dd.shape)
+        t = spot.cast(oo, dd).t
+        short = np.random.default_rng(5).uniform(0, 2 * t[np.isfinite(t)].max(), len(dd))
+        for tmax in (np.inf, short):
+            got = spot.intersections(oo, dd, tmax=tmax, device="gpu")
+            cpu = spot.intersections(oo, dd, tmax=tmax, precision="f32")
+            for f in ("offsets", "ray", "t", "triangle", "u", "v", "point", "status"):
+                np.testing.assert_array_equal(getattr(got, f), getattr(cpu, f), err_msg=f)
+            c = referee.crossings(oo, dd, 0.0, np.broadcast_to(tmax, len(dd)))
+            judged = judge_lists(got.offsets, got.t, got.triangle, c)
+            assert judged["right"].all(), (what, {k: int(x.sum()) for k, x in judged.items()})
+            count, status = spot.count_intersections(
+                oo, dd, tmax=tmax, device="gpu", return_status=True
+            )
+            np.testing.assert_array_equal(count, np.diff(got.offsets), err_msg=what)
+            np.testing.assert_array_equal(status, got.status, err_msg=what)
+            # Teeth: rays that cross the surface several times and rays that cross nothing.
+            assert (count > 1).sum() > 0 and (count == 0).sum() > 0, what
+    with pytest.raises(ValueError, match="exact kernel"):
+        spot.intersections(o, d, device="gpu", method="aman2022")
+    with pytest.raises(ValueError, match="CPU only"):
+        spot.count_intersections(o, d, device="gpu", accel="exact_bvh")
 
 
 def test_no_adapter_fails_unless_tetrace_skip_gpu(monkeypatch):

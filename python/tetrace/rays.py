@@ -481,8 +481,10 @@ device : {"cpu", "gpu", "auto"}
     triangle stay on the CPU. ``"auto"``: the GPU when the walk is float32, a kernel
     exists for the method and layout, and a device opens (for the ``exact`` default, a
     hardware GPU: a software driver such as lavapipe is slower than the CPU), else the
-    CPU. ``occluded`` runs on the GPU with the ``exact`` kernel only (its statuses are
-    the CPU exact walk's).
+    CPU. ``occluded``, ``intersections`` and ``count_intersections`` run on the GPU
+    with the ``exact`` kernel only: the GPU takes the plain steps to each ray's first
+    scene triangle and the CPU exact walk answers from there, so the answers are the
+    CPU exact walk's.
 packet : bool
     Let rays that share an origin (a camera, rays from one point) walk as packets
     where the method allows (the ``exact`` default): a chunk of rays is taken as

@@ -384,6 +384,23 @@ class Scene:
             geometries=self.geometries, **{k: args[k] for k in RayRequest.ARGS if k in args}
         )
 
+    def _exact_query(self, args, kind, what):
+        """Run ray query ``kind`` ("any", "all" or "count") over a public method's
+        ``locals()``: on the GPU's exact kernel where ``device`` asks for it (``"auto"``
+        keeps another method on the CPU), else on the CPU. Returns the request and the
+        core's columns."""
+        device, method = args["device"], args["method"]
+        gpu.check_cast(device)
+        if device == "gpu" and args["precision"] is None:
+            args = {**args, "precision": "f32"}  # WGSL has no float64: float32 rays
+        q = self._request(args)
+        on_gpu = gpu.wanted(
+            device, q.precision, method, args["layout"], args["accel"], args["start"]
+        )
+        if on_gpu and (device == "gpu" or method in (None, "exact")):
+            return q, self.build_ct()._native.cast_gpu(q.native, kind)[0]
+        return q, q.run(self._core(q), kind, what)
+
     def normals(self):
         """Return the unit geometric normal of each of the scene's triangles.
 
@@ -471,17 +488,8 @@ class Scene:
             uint8, the same shape (``return_status=True`` only): ``HIT``, ``MISS``,
             ``FAILED`` or ``INVALID``.
         """
-        gpu.check_cast(device)
-        if device == "gpu" and precision is None:
-            precision = "f32"  # WGSL has no float64: the GPU walks float32 rays
-        q = self._request(locals())
-        # On the GPU with the exact kernel only ("auto" keeps another method on the CPU).
-        if gpu.wanted(device, q.precision, method, layout, accel, start) and (
-            device == "gpu" or method in (None, "exact")
-        ):
-            status = self.build_ct()._native.cast_gpu(q.native, "any")[0]["status"]
-        else:
-            status = q.run(self._core(q), "any", "occluded")["status"]
+        q, r = self._exact_query(locals(), "any", "occluded")
+        status = r["status"]
         q.check(status)
         status = status.reshape(q.shape)
         hit = status == HIT
@@ -503,6 +511,7 @@ class Scene:
         method=None,
         layout=None,
         precision=None,
+        device="cpu",
         packet=True,
         accel=None,
         progress=None,
@@ -528,8 +537,7 @@ class Scene:
             its exact value on the caller's triangle (the exact point
             ``origin + t* direction``, rounded).
         """
-        q = self._request(locals())
-        r = q.run(self._core(q), "all", "intersections")
+        q, r = self._exact_query(locals(), "all", "intersections")
         q.check(r["status"])
         return Intersections.from_core(r, q.shape, self.geometries)
 
@@ -550,6 +558,7 @@ class Scene:
         layout=None,
         precision=None,
         return_status=False,
+        device="cpu",
         packet=True,
         accel=None,
         progress=None,
@@ -574,8 +583,7 @@ class Scene:
         status : numpy.ndarray
             uint8, the same shape (``return_status=True`` only).
         """
-        q = self._request(locals())
-        r = q.run(self._core(q), "count", "counting")
+        q, r = self._exact_query(locals(), "count", "counting")
         status = np.asarray(r["status"])
         q.check(status)
         count = np.asarray(r["count"]).astype(np.int32, copy=True)

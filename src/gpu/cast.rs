@@ -29,7 +29,7 @@ use crate::accel::TetWalk;
 use crate::error::{Error, Result};
 use crate::layout::Tet20;
 use crate::locate::{LocateState, Start, WalkStart};
-use crate::query::{QueryKind, RayHit, Sink};
+use crate::query::{Listed, QueryKind, RayHit, Sink};
 use crate::scene::CastOptions;
 use crate::scene::{check_lengths, check_ray_count, HitsOut, Rays, Scene, CHUNK};
 use crate::threads::run_pieces;
@@ -143,8 +143,37 @@ impl DeviceScene {
         opts: &CastOptions,
     ) -> Result<GpuTimings> {
         check_ray_count(rays, out.len())?;
-        let kernel = KernelSpec::find(Some("exact"), Some("tet20"))?;
         let query = crate::query::AnyHit(scene.closest());
+        self.resumed_query(scene, &query, rays, out, opts)
+    }
+
+    /// Every point where each float32 ray meets the surface in [tmin, tmax]
+    /// (`Scene.intersections`, and `count_intersections` counts them): the exact kernel's
+    /// resumed walk with the all-hits query. The GPU takes the plain steps to the first
+    /// constrained face and the CPU exact walk lists that face's points and walks on from
+    /// there, so every list is the CPU exact walk's.
+    pub fn intersections(
+        &self,
+        scene: &Scene,
+        rays: &Rays<f32>,
+        out: &mut [Listed],
+        opts: &CastOptions,
+    ) -> Result<GpuTimings> {
+        check_ray_count(rays, out.len())?;
+        let query = crate::query::AllHits(scene.closest());
+        self.resumed_query(scene, &query, rays, out, opts)
+    }
+
+    /// `query` on the exact kernel's resumed walk (see [`resumed`]).
+    fn resumed_query<K: QueryKind, S: Sink<K::Answer>>(
+        &self,
+        scene: &Scene,
+        query: &K,
+        rays: &Rays<f32>,
+        out: S,
+        opts: &CastOptions,
+    ) -> Result<GpuTimings> {
+        let kernel = KernelSpec::find(Some("exact"), Some("tet20"))?;
         self.on_device(
             scene,
             kernel,
@@ -152,7 +181,7 @@ impl DeviceScene {
             Batching::default(),
             |device, timings| {
                 resumed(
-                    scene, &query, None, kernel, device, rays, out, opts, timings,
+                    scene, query, None, kernel, device, rays, out, opts, timings,
                 )
             },
         )

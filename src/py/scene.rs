@@ -14,7 +14,7 @@ use crate::accel::{
 use crate::error::{try_vec, try_zeroed_vec};
 use crate::geom::real::Real;
 #[cfg(feature = "gpu")]
-use crate::scene::queries::{Closest, Column, RayJob};
+use crate::scene::queries::{All, Closest, Column, Count, RayJob};
 #[cfg(feature = "gpu")]
 use crate::scene::CastOptions;
 use crate::scene::{AccelKind, Scene};
@@ -189,9 +189,9 @@ impl PyScene {
     }
 
     /// Casts the float32 rays of `request` on the GPU and answers query `kind`: "closest"
-    /// (start location and hits on the CPU, the walk on the device; any kernel) or "any"
-    /// (occlusion, the exact kernel). Returns the query's columns and the seconds of each
-    /// phase.
+    /// (start location and hits on the CPU, the walk on the device; any kernel), or "any"
+    /// (occlusion), "all" or "count" (every point, listed or counted) on the exact kernel.
+    /// Returns the query's columns and the seconds of each phase.
     #[pyo3(signature = (request, kind="closest"))]
     fn cast_gpu<'py>(
         &self,
@@ -205,9 +205,9 @@ impl PyScene {
                 request.opts.accel.name()
             )));
         }
-        if !matches!(kind, "closest" | "any") {
+        if !matches!(kind, "closest" | "any" | "all" | "count") {
             return Err(PyValueError::new_err(format!(
-                "the GPU answers the closest and any-hit queries (cast, occluded), not {kind:?}"
+                "the GPU answers the closest, any, all and count queries, not {kind:?}"
             )));
         }
         #[cfg(not(feature = "gpu"))]
@@ -230,15 +230,26 @@ impl PyScene {
             let device = &loaded.device;
             // On this thread, as before: its batches stop at `threads::checkpoint`, which
             // polls here (inside `threads::install` the GPU's waits would not see Ctrl-C).
+            if kind != "closest" && ask.method.is_some_and(|m| m.name() != "exact") {
+                return Err(PyValueError::new_err(format!(
+                    "the {kind:?} query on the GPU takes the exact kernel (the default method)"
+                )));
+            }
             let (columns, timings) = if kind == "any" {
-                if ask.method.is_some_and(|m| m.name() != "exact") {
-                    return Err(PyValueError::new_err(
-                        "occluded on the GPU takes the exact kernel (the default method)",
-                    ));
-                }
                 let mut status = try_zeroed_vec::<u8>(rays.len(), "statuses")?;
                 let t = interruptible(py, || device.occluded(scene, &rays, &mut status, &opts))?;
                 (vec![Column::new("status", status)], t)
+            } else if kind == "all" || kind == "count" {
+                let mut listed = All::output::<f32>(rays.len(), &ask)?;
+                let t = interruptible(py, || {
+                    device.intersections(scene, &rays, &mut listed, &opts)
+                })?;
+                let columns = if kind == "all" {
+                    All::columns::<f32>(listed)?
+                } else {
+                    Count::columns::<f32>(listed)?
+                };
+                (columns, t)
             } else {
                 let (method, layout) = (ask.method.map(|m| m.name()), ask.layout.map(|l| l.name()));
                 let mut out = Closest::output::<f32>(rays.len(), &ask)?;

@@ -9,6 +9,7 @@
 
 mod finish;
 mod host;
+mod intersections;
 mod occluded;
 #[cfg(feature = "gpu-octree")]
 mod octree;

@@ -210,7 +210,7 @@ fn assert_gpu_is_cpu_exact(
 
 /// Rays the float32 filter cannot decide: along the grid's lines from outside the box and
 /// from inside it, and in the face plane x = 0 through its vertices (exact zeros everywhere).
-fn degenerate_rays(n: usize) -> (Vec<f32>, Vec<f32>) {
+pub(super) fn degenerate_rays(n: usize) -> (Vec<f32>, Vec<f32>) {
     let (mut o, mut d) = (Vec::new(), Vec::new());
     for i in 0..=n {
         for j in 0..=n {
