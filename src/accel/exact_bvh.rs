@@ -170,7 +170,7 @@ macro_rules! walk_loop {
             $gather,
             $stack,
             |$node, $tmin, $reach| $test,
-            |_tris| u32::MAX
+            |_tris| (u32::MAX, 0)
         )
     };
     ($bvh:expr, $line:expr, $gather:expr, $stack:expr, |$node:ident, $tmin:ident, $reach:ident| $test:expr, |$tris:ident| $filter:expr) => {{
@@ -196,16 +196,17 @@ macro_rules! walk_loop {
                 Child::Leaf { first, count } => {
                     let range = first as usize..(first + count) as usize;
                     // The leaf's triangles the ray may meet (a bit per triangle): the others
-                    // surely miss, by side products of certain opposite signs.
+                    // surely miss, by side products of certain opposite signs; and those it
+                    // surely meets in its plane (three certain signs alike).
                     let $tris = &bvh.triangles[range.clone()];
-                    let mut may = $filter;
+                    let (mut may, mut sure): (u32, u32) = $filter;
                     for j in range {
-                        let (test, skip) = (may & 1 != 0, may >> 1);
-                        may = skip;
+                        let (test, met) = (may & 1 != 0, sure & 1 != 0);
+                        (may, sure) = (may >> 1, sure >> 1);
                         if !test {
                             continue;
                         }
-                        let settled = match line.meets_at(&bvh.triangles[j]) {
+                        let settled = match leaf_meets(line, &bvh.triangles[j], met) {
                             Some(at) => gather.offer_at(bvh.order[j], at),
                             None => G::IN_PLANE && gather.in_plane(bvh.order[j]),
                         };
@@ -403,6 +404,18 @@ impl ExactBvh {
     }
 }
 
+/// Whether the ray meets a leaf's triangle at one point in range, with its float crossing
+/// ([`Line::meets_at`]); `sure`: the leaf filter certified its three side products of one
+/// sign, so only the range is left to decide ([`Line::crosses_at`]).
+#[inline(always)]
+fn leaf_meets(line: &Line, tri: &Tri, sure: bool) -> Option<(f64, f64)> {
+    if sure {
+        line.crosses_at(tri)
+    } else {
+        line.meets_at(tri)
+    }
+}
+
 /// Pushes the children in `mask`, farthest first (the nearest is popped first); of equal
 /// entries the later slot is popped first, so the order is the same at every level.
 #[inline(always)]
@@ -444,10 +457,14 @@ fn push_by_entry<T: Copy>(
 /// these intrinsics round each operation once (nothing is fused), so each lane's numbers are
 /// the scalar ones. The rest is decided exactly by `Line::meets_at`. On camera rays most
 /// triangles of a leaf are left out here, in about a sixth of the scalar test's instructions.
+///
+/// Second, those whose three side products it certified of one sign (bit j of the second
+/// mask): `triangle_sides` would give the same three signs, so the line meets the closed
+/// triangle at one point and `Line::crosses_at` decides the rest without them.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 #[inline]
-unsafe fn may_meet_avx2(line: &Line, tris: &[Tri]) -> u32 {
+unsafe fn may_meet_avx2(line: &Line, tris: &[Tri]) -> (u32, u32) {
     use crate::geom::exact::{DET_BOUND, TINY};
     use std::arch::x86_64::*;
     // No closures here: they do not take the target features, and stayed calls.
@@ -467,7 +484,8 @@ unsafe fn may_meet_avx2(line: &Line, tris: &[Tri]) -> u32 {
         _mm256_set1_pd(f64::INFINITY),
     );
     debug_assert!(tris.len() <= 32, "a bit per triangle in a u32");
-    let mut may = 0u32;
+    let (mut may, mut sure) = (0u32, 0u32);
+    let all = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
     for (block, four) in tris.chunks(4).enumerate() {
         // Four triangles (a short block repeats its last: those lanes are not read).
         let last = four.len() - 1;
@@ -486,6 +504,7 @@ unsafe fn may_meet_avx2(line: &Line, tris: &[Tri]) -> u32 {
             }
         }
         let (mut pos, mut neg) = (_mm256_setzero_pd(), _mm256_setzero_pd());
+        let (mut pos_all, mut neg_all) = (all, all);
         for k in 0..3 {
             let (b, c) = (&p[k], &p[(k + 1) % 3]);
             // det_perm(d, b, c), term by term.
@@ -517,19 +536,16 @@ unsafe fn may_meet_avx2(line: &Line, tris: &[Tri]) -> u32 {
                 _mm256_cmp_pd::<_CMP_LT_OQ>(perm, inf),
             );
             let neg_det = _mm256_xor_pd(det, sign);
-            pos = _mm256_or_pd(
-                pos,
-                _mm256_and_pd(ok, _mm256_cmp_pd::<_CMP_GT_OQ>(det, bound)),
-            );
-            neg = _mm256_or_pd(
-                neg,
-                _mm256_and_pd(ok, _mm256_cmp_pd::<_CMP_GT_OQ>(neg_det, bound)),
-            );
+            let p = _mm256_and_pd(ok, _mm256_cmp_pd::<_CMP_GT_OQ>(det, bound));
+            let n = _mm256_and_pd(ok, _mm256_cmp_pd::<_CMP_GT_OQ>(neg_det, bound));
+            (pos, neg) = (_mm256_or_pd(pos, p), _mm256_or_pd(neg, n));
+            (pos_all, neg_all) = (_mm256_and_pd(pos_all, p), _mm256_and_pd(neg_all, n));
         }
         let out = _mm256_movemask_pd(_mm256_and_pd(pos, neg)) as u32;
         may |= (!out & 0xf) << (4 * block);
+        sure |= (_mm256_movemask_pd(_mm256_or_pd(pos_all, neg_all)) as u32) << (4 * block);
     }
-    may
+    (may, sure)
 }
 
 /// Collapses the binary tree (node 0 its root) into 8-wide nodes. A binary subtree of at

@@ -179,11 +179,7 @@ impl DeviceScene {
             kernel,
             opts,
             Batching::default(),
-            |device, timings| {
-                resumed(
-                    scene, query, None, kernel, device, rays, out, opts, timings,
-                )
-            },
+            |device, timings| resumed(scene, query, None, kernel, device, rays, out, opts, timings),
         )
     }
 

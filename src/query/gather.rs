@@ -54,12 +54,21 @@ impl Line {
     /// certified error bound: what [`Gather::offer_at`] orders by before anything exact).
     #[inline]
     pub fn meets_at(&self, tri: &Tri) -> Option<(f64, f64)> {
-        let o = self.o;
-        let s = triangle_sides(self.dir, o, tri);
+        let s = triangle_sides(self.dir, self.o, tri);
         let (pos, neg) = (s.iter().any(|&x| x > 0), s.iter().any(|&x| x < 0));
         if pos == neg {
             return None;
         }
+        self.crosses_at(tri)
+    }
+
+    /// [`Line::meets_at`] for a triangle whose side products are known to have one sign (all
+    /// ≥ 0 or all ≤ 0, not all zero: the line meets its plane at one point of the closed
+    /// triangle), as a leaf filter that certified all three found: whether that point's t
+    /// lies in [tmin, tmax] (and beyond the triangle a ray leaves), with `plane_t`'s crossing.
+    #[inline]
+    pub fn crosses_at(&self, tri: &Tri) -> Option<(f64, f64)> {
+        let o = self.o;
         // Exact t against [tmin, tmax] (tmin ≥ 0 also rules out crossings behind the origin),
         // the float crossing deciding where it is farther from the bound than its error.
         let at = plane_t(o, self.d, tri);

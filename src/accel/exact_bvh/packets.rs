@@ -119,14 +119,15 @@ macro_rules! packet_loop {
                         bits &= bits - 1;
                         let ray = &mut rays[i];
                         let $line = &ray.line;
-                        let mut may: u32 = $filter;
+                        let (mut may, mut sure): (u32, u32) = $filter;
                         for j in range.clone() {
-                            let (test, skip) = (may & 1 != 0, may >> 1);
-                            may = skip;
+                            let (test, met) = (may & 1 != 0, sure & 1 != 0);
+                            (may, sure) = (may >> 1, sure >> 1);
                             if !test {
                                 continue;
                             }
-                            let settled = match ray.line.meets_at(&bvh.triangles[j]) {
+                            let settled = match super::leaf_meets(&ray.line, &bvh.triangles[j], met)
+                            {
                                 Some(at) => ray.gather.offer_at(bvh.order[j], at),
                                 None => false,
                             };
@@ -159,7 +160,7 @@ impl ExactBvhPackets<'_> {
             rays,
             stack,
             |r, node, tmin, reach| super::BoxTest::test(r, node, tmin, reach),
-            |_line, _tris| u32::MAX
+            |_line, _tris| (u32::MAX, 0)
         )
     }
 

@@ -3,6 +3,7 @@
 //! and Reshetov's BVH (`reshetov_bvh/tests.rs`, `query/tests`, the fuzz targets).
 
 use super::*;
+use crate::geom::exact::triangle_sides;
 use crate::query::gather::Nearest;
 use crate::scene::{AccelKind, CastOptions, HitBuffers, Packets, Rays};
 use crate::testing::{triangle_soup, Agreement, Rng};
@@ -339,7 +340,8 @@ fn zero_components_in_an_infinite_tree_take_the_float64_test() {
 /// leaves of 1 to 16 triangles around a shared vertex and shared edges (a fan), with rays
 /// aimed at the shared vertex, at points of the shared edges and inside, from grid origins
 /// (side products exactly zero) and random ones at scales 1e-6 to 1e6. It must also leave
-/// out most of the triangles missed, or it would be no filter.
+/// out most of the triangles missed, or it would be no filter. The triangles it certifies met
+/// have the three exact side signs alike and nonzero.
 #[cfg(target_arch = "x86_64")]
 #[test]
 fn the_leaf_filter_leaves_out_only_triangles_the_ray_misses() {
@@ -348,7 +350,7 @@ fn the_leaf_filter_leaves_out_only_triangles_the_ray_misses() {
         return;
     }
     let mut rng = Rng::xorshift(23);
-    let (mut met, mut missed, mut left_out) = (0, 0, 0);
+    let (mut met, mut missed, mut left_out, mut certified) = (0, 0, 0, 0);
     for i in 0..20_000u64 {
         let grid = i % 2 == 0;
         let scale = [1.0, 1e-6, 1e6][(i / 2 % 3) as usize];
@@ -381,9 +383,19 @@ fn the_leaf_filter_leaves_out_only_triangles_the_ray_misses() {
             continue;
         };
         // SAFETY: the CPU has AVX2 and FMA (checked above).
-        let may = unsafe { may_meet_avx2(&line, &tris) };
+        let (may, sure) = unsafe { may_meet_avx2(&line, &tris) };
         for (k, tri) in tris.iter().enumerate() {
             let kept = may >> k & 1 != 0;
+            // A triangle certified met has three exact side signs alike and nonzero, as the
+            // exact test finds them (so `crosses_at` may skip them).
+            if sure >> k & 1 != 0 {
+                let s = triangle_sides(line.dir, line.o, tri);
+                assert!(
+                    kept && s[0] != 0 && s[0] == s[1] && s[1] == s[2],
+                    "case {i}: triangle {k} of {n} is certified met, sides {s:?}: o {o:?} d {d:?}"
+                );
+                certified += 1;
+            }
             if line.meets(tri) {
                 met += 1;
                 assert!(
@@ -400,6 +412,13 @@ fn the_leaf_filter_leaves_out_only_triangles_the_ray_misses() {
     assert!(
         left_out * 10 >= missed * 6,
         "{left_out} of {missed} missed triangles left out"
+    );
+    // Certified ones occur: a quarter of the rays aim inside a triangle, which they meet
+    // away from its edges (the others aim at shared vertices and edges, where the triangles
+    // met there have a zero side product and are not certified).
+    assert!(
+        certified * 8 >= met,
+        "{certified} of {met} met triangles certified"
     );
 }
 

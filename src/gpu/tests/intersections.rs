@@ -84,7 +84,10 @@ fn gpu_intersections_are_the_cpu_exact_walk() {
         );
         // The rays have teeth: many cross the surface more than once, some not at all, and
         // the GPU walked most of them.
-        assert!(several > n / 40, "{test}: {several} of {n} rays cross twice or more");
+        assert!(
+            several > n / 40,
+            "{test}: {several} of {n} rays cross twice or more"
+        );
         assert!(gpu.iter().filter(|l| l.status == HIT).count() < n);
         assert!(t.walked > n / 4 && !t.shared_origin, "{t:?}");
     }
