@@ -174,9 +174,8 @@ macro_rules! walk_loop {
         )
     };
     ($bvh:expr, $line:expr, $gather:expr, $stack:expr, |$node:ident, $tmin:ident, $reach:ident| $test:expr, |$tris:ident| $filter:expr) => {{
-        let (bvh, line, gather) = ($bvh, $line, $gather);
-        let mut stack = Stack::on($stack, bvh.stack_len, (0, 0.0));
-        let stack = &mut stack;
+        let (bvh, line, gather, stack) = ($bvh, $line, $gather, $stack);
+        stack.clear();
         stack.push((0, 0.0));
         let mut visited = 0;
         while let Some((code, near)) = stack.pop() {
@@ -291,9 +290,6 @@ pub struct ExactBvh {
     /// Whether some box has an infinite bound (a triangle past float32's range): then a ray
     /// with a zero direction component is tested in float64 (0 × ∞ would be NaN).
     infinite: bool,
-    /// Entries a walk's stack can hold at most ([`Stack`]): each inner node opened leaves at
-    /// most 7 of its children behind, on each of the `depth` levels, and the last pushes 8.
-    stack_len: usize,
 }
 
 impl ExactBvh {
@@ -313,16 +309,13 @@ impl ExactBvh {
             .iter()
             .flat_map(|n| n.bounds.iter().flatten())
             .any(|x| x.is_infinite());
-        let mut bvh = ExactBvh {
+        Ok(ExactBvh {
             nodes,
             order: binary.order,
             triangles: binary.triangles,
             params,
             infinite,
-            stack_len: 0,
-        };
-        bvh.stack_len = WIDTH * (bvh.shape().2 + 1);
-        Ok(bvh)
+        })
     }
 
     /// Bytes of the tree: nodes, the id order and the triangles in leaf order.
@@ -426,42 +419,8 @@ fn leaf_meets(line: &Line, tri: &Tri, sure: bool) -> Option<(f64, f64)> {
 /// Pushes the children in `mask`, farthest first (the nearest is popped first); of equal
 /// entries the later slot is popped first, so the order is the same at every level.
 #[inline(always)]
-fn push_sorted(stack: &mut Stack<(u32, f32)>, node: &Node8, mask: u32, nears: &[f32; WIDTH]) {
+fn push_sorted(stack: &mut Vec<(u32, f32)>, node: &Node8, mask: u32, nears: &[f32; WIDTH]) {
     push_by_entry(stack, mask, |s| (node.child[s], nears[s]), |e| e.1);
-}
-
-/// A walk's stack on a buffer kept from ray to ray, sized once for the tree
-/// ([`ExactBvh::stack_len`], a bound on what a walk pushes): pushes and pops without `Vec`'s
-/// capacity checks and length bookkeeping, which cost about 200 instructions a camera ray.
-pub(crate) struct Stack<'s, T> {
-    items: &'s mut [T],
-    top: usize,
-}
-
-impl<'s, T: Copy> Stack<'s, T> {
-    /// An empty stack on `buf`, grown to `len` entries of `fill` where it is shorter.
-    #[inline]
-    pub(crate) fn on(buf: &'s mut Vec<T>, len: usize, fill: T) -> Self {
-        if buf.len() < len {
-            buf.resize(len, fill);
-        }
-        Stack {
-            items: buf.as_mut_slice(),
-            top: 0,
-        }
-    }
-
-    #[inline(always)]
-    pub(crate) fn push(&mut self, item: T) {
-        self.items[self.top] = item;
-        self.top += 1;
-    }
-
-    #[inline(always)]
-    pub(crate) fn pop(&mut self) -> Option<T> {
-        self.top = self.top.checked_sub(1)?;
-        Some(self.items[self.top])
-    }
 }
 
 /// Pushes `item(slot)` for each slot in `mask` in decreasing order of `entry` (insertion
@@ -469,25 +428,24 @@ impl<'s, T: Copy> Stack<'s, T> {
 /// later slot is popped first. One ray's walk and the packets' push through it.
 #[inline(always)]
 fn push_by_entry<T: Copy>(
-    stack: &mut Stack<T>,
+    stack: &mut Vec<T>,
     mask: u32,
     item: impl Fn(usize) -> T,
     entry: impl Fn(&T) -> f32,
 ) {
-    let base = stack.top;
+    let base = stack.len();
     let mut m = mask;
     while m != 0 {
         let slot = m.trailing_zeros() as usize;
         m &= m - 1;
         let item = item(slot);
-        let mut i = stack.top;
+        let mut i = stack.len();
         stack.push(item);
-        let items = &mut *stack.items;
-        while i > base && entry(&items[i - 1]) < entry(&item) {
-            items[i] = items[i - 1];
+        while i > base && entry(&stack[i - 1]) < entry(&item) {
+            stack[i] = stack[i - 1];
             i -= 1;
         }
-        items[i] = item;
+        stack[i] = item;
     }
 }
 

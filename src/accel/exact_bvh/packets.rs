@@ -62,8 +62,7 @@ macro_rules! packet_loop {
         let (bvh, rays, stack) = ($bvh, $rays, $stack);
         let n = rays.len();
         let mut live: u64 = if n == 64 { u64::MAX } else { (1u64 << n) - 1 };
-        let mut stack = super::Stack::on(stack, bvh.stack_len, (0u32, 0u64, 0.0f32));
-        let stack = &mut stack;
+        stack.clear();
         stack.push((0u32, live, 0.0f32));
         while let Some((code, mask, near)) = stack.pop() {
             // The rays still unsettled whose reach the packet's nearest entry is within (as

@@ -30,7 +30,6 @@ fn wide_tree_holds_every_triangle_once() {
         },
     ] {
         let bvh = ExactBvh::build(&tris, params).unwrap();
-        assert!(worst_stack(&bvh, 0) <= bvh.stack_len);
         let mut seen = vec![0u32; tris.len()];
         let inside = |p: [f64; 3], node: &Node8, s: usize| {
             (0..3).all(|k| node.bounds[k][s] as f64 <= p[k] && p[k] <= node.bounds[3 + k][s] as f64)
@@ -607,96 +606,4 @@ fn ray_boxes_are_the_same_at_every_simd_level() {
         }
     }
     assert!(some > 1500 && none > 1000, "{some} taken, {none} refused");
-}
-
-/// Offers nothing it is given a reason to skip: every box the ray meets is entered, so the
-/// walk's stack grows as far as the tree lets it.
-struct Everything(u32);
-
-impl Gather for Everything {
-    fn reach(&self) -> f64 {
-        f64::INFINITY
-    }
-    fn offer(&mut self, _: u32) -> bool {
-        self.0 += 1;
-        false
-    }
-}
-
-/// The most entries a walk's stack holds below node `k`'s expansion: its children, and of
-/// those left behind while an inner child is expanded, the most over its inner children.
-fn worst_stack(bvh: &ExactBvh, k: u32) -> usize {
-    let children: Vec<Child> = bvh.nodes[k as usize]
-        .child
-        .iter()
-        .map(|&c| Child::of(c))
-        .filter(|c| *c != Child::Empty)
-        .collect();
-    let n = children.len();
-    children
-        .iter()
-        .filter_map(|c| match c {
-            Child::Node(c) => Some(n - 1 + worst_stack(bvh, *c)),
-            _ => None,
-        })
-        .fold(n, usize::max)
-}
-
-/// The walk's stack is a fixed buffer of `stack_len` entries (a bound from the tree's depth,
-/// not a growing Vec): on deep trees (triangles crowded at x = 2^-k, which binning splits
-/// a few at a time, and their mirror image) walked by rays that enter every box they meet and never
-/// settle, at every SIMD level, no walk overflows it (an overflow panics) and
-/// every triangle on the ray is offered.
-#[test]
-fn the_stack_bound_holds_on_deep_trees() {
-    let tiny = |x: f64, y: f64, s: f64| -> Tri { [[x, y, -s], [x + s, y, s], [x, y + s, s]] };
-    let geometric: Vec<Tri> = (0..600)
-        .map(|k| tiny(0.5f64.powi(k / 2), (k % 2) as f64, 1e-3))
-        .collect();
-    // The same, crowded at x = 1 from below.
-    let mirrored: Vec<Tri> = geometric
-        .iter()
-        .map(|t| t.map(|p| [1.0 - p[0], p[1], p[2]]))
-        .collect();
-    let mut offered = 0;
-    for tris in [geometric, mirrored] {
-        for leaf in [1, 2] {
-            let params = ExactBvhParams {
-                cost_ratio: 0.0,
-                max_leaf: leaf,
-                bins: 16,
-                leaf_size: leaf,
-            };
-            let bvh = ExactBvh::build(&tris, params).unwrap();
-            let depth = bvh.shape().2;
-            assert!(depth >= 6, "a deep tree: depth {depth}");
-            // The most any walk can hold: a ray that enters every box, popping inner nodes
-            // last-pushed-first along the deepest path of full nodes.
-            let worst = worst_stack(&bvh, 0);
-            assert!(
-                worst <= bvh.stack_len && 2 * worst > bvh.stack_len,
-                "depth {depth}: a walk can hold {worst}, the stack has {}",
-                bvh.stack_len
-            );
-            // Rays along the x axis through every row of triangles, from both ends.
-            let mut rng = Rng::xorshift(3);
-            for i in 0..400 {
-                let y = (i % 4) as f64 * 0.25 + rng.f() * 1e-3;
-                let (o, d) = if i % 2 == 0 {
-                    ([-1.0, y, 0.0], [1.0, rng.f() * 1e-6, 0.0])
-                } else {
-                    ([2e4, y, 0.0], [-1.0, 0.0, rng.f() * 1e-6])
-                };
-                let line = Line::new(&Ray::new(o, d, 0.0, f64::INFINITY)).unwrap();
-                let want = tris.iter().filter(|t| line.meets(t)).count() as u32;
-                for simd in Simd::supported_levels() {
-                    let mut all = Everything(0);
-                    bvh.walk(&line, &mut all, simd, &mut Vec::new());
-                    assert_eq!(all.0, want, "ray {i} {simd:?}");
-                }
-                offered += want;
-            }
-        }
-    }
-    assert!(offered > 1000, "{offered} triangles on the rays");
 }
