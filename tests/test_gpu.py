@@ -333,28 +333,36 @@ def test_shadow_and_bounce_rays_from_gpu_hits(spot, device):
         spot.cast(start=hits, directions=bounce, device="gpu", method="robust")
 
 
+def _bounded_ray_sets(scene, width, height, n_random, seed):
+    """Camera and random float32 rays on ``scene``, each with ``tmax`` unbounded and short
+    (up to twice the farthest hit, so each ray's first hit falls inside or beyond): yields
+    ``(what, origins, directions, tmax)``."""
+    v = scene.vertices
+    bounds = np.array([v.min(0), v.max(0)])
+    eye, target, up = orbit_views(bounds, n=1, distance=1.6)[0]
+    o, d = pinhole(eye, target, up, fov_deg=40.0, width=width, height=height, dtype=np.float32)
+    ro, rd = random_rays(bounds, n_random, seed=seed, grow=0.25, dtype=np.float32)
+    for what, oo, dd in (("camera", o, d), ("random", ro, rd)):
+        oo = np.broadcast_to(oo, dd.shape)
+        t = scene.cast(oo, dd).t
+        short = np.random.default_rng(seed).uniform(0, 2 * t[np.isfinite(t)].max(), len(dd))
+        for tmax in (np.inf, short):
+            yield what, oo, dd, tmax
+
+
 def test_occluded_on_the_gpu_is_the_cpu_exact_walk(spot, device):
     """``occluded(device="gpu")``: the exact kernel with the any-hit query. Camera and random
     rays with unbounded and short ``tmax``: every status is the CPU exact walk's and the
     referee's (a triangle in [0, tmax]). Other kernels and accelerators are refused."""
-    v = spot.vertices
-    bounds = np.array([v.min(0), v.max(0)])
-    eye, target, up = orbit_views(bounds, n=1, distance=1.6)[0]
-    o, d = pinhole(eye, target, up, fov_deg=40.0, width=160, height=120, dtype=np.float32)
-    ro, rd = random_rays(bounds, 20_000, seed=7, grow=0.25, dtype=np.float32)
     referee = Referee(spot.vertices, spot.faces)
-    for what, oo, dd in (("camera", o, d), ("random", ro, rd)):
-        oo = np.broadcast_to(oo, dd.shape)
-        # Bounds up to twice the farthest hit: each ray's first hit falls inside or beyond.
-        t = spot.cast(oo, dd).t
-        short = np.random.default_rng(3).uniform(0, 2 * t[np.isfinite(t)].max(), len(dd))
-        for tmax in (np.inf, short):
-            got, status = spot.occluded(oo, dd, tmax=tmax, device="gpu", return_status=True)
-            cpu, cpu_status = spot.occluded(oo, dd, tmax=tmax, precision="f32", return_status=True)
-            np.testing.assert_array_equal(status, cpu_status, err_msg=what)
-            want = referee.first_hits(oo, dd, 0.0, np.broadcast_to(tmax, len(dd))).hit
-            np.testing.assert_array_equal(got, want, err_msg=what)
-            assert 0 < got.sum() < len(got), what
+    for what, oo, dd, tmax in _bounded_ray_sets(spot, 160, 120, 20_000, seed=7):
+        got, status = spot.occluded(oo, dd, tmax=tmax, device="gpu", return_status=True)
+        cpu, cpu_status = spot.occluded(oo, dd, tmax=tmax, precision="f32", return_status=True)
+        np.testing.assert_array_equal(status, cpu_status, err_msg=what)
+        want = referee.first_hits(oo, dd, 0.0, np.broadcast_to(tmax, len(dd))).hit
+        np.testing.assert_array_equal(got, want, err_msg=what)
+        assert 0 < got.sum() < len(got), what
+    o, d = np.zeros((8, 3), np.float32), np.ones((8, 3), np.float32)
     with pytest.raises(ValueError, match="exact kernel"):
         spot.occluded(o, d, device="gpu", method="aman2022")
     with pytest.raises(ValueError, match="CPU only"):
@@ -371,31 +379,23 @@ def test_intersections_and_counts_on_the_gpu_are_the_cpu_exact_walk(spot, device
     with the all-hits query. On camera and random rays, unbounded and with short ``tmax``,
     every column is the CPU default's (float32 rays), the lists are the referee's crossings,
     and the counts are the lists' lengths. Other kernels and accelerators are refused."""
-    v = spot.vertices
-    bounds = np.array([v.min(0), v.max(0)])
-    eye, target, up = orbit_views(bounds, n=1, distance=1.6)[0]
-    o, d = pinhole(eye, target, up, fov_deg=40.0, width=96, height=72, dtype=np.float32)
-    ro, rd = random_rays(bounds, 6_000, seed=11, grow=0.25, dtype=np.float32)
     referee = Referee(spot.vertices, spot.faces)
-    for what, oo, dd in (("camera", o, d), ("random", ro, rd)):
-        oo = np.broadcast_to(oo, dd.shape)
-        t = spot.cast(oo, dd).t
-        short = np.random.default_rng(5).uniform(0, 2 * t[np.isfinite(t)].max(), len(dd))
-        for tmax in (np.inf, short):
-            got = spot.intersections(oo, dd, tmax=tmax, device="gpu")
-            cpu = spot.intersections(oo, dd, tmax=tmax, precision="f32")
-            for f in ("offsets", "ray", "t", "triangle", "u", "v", "point", "status"):
-                np.testing.assert_array_equal(getattr(got, f), getattr(cpu, f), err_msg=f)
-            c = referee.crossings(oo, dd, 0.0, np.broadcast_to(tmax, len(dd)))
-            judged = judge_lists(got.offsets, got.t, got.triangle, c)
-            assert judged["right"].all(), (what, {k: int(x.sum()) for k, x in judged.items()})
-            count, status = spot.count_intersections(
-                oo, dd, tmax=tmax, device="gpu", return_status=True
-            )
-            np.testing.assert_array_equal(count, np.diff(got.offsets), err_msg=what)
-            np.testing.assert_array_equal(status, got.status, err_msg=what)
-            # Teeth: rays that cross the surface several times and rays that cross nothing.
-            assert (count > 1).sum() > 0 and (count == 0).sum() > 0, what
+    for what, oo, dd, tmax in _bounded_ray_sets(spot, 96, 72, 6_000, seed=11):
+        got = spot.intersections(oo, dd, tmax=tmax, device="gpu")
+        cpu = spot.intersections(oo, dd, tmax=tmax, precision="f32")
+        for f in ("offsets", "ray", "t", "triangle", "u", "v", "point", "status"):
+            np.testing.assert_array_equal(getattr(got, f), getattr(cpu, f), err_msg=f)
+        c = referee.crossings(oo, dd, 0.0, np.broadcast_to(tmax, len(dd)))
+        judged = judge_lists(got.offsets, got.t, got.triangle, c)
+        assert judged["right"].all(), (what, {k: int(x.sum()) for k, x in judged.items()})
+        count, status = spot.count_intersections(
+            oo, dd, tmax=tmax, device="gpu", return_status=True
+        )
+        np.testing.assert_array_equal(count, np.diff(got.offsets), err_msg=what)
+        np.testing.assert_array_equal(status, got.status, err_msg=what)
+        # Teeth: rays that cross the surface several times and rays that cross nothing.
+        assert (count > 1).sum() > 0 and (count == 0).sum() > 0, what
+    o, d = np.zeros((8, 3), np.float32), np.ones((8, 3), np.float32)
     with pytest.raises(ValueError, match="exact kernel"):
         spot.intersections(o, d, device="gpu", method="aman2022")
     with pytest.raises(ValueError, match="CPU only"):

@@ -43,12 +43,7 @@ fn gpu_intersections_are_the_cpu_exact_walk() {
         d.extend(gd);
         let n = o.len() / 3;
         // Bounds that end some lists early: short, long and unbounded.
-        let tmax: Vec<f64> = (0..n)
-            .map(|i| match i % 3 {
-                0 => f64::INFINITY,
-                _ => rng.f() * 1.5,
-            })
-            .collect();
+        let tmax = mixed_tmax(n, &mut rng);
         let rays = Rays {
             origins: &o,
             directions: &d,

@@ -223,6 +223,17 @@ fn grid_scene_with(
     (scene, tris)
 }
 
+/// Ray bounds that end some walks early: every third unbounded, the others uniform in
+/// [0, 1.5) (the grid scenes' box is about 1 across).
+fn mixed_tmax(n: usize, rng: &mut Rng) -> Vec<f64> {
+    (0..n)
+        .map(|i| match i % 3 {
+            0 => f64::INFINITY,
+            _ => rng.f() * 1.5,
+        })
+        .collect()
+}
+
 /// Random rays from inside and around the scene, and a pinhole camera from outside the box.
 fn rays(n: usize, offset: f64, seed: u64) -> (Vec<f32>, Vec<f32>) {
     let mut rng = Rng::xorshift(seed);

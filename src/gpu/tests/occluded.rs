@@ -20,12 +20,7 @@ fn gpu_occluded_is_the_cpu_exact_walk() {
         let n = o.len() / 3;
         // Shadow-ray bounds: short, long and unbounded, so the first face decides both ways.
         let mut rng = Rng::xorshift(seed + 2);
-        let tmax: Vec<f64> = (0..n)
-            .map(|i| match i % 3 {
-                0 => f64::INFINITY,
-                _ => rng.f() * 1.5,
-            })
-            .collect();
+        let tmax = mixed_tmax(n, &mut rng);
         let rays = Rays {
             origins: &o,
             directions: &d,
