@@ -10,8 +10,11 @@ use crate::layout::LayoutKind;
 use crate::query::Listed;
 use crate::status::HIT;
 
+/// One point's t, u, v, point (as bits) and triangle.
+type MeetBits = (u64, u64, u64, [u64; 3], u32);
+
 /// A list's numbers as bits, so that equal means bit for bit (and NaN equals NaN).
-fn bits(l: &Listed) -> (u8, Vec<(u64, u64, u64, [u64; 3], u32)>) {
+fn bits(l: &Listed) -> (u8, Vec<MeetBits>) {
     let meets = l.meets.iter().map(|m| {
         (
             m.t.to_bits(),
