@@ -195,24 +195,9 @@ macro_rules! walk_loop {
                 }
                 Child::Leaf { first, count } => {
                     let range = first as usize..(first + count) as usize;
-                    // The leaf's triangles the ray may meet (a bit per triangle): the others
-                    // surely miss, by side products of certain opposite signs; and those it
-                    // surely meets in its plane (three certain signs alike).
                     let $tris = &bvh.triangles[range.clone()];
-                    let (mut may, mut sure): (u32, u32) = $filter;
-                    for j in range {
-                        let (test, met) = (may & 1 != 0, sure & 1 != 0);
-                        (may, sure) = (may >> 1, sure >> 1);
-                        if !test {
-                            continue;
-                        }
-                        let settled = match leaf_meets(line, &bvh.triangles[j], met) {
-                            Some(at) => gather.offer_at(bvh.order[j], at),
-                            None => G::IN_PLANE && gather.in_plane(bvh.order[j]),
-                        };
-                        if settled {
-                            return visited;
-                        }
+                    if offer_leaf(bvh, line, gather, range, $filter) {
+                        return visited;
                     }
                 }
                 Child::Empty => {}
@@ -404,16 +389,42 @@ impl ExactBvh {
     }
 }
 
-/// Whether the ray meets a leaf's triangle at one point in range, with its float crossing
-/// ([`Line::meets_at`]); `sure`: the leaf filter certified its three side products of one
-/// sign, so only the range is left to decide ([`Line::crosses_at`]).
+/// Offers `gather` the triangles of the leaf `range` that the ray meets at one point in
+/// range, in leaf order; true: the answer is settled. `(may, sure)` are the leaf filter's
+/// masks (a bit per triangle): a triangle not in `may` surely misses (side products of certain
+/// opposite signs) and is skipped; one in `sure` has its three side products certified of one
+/// sign, so only its crossing's range is left to decide ([`Line::crosses_at`]); the rest take
+/// the exact test ([`Line::meets_at`]). A triangle tested and not met is told to a gatherer
+/// that asks ([`Gather::in_plane`]). One ray's walk and each ray of a packet go through it.
 #[inline(always)]
-fn leaf_meets(line: &Line, tri: &Tri, sure: bool) -> Option<(f64, f64)> {
-    if sure {
-        line.crosses_at(tri)
-    } else {
-        line.meets_at(tri)
+fn offer_leaf<G: Gather>(
+    bvh: &ExactBvh,
+    line: &Line,
+    gather: &mut G,
+    range: std::ops::Range<usize>,
+    (mut may, mut sure): (u32, u32),
+) -> bool {
+    for j in range {
+        let (test, certified) = (may & 1 != 0, sure & 1 != 0);
+        (may, sure) = (may >> 1, sure >> 1);
+        if !test {
+            continue;
+        }
+        let tri = &bvh.triangles[j];
+        let met = if certified {
+            line.crosses_at(tri)
+        } else {
+            line.meets_at(tri)
+        };
+        let settled = match met {
+            Some(at) => gather.offer_at(bvh.order[j], at),
+            None => G::IN_PLANE && gather.in_plane(bvh.order[j]),
+        };
+        if settled {
+            return true;
+        }
     }
+    false
 }
 
 /// Pushes the children in `mask`, farthest first (the nearest is popped first); of equal

@@ -145,8 +145,6 @@ pub struct Containment<'a> {
     pub parity: &'a Parity,
 }
 
-/// Refuses arguments no containment query can run with: `points` must hold 3 values per
-/// entry of `out`, and `threads` must not be `Some(0)`.
 /// `answer(p, state)` for every point p (`points`: x y z of each, 3N values) into `out` (N),
 /// in pieces of [`CHUNK`] points on the pool's threads (interruptible, `run_pieces`), after
 /// [`check`]; `state(k)` is made fresh for piece k, so answers do not depend on the schedule.
@@ -177,6 +175,8 @@ pub fn per_point<R: Real, O: Send, S>(
     )
 }
 
+/// Refuses arguments no containment query can run with: `points` must hold 3 values per
+/// entry of `out`, and `threads` must not be `Some(0)`.
 pub fn check(n_values: usize, n_out: usize, threads: Option<usize>) -> Result<()> {
     if n_values != 3 * n_out {
         return Err(Error::InvalidInput(format!(

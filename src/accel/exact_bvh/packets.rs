@@ -119,22 +119,10 @@ macro_rules! packet_loop {
                         bits &= bits - 1;
                         let ray = &mut rays[i];
                         let $line = &ray.line;
-                        let (mut may, mut sure): (u32, u32) = $filter;
-                        for j in range.clone() {
-                            let (test, met) = (may & 1 != 0, sure & 1 != 0);
-                            (may, sure) = (may >> 1, sure >> 1);
-                            if !test {
-                                continue;
-                            }
-                            let settled = match super::leaf_meets(&ray.line, &bvh.triangles[j], met)
-                            {
-                                Some(at) => ray.gather.offer_at(bvh.order[j], at),
-                                None => false,
-                            };
-                            if settled {
-                                live &= !(1u64 << i);
-                                break;
-                            }
+                        let masks: (u32, u32) = $filter;
+                        if super::offer_leaf(bvh, &ray.line, &mut ray.gather, range.clone(), masks)
+                        {
+                            live &= !(1u64 << i);
                         }
                     }
                     if live == 0 {
