@@ -158,40 +158,52 @@ impl ExactBvhParams {
     }
 }
 
-/// The walk, written once: `$test(node, tmin, reach)` is the box test. A macro rather than a
-/// generic function so that the AVX2 walk's test is written inside the function that has
-/// the target features, where LLVM inlines it (through a generic function or a closure it
-/// stayed a call per node).
+/// The walk, written once: `$test(node, tmin, reach, t0, t1)` is the box test, with the ray's
+/// range in float64 and rounded outward to float32 ([`RayBoxes::range`]; `t0` is fixed for the
+/// ray, `t1` moves only when a leaf's offers lower the reach, so both are kept rather than
+/// rounded at every node). A macro rather than a generic function so that the AVX2 walk's test
+/// is written inside the function that has the target features, where LLVM inlines it
+/// (through a generic function or a closure it stayed a call per node).
+///
+/// Children are visited nearest entry first (a stack, pushed farthest first). A node with one
+/// child in reach goes straight on to it, without the stack: the same order as pushing and
+/// popping it.
 macro_rules! walk_loop {
-    ($bvh:expr, $line:expr, $gather:expr, $stack:expr, |$node:ident, $tmin:ident, $reach:ident| $test:expr) => {
+    ($bvh:expr, $line:expr, $gather:expr, $stack:expr, |$node:ident, $tmin:ident, $reach:ident, $t0:ident, $t1:ident| $test:expr) => {
         walk_loop!(
             $bvh,
             $line,
             $gather,
             $stack,
-            |$node, $tmin, $reach| $test,
+            |$node, $tmin, $reach, $t0, $t1| $test,
             |_tris| (u32::MAX, 0)
         )
     };
-    ($bvh:expr, $line:expr, $gather:expr, $stack:expr, |$node:ident, $tmin:ident, $reach:ident| $test:expr, |$tris:ident| $filter:expr) => {{
+    ($bvh:expr, $line:expr, $gather:expr, $stack:expr, |$node:ident, $tmin:ident, $reach:ident, $t0:ident, $t1:ident| $test:expr, |$tris:ident| $filter:expr) => {{
         let (bvh, line, gather, stack) = ($bvh, $line, $gather, $stack);
         stack.clear();
-        stack.push((0, 0.0));
         let mut visited = 0;
-        while let Some((code, near)) = stack.pop() {
-            // `near` is a lower bound on the entry, less an absolute slack for what underflows.
-            if (near as f64) - (f32::MIN_POSITIVE as f64) > gather.reach() {
-                continue;
-            }
-            // A box entered (the root has none of its own: a ray that misses every box of the
-            // scene visited nothing, as on Reshetov's tree).
-            visited += (code != 0) as u32;
+        let $tmin = line.tmin;
+        let mut $reach = gather.reach();
+        let ($t0, mut $t1) = RayBoxes::range($tmin, $reach);
+        // The root (it has no box of its own: a ray that misses every box of the scene
+        // visited nothing, as on Reshetov's tree).
+        let mut code = 0u32;
+        loop {
             match Child::of(code) {
                 Child::Node(k) => {
                     let $node = &bvh.nodes[k as usize];
-                    let ($tmin, $reach) = (line.tmin, gather.reach());
                     let (mask, nears) = $test;
-                    push_sorted(stack, $node, mask, &nears);
+                    if mask != 0 && mask & (mask - 1) == 0 {
+                        let s = mask.trailing_zeros() as usize;
+                        if !beyond_reach(nears[s], $reach) {
+                            code = $node.child[s];
+                            visited += 1;
+                            continue;
+                        }
+                    } else if mask != 0 {
+                        push_sorted(stack, $node, mask, &nears);
+                    }
                 }
                 Child::Leaf { first, count } => {
                     let range = first as usize..(first + count) as usize;
@@ -199,25 +211,51 @@ macro_rules! walk_loop {
                     if offer_leaf(bvh, line, gather, range, $filter) {
                         return visited;
                     }
+                    let reach = gather.reach();
+                    if reach != $reach {
+                        $reach = reach;
+                        $t1 = RayBoxes::range($tmin, $reach).1;
+                    }
                 }
                 Child::Empty => {}
             }
+            // The nearest child left on the stack within reach, a box entered.
+            loop {
+                let Some((next, near)) = stack.pop() else {
+                    return visited;
+                };
+                if !beyond_reach(near, $reach) {
+                    code = next;
+                    visited += 1;
+                    break;
+                }
+            }
         }
-        visited
     }};
 }
 
-/// The same test in AVX2 + FMA, eight children at once: a macro, to be written inside a
-/// function compiled with those features (no closures: they do not take the features).
+/// Whether a box whose entry is bounded below by `near` (less an absolute slack for what
+/// underflows) lies beyond the reach: then it is skipped.
+#[inline(always)]
+fn beyond_reach(near: f32, reach: f64) -> bool {
+    (near as f64) - (f32::MIN_POSITIVE as f64) > reach
+}
+
+/// The same test in AVX2 + FMA, eight children at once, within the float32 range `[t0, t1]`
+/// ([`RayBoxes::range`]): a macro, to be written inside a function compiled with those
+/// features (no closures: they do not take the features).
 #[cfg(target_arch = "x86_64")]
 macro_rules! avx2_box_test {
-    ($r:expr, $node:expr, $tmin:expr, $reach:expr) => {{
+    ($r:expr, $node:expr, $t0:expr, $t1:expr) => {{
         use std::arch::x86_64::*;
         let (r, b): (&RayBoxes, &[[f32; WIDTH]; 6]) = ($r, &$node.bounds);
-        let (t0, t1) = RayBoxes::range($tmin, $reach);
-        // Rows are 32-byte aligned (Node8 is, and each row is 32 bytes).
-        let [n0, n1, n2] = r.near.map(|i| _mm256_load_ps(b[i].as_ptr()));
-        let [f0, f1, f2] = r.far.map(|i| _mm256_load_ps(b[i].as_ptr()));
+        let (t0, t1): (f32, f32) = ($t0, $t1);
+        // Rows are 32-byte aligned (Node8 is, and each row is 32 bytes). SAFETY: `near` and
+        // `far` hold rows k and k + 3 (k < 3) only, as `RayBoxes` builds them: within the six
+        // (unchecked: a bounds check per row was a compare and a branch at every node).
+        let row = |i: usize| _mm256_load_ps(b.as_ptr().cast::<f32>().add(i * WIDTH));
+        let [n0, n1, n2] = r.near.map(|i| row(i));
+        let [f0, f1, f2] = r.far.map(|i| row(i));
         let [i0, i1, i2] = r.inv.map(|x| _mm256_set1_ps(x));
         let [cn0, cn1, cn2] = r.neg_c_near.map(|x| _mm256_set1_ps(x));
         let [cf0, cf1, cf2] = r.neg_c_far.map(|x| _mm256_set1_ps(x));
@@ -259,6 +297,98 @@ macro_rules! avx2_box_test {
         let mut nears = [0.0f32; WIDTH];
         _mm256_storeu_ps(nears.as_mut_ptr(), near);
         (_mm256_movemask_ps(hit) as u32, nears)
+    }};
+}
+
+/// [`may_meet_avx2`] as a macro, to be expanded inside a function compiled with AVX2 and FMA
+/// (the walk's): as a function it stayed a call per leaf, with the walk's registers saved
+/// around it and the ray's constants broadcast again each time.
+#[cfg(target_arch = "x86_64")]
+macro_rules! may_meet_avx2 {
+    ($line:expr, $tris:expr) => {{
+        use crate::geom::exact::{DET_BOUND, TINY};
+        use std::arch::x86_64::*;
+        // No closures here: they do not take the target features, and stayed calls.
+        let (line, tris): (&crate::query::gather::Line, &[crate::query::gather::Tri]) =
+            ($line, $tris);
+        let (o, d) = (line.o, line.dir);
+        let mut dv = [_mm256_setzero_pd(); 3];
+        let mut da = [_mm256_setzero_pd(); 3];
+        let mut ov = [_mm256_setzero_pd(); 3];
+        for k in 0..3 {
+            dv[k] = _mm256_set1_pd(d[k]);
+            da[k] = _mm256_set1_pd(d[k].abs());
+            ov[k] = _mm256_set1_pd(o[k]);
+        }
+        let sign = _mm256_set1_pd(-0.0);
+        let (bound_k, tiny, inf) = (
+            _mm256_set1_pd(DET_BOUND),
+            _mm256_set1_pd(TINY),
+            _mm256_set1_pd(f64::INFINITY),
+        );
+        debug_assert!(tris.len() <= 32, "a bit per triangle in a u32");
+        let (mut may, mut sure) = (0u32, 0u32);
+        let all = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
+        for (block, four) in tris.chunks(4).enumerate() {
+            // Four triangles (a short block repeats its last: those lanes are not read).
+            let last = four.len() - 1;
+            let t = [
+                &four[0],
+                &four[1.min(last)],
+                &four[2.min(last)],
+                &four[last],
+            ];
+            // Corner v's coordinate k minus the origin's, per lane.
+            let mut p = [[_mm256_setzero_pd(); 3]; 3];
+            for v in 0..3 {
+                for k in 0..3 {
+                    let x = _mm256_set_pd(t[3][v][k], t[2][v][k], t[1][v][k], t[0][v][k]);
+                    p[v][k] = _mm256_sub_pd(x, ov[k]);
+                }
+            }
+            let (mut pos, mut neg) = (_mm256_setzero_pd(), _mm256_setzero_pd());
+            let (mut pos_all, mut neg_all) = (all, all);
+            for k in 0..3 {
+                let (b, c) = (&p[k], &p[(k + 1) % 3]);
+                // det_perm(d, b, c), term by term.
+                let (b1c2, b2c1) = (_mm256_mul_pd(b[1], c[2]), _mm256_mul_pd(b[2], c[1]));
+                let (b0c2, b2c0) = (_mm256_mul_pd(b[0], c[2]), _mm256_mul_pd(b[2], c[0]));
+                let (b0c1, b1c0) = (_mm256_mul_pd(b[0], c[1]), _mm256_mul_pd(b[1], c[0]));
+                let (m0, m1, m2) = (
+                    _mm256_sub_pd(b1c2, b2c1),
+                    _mm256_sub_pd(b0c2, b2c0),
+                    _mm256_sub_pd(b0c1, b1c0),
+                );
+                let det = _mm256_add_pd(
+                    _mm256_sub_pd(_mm256_mul_pd(dv[0], m0), _mm256_mul_pd(dv[1], m1)),
+                    _mm256_mul_pd(dv[2], m2),
+                );
+                let (a12, a21) = (_mm256_andnot_pd(sign, b1c2), _mm256_andnot_pd(sign, b2c1));
+                let (a02, a20) = (_mm256_andnot_pd(sign, b0c2), _mm256_andnot_pd(sign, b2c0));
+                let (a01, a10) = (_mm256_andnot_pd(sign, b0c1), _mm256_andnot_pd(sign, b1c0));
+                let perm = _mm256_add_pd(
+                    _mm256_add_pd(
+                        _mm256_mul_pd(da[0], _mm256_add_pd(a12, a21)),
+                        _mm256_mul_pd(da[1], _mm256_add_pd(a02, a20)),
+                    ),
+                    _mm256_mul_pd(da[2], _mm256_add_pd(a01, a10)),
+                );
+                let bound = _mm256_mul_pd(bound_k, perm);
+                let ok = _mm256_and_pd(
+                    _mm256_cmp_pd::<_CMP_GT_OQ>(perm, tiny),
+                    _mm256_cmp_pd::<_CMP_LT_OQ>(perm, inf),
+                );
+                let neg_det = _mm256_xor_pd(det, sign);
+                let p = _mm256_and_pd(ok, _mm256_cmp_pd::<_CMP_GT_OQ>(det, bound));
+                let n = _mm256_and_pd(ok, _mm256_cmp_pd::<_CMP_GT_OQ>(neg_det, bound));
+                (pos, neg) = (_mm256_or_pd(pos, p), _mm256_or_pd(neg, n));
+                (pos_all, neg_all) = (_mm256_and_pd(pos_all, p), _mm256_and_pd(neg_all, n));
+            }
+            let out = _mm256_movemask_pd(_mm256_and_pd(pos, neg)) as u32;
+            may |= (!out & 0xf) << (4 * block);
+            sure |= (_mm256_movemask_pd(_mm256_or_pd(pos_all, neg_all)) as u32) << (4 * block);
+        }
+        (may, sure)
     }};
 }
 
@@ -371,8 +501,8 @@ impl ExactBvh {
             line,
             gather,
             stack,
-            |node, tmin, reach| avx2_box_test!(&r, node, tmin, reach),
-            |tris| may_meet_avx2(line, tris)
+            |node, _tmin, _reach, t0, t1| avx2_box_test!(&r, node, t0, t1),
+            |tris| may_meet_avx2!(line, tris)
         )
     }
 
@@ -384,8 +514,9 @@ impl ExactBvh {
         stack: &mut Vec<(u32, f32)>,
         test: &T,
     ) -> u32 {
-        walk_loop!(self, line, gather, stack, |node, tmin, reach| test
-            .test(node, tmin, reach))
+        walk_loop!(self, line, gather, stack, |node, tmin, reach, _t0, _t1| {
+            test.test(node, tmin, reach)
+        })
     }
 }
 
@@ -402,16 +533,18 @@ fn offer_leaf<G: Gather>(
     line: &Line,
     gather: &mut G,
     range: std::ops::Range<usize>,
-    (mut may, mut sure): (u32, u32),
+    (may, sure): (u32, u32),
 ) -> bool {
-    for j in range {
-        let (test, certified) = (may & 1 != 0, sure & 1 != 0);
-        (may, sure) = (may >> 1, sure >> 1);
-        if !test {
-            continue;
-        }
+    // The leaf's bits of `may` (a filter's short block sets bits past the leaf), visited set
+    // bit by set bit: most triangles are left out.
+    debug_assert!((1..=MAX_LEAF as usize).contains(&range.len()));
+    let mut left = may & (u32::MAX >> (32 - range.len()));
+    while left != 0 {
+        let i = left.trailing_zeros();
+        left &= left - 1;
+        let j = range.start + i as usize;
         let tri = &bvh.triangles[j];
-        let met = if certified {
+        let met = if sure >> i & 1 != 0 {
             line.crosses_at(tri)
         } else {
             line.meets_at(tri)
@@ -434,9 +567,12 @@ fn push_sorted(stack: &mut Vec<(u32, f32)>, node: &Node8, mask: u32, nears: &[f3
     push_by_entry(stack, mask, |s| (node.child[s], nears[s]), |e| e.1);
 }
 
-/// Pushes `item(slot)` for each slot in `mask` in decreasing order of `entry` (insertion
-/// among the entries pushed here), so that the nearest is popped first; of equal entries the
-/// later slot is popped first. One ray's walk and the packets' push through it.
+/// Pushes `item(slot)` for each slot in `mask` (one bit per child) in decreasing order of
+/// `entry` (insertion among the entries pushed here), so that the nearest is popped first; of
+/// equal entries the later slot is popped first. One ray's walk and the packets' push through
+/// it. Room for a node's children is reserved once and the insertion writes in place: `Vec`'s
+/// push and indexing cost a capacity check and a bounds check per child and per move, about
+/// 200 instructions a camera ray.
 #[inline(always)]
 fn push_by_entry<T: Copy>(
     stack: &mut Vec<T>,
@@ -444,20 +580,30 @@ fn push_by_entry<T: Copy>(
     item: impl Fn(usize) -> T,
     entry: impl Fn(&T) -> f32,
 ) {
+    stack.reserve(WIDTH);
     let base = stack.len();
-    let mut m = mask;
+    let p = stack.as_mut_ptr();
+    let mut top = base;
+    let mut m = mask & ((1 << WIDTH) - 1);
     while m != 0 {
         let slot = m.trailing_zeros() as usize;
         m &= m - 1;
         let item = item(slot);
-        let mut i = stack.len();
-        stack.push(item);
-        while i > base && entry(&stack[i - 1]) < entry(&item) {
-            stack[i] = stack[i - 1];
-            i -= 1;
+        // SAFETY: at most WIDTH items are written (one per bit of m), so every index here is
+        // below base + WIDTH, within the capacity reserved; those below `top` were written in
+        // this loop.
+        unsafe {
+            let mut i = top;
+            while i > base && entry(&*p.add(i - 1)) < entry(&item) {
+                p.add(i).write(*p.add(i - 1));
+                i -= 1;
+            }
+            p.add(i).write(item);
         }
-        stack[i] = item;
+        top += 1;
     }
+    // SAFETY: base..top were written above, within the capacity.
+    unsafe { stack.set_len(top) };
 }
 
 /// Of a leaf's triangles (at most [`MAX_LEAF`]), those the ray may meet (bit j for `tris[j]`): a triangle is left out
@@ -472,91 +618,12 @@ fn push_by_entry<T: Copy>(
 /// Second, those whose three side products it certified of one sign (bit j of the second
 /// mask): `triangle_sides` would give the same three signs, so the line meets the closed
 /// triangle at one point and `Line::crosses_at` decides the rest without them.
-#[cfg(target_arch = "x86_64")]
+///
+/// The walks expand it as the macro [`may_meet_avx2!`]; this function is what the tests call.
+#[cfg(all(test, target_arch = "x86_64"))]
 #[target_feature(enable = "avx2,fma")]
-#[inline]
 unsafe fn may_meet_avx2(line: &Line, tris: &[Tri]) -> (u32, u32) {
-    use crate::geom::exact::{DET_BOUND, TINY};
-    use std::arch::x86_64::*;
-    // No closures here: they do not take the target features, and stayed calls.
-    let (o, d) = (line.o, line.dir);
-    let mut dv = [_mm256_setzero_pd(); 3];
-    let mut da = [_mm256_setzero_pd(); 3];
-    let mut ov = [_mm256_setzero_pd(); 3];
-    for k in 0..3 {
-        dv[k] = _mm256_set1_pd(d[k]);
-        da[k] = _mm256_set1_pd(d[k].abs());
-        ov[k] = _mm256_set1_pd(o[k]);
-    }
-    let sign = _mm256_set1_pd(-0.0);
-    let (bound_k, tiny, inf) = (
-        _mm256_set1_pd(DET_BOUND),
-        _mm256_set1_pd(TINY),
-        _mm256_set1_pd(f64::INFINITY),
-    );
-    debug_assert!(tris.len() <= 32, "a bit per triangle in a u32");
-    let (mut may, mut sure) = (0u32, 0u32);
-    let all = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
-    for (block, four) in tris.chunks(4).enumerate() {
-        // Four triangles (a short block repeats its last: those lanes are not read).
-        let last = four.len() - 1;
-        let t = [
-            &four[0],
-            &four[1.min(last)],
-            &four[2.min(last)],
-            &four[last],
-        ];
-        // Corner v's coordinate k minus the origin's, per lane.
-        let mut p = [[_mm256_setzero_pd(); 3]; 3];
-        for v in 0..3 {
-            for k in 0..3 {
-                let x = _mm256_set_pd(t[3][v][k], t[2][v][k], t[1][v][k], t[0][v][k]);
-                p[v][k] = _mm256_sub_pd(x, ov[k]);
-            }
-        }
-        let (mut pos, mut neg) = (_mm256_setzero_pd(), _mm256_setzero_pd());
-        let (mut pos_all, mut neg_all) = (all, all);
-        for k in 0..3 {
-            let (b, c) = (&p[k], &p[(k + 1) % 3]);
-            // det_perm(d, b, c), term by term.
-            let (b1c2, b2c1) = (_mm256_mul_pd(b[1], c[2]), _mm256_mul_pd(b[2], c[1]));
-            let (b0c2, b2c0) = (_mm256_mul_pd(b[0], c[2]), _mm256_mul_pd(b[2], c[0]));
-            let (b0c1, b1c0) = (_mm256_mul_pd(b[0], c[1]), _mm256_mul_pd(b[1], c[0]));
-            let (m0, m1, m2) = (
-                _mm256_sub_pd(b1c2, b2c1),
-                _mm256_sub_pd(b0c2, b2c0),
-                _mm256_sub_pd(b0c1, b1c0),
-            );
-            let det = _mm256_add_pd(
-                _mm256_sub_pd(_mm256_mul_pd(dv[0], m0), _mm256_mul_pd(dv[1], m1)),
-                _mm256_mul_pd(dv[2], m2),
-            );
-            let (a12, a21) = (_mm256_andnot_pd(sign, b1c2), _mm256_andnot_pd(sign, b2c1));
-            let (a02, a20) = (_mm256_andnot_pd(sign, b0c2), _mm256_andnot_pd(sign, b2c0));
-            let (a01, a10) = (_mm256_andnot_pd(sign, b0c1), _mm256_andnot_pd(sign, b1c0));
-            let perm = _mm256_add_pd(
-                _mm256_add_pd(
-                    _mm256_mul_pd(da[0], _mm256_add_pd(a12, a21)),
-                    _mm256_mul_pd(da[1], _mm256_add_pd(a02, a20)),
-                ),
-                _mm256_mul_pd(da[2], _mm256_add_pd(a01, a10)),
-            );
-            let bound = _mm256_mul_pd(bound_k, perm);
-            let ok = _mm256_and_pd(
-                _mm256_cmp_pd::<_CMP_GT_OQ>(perm, tiny),
-                _mm256_cmp_pd::<_CMP_LT_OQ>(perm, inf),
-            );
-            let neg_det = _mm256_xor_pd(det, sign);
-            let p = _mm256_and_pd(ok, _mm256_cmp_pd::<_CMP_GT_OQ>(det, bound));
-            let n = _mm256_and_pd(ok, _mm256_cmp_pd::<_CMP_GT_OQ>(neg_det, bound));
-            (pos, neg) = (_mm256_or_pd(pos, p), _mm256_or_pd(neg, n));
-            (pos_all, neg_all) = (_mm256_and_pd(pos_all, p), _mm256_and_pd(neg_all, n));
-        }
-        let out = _mm256_movemask_pd(_mm256_and_pd(pos, neg)) as u32;
-        may |= (!out & 0xf) << (4 * block);
-        sure |= (_mm256_movemask_pd(_mm256_or_pd(pos_all, neg_all)) as u32) << (4 * block);
-    }
-    (may, sure)
+    may_meet_avx2!(line, tris)
 }
 
 /// Collapses the binary tree (node 0 its root) into 8-wide nodes. A binary subtree of at
@@ -874,7 +941,8 @@ impl BoxTest for RayBoxes {
 #[target_feature(enable = "avx2,fma")]
 #[inline]
 unsafe fn avx2_test(r: &RayBoxes, node: &Node8, tmin: f64, reach: f64) -> (u32, [f32; WIDTH]) {
-    avx2_box_test!(r, node, tmin, reach)
+    let (t0, t1) = RayBoxes::range(tmin, reach);
+    avx2_box_test!(r, node, t0, t1)
 }
 
 /// Reshetov's float64 slab test on each child (rays the float32 test does not take).

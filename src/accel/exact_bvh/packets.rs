@@ -165,8 +165,11 @@ impl ExactBvhPackets<'_> {
             self.bvh,
             rays,
             stack,
-            |r, node, tmin, reach| avx2_box_test!(r, node, tmin, reach),
-            |line, tris| super::may_meet_avx2(line, tris)
+            |r, node, tmin, reach| {
+                let (t0, t1) = RayBoxes::range(tmin, reach);
+                avx2_box_test!(r, node, t0, t1)
+            },
+            |line, tris| may_meet_avx2!(line, tris)
         )
     }
 }
