@@ -4,11 +4,12 @@
 use super::contact::{ExactRay, Meet, Range};
 use super::gather::{Line, Nearest};
 use super::{Crossing, Decision, Query, QueryKind};
-use crate::geom::narrow::triangle_hit32;
+use crate::geom::narrow::triangle_hit32_at;
 use crate::geom::rounded::RoundedHit;
 use crate::geom::triangle::{intersect_triangle, on_triangle};
 use crate::locate::WalkStart;
 use crate::mesh::{Incidence, Surface, TetMesh};
+use crate::simd::Simd;
 use crate::status::{FAILED, HIT, MISS};
 use crate::traverse::{Contact, Touch, Walk, WalkEnd};
 
@@ -49,10 +50,11 @@ pub struct ClosestHit<'a> {
     pub mesh: &'a TetMesh,
     pub surface: &'a Surface,
     pub incidence: &'a Incidence,
-    /// The answers are stored in float32: an accelerator that tests triangles rounds the hit
-    /// straight to float32 where a float64 evaluation shows those bits
-    /// (`geom::narrow::triangle_hit32`), the same the faithful values round to.
-    pub narrow: bool,
+    /// Some: the answers are stored in float32, and an accelerator that tests triangles rounds
+    /// the hit straight to float32 where a float64 evaluation shows those bits
+    /// (`geom::narrow::triangle_hit32`, at this SIMD level: the same bits at every level), the
+    /// same the faithful values round to.
+    pub narrow: Option<Simd>,
 }
 
 /// The closest-hit walk policy. A float method's walk stops at the first constrained face
@@ -146,8 +148,7 @@ impl<'a> QueryKind for ClosestHit<'a> {
         let line = &g.line;
         let fast = self
             .narrow
-            .then(|| triangle_hit32(line.o, line.d, &g.triangles[id as usize]))
-            .flatten();
+            .and_then(|simd| triangle_hit32_at(simd, line.o, line.d, &g.triangles[id as usize]));
         r.status = HIT;
         r.triangle = id as i32;
         match fast {

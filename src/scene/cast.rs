@@ -244,7 +244,7 @@ impl Scene {
     ) -> Result<()> {
         // Float32 answers may be rounded straight to float32 (the same bits).
         let closest = ClosestHit {
-            narrow: R::NAME == "f32",
+            narrow: (R::NAME == "f32").then(|| opts.simd_level()).transpose()?,
             ..self.closest()
         };
         match job {

@@ -277,7 +277,7 @@ impl Scene {
             mesh: &self.mesh,
             surface: &self.surface,
             incidence: &self.incidence,
-            narrow: false,
+            narrow: None,
         }
     }
 

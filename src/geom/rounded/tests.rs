@@ -3,9 +3,10 @@
 //! angles where the old formula lost digits, and where the filter must hand over.
 
 use super::*;
-use crate::geom::narrow::triangle_hit32;
+use crate::geom::narrow::{triangle_hit32, triangle_hit32_at, Hit32};
 use crate::geom::real::exponent;
 use crate::rng::Rng;
+use crate::simd::Simd;
 use num_bigint::BigInt;
 use num_rational::BigRational;
 use num_traits::{Signed, Zero};
@@ -136,7 +137,7 @@ fn check32(
     exact: &[Q; 6],
     what: &str,
 ) -> bool {
-    let Some(n) = triangle_hit32(o, d, tri) else {
+    let Some(n) = hit32_at_every_level(o, d, tri, what) else {
         return false;
     };
     let slow = [h.t, h.u, h.v, h.point[0], h.point[1], h.point[2]];
@@ -156,6 +157,68 @@ fn check32(
         );
     }
     true
+}
+
+/// `triangle_hit32`, after checking that every SIMD level this CPU runs gives the same answer
+/// bit for bit (declining where it declines).
+fn hit32_at_every_level(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3], what: &str) -> Option<Hit32> {
+    let bits = |h: Option<Hit32>| {
+        h.map(|h| [h.t, h.u, h.v, h.point[0], h.point[1], h.point[2]].map(f32::to_bits))
+    };
+    let portable = triangle_hit32(o, d, tri);
+    for simd in Simd::supported_levels() {
+        assert_eq!(
+            bits(triangle_hit32_at(simd, o, d, tri)),
+            bits(portable),
+            "{what}: {simd:?} differs from the portable code"
+        );
+    }
+    portable
+}
+
+/// Every SIMD level of `triangle_hit32` answers as the portable code, bit for bit, and
+/// declines where it declines: hits at scales from 2^-60 to 2^60 (where the slack decides
+/// between answering and declining at random), grazing rays (a denominator within its bound),
+/// slivers, rays aimed at corners and edges, and operands whose permanents underflow below
+/// TINY or overflow.
+#[test]
+fn float32_hits_are_the_same_at_every_simd_level() {
+    if cfg!(target_arch = "x86_64") && std::env::var_os("CI").is_some() {
+        assert!(Simd::Avx2.supported(), "CI must compare the AVX2 level");
+    }
+    let mut rng = Rng::new(0x5132);
+    let (mut answered, mut declined) = (0, 0);
+    for i in 0..20_000u64 {
+        let scale = 2f64.powi(rng.below(121) as i32 - 60);
+        let mut tri = random_triangle(&mut rng, [0.0; 3], scale);
+        if rng.chance(0.1) {
+            // A sliver: the third corner on (or an ulp from) the first edge.
+            tri[2] = [0, 1, 2].map(|k| tri[0][k] + 0.5 * (tri[1][k] - tri[0][k]));
+        }
+        let kind = rng.below(3) as u64;
+        let target = aim(&mut rng, &tri, kind);
+        let o = unit(&mut rng).map(|x| x * scale * (0.01 + 100.0 * rng.f()));
+        let mut d = [0, 1, 2].map(|k| target[k] - o[k]);
+        if rng.chance(0.1) {
+            // Grazing: d nearly in the triangle's plane.
+            let e = [0, 1, 2].map(|k| tri[1][k] - tri[0][k]);
+            d = [0, 1, 2].map(|k| e[k] + d[k] * 1e-12);
+        }
+        if rng.chance(0.02) {
+            // Out of range: permanents below TINY or past float64.
+            let f = if rng.chance(0.5) { 1e-200 } else { 1e200 };
+            tri = tri.map(|p| p.map(|x| x * f));
+        }
+        match hit32_at_every_level(o, d, &tri, &format!("case {i}")) {
+            Some(_) => answered += 1,
+            None => declined += 1,
+        }
+    }
+    // Both branches are compared, each many times.
+    assert!(
+        answered > 5_000 && declined > 500,
+        "{answered} answered, {declined} declined"
+    );
 }
 
 fn unit(rng: &mut Rng) -> V3<f64> {
