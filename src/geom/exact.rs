@@ -102,14 +102,24 @@ pub fn in_plane(d: V3<f64>, a: V3<f64>, b: V3<f64>, c: V3<f64>) -> bool {
 /// underflows den to 0 nor overflows it: t is then right, or ±inf where the true t is beyond
 /// float64. For other directions the result is the same, bit for bit, as without scaling.
 pub fn plane_t(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3]) -> (f64, f64) {
-    // t = num / den and den is linear in d: with d scaled by 2^-e, t comes out scaled by 2^e.
     let (d, e) = unit_direction(d);
-    let (t, err) = plane_t_scaled(o, d, tri);
+    plane_t_unit(o, d, e, tri)
+}
+
+/// [`plane_t`] for a direction already scaled: `unit` is d · 2^-e with its largest component
+/// in [1, 2) (as [`crate::geom::real::unit_scale`] and [`unit_direction`] scale it; `e` 0
+/// where d is zero or not finite). The same bits as `plane_t(o, d, tri)`, without scaling d
+/// again for each triangle a ray is tested against.
+#[inline]
+pub fn plane_t_unit(o: V3<f64>, unit: V3<f64>, e: i32, tri: &[V3<f64>; 3]) -> (f64, f64) {
+    // t = num / den and den is linear in d: with d scaled by 2^-e, t comes out scaled by 2^e.
+    let (t, err) = plane_t_scaled(o, unit, tri);
     (times_pow2(t, -e), times_pow2(err, -e))
 }
 
-/// d scaled by 2^-e to a largest component in [1, 2), and e (0 for a zero or non-finite d).
-fn unit_direction(d: V3<f64>) -> (V3<f64>, i32) {
+/// d scaled by 2^-e to a largest component in [1, 2), and e (0 for a zero or non-finite d):
+/// the scaling of [`crate::geom::real::unit_scale`], with its exponent.
+pub fn unit_direction(d: V3<f64>) -> (V3<f64>, i32) {
     let m = d.iter().fold(0f64, |m, x| m.max(x.abs()));
     if m == 0.0 || !m.is_finite() {
         return (d, 0);

@@ -6,9 +6,10 @@
 //! exact walk gives, whatever order the triangles come in.
 
 use super::contact::{meet_at, Meet};
-use crate::geom::exact::{beyond, cmp_plane_t, cmp_plane_t_at, cmp_t_at, plane_t, triangle_sides};
+use crate::geom::exact::{
+    beyond, cmp_plane_t, cmp_plane_t_at, cmp_t_at, plane_t_unit, triangle_sides, unit_direction,
+};
 use crate::geom::ray::{checked_range, Ray};
-use crate::geom::real::unit_scale;
 use std::cmp::Ordering;
 
 /// A triangle's three corners.
@@ -19,8 +20,10 @@ pub type Tri = [[f64; 3]; 3];
 pub struct Line {
     pub o: [f64; 3],
     pub d: [f64; 3],
-    /// d scaled by a power of two (for signs: the filters' operands stay in range).
+    /// d scaled by a power of two, 2^-scale (for signs: the filters' operands stay in range;
+    /// `plane_t` scales d so too).
     pub dir: [f64; 3],
+    pub scale: i32,
     pub tmin: f64,
     pub tmax: f64,
     /// A ray started from a hit: the corners of the caller's triangle it leaves; it meets
@@ -32,10 +35,12 @@ impl Line {
     /// Err: the status of a ray no query traces.
     pub fn new(ray: &Ray) -> Result<Line, u8> {
         let (tmin, tmax) = checked_range(ray)?;
+        let (dir, scale) = unit_direction(ray.d);
         Ok(Line {
             o: ray.o,
             d: ray.d,
-            dir: unit_scale(ray.d),
+            dir,
+            scale,
             tmin,
             tmax,
             leaving: ray.leaving.map(|l| l.corners),
@@ -71,7 +76,7 @@ impl Line {
         let o = self.o;
         // Exact t against [tmin, tmax] (tmin ≥ 0 also rules out crossings behind the origin),
         // the float crossing deciding where it is farther from the bound than its error.
-        let at = plane_t(o, self.d, tri);
+        let at = plane_t_unit(o, self.dir, self.scale, tri);
         let inside = cmp_t_at(o, self.d, tri, self.tmin, at) != Ordering::Less
             && !(self.tmax.is_finite()
                 && cmp_t_at(o, self.d, tri, self.tmax, at) == Ordering::Greater)
@@ -103,7 +108,7 @@ impl Line {
     /// An upper bound on the exact t where the ray crosses `tri`'s plane (tmax when the
     /// float64 evaluation cannot bound it).
     pub fn t_above(&self, tri: &Tri) -> f64 {
-        self.above(plane_t(self.o, self.d, tri))
+        self.above(plane_t_unit(self.o, self.dir, self.scale, tri))
     }
 
     /// [`Line::t_above`] of a crossing `plane_t` gave.
@@ -179,7 +184,8 @@ impl Gather for Nearest<'_> {
     }
 
     fn offer(&mut self, id: u32) -> bool {
-        let at = plane_t(self.line.o, self.line.d, &self.triangles[id as usize]);
+        let line = &self.line;
+        let at = plane_t_unit(line.o, line.dir, line.scale, &self.triangles[id as usize]);
         self.offer_at(id, at)
     }
 
