@@ -168,7 +168,9 @@ unsafe fn triangle_hit32_avx2(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3]) -> Opt
     _mm256_storeu_pd(perms.as_mut_ptr(), perm);
     let (den, p_den) = (dets[1], perms[1]);
     let den_err = DET_BOUND * p_den;
-    if _mm256_movemask_pd(fine) != 0b1111 || !(8.0 * den_err <= den.abs()) {
+    // As the portable code: a NaN fails.
+    let den_certain = 8.0 * den_err <= den.abs();
+    if _mm256_movemask_pd(fine) != 0b1111 || !den_certain {
         return None;
     }
     // Quotients of lanes 0, 2 and 3 (t, u, v), moved to lanes 0, 1, 2 (lane 3: den / den,
