@@ -21,11 +21,11 @@
 //! walk's and Reshetov's BVH's are.
 
 use super::reshetov_bvh::{down32, max32, min32, up32, BvhNode, Slab};
-use super::{Accel, BvhParams, ReshetovBvh};
+use super::{trace_each, Accel, BvhParams, ReshetovBvh};
 use crate::error::{Error, Result};
 use crate::geom::ray::Ray;
 use crate::query::gather::{Gather, Line, Tri};
-use crate::query::QueryKind;
+use crate::query::{QueryKind, Sink};
 use crate::simd::Simd;
 
 /// Children per node.
@@ -182,24 +182,72 @@ macro_rules! walk_loop {
     ($bvh:expr, $line:expr, $gather:expr, $stack:expr, |$node:ident, $tmin:ident, $reach:ident, $t0:ident, $t1:ident| $test:expr, |$tris:ident| $filter:expr) => {{
         let (bvh, line, gather, stack) = ($bvh, $line, $gather, $stack);
         stack.clear();
-        let mut visited = 0;
-        let $tmin = line.tmin;
-        let mut $reach = gather.reach();
-        let ($t0, mut $t1) = RayBoxes::range($tmin, $reach);
-        // The root (it has no box of its own: a ray that misses every box of the scene
-        // visited nothing, as on Reshetov's tree).
-        let mut code = 0u32;
-        loop {
-            match Child::of(code) {
+        let mut cursor = Cursor::start(line, gather.reach());
+        while walk_step!(
+            bvh,
+            line,
+            &mut *gather,
+            &mut *stack,
+            &mut cursor,
+            |$node, $tmin, $reach, $t0, $t1| $test,
+            |$tris| $filter
+        ) {}
+        cursor.visited
+    }};
+}
+
+/// Where one ray's walk stands between two steps: the box it enters next (`code`; the root
+/// first, which has no box of its own: a ray that misses every box of the scene visited
+/// nothing, as on Reshetov's tree), its reach and float32 range, and the boxes entered.
+#[derive(Clone, Copy, Debug)]
+struct Cursor {
+    code: u32,
+    reach: f64,
+    t0: f32,
+    t1: f32,
+    visited: u32,
+}
+
+impl Cursor {
+    #[inline(always)]
+    fn start(line: &Line, reach: f64) -> Cursor {
+        let (t0, t1) = RayBoxes::range(line.tmin, reach);
+        Cursor {
+            code: 0,
+            reach,
+            t0,
+            t1,
+            visited: 0,
+        }
+    }
+}
+
+/// One step of a ray's walk (`walk_loop!`'s body): the box at the cursor is entered (a node's
+/// children tested and the nearest in reach gone on to or the rest pushed; a leaf's triangles
+/// offered), then the nearest box left within reach is taken. False: the walk is over (the
+/// query settled, or nothing is left). A macro for the same reason as `walk_loop!`; a step at
+/// a time, so that two rays' walks can be interleaved (`ExactBvhAt::trace_two_avx2`).
+macro_rules! walk_step {
+    ($bvh:expr, $line:expr, $gather:expr, $stack:expr, $cursor:expr, |$node:ident, $tmin:ident, $reach:ident, $t0:ident, $t1:ident| $test:expr, |$tris:ident| $filter:expr) => {{
+        let (bvh, line, gather, stack, cur): (
+            &ExactBvh,
+            &Line,
+            _,
+            &mut Vec<(u32, f32)>,
+            &mut Cursor,
+        ) = ($bvh, $line, $gather, $stack, $cursor);
+        'step: {
+            match Child::of(cur.code) {
                 Child::Node(k) => {
                     let $node = &bvh.nodes[k as usize];
+                    let ($tmin, $reach, $t0, $t1) = (line.tmin, cur.reach, cur.t0, cur.t1);
                     let (mask, nears) = $test;
                     if mask != 0 && mask & (mask - 1) == 0 {
                         let s = mask.trailing_zeros() as usize;
-                        if !beyond_reach(nears[s], $reach) {
-                            code = $node.child[s];
-                            visited += 1;
-                            continue;
+                        if !beyond_reach(nears[s], cur.reach) {
+                            cur.code = $node.child[s];
+                            cur.visited += 1;
+                            break 'step true;
                         }
                     } else if mask != 0 {
                         push_sorted(stack, $node, mask, &nears);
@@ -209,12 +257,12 @@ macro_rules! walk_loop {
                     let range = first as usize..(first + count) as usize;
                     let $tris = &bvh.triangles[range.clone()];
                     if offer_leaf(bvh, line, gather, range, $filter) {
-                        return visited;
+                        break 'step false;
                     }
                     let reach = gather.reach();
-                    if reach != $reach {
-                        $reach = reach;
-                        $t1 = RayBoxes::range($tmin, $reach).1;
+                    if reach != cur.reach {
+                        cur.reach = reach;
+                        cur.t1 = RayBoxes::range(line.tmin, reach).1;
                     }
                 }
                 Child::Empty => {}
@@ -222,12 +270,12 @@ macro_rules! walk_loop {
             // The nearest child left on the stack within reach, a box entered.
             loop {
                 let Some((next, near)) = stack.pop() else {
-                    return visited;
+                    break 'step false;
                 };
-                if !beyond_reach(near, $reach) {
-                    code = next;
-                    visited += 1;
-                    break;
+                if !beyond_reach(near, cur.reach) {
+                    cur.code = next;
+                    cur.visited += 1;
+                    break 'step true;
                 }
             }
         }
@@ -966,10 +1014,21 @@ impl BoxTest for Wide64 {
     }
 }
 
-/// The walk's state: the SIMD level and the traversal stack, kept from ray to ray.
+/// The walk's state: the SIMD level and the traversal stacks (one per ray walked at once),
+/// kept from ray to ray.
 pub struct State {
     simd: Simd,
     stack: Vec<(u32, f32)>,
+    second: Vec<(u32, f32)>,
+}
+
+/// A ray being walked beside another ([`ExactBvhAt::trace_two_avx2`]).
+struct Slot<G> {
+    line: Line,
+    gather: G,
+    boxes: RayBoxes,
+    cursor: Cursor,
+    index: usize,
 }
 
 /// The tree walked at one SIMD level (what the accelerator table hands a cast).
@@ -986,6 +1045,7 @@ impl Accel<f64> for ExactBvhAt<'_> {
         State {
             simd: self.simd,
             stack: Vec::with_capacity(8 * 32),
+            second: Vec::with_capacity(8 * 32),
         }
     }
 
@@ -997,6 +1057,95 @@ impl Accel<f64> for ExactBvhAt<'_> {
         let mut gather = query.gather(&line);
         let visited = self.bvh.walk(&line, &mut gather, st.simd, &mut st.stack);
         query.gathered(gather, visited)
+    }
+
+    fn trace_chunk<K: QueryKind, S: Sink<K::Answer>>(
+        &self,
+        query: &K,
+        ray_at: impl Fn(usize) -> Ray,
+        out: &mut S,
+        st: &mut State,
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        if st.simd == Simd::Avx2 {
+            // SAFETY: Simd::Avx2 is only chosen where the CPU has AVX2 and FMA.
+            return unsafe { self.trace_two_avx2(query, ray_at, out, st) };
+        }
+        trace_each(self, query, ray_at, out, st)
+    }
+}
+
+impl ExactBvhAt<'_> {
+    /// The chunk's rays walked two at a time, a step of one and a step of the other in turn,
+    /// each starting the next ray when it is done: one ray's walk is a chain of dependent
+    /// loads and compares longer than the core's reorder window, and the other's steps fill
+    /// its waits. Each ray takes the same steps as walked alone, so the same answer, bit for
+    /// bit, `steps` included. Rays the float32 box test does not take are walked alone.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn trace_two_avx2<K: QueryKind, S: Sink<K::Answer>>(
+        &self,
+        query: &K,
+        ray_at: impl Fn(usize) -> Ray,
+        out: &mut S,
+        st: &mut State,
+    ) {
+        let bvh = self.bvh;
+        let n = out.len();
+        let mut next = 0;
+        let mut slots: [Option<Slot<K::Gather>>; 2] = [None, None];
+        let stacks = [&mut st.stack, &mut st.second];
+        loop {
+            let mut live = false;
+            for i in 0..2 {
+                while slots[i].is_none() && next < n {
+                    let j = next;
+                    next += 1;
+                    let ray = ray_at(j);
+                    let line = match Line::new(&ray) {
+                        Ok(line) => line,
+                        Err(status) => {
+                            out.put(j, query.skipped(status));
+                            continue;
+                        }
+                    };
+                    let mut gather = query.gather(&line);
+                    let Some(boxes) = RayBoxes::at(Simd::Avx2, &line, bvh.infinite) else {
+                        let visited = bvh.walk(&line, &mut gather, Simd::Avx2, stacks[i]);
+                        out.put(j, query.gathered(gather, visited));
+                        continue;
+                    };
+                    stacks[i].clear();
+                    let cursor = Cursor::start(&line, gather.reach());
+                    slots[i] = Some(Slot {
+                        line,
+                        gather,
+                        boxes,
+                        cursor,
+                        index: j,
+                    });
+                }
+                let Some(s) = &mut slots[i] else { continue };
+                live = true;
+                let (r, line) = (&s.boxes, &s.line);
+                let going = walk_step!(
+                    bvh,
+                    line,
+                    &mut s.gather,
+                    &mut *stacks[i],
+                    &mut s.cursor,
+                    |node, _tmin, _reach, t0, t1| avx2_box_test!(r, node, t0, t1),
+                    |tris| may_meet_avx2!(line, tris)
+                );
+                if !going {
+                    let s = slots[i].take().expect("a slot being walked");
+                    out.put(s.index, query.gathered(s.gather, s.cursor.visited));
+                }
+            }
+            if !live {
+                break;
+            }
+        }
     }
 }
 

@@ -607,3 +607,131 @@ fn ray_boxes_are_the_same_at_every_simd_level() {
     }
     assert!(some > 1500 && none > 1000, "{some} taken, {none} refused");
 }
+
+/// Two rays walked in turn (`ExactBvhAt::trace_two_avx2`, what a chunk takes at the AVX2
+/// level) answer as each walked alone (the portable level walks one ray after the other), bit
+/// for bit and with the same `steps`: rays from shared and from scattered origins, through
+/// grid vertices and along edges, mixed with rays that are never walked (a NaN, a zero
+/// direction, tmax below tmin) and rays the float32 box test does not take (a direction
+/// component of 1e-40, a tiny or huge direction), so that a slot is refilled past them; with
+/// and without windows; closest hits in both precisions, any hits and all hits.
+#[test]
+fn two_rays_walked_in_turn_answer_as_one_ray_walks() {
+    use crate::layout::LayoutKind;
+    use crate::query::Listed;
+    use crate::testing::grid_scene_inside;
+    use crate::traverse::Method;
+    if cfg!(target_arch = "x86_64") && std::env::var_os("CI").is_some() {
+        assert!(Simd::Avx2.supported(), "CI must compare the AVX2 level");
+    }
+    let mut rng = Rng::xorshift(86);
+    let g = grid_scene_inside(&mut rng, 4, 0.0, 0.35);
+    let mut rays = Vec::new();
+    for (k, &o) in g.pts.iter().enumerate() {
+        for (m, q) in g.pts.iter().enumerate() {
+            if (k * 31 + m) % 5 != 0 {
+                continue;
+            }
+            let mid = [0, 1, 2].map(|a| q[a] + 0.125);
+            for target in [*q, mid] {
+                let d = [0, 1, 2].map(|a| target[a] - o[a]);
+                rays.push((o, d));
+            }
+            // Every 40th: one of the rays a slot skips or walks alone.
+            if rays.len() % 40 < 2 {
+                let odd = match rays.len() % 5 {
+                    0 => ([f64::NAN, 0.0, 0.0], [1.0, 0.0, 0.0]),
+                    1 => (o, [0.0; 3]),
+                    2 => (o, [1.0, 1e-40, 0.5]),
+                    3 => (o, [1e-300, 2e-300, 3e-300]),
+                    _ => (o, [1e300, -1e300, 2e300]),
+                };
+                rays.push(odd);
+            }
+        }
+    }
+    let n = rays.len();
+    let o: Vec<f64> = rays.iter().flat_map(|r| r.0).collect();
+    let d: Vec<f64> = rays.iter().flat_map(|r| r.1).collect();
+    let (o32, d32): (Vec<f32>, Vec<f32>) = (
+        o.iter().map(|&x| x as f32).collect(),
+        d.iter().map(|&x| x as f32).collect(),
+    );
+    let opts = |simd| CastOptions {
+        accel: AccelKind::ExactBvh,
+        simd: Some(simd),
+        packets: Packets::Off,
+        ..Default::default()
+    };
+    let bits = |x: &[f64]| x.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    let mut hits = 0;
+    for window in [false, true] {
+        // A window that leaves some rays out before they start (tmax < tmin).
+        let (tmin, tmax): (Vec<f64>, Vec<f64>) = (0..n)
+            .map(|j| match (window, j % 9) {
+                (false, _) => (0.0, f64::INFINITY),
+                (true, 0) => (0.5, 0.25),
+                (true, k) => (0.05 * k as f64, 0.3 + 0.1 * k as f64),
+            })
+            .unzip();
+        let r64 = Rays {
+            origins: &o,
+            directions: &d,
+            tmin: &tmin,
+            tmax: &tmax,
+            leaving: None,
+        };
+        let r32 = Rays {
+            origins: &o32,
+            directions: &d32,
+            tmin: &tmin,
+            tmax: &tmax,
+            leaving: None,
+        };
+        let closest = |opts: &CastOptions| {
+            let mut h = HitBuffers::<f64>::new(n, false);
+            g.scene.cast(&r64, h.out(), opts).unwrap();
+            let mut h32 = HitBuffers::<f32>::new(n, false);
+            g.scene.cast(&r32, h32.out(), opts).unwrap();
+            let wide = |x: &[f32]| x.iter().map(|&x| x as f64).collect::<Vec<_>>();
+            let cols = [&h.t, &h.u, &h.v, &h.point].map(|c| bits(c));
+            let cols32 = [&h32.t, &h32.u, &h32.v, &h32.point].map(|c| bits(&wide(c)));
+            (
+                (h.status, h.triangle, h.steps, cols),
+                (h32.status, h32.triangle, h32.steps, cols32),
+            )
+        };
+        let any = |opts: &CastOptions| {
+            let mut out = vec![0u8; n];
+            let m = (Method::DEFAULT, LayoutKind::DEFAULT);
+            g.scene.occluded(m.0, m.1, &r64, &mut out, opts).unwrap();
+            out
+        };
+        let all = |opts: &CastOptions| {
+            let mut out = vec![Listed::default(); n];
+            g.scene.intersections(&r64, &mut out, opts).unwrap();
+            out.iter()
+                .map(|l| {
+                    let m = l
+                        .meets
+                        .iter()
+                        .map(|m| (m.t.to_bits(), m.triangle, bits(&m.point)));
+                    (l.status, m.collect::<Vec<_>>())
+                })
+                .collect::<Vec<_>>()
+        };
+        let one = opts(Simd::Scalar);
+        let (want, want_any, want_all) = (closest(&one), any(&one), all(&one));
+        let status = &want.0 .0;
+        hits += status.iter().filter(|&&s| s == crate::status::HIT).count();
+        // The odd rays are there and answered as such.
+        assert!(status.contains(&crate::status::INVALID), "window {window}");
+        for simd in Simd::supported_levels() {
+            let two = opts(simd);
+            assert!(closest(&two) == want, "{simd:?} window {window}: closest");
+            assert_eq!(any(&two), want_any, "{simd:?} window {window}: any");
+            assert!(all(&two) == want_all, "{simd:?} window {window}: all");
+        }
+    }
+    assert!(hits > n / 3, "{hits} hits of {} rays", 2 * n);
+}
