@@ -4,9 +4,12 @@
 
 use super::*;
 use crate::geom::exact::triangle_sides;
+use crate::layout::LayoutKind;
 use crate::query::gather::Nearest;
+use crate::query::Listed;
 use crate::scene::{AccelKind, CastOptions, HitBuffers, Packets, Rays};
 use crate::testing::{triangle_soup, Agreement, Rng};
+use crate::traverse::Method;
 
 /// Every triangle sits in exactly one leaf, of at most max_leaf triangles, and the box of the
 /// slot naming the leaf holds its corners; every inner node's slot box holds its children's
@@ -429,10 +432,7 @@ fn the_leaf_filter_leaves_out_only_triangles_the_ray_misses() {
 /// precisions, any hits and all hits equal those of the one-ray walk at every SIMD level.
 #[test]
 fn packets_answer_as_one_ray_walks() {
-    use crate::layout::LayoutKind;
-    use crate::query::Listed;
     use crate::testing::{grid_scene_inside, windows};
-    use crate::traverse::Method;
     let mut rng = Rng::xorshift(84);
     let g = grid_scene_inside(&mut rng, 4, 0.0, 0.35);
     let mut rays = Vec::new();
@@ -469,7 +469,6 @@ fn packets_answer_as_one_ray_walks() {
         },
         ..Default::default()
     };
-    let bits = |x: &[f64]| x.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
     let mut hits = 0;
     for window in [false, true] {
         let (tmin, tmax) = if window {
@@ -491,61 +490,13 @@ fn packets_answer_as_one_ray_walks() {
             tmax: &tmax,
             leaving: None,
         };
-        let closest = |opts: &CastOptions| {
-            let mut h = HitBuffers::<f64>::new(n, false);
-            g.scene.cast(&r64, h.out(), opts).unwrap();
-            let mut h32 = HitBuffers::<f32>::new(n, false);
-            g.scene.cast(&r32, h32.out(), opts).unwrap();
-            let wide = |x: &[f32]| x.iter().map(|&x| x as f64).collect::<Vec<_>>();
-            let cols = [&h.t, &h.u, &h.v, &h.point].map(|c| bits(c));
-            let cols32 = [&h32.t, &h32.u, &h32.v, &h32.point].map(|c| bits(&wide(c)));
-            (
-                h.status,
-                h.triangle,
-                h.tet,
-                cols,
-                h32.status,
-                h32.triangle,
-                cols32,
-            )
-        };
-        let any = |opts: &CastOptions| {
-            let mut out = vec![0u8; n];
-            let m = (Method::DEFAULT, LayoutKind::DEFAULT);
-            g.scene.occluded(m.0, m.1, &r64, &mut out, opts).unwrap();
-            out
-        };
-        let all = |opts: &CastOptions| {
-            let mut out = vec![Listed::default(); n];
-            g.scene.intersections(&r64, &mut out, opts).unwrap();
-            out.iter()
-                .map(|l| {
-                    let m = l
-                        .meets
-                        .iter()
-                        .map(|m| (m.t.to_bits(), m.triangle, bits(&m.point)));
-                    (l.status, m.collect::<Vec<_>>())
-                })
-                .collect::<Vec<_>>()
-        };
-        let one = opts(AccelKind::ExactBvh, Simd::Scalar);
-        let (want, want_any, want_all) = (closest(&one), any(&one), all(&one));
-        hits += want.0.iter().filter(|&&s| s == crate::status::HIT).count();
+        let cast = |opts: &CastOptions| Answers::of(&g.scene, &r64, &r32, opts);
+        let one = cast(&opts(AccelKind::ExactBvh, Simd::Scalar));
+        hits += one.hits();
         for simd in Simd::supported_levels() {
-            let packets = opts(AccelKind::ExactBvhPackets, simd);
-            assert!(
-                closest(&packets) == want,
-                "{simd:?} window {window}: closest hits"
-            );
-            assert_eq!(
-                any(&packets),
-                want_any,
-                "{simd:?} window {window}: any hits"
-            );
-            assert!(
-                all(&packets) == want_all,
-                "{simd:?} window {window}: all hits"
-            );
+            // Every column but `steps` (a packet visits children in its own order).
+            let packets = cast(&opts(AccelKind::ExactBvhPackets, simd));
+            one.assert_same(&packets, false, &format!("{simd:?} window {window}"));
         }
     }
     assert!(hits > n / 2, "{hits} hits of {} rays", 2 * n);
@@ -617,10 +568,7 @@ fn ray_boxes_are_the_same_at_every_simd_level() {
 /// and without windows; closest hits in both precisions, any hits and all hits.
 #[test]
 fn two_rays_walked_in_turn_answer_as_one_ray_walks() {
-    use crate::layout::LayoutKind;
-    use crate::query::Listed;
     use crate::testing::grid_scene_inside;
-    use crate::traverse::Method;
     if cfg!(target_arch = "x86_64") && std::env::var_os("CI").is_some() {
         assert!(Simd::Avx2.supported(), "CI must compare the AVX2 level");
     }
@@ -664,7 +612,6 @@ fn two_rays_walked_in_turn_answer_as_one_ray_walks() {
         packets: Packets::Off,
         ..Default::default()
     };
-    let bits = |x: &[f64]| x.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
     let mut hits = 0;
     for window in [false, true] {
         // A window that leaves some rays out before they start (tmax < tmin).
@@ -689,42 +636,10 @@ fn two_rays_walked_in_turn_answer_as_one_ray_walks() {
             tmax: &tmax,
             leaving: None,
         };
-        let closest = |opts: &CastOptions| {
-            let mut h = HitBuffers::<f64>::new(n, false);
-            g.scene.cast(&r64, h.out(), opts).unwrap();
-            let mut h32 = HitBuffers::<f32>::new(n, false);
-            g.scene.cast(&r32, h32.out(), opts).unwrap();
-            let wide = |x: &[f32]| x.iter().map(|&x| x as f64).collect::<Vec<_>>();
-            let cols = [&h.t, &h.u, &h.v, &h.point].map(|c| bits(c));
-            let cols32 = [&h32.t, &h32.u, &h32.v, &h32.point].map(|c| bits(&wide(c)));
-            (
-                (h.status, h.triangle, h.steps, cols),
-                (h32.status, h32.triangle, h32.steps, cols32),
-            )
-        };
-        let any = |opts: &CastOptions| {
-            let mut out = vec![0u8; n];
-            let m = (Method::DEFAULT, LayoutKind::DEFAULT);
-            g.scene.occluded(m.0, m.1, &r64, &mut out, opts).unwrap();
-            out
-        };
-        let all = |opts: &CastOptions| {
-            let mut out = vec![Listed::default(); n];
-            g.scene.intersections(&r64, &mut out, opts).unwrap();
-            out.iter()
-                .map(|l| {
-                    let m = l
-                        .meets
-                        .iter()
-                        .map(|m| (m.t.to_bits(), m.triangle, bits(&m.point)));
-                    (l.status, m.collect::<Vec<_>>())
-                })
-                .collect::<Vec<_>>()
-        };
-        let one = opts(Simd::Scalar);
-        let (want, want_any, want_all) = (closest(&one), any(&one), all(&one));
-        let status = &want.0 .0;
-        hits += status.iter().filter(|&&s| s == crate::status::HIT).count();
+        let cast = |opts: &CastOptions| Answers::of(&g.scene, &r64, &r32, opts);
+        let one = cast(&opts(Simd::Scalar));
+        let status = &one.closest.0;
+        hits += one.hits();
         // The odd rays are there: invalid ones, and ones the float32 box test does not take
         // that are answered (the tiny and huge directions are unscaled exactly, so hit).
         assert!(status.contains(&crate::status::INVALID), "window {window}");
@@ -734,11 +649,90 @@ fn two_rays_walked_in_turn_answer_as_one_ray_walks() {
         });
         assert!(alone.count() > 20, "window {window}: rays walked alone");
         for simd in Simd::supported_levels() {
-            let two = opts(simd);
-            assert!(closest(&two) == want, "{simd:?} window {window}: closest");
-            assert_eq!(any(&two), want_any, "{simd:?} window {window}: any");
-            assert!(all(&two) == want_all, "{simd:?} window {window}: all");
+            let two = cast(&opts(simd));
+            one.assert_same(&two, true, &format!("{simd:?} window {window}"));
         }
     }
     assert!(hits > n / 3, "{hits} hits of {} rays", 2 * n);
+}
+
+/// Float64 values as bits (NaN and -0 compared exactly).
+fn bits(x: &[f64]) -> Vec<u64> {
+    x.iter().map(|x| x.to_bits()).collect()
+}
+
+/// Closest hits of float64 rays: status, triangle, tet, steps and the bits of t, u, v and the
+/// point.
+type Closest64 = (Vec<u8>, Vec<i32>, Vec<i32>, Vec<u32>, [Vec<u64>; 4]);
+/// The same of float32 rays (values widened to float64).
+type Closest32 = (Vec<u8>, Vec<i32>, Vec<u32>, [Vec<u64>; 4]);
+/// All hits: status and each point's t bits, triangle and point bits.
+type AllHits = Vec<(u8, Vec<(u64, u32, Vec<u64>)>)>;
+
+/// Every answer a cast gives, in a form compared bit for bit: closest hits of float64 and
+/// float32 rays, any hits and all hits (the two accelerator tests above compare these).
+struct Answers {
+    closest: Closest64,
+    closest32: Closest32,
+    any: Vec<u8>,
+    all: AllHits,
+}
+
+impl Answers {
+    fn of(scene: &crate::Scene, r64: &Rays<f64>, r32: &Rays<f32>, opts: &CastOptions) -> Answers {
+        let n = r64.len();
+        let mut h = HitBuffers::<f64>::new(n, false);
+        scene.cast(r64, h.out(), opts).unwrap();
+        let mut h32 = HitBuffers::<f32>::new(n, false);
+        scene.cast(r32, h32.out(), opts).unwrap();
+        let wide = |x: &[f32]| x.iter().map(|&x| x as f64).collect::<Vec<_>>();
+        let cols = [&h.t, &h.u, &h.v, &h.point].map(|c| bits(c));
+        let cols32 = [&h32.t, &h32.u, &h32.v, &h32.point].map(|c| bits(&wide(c)));
+        let mut any = vec![0u8; n];
+        let m = (Method::DEFAULT, LayoutKind::DEFAULT);
+        scene.occluded(m.0, m.1, r64, &mut any, opts).unwrap();
+        let mut lists = vec![Listed::default(); n];
+        scene.intersections(r64, &mut lists, opts).unwrap();
+        let all = lists
+            .iter()
+            .map(|l| {
+                let m = l
+                    .meets
+                    .iter()
+                    .map(|m| (m.t.to_bits(), m.triangle, bits(&m.point)));
+                (l.status, m.collect::<Vec<_>>())
+            })
+            .collect();
+        Answers {
+            closest: (h.status, h.triangle, h.tet, h.steps, cols),
+            closest32: (h32.status, h32.triangle, h32.steps, cols32),
+            any,
+            all,
+        }
+    }
+
+    /// Closest hits of the float64 rays.
+    fn hits(&self) -> usize {
+        let status = &self.closest.0;
+        status.iter().filter(|&&s| s == crate::status::HIT).count()
+    }
+
+    /// Asserts that `other` gives the same answers (`steps` too, where `steps`).
+    fn assert_same(&self, other: &Answers, steps: bool, what: &str) {
+        let (a, b) = (&self.closest, &other.closest);
+        assert!(
+            a.0 == b.0 && a.1 == b.1 && a.2 == b.2 && a.4 == b.4,
+            "{what}: closest hits"
+        );
+        let (a32, b32) = (&self.closest32, &other.closest32);
+        assert!(
+            a32.0 == b32.0 && a32.1 == b32.1 && a32.3 == b32.3,
+            "{what}: closest hits of float32 rays"
+        );
+        if steps {
+            assert!(a.3 == b.3 && a32.2 == b32.2, "{what}: steps");
+        }
+        assert_eq!(self.any, other.any, "{what}: any hits");
+        assert!(self.all == other.all, "{what}: all hits");
+    }
 }
