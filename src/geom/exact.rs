@@ -6,7 +6,8 @@
 
 use super::dyadic::{cmp_fractions, exact3, rdet, Dyadic};
 use super::predicates::expansion_safe;
-use super::real::{exponent, times_pow2, V3};
+pub use super::real::unit_direction;
+use super::real::{times_pow2, V3};
 use super::rounded::{rounded_hit, RoundedHit};
 use std::cmp::Ordering;
 
@@ -115,17 +116,6 @@ pub fn plane_t_unit(o: V3<f64>, unit: V3<f64>, e: i32, tri: &[V3<f64>; 3]) -> (f
     // t = num / den and den is linear in d: with d scaled by 2^-e, t comes out scaled by 2^e.
     let (t, err) = plane_t_scaled(o, unit, tri);
     (times_pow2(t, -e), times_pow2(err, -e))
-}
-
-/// d scaled by 2^-e to a largest component in [1, 2), and e (0 for a zero or non-finite d):
-/// the scaling of [`crate::geom::real::unit_scale`], with its exponent.
-pub fn unit_direction(d: V3<f64>) -> (V3<f64>, i32) {
-    let m = d.iter().fold(0f64, |m, x| m.max(x.abs()));
-    if m == 0.0 || !m.is_finite() {
-        return (d, 0);
-    }
-    let e = exponent(m);
-    (d.map(|x| times_pow2(x, -e)), e)
 }
 
 /// [`plane_t`] without the scaling. Anchored at the triangle: num = det(a − o, b − a, c − a),

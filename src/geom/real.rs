@@ -116,12 +116,19 @@ pub fn times_pow2(x: f64, e: i32) -> f64 {
 /// `d` scaled by a power of two (exactly, so its direction is unchanged) to a largest
 /// component in [1, 2): methods that normalize need neither fear underflow nor overflow.
 pub fn unit_scale(d: V3<f64>) -> V3<f64> {
+    unit_direction(d).0
+}
+
+/// [`unit_scale`] with its exponent: d · 2^-e with its largest component in [1, 2), and e (0
+/// for a zero or non-finite d, returned as it is). `geom::exact::plane_t` scales d so, and a
+/// caller that keeps e (`query::gather::Line`) need not scale d again per triangle.
+pub fn unit_direction(d: V3<f64>) -> (V3<f64>, i32) {
     let m = d.iter().fold(0f64, |m, x| m.max(x.abs()));
     if m == 0.0 || !m.is_finite() {
-        return d;
+        return (d, 0);
     }
-    let e = -exponent(m);
-    d.map(|x| times_pow2(x, e))
+    let e = exponent(m);
+    (d.map(|x| times_pow2(x, -e)), e)
 }
 
 /// Whether [`unit_scale`] is exact on `d` (multiplying back gives d). Not where d's components
