@@ -128,9 +128,19 @@ pub fn triangle_hit32_at(
 unsafe fn triangle_hit32_avx2(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3]) -> Option<Hit32> {
     use std::arch::x86_64::*;
     let [a, b, c] = *tri;
-    let w = [0, 1, 2].map(|k| a[k] - o[k]);
-    let e1 = [0, 1, 2].map(|k| b[k] - a[k]);
-    let e2 = [0, 1, 2].map(|k| c[k] - a[k]);
+    // w, e1 and e2 in one subtraction each (the same differences), each stored whole: built
+    // one component at a time, they were spilled in pieces and reloaded wider, and each
+    // reload waited for its stores to retire.
+    let v3 = |p: V3<f64>| _mm256_set_pd(0.0, p[2], p[1], p[0]);
+    let whole = |x: __m256d| {
+        let mut out = [0f64; 4];
+        _mm256_storeu_pd(out.as_mut_ptr(), x);
+        out
+    };
+    let av = v3(a);
+    let w = whole(_mm256_sub_pd(av, v3(o)));
+    let (e1v, e2v) = (_mm256_sub_pd(v3(b), av), _mm256_sub_pd(v3(c), av));
+    let (e1, e2) = (whole(e1v), whole(e2v));
     // Lanes: det(w, e1, e2) (t's numerator), det(d, e1, e2) (the denominator),
     // det(d, e2, w) (u's), det(d, w, e1) (v's): rows A, B, C per lane.
     let lanes = |l0: f64, l1: f64, l2: f64, l3: f64| _mm256_set_pd(l3, l2, l1, l0);
@@ -197,8 +207,6 @@ unsafe fn triangle_hit32_avx2(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3]) -> Opt
     // The point, coordinate k in lane k (lane 3: 1, settled; not read).
     let (mu, mv) = (u.abs() + u_err, v.abs() + v_err);
     let av = _mm256_set_pd(1.0, a[2], a[1], a[0]);
-    let e1v = _mm256_set_pd(0.0, e1[2], e1[1], e1[0]);
-    let e2v = _mm256_set_pd(0.0, e2[2], e2[1], e2[0]);
     let (s1, s2) = (abs(e1v), abs(e2v));
     let (uv, vv) = (_mm256_set1_pd(u), _mm256_set1_pd(v));
     let point = add(add(av, mul(uv, e1v)), mul(vv, e2v));

@@ -45,6 +45,7 @@ pub struct Leaving {
 /// The range [tmin, tmax] of a ray every exact query walks or tests: tmin raised to 0. Err:
 /// the status of a ray no query traces (INVALID: a non-finite number, a zero direction or a
 /// NaN bound; MISS: tmax below that range's start).
+#[inline(always)]
 pub fn checked_range(ray: &Ray) -> Result<(f64, f64), u8> {
     let Ray {
         o, d, tmin, tmax, ..

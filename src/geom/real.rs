@@ -122,6 +122,7 @@ pub fn unit_scale(d: V3<f64>) -> V3<f64> {
 /// [`unit_scale`] with its exponent: d · 2^-e with its largest component in [1, 2), and e (0
 /// for a zero or non-finite d, returned as it is). `geom::exact::plane_t` scales d so, and a
 /// caller that keeps e (`query::gather::Line`) need not scale d again per triangle.
+#[inline(always)]
 pub fn unit_direction(d: V3<f64>) -> (V3<f64>, i32) {
     let m = d.iter().fold(0f64, |m, x| m.max(x.abs()));
     if m == 0.0 || !m.is_finite() {
@@ -135,6 +136,7 @@ pub fn unit_direction(d: V3<f64>) -> (V3<f64>, i32) {
 /// span more than float64's exponent range (f64::MAX beside 0.1): the small ones would become
 /// subnormal and lose bits, so the walk would follow another line. Such directions are INVALID
 /// ([`crate::geom::ray::checked_range`]).
+#[inline(always)]
 pub fn unit_scale_is_exact(d: V3<f64>) -> bool {
     let m = d.iter().fold(0f64, |m, x| m.max(x.abs()));
     if m == 0.0 || !m.is_finite() {
@@ -152,7 +154,8 @@ pub fn unit_scale_is_exact(d: V3<f64>) -> bool {
 }
 
 /// Whether [`unit_scale`] of `d` (largest magnitude `m`, finite and nonzero) multiplied back
-/// gives `d`.
+/// gives `d` (out of line: nearly no direction comes here).
+#[cold]
 fn scales_back(d: V3<f64>, m: f64) -> bool {
     let e = exponent(m);
     unit_scale(d)

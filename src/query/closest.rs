@@ -133,6 +133,7 @@ impl<'a> QueryKind for ClosestHit<'a> {
     type Answer = RayHit;
     type Gather = Nearest<'a>;
 
+    #[inline(always)]
     fn gather(&self, line: &Line) -> Nearest<'a> {
         Nearest::new(line, &self.surface.triangles)
     }

@@ -71,7 +71,7 @@ impl LeavingRays<'_> {
 
 impl<R: Real> Rays<'_, R> {
     /// Ray i in float64 (exact from float32).
-    #[inline]
+    #[inline(always)]
     pub fn ray(&self, i: usize) -> Ray {
         let at = |b: &[f64]| b[if b.len() == 1 { 0 } else { i }];
         Ray {
