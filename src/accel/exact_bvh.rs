@@ -20,10 +20,12 @@
 //! component in a tree with an infinite box. So every answer is the exact one, as the exact
 //! walk's and Reshetov's BVH's are.
 
+use std::mem::{ManuallyDrop, MaybeUninit};
+
 use super::reshetov_bvh::{down32, max32, min32, up32, BvhNode, Slab};
 use super::{trace_each, Accel, BvhParams, ReshetovBvh};
 use crate::error::{Error, Result};
-use crate::geom::ray::Ray;
+use crate::geom::ray::{checked_range, Ray};
 use crate::query::gather::{Gather, Line, Tri};
 use crate::query::{QueryKind, Sink};
 use crate::simd::Simd;
@@ -818,7 +820,7 @@ fn below32(x: f64) -> f32 {
 
 impl RayBoxes {
     /// [`RayBoxes::new`], in AVX2 at that level (the same constants).
-    #[inline]
+    #[inline(always)]
     pub fn at(simd: Simd, line: &Line, infinite: bool) -> Option<RayBoxes> {
         #[cfg(target_arch = "x86_64")]
         if simd == Simd::Avx2 {
@@ -892,10 +894,29 @@ impl RayBoxes {
     #[target_feature(enable = "avx2")]
     #[inline]
     unsafe fn new_avx2(line: &Line, infinite: bool) -> Option<RayBoxes> {
+        let mut boxes = MaybeUninit::uninit();
+        RayBoxes::write_avx2(line, infinite, boxes.as_mut_ptr()).then(|| boxes.assume_init())
+    }
+
+    /// [`RayBoxes::at`] at the AVX2 level, written into `dst` (false: none, `dst` left as it
+    /// is). Written in place: a `RayBoxes` returned was stored in pieces and copied on whole,
+    /// and the copy waited for those stores to retire.
+    ///
+    /// # Safety
+    /// AVX2 is there; `dst` is valid for a write.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn write_avx2(line: &Line, infinite: bool, dst: *mut RayBoxes) -> bool {
         use std::arch::x86_64::*;
         let (o, d) = (line.o, line.d);
         if d.contains(&0.0) {
-            return RayBoxes::new(line, infinite);
+            return match RayBoxes::new(line, infinite) {
+                Some(b) => {
+                    dst.write(b);
+                    true
+                }
+                None => false,
+            };
         }
         // Lane 3 is a harmless axis (o = 0, d = 1) whose answers are not read.
         let dv = _mm256_set_pd(1.0, d[2], d[1], d[0]);
@@ -930,7 +951,7 @@ impl RayBoxes {
         );
         let normal = _mm_cmpge_ps(abs32(inv), _mm_set1_ps(f32::MIN_POSITIVE));
         if _mm_movemask_ps(_mm_and_ps(fine, normal)) & 0b111 != 0b111 {
-            return None;
+            return false;
         }
         let mut lanes = [[0f32; 4]; 3];
         _mm_storeu_ps(lanes[0].as_mut_ptr(), inv);
@@ -938,7 +959,7 @@ impl RayBoxes {
         _mm_storeu_ps(lanes[2].as_mut_ptr(), cf);
         let [inv, cn, cf] = lanes;
         let neg = |k: usize| (inv[k] < 0.0) as usize;
-        Some(RayBoxes {
+        dst.write(RayBoxes {
             near: [0, 1, 2].map(|k| k + 3 * neg(k)),
             far: [0, 1, 2].map(|k| k + 3 * (1 - neg(k))),
             inv: [inv[0], inv[1], inv[2]],
@@ -947,7 +968,8 @@ impl RayBoxes {
             o_down: [f32::NEG_INFINITY; 3],
             o_up: [f32::INFINITY; 3],
             zero: false,
-        })
+        });
+        true
     }
 
     /// The ray's range in float32, rounded outward (tmin ≥ 0).
@@ -1020,7 +1042,13 @@ pub struct State {
     simd: Simd,
     stack: Vec<(u32, f32)>,
     second: Vec<(u32, f32)>,
+    /// The stack of a ray walked alone while two are walked in turn.
+    alone: Vec<(u32, f32)>,
 }
+
+/// How many rays [`ExactBvhAt::make_ready`] makes ready at once: enough for their setups to
+/// overlap, few enough that they stay in the first-level cache (a few hundred bytes each).
+const READY: usize = 16;
 
 /// A ray being walked beside another ([`ExactBvhAt::trace_two_avx2`]).
 struct Slot<G> {
@@ -1046,6 +1074,7 @@ impl Accel<f64> for ExactBvhAt<'_> {
             simd: self.simd,
             stack: Vec::with_capacity(8 * 32),
             second: Vec::with_capacity(8 * 32),
+            alone: Vec::new(),
         }
     }
 
@@ -1080,7 +1109,8 @@ impl ExactBvhAt<'_> {
     /// each starting the next ray when it is done: one ray's walk is a chain of dependent
     /// loads and compares longer than the core's reorder window, and the other's steps fill
     /// its waits. Each ray takes the same steps as walked alone, so the same answer, bit for
-    /// bit, `steps` included. Rays the float32 box test does not take are walked alone.
+    /// bit, `steps` included. The rays are made ready for their walks [`READY`] at a time
+    /// ([`ExactBvhAt::make_ready`]).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
     unsafe fn trace_two_avx2<K: QueryKind, S: Sink<K::Answer>>(
@@ -1091,42 +1121,39 @@ impl ExactBvhAt<'_> {
         st: &mut State,
     ) {
         let bvh = self.bvh;
-        let n = out.len();
         let mut next = 0;
-        let mut slots: [Option<Slot<K::Gather>>; 2] = [None, None];
-        let stacks = [&mut st.stack, &mut st.second];
+        // The rays made ready, walked where they lie (a slot names its entry): moved into
+        // slots, a ray's few hundred bytes cost two library copies each.
+        let mut ready: Vec<ManuallyDrop<Slot<K::Gather>>> = Vec::with_capacity(READY);
+        let mut taken = 0;
+        let mut slots: [Option<usize>; 2] = [None, None];
+        let State {
+            stack,
+            second,
+            alone,
+            ..
+        } = st;
+        let stacks = [stack, second];
         loop {
             let mut live = false;
             for i in 0..2 {
-                while slots[i].is_none() && next < n {
-                    let j = next;
-                    next += 1;
-                    let ray = ray_at(j);
-                    let line = match Line::new(&ray) {
-                        Ok(line) => line,
-                        Err(status) => {
-                            out.put(j, query.skipped(status));
-                            continue;
-                        }
-                    };
-                    let mut gather = query.gather(&line);
-                    let Some(boxes) = RayBoxes::at(Simd::Avx2, &line, bvh.infinite) else {
-                        let visited = bvh.walk(&line, &mut gather, Simd::Avx2, stacks[i]);
-                        out.put(j, query.gathered(gather, visited));
-                        continue;
-                    };
-                    stacks[i].clear();
-                    let cursor = Cursor::start(&line, gather.reach());
-                    slots[i] = Some(Slot {
-                        line,
-                        gather,
-                        boxes,
-                        cursor,
-                        index: j,
-                    });
+                if slots[i].is_none() {
+                    // Every entry handed out and the other slot's finished too: the entries'
+                    // gatherers have all been read out, so they are cleared without drops.
+                    if taken == ready.len() && slots[1 - i].is_none() {
+                        ready.clear();
+                        taken = 0;
+                        self.make_ready(query, &ray_at, out, alone, &mut next, &mut ready);
+                    }
+                    if taken < ready.len() {
+                        stacks[i].clear();
+                        slots[i] = Some(taken);
+                        taken += 1;
+                    }
                 }
-                let Some(s) = &mut slots[i] else { continue };
+                let Some(k) = slots[i] else { continue };
                 live = true;
+                let s: &mut Slot<K::Gather> = &mut ready[k];
                 let (r, line) = (&s.boxes, &s.line);
                 let going = walk_step!(
                     bvh,
@@ -1138,12 +1165,93 @@ impl ExactBvhAt<'_> {
                     |tris| may_meet_avx2!(line, tris)
                 );
                 if !going {
-                    let s = slots[i].take().expect("a slot being walked");
-                    out.put(s.index, query.gathered(s.gather, s.cursor.visited));
+                    slots[i] = None;
+                    // SAFETY: entry k is walked no more, and `ready` is cleared without drops
+                    // before it is made again: its gatherer is read out (and dropped) once.
+                    let gather = std::ptr::read(&s.gather);
+                    out.put(s.index, query.gathered(gather, s.cursor.visited));
                 }
             }
             if !live {
                 break;
+            }
+        }
+    }
+
+    /// Makes up to [`READY`] of the chunk's rays, from ray `next` on, ready to be walked in
+    /// turn (their lines, float32 box constants, gatherers and cursors), and answers the rays
+    /// met on the way that are not: those no query traces at once, and those the float32 box
+    /// test does not take by a walk alone on `alone`.
+    ///
+    /// In three passes over the batch, each writing what the next reads: made one ray at a
+    /// time as each walk began, each ray's parts were stored in pieces and read back whole
+    /// at once (the ray, its line, the line's copy in the gatherer, the box constants), and
+    /// each such read waited for the stores to retire (store forwarding fails on it), several
+    /// times a ray. A pass later, they have.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn make_ready<K: QueryKind, S: Sink<K::Answer>>(
+        &self,
+        query: &K,
+        ray_at: &impl Fn(usize) -> Ray,
+        out: &mut S,
+        alone: &mut Vec<(u32, f32)>,
+        next: &mut usize,
+        ready: &mut Vec<ManuallyDrop<Slot<K::Gather>>>,
+    ) {
+        // Until some ray is ready or none is left (a batch may hold only rays answered on
+        // the way).
+        while ready.is_empty() && *next < out.len() {
+            // First pass: the next READY rays (each returned through memory by `ray_at`).
+            let mut rays = [const { MaybeUninit::<Ray>::uninit() }; READY];
+            let first = *next;
+            let taken = READY.min(out.len() - first);
+            for (k, ray) in rays[..taken].iter_mut().enumerate() {
+                ray.write(ray_at(first + k));
+            }
+            *next += taken;
+            // Second pass: the lines of those that are traced.
+            let mut lines = [const { MaybeUninit::<(Line, usize)>::uninit() }; READY];
+            let mut count = 0;
+            for (k, ray) in rays[..taken].iter().enumerate() {
+                // SAFETY: the first pass wrote rays 0..taken.
+                let ray = &*ray.as_ptr();
+                match checked_range(ray) {
+                    Ok((tmin, tmax)) => {
+                        lines[count].write((Line::within(ray, tmin, tmax), first + k));
+                        count += 1;
+                    }
+                    Err(status) => out.put(first + k, query.skipped(status)),
+                }
+            }
+            // Third pass: their gatherers, box constants and cursors, written field by field
+            // into the entries (a whole slot pushed was built aside and copied in by a library
+            // call).
+            for entry in &lines[..count] {
+                // SAFETY: the second pass wrote entries 0..count.
+                let (line, j) = &*entry.as_ptr();
+                let n = ready.len();
+                // SAFETY: `slot` is the Vec's first spare entry (n < READY ≤ its capacity); every
+                // field is written before the length takes it in.
+                let slot = ready.spare_capacity_mut()[0]
+                    .as_mut_ptr()
+                    .cast::<Slot<K::Gather>>();
+                if !RayBoxes::write_avx2(
+                    line,
+                    self.bvh.infinite,
+                    std::ptr::addr_of_mut!((*slot).boxes),
+                ) {
+                    let mut gather = query.gather(line);
+                    let visited = self.bvh.walk(line, &mut gather, Simd::Avx2, alone);
+                    out.put(*j, query.gathered(gather, visited));
+                    continue;
+                }
+                let gather = query.gather(line);
+                std::ptr::addr_of_mut!((*slot).cursor).write(Cursor::start(line, gather.reach()));
+                std::ptr::addr_of_mut!((*slot).gather).write(gather);
+                std::ptr::addr_of_mut!((*slot).line).write(*line);
+                std::ptr::addr_of_mut!((*slot).index).write(*j);
+                ready.set_len(n + 1);
             }
         }
     }

@@ -33,10 +33,17 @@ pub struct Line {
 
 impl Line {
     /// Err: the status of a ray no query traces.
+    #[inline(always)]
     pub fn new(ray: &Ray) -> Result<Line, u8> {
         let (tmin, tmax) = checked_range(ray)?;
+        Ok(Line::within(ray, tmin, tmax))
+    }
+
+    /// The line of `ray` over the range [`checked_range`] gave it.
+    #[inline(always)]
+    pub fn within(ray: &Ray, tmin: f64, tmax: f64) -> Line {
         let (dir, scale) = unit_direction(ray.d);
-        Ok(Line {
+        Line {
             o: ray.o,
             d: ray.d,
             dir,
@@ -44,7 +51,7 @@ impl Line {
             tmin,
             tmax,
             leaving: ray.leaving.map(|l| l.corners),
-        })
+        }
     }
 
     /// Whether the ray meets the closed triangle `tri` at one point with t in [tmin, tmax]:
@@ -160,6 +167,7 @@ pub struct Nearest<'a> {
 }
 
 impl<'a> Nearest<'a> {
+    #[inline(always)]
     pub fn new(line: &Line, triangles: &'a [Tri]) -> Self {
         Nearest {
             line: *line,

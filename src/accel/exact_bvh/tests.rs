@@ -599,6 +599,19 @@ fn two_rays_walked_in_turn_answer_as_one_ray_walks() {
             }
         }
     }
+    // Runs longer than a batch of rays made ready at once (`READY`) of rays that are never
+    // walked, and of rays walked alone, amid the others: a batch may make no ray ready, and
+    // the walk must go on past it.
+    let (o0, far) = (g.pts[0], g.pts[g.pts.len() - 1]);
+    for (at, odd) in [
+        (rays.len() / 3, ([f64::NAN, 0.0, 0.0], [1.0, 0.0, 0.0])),
+        (
+            2 * rays.len() / 3,
+            (o0, [far[0] - o0[0], 1e-40, far[2] - o0[2]]),
+        ),
+    ] {
+        rays.splice(at..at, std::iter::repeat_n(odd, 2 * super::READY + 3));
+    }
     let n = rays.len();
     let o: Vec<f64> = rays.iter().flat_map(|r| r.0).collect();
     let d: Vec<f64> = rays.iter().flat_map(|r| r.1).collect();
