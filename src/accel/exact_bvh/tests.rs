@@ -451,13 +451,8 @@ fn packets_answer_as_one_ray_walks() {
             }
         }
     }
+    let set = RaySet::new(&rays);
     let n = rays.len();
-    let o: Vec<f64> = rays.iter().flat_map(|r| r.0).collect();
-    let d: Vec<f64> = rays.iter().flat_map(|r| r.1).collect();
-    let (o32, d32): (Vec<f32>, Vec<f32>) = (
-        o.iter().map(|&x| x as f32).collect(),
-        d.iter().map(|&x| x as f32).collect(),
-    );
     // The one-ray walk with packets off (whatever the default does with shared origins).
     let opts = |accel, simd| CastOptions {
         accel,
@@ -476,20 +471,7 @@ fn packets_answer_as_one_ray_walks() {
         } else {
             (vec![0.0; n], vec![f64::INFINITY; n])
         };
-        let r64 = Rays {
-            origins: &o,
-            directions: &d,
-            tmin: &tmin,
-            tmax: &tmax,
-            leaving: None,
-        };
-        let r32 = Rays {
-            origins: &o32,
-            directions: &d32,
-            tmin: &tmin,
-            tmax: &tmax,
-            leaving: None,
-        };
+        let (r64, r32) = set.rays(&tmin, &tmax);
         let cast = |opts: &CastOptions| Answers::of(&g.scene, &r64, &r32, opts);
         let one = cast(&opts(AccelKind::ExactBvh, Simd::Scalar));
         hits += one.hits();
@@ -612,13 +594,8 @@ fn two_rays_walked_in_turn_answer_as_one_ray_walks() {
     ] {
         rays.splice(at..at, std::iter::repeat_n(odd, 2 * super::READY + 3));
     }
+    let set = RaySet::new(&rays);
     let n = rays.len();
-    let o: Vec<f64> = rays.iter().flat_map(|r| r.0).collect();
-    let d: Vec<f64> = rays.iter().flat_map(|r| r.1).collect();
-    let (o32, d32): (Vec<f32>, Vec<f32>) = (
-        o.iter().map(|&x| x as f32).collect(),
-        d.iter().map(|&x| x as f32).collect(),
-    );
     let opts = |simd| CastOptions {
         accel: AccelKind::ExactBvh,
         simd: Some(simd),
@@ -635,20 +612,7 @@ fn two_rays_walked_in_turn_answer_as_one_ray_walks() {
                 (true, k) => (0.05 * k as f64, 0.3 + 0.1 * k as f64),
             })
             .unzip();
-        let r64 = Rays {
-            origins: &o,
-            directions: &d,
-            tmin: &tmin,
-            tmax: &tmax,
-            leaving: None,
-        };
-        let r32 = Rays {
-            origins: &o32,
-            directions: &d32,
-            tmin: &tmin,
-            tmax: &tmax,
-            leaving: None,
-        };
+        let (r64, r32) = set.rays(&tmin, &tmax);
         let cast = |opts: &CastOptions| Answers::of(&g.scene, &r64, &r32, opts);
         let one = cast(&opts(Simd::Scalar));
         let status = &one.closest.0;
@@ -681,6 +645,47 @@ type Closest64 = (Vec<u8>, Vec<i32>, Vec<i32>, Vec<u32>, [Vec<u64>; 4]);
 type Closest32 = (Vec<u8>, Vec<i32>, Vec<u32>, [Vec<u64>; 4]);
 /// All hits: status and each point's t bits, triangle and point bits.
 type AllHits = Vec<(u8, Vec<(u64, u32, Vec<u64>)>)>;
+
+/// Rays in float64 and the same rays rounded to float32, cast by [`Answers::of`].
+struct RaySet {
+    o: Vec<f64>,
+    d: Vec<f64>,
+    o32: Vec<f32>,
+    d32: Vec<f32>,
+}
+
+impl RaySet {
+    fn new(rays: &[([f64; 3], [f64; 3])]) -> RaySet {
+        let o: Vec<f64> = rays.iter().flat_map(|r| r.0).collect();
+        let d: Vec<f64> = rays.iter().flat_map(|r| r.1).collect();
+        let round = |x: &[f64]| x.iter().map(|&x| x as f32).collect();
+        RaySet {
+            o32: round(&o),
+            d32: round(&d),
+            o,
+            d,
+        }
+    }
+
+    /// Both precisions' rays over the windows [tmin, tmax].
+    fn rays<'a>(&'a self, tmin: &'a [f64], tmax: &'a [f64]) -> (Rays<'a, f64>, Rays<'a, f32>) {
+        let r64 = Rays {
+            origins: &self.o,
+            directions: &self.d,
+            tmin,
+            tmax,
+            leaving: None,
+        };
+        let r32 = Rays {
+            origins: &self.o32,
+            directions: &self.d32,
+            tmin,
+            tmax,
+            leaving: None,
+        };
+        (r64, r32)
+    }
+}
 
 /// Every answer a cast gives, in a form compared bit for bit: closest hits of float64 and
 /// float32 rays, any hits and all hits (the two accelerator tests above compare these).
