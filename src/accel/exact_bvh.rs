@@ -1205,16 +1205,16 @@ impl ExactBvhAt<'_> {
             // First pass: the next READY rays (each returned through memory by `ray_at`).
             let mut rays = [const { MaybeUninit::<Ray>::uninit() }; READY];
             let first = *next;
-            let taken = READY.min(out.len() - first);
-            for (k, ray) in rays[..taken].iter_mut().enumerate() {
+            let read = READY.min(out.len() - first);
+            for (k, ray) in rays[..read].iter_mut().enumerate() {
                 ray.write(ray_at(first + k));
             }
-            *next += taken;
+            *next += read;
             // Second pass: the lines of those that are traced.
             let mut lines = [const { MaybeUninit::<(Line, usize)>::uninit() }; READY];
             let mut count = 0;
-            for (k, ray) in rays[..taken].iter().enumerate() {
-                // SAFETY: the first pass wrote rays 0..taken.
+            for (k, ray) in rays[..read].iter().enumerate() {
+                // SAFETY: the first pass wrote rays 0..read.
                 let ray = &*ray.as_ptr();
                 match checked_range(ray) {
                     Ok((tmin, tmax)) => {
