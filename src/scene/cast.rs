@@ -81,7 +81,15 @@ pub fn cast_accel<R: Real, W: Real, A: Accel<W>, K: QueryKind, S: Sink<K::Answer
     let run_chunk = |(k, mut chunk): (usize, S)| {
         let mut state = accel.state(k);
         let base = k * CHUNK;
-        accel.trace_chunk(query, |j| rays.ray(base + j), &mut chunk, &mut state);
+        // Inlined into the walk: as a call, the ray came back through memory, written in pieces,
+        // and the accelerator's first wide read of it waited for those stores to retire.
+        accel.trace_chunk(
+            query,
+            #[inline(always)]
+            |j| rays.ray(base + j),
+            &mut chunk,
+            &mut state,
+        );
     };
     let pieces: Vec<_> = chunks(out, CHUNK).into_iter().enumerate().collect();
     run_pieces(pieces, threads, run_chunk)
