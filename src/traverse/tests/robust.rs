@@ -361,3 +361,64 @@ fn method_names_are_the_types_names() {
     let e = crate::layout::LayoutKind::from_name("tet99").unwrap_err();
     assert!(matches!(e, crate::Error::InvalidOption(m) if m.contains("tet20")));
 }
+
+/// The exact audit reaches the answers a cast returns (`ClosestHit::answer` carries each ray's
+/// counts into its `RayHit`): on a jittered grid, rays from random points aimed at its vertices
+/// pass within rounding of them, and a float method's walk then takes exit faces the exact
+/// line does not leave by, which the audit column counts; the robust walk, whose exits the
+/// exact predicates decide on its own line, takes none. Judged by the audit's exact
+/// predicates, not by the method under test.
+#[test]
+fn the_audit_counts_reach_the_answers() {
+    use crate::scene::CastOptions;
+    let mut rng = Rng::xorshift(7);
+    let GridScene { scene, pts, .. } = grid_scene(&mut rng, 4, 0.2, 0.1);
+    let (mut o, mut d) = (Vec::new(), Vec::new());
+    for _ in 0..4 {
+        for p in &pts {
+            let from = [0, 1, 2].map(|_| rng.f());
+            o.extend(from);
+            d.extend([0, 1, 2].map(|k| p[k] - from[k]));
+        }
+    }
+    let n = o.len() / 3;
+    let wrong_exits = |method: &str| {
+        let (mut t, mut u, mut v, mut p) =
+            (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; 3 * n]);
+        let (mut tri, mut tet, mut steps, mut status) =
+            (vec![0; n], vec![0; n], vec![0; n], vec![0; n]);
+        let mut audit = vec![0u32; 2 * n];
+        let rays = Rays {
+            origins: &o,
+            directions: &d,
+            tmin: &[0.0],
+            tmax: &[f64::INFINITY],
+            leaving: None,
+        };
+        let out = HitsOut {
+            t: &mut t,
+            u: &mut u,
+            v: &mut v,
+            point: &mut p,
+            triangle: &mut tri,
+            tet: &mut tet,
+            steps: &mut steps,
+            status: &mut status,
+            audit: &mut audit,
+        };
+        let opts = CastOptions {
+            threads: Some(1),
+            ..Default::default()
+        };
+        scene
+            .cast_named(method, "tet32", &rays, out, &opts)
+            .unwrap();
+        audit.iter().step_by(2).sum::<u32>()
+    };
+    let float = wrong_exits("aman2022");
+    assert!(
+        float > 0,
+        "aman2022 took no wrong exit on {n} rays through vertices"
+    );
+    assert_eq!(wrong_exits("robust"), 0);
+}
