@@ -422,3 +422,72 @@ fn the_audit_counts_reach_the_answers() {
     );
     assert_eq!(wrong_exits("robust"), 0);
 }
+
+/// The walk's end as a cast reports it (`tet`, `steps`): on rays in general position (random
+/// origins and directions in a jittered grid), the robust walk, answered by
+/// `ClosestHit::finish`, and the exact walk, answered by `ClosestHit::exact_answer`, decide
+/// every exit exactly and so enter the same tets: both must report the same tet and step
+/// count for every ray, a tet for every ray that walked, at least one step for every hit
+/// (its constrained face is not the start tet's entry), and a hit's (u, v) on its triangle.
+#[test]
+fn the_walks_end_is_reported_by_every_answer() {
+    use crate::scene::CastOptions;
+    let mut rng = Rng::xorshift(11);
+    let GridScene { scene, .. } = grid_scene(&mut rng, 4, 0.2, 0.1);
+    let mut o = Vec::new();
+    let mut d = Vec::new();
+    for _ in 0..400 {
+        o.extend([0, 1, 2].map(|_| rng.f()));
+        d.extend([0, 1, 2].map(|_| rng.f() - 0.5));
+    }
+    let opts = CastOptions {
+        threads: Some(1),
+        ..Default::default()
+    };
+    let walk = |method: &str| {
+        let n = o.len() / 3;
+        let (mut t, mut u, mut v, mut p) =
+            (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; 3 * n]);
+        let (mut tri, mut tet, mut steps, mut status) =
+            (vec![0; n], vec![0; n], vec![0; n], vec![0; n]);
+        let rays = Rays {
+            origins: &o,
+            directions: &d,
+            tmin: &[0.0],
+            tmax: &[f64::INFINITY],
+            leaving: None,
+        };
+        let out = HitsOut {
+            t: &mut t,
+            u: &mut u,
+            v: &mut v,
+            point: &mut p,
+            triangle: &mut tri,
+            tet: &mut tet,
+            steps: &mut steps,
+            status: &mut status,
+            audit: &mut [],
+        };
+        scene
+            .cast_named(method, "tet32", &rays, out, &opts)
+            .unwrap();
+        (status, tet, steps, u, v)
+    };
+    let (status, tet, steps, u, v) = walk("exact");
+    let robust = walk("robust");
+    assert_eq!((&status, &tet, &steps), (&robust.0, &robust.1, &robust.2));
+    for k in (0..status.len()).filter(|&k| status[k] == HIT) {
+        // (u, v) on the same triangle, each rounded from its exact value (within an ulp).
+        for (a, b) in [(u[k], robust.3[k]), (v[k], robust.4[k])] {
+            assert!((a - b).abs() <= 1e-12, "ray {k}: (u, v) {a} and {b}");
+        }
+    }
+    let hits = status.iter().filter(|&&s| s == HIT).count();
+    assert!(hits > 50, "only {hits} hits");
+    for k in 0..status.len() {
+        assert!(tet[k] >= 0, "ray {k} walked from no tet");
+        if status[k] == HIT {
+            assert!(steps[k] >= 1, "ray {k} hit without a step");
+        }
+    }
+}
