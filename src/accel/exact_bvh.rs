@@ -600,7 +600,7 @@ fn offer_leaf<G: Gather>(
             line.meets_at(tri)
         };
         let settled = match met {
-            Some(at) => gather.offer_at(bvh.order[j], at),
+            Some(at) => gather.offer_at(bvh.order[j], tri, at),
             None => G::IN_PLANE && gather.in_plane(bvh.order[j]),
         };
         if settled {
@@ -1085,7 +1085,7 @@ impl Accel<f64> for ExactBvhAt<'_> {
         };
         let mut gather = query.gather(&line);
         let visited = self.bvh.walk(&line, &mut gather, st.simd, &mut st.stack);
-        query.gathered(gather, visited)
+        query.gathered(&mut gather, visited)
     }
 
     fn trace_chunk<K: QueryKind, S: Sink<K::Answer>>(
@@ -1166,10 +1166,10 @@ impl ExactBvhAt<'_> {
                 );
                 if !going {
                     slots[i] = None;
+                    out.put(s.index, query.gathered(&mut s.gather, s.cursor.visited));
                     // SAFETY: entry k is walked no more, and `ready` is cleared without drops
-                    // before it is made again: its gatherer is read out (and dropped) once.
-                    let gather = std::ptr::read(&s.gather);
-                    out.put(s.index, query.gathered(gather, s.cursor.visited));
+                    // before it is made again: its gatherer is dropped here, once.
+                    std::ptr::drop_in_place(&mut s.gather);
                 }
             }
             if !live {
@@ -1243,7 +1243,7 @@ impl ExactBvhAt<'_> {
                 ) {
                     let mut gather = query.gather(line);
                     let visited = self.bvh.walk(line, &mut gather, Simd::Avx2, alone);
-                    out.put(*j, query.gathered(gather, visited));
+                    out.put(*j, query.gathered(&mut gather, visited));
                     continue;
                 }
                 let gather = query.gather(line);

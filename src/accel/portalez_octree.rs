@@ -266,7 +266,7 @@ impl Accel<f64> for PortalezOctree {
         };
         let mut gather = query.gather(&line);
         match self.walk(&line, &mut gather, state) {
-            Walked::Done(visited) => query.gathered(gather, visited),
+            Walked::Done(visited) => query.gathered(&mut gather, visited),
             Walked::Guard(_) => query.skipped(FAILED),
         }
     }

@@ -585,7 +585,7 @@ impl ReshetovBvh {
                 let range = node.first as usize..(node.first + node.count) as usize;
                 for j in range {
                     let at = line.meets_at(&self.triangles[j]);
-                    if at.is_some_and(|at| gather.offer_at(self.order[j], at)) {
+                    if at.is_some_and(|at| gather.offer_at(self.order[j], &self.triangles[j], at)) {
                         return visited;
                     }
                 }
@@ -702,7 +702,7 @@ impl Accel<f64> for ReshetovBvh {
         };
         let mut gather = query.gather(&line);
         let visited = self.walk(&line, &mut gather, stack);
-        query.gathered(gather, visited)
+        query.gathered(&mut gather, visited)
     }
 }
 

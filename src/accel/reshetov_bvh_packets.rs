@@ -291,7 +291,7 @@ impl BvhPackets<'_> {
                     let settled = r
                         .line
                         .meets_at(tri)
-                        .is_some_and(|at| r.gather.offer_at(bvh.order[j], at));
+                        .is_some_and(|at| r.gather.offer_at(bvh.order[j], tri, at));
                     if settled {
                         live &= !(1 << i);
                         active &= !(1 << i);
@@ -370,8 +370,8 @@ impl Accel<f64> for BvhPackets<'_> {
             let o = rays[0].line.o.map(f64::to_bits);
             let shared = rays.iter().all(|r| r.line.o.map(f64::to_bits) == o);
             self.walk_packet(&mut rays, shared, &mut state.1, &mut visited, &mut counts);
-            for (r, &v) in rays.drain(..).zip(visited.iter()) {
-                out.put(r.index, query.gathered(r.gather, v));
+            for (mut r, &v) in rays.drain(..).zip(visited.iter()) {
+                out.put(r.index, query.gathered(&mut r.gather, v));
             }
         }
         let c = &self.bvh.culling;

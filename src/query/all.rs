@@ -114,7 +114,7 @@ impl<'a> QueryKind for AllHits<'a> {
         Every::new(line, &self.0.surface.triangles)
     }
 
-    fn gathered(&self, g: Every<'a>, _: u32) -> Listed {
+    fn gathered(&self, g: &mut Every<'a>, _: u32) -> Listed {
         let meets = g.meets();
         let status = if meets.is_empty() { MISS } else { HIT };
         Listed { status, meets }

@@ -24,7 +24,7 @@ impl<'a> QueryKind for AnyHit<'a> {
         }
     }
 
-    fn gathered(&self, g: Found, _: u32) -> u8 {
+    fn gathered(&self, g: &mut Found, _: u32) -> u8 {
         if g.found {
             HIT
         } else {

@@ -138,7 +138,11 @@ impl<'a> QueryKind for ClosestHit<'a> {
         Nearest::new(line, &self.surface.triangles)
     }
 
-    fn gathered(&self, g: Nearest<'a>, visited: u32) -> RayHit {
+    // Inlined into the walk: as a call (and `HitsOut::set` another), each ray's answer went
+    // through memory between the two, and both calls saved the walk's registers at every
+    // ray's end. Inlined, bunny's camera rays cast 8-13% faster (docs/performance.md).
+    #[inline(always)]
+    fn gathered(&self, g: &mut Nearest<'a>, visited: u32) -> RayHit {
         let mut r = RayHit {
             steps: visited,
             ..RayHit::nothing(MISS)
@@ -149,7 +153,7 @@ impl<'a> QueryKind for ClosestHit<'a> {
         let line = &g.line;
         let fast = self
             .narrow
-            .and_then(|simd| triangle_hit32_at(simd, line.o, line.d, &g.triangles[id as usize]));
+            .and_then(|simd| triangle_hit32_at(simd, line.o, line.d, &g.best_tri));
         r.status = HIT;
         r.triangle = id as i32;
         match fast {
@@ -158,7 +162,7 @@ impl<'a> QueryKind for ClosestHit<'a> {
                 r.point = h.point.map(f64::from);
             }
             None => {
-                let m = line.meet(&g.triangles[id as usize], id);
+                let m = line.meet(&g.best_tri, id);
                 (r.t, r.u, r.v, r.point) = (m.t, m.u, m.v, m.point);
             }
         }

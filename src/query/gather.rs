@@ -138,10 +138,13 @@ pub trait Gather {
     /// Takes triangle `id` (the caller's numbering), which the ray meets at one point within
     /// [tmin, tmax] ([`Line::meets`]); true: the answer is settled, offer no more.
     fn offer(&mut self, id: u32) -> bool;
-    /// [`Gather::offer`] with the float crossing [`Line::meets_at`] gave (the same answer;
-    /// a gatherer that orders may decide by it where it is certain).
+    /// [`Gather::offer`] with the triangle's corners (`tri`, the same numbers as the caller's
+    /// triangle `id`: an accelerator's copy, just read, so a gatherer that keeps or compares
+    /// them reads them from the cache rather than from the caller's array) and the float
+    /// crossing [`Line::meets_at`] gave (the same answer; a gatherer that orders may decide by
+    /// it where it is certain).
     #[inline]
-    fn offer_at(&mut self, id: u32, _at: (f64, f64)) -> bool {
+    fn offer_at(&mut self, id: u32, _tri: &Tri, _at: (f64, f64)) -> bool {
         self.offer(id)
     }
     /// Whether the accelerator tells [`Gather::in_plane`] of the triangles it tests and the
@@ -161,6 +164,10 @@ pub struct Nearest<'a> {
     pub line: Line,
     pub triangles: &'a [Tri],
     pub best: Option<u32>,
+    /// The best's corners (meaningful when `best` is set): kept as offered, so that the
+    /// comparisons with later offers and the hit's evaluation do not fetch them again from
+    /// the caller's array, where incoherent rays find them out of the cache.
+    pub best_tri: Tri,
     /// The best's float crossing (t, error bound).
     best_at: (f64, f64),
     reach: f64,
@@ -173,6 +180,7 @@ impl<'a> Nearest<'a> {
             line: *line,
             triangles,
             best: None,
+            best_tri: [[f64::NAN; 3]; 3],
             best_at: (f64::NAN, f64::INFINITY),
             reach: line.tmax,
         }
@@ -180,8 +188,7 @@ impl<'a> Nearest<'a> {
 
     /// The point kept, if any.
     pub fn meet(&self) -> Option<Meet> {
-        self.best
-            .map(|id| self.line.meet(&self.triangles[id as usize], id))
+        self.best.map(|id| self.line.meet(&self.best_tri, id))
     }
 }
 
@@ -193,12 +200,13 @@ impl Gather for Nearest<'_> {
 
     fn offer(&mut self, id: u32) -> bool {
         let line = &self.line;
-        let at = plane_t_unit(line.o, line.dir, line.scale, &self.triangles[id as usize]);
-        self.offer_at(id, at)
+        let tri = &self.triangles[id as usize];
+        let at = plane_t_unit(line.o, line.dir, line.scale, tri);
+        self.offer_at(id, tri, at)
     }
 
     #[inline]
-    fn offer_at(&mut self, id: u32, at: (f64, f64)) -> bool {
+    fn offer_at(&mut self, id: u32, tri: &Tri, at: (f64, f64)) -> bool {
         let (t, err) = at;
         let certain = t.is_finite() && err.is_finite();
         // Surely beyond the best's exact t (reach bounds it from above): not better.
@@ -208,8 +216,14 @@ impl Gather for Nearest<'_> {
         let better = match self.best {
             None => true,
             Some(b) => {
-                let (tri, best) = (&self.triangles[id as usize], &self.triangles[b as usize]);
-                match cmp_plane_t_at(self.line.o, self.line.d, tri, best, at, self.best_at) {
+                match cmp_plane_t_at(
+                    self.line.o,
+                    self.line.d,
+                    tri,
+                    &self.best_tri,
+                    at,
+                    self.best_at,
+                ) {
                     Ordering::Less => true,
                     Ordering::Equal => id < b,
                     Ordering::Greater => false,
@@ -218,6 +232,7 @@ impl Gather for Nearest<'_> {
         };
         if better {
             self.best = Some(id);
+            self.best_tri = *tri;
             self.best_at = at;
             self.reach = self.line.above(at);
         }
@@ -262,7 +277,7 @@ impl<'a> Every<'a> {
     }
 
     /// The points in order of t.
-    pub fn meets(mut self) -> Vec<Meet> {
+    pub fn meets(&mut self) -> Vec<Meet> {
         let (line, tris) = (self.line, self.triangles);
         self.ids
             .sort_by(|&a, &b| line.cmp(&tris[a as usize], &tris[b as usize]));

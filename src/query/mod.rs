@@ -53,7 +53,10 @@ pub trait QueryKind: Sync {
     type Gather: Gather;
     fn gather(&self, line: &Line) -> Self::Gather;
     /// The answer of what was gathered; `visited`: the nodes the accelerator visited.
-    fn gathered(&self, gathered: Self::Gather, visited: u32) -> Self::Answer;
+    ///
+    /// By reference: an accelerator's gatherer can be a few hundred bytes, and taken by value
+    /// it was copied (a library call) for every ray.
+    fn gathered(&self, gathered: &mut Self::Gather, visited: u32) -> Self::Answer;
 }
 
 /// Where a cast writes answers of type A: split into chunks that threads fill independently.

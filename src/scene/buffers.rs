@@ -118,7 +118,7 @@ impl<'a, R> HitsOut<'a, R> {
 
     /// Writes entry j: the hit of `ray` (its values rounded to the rays' precision: from
     /// float64 values within an ulp of the exact ones, still within an ulp).
-    #[inline]
+    #[inline(always)]
     pub fn set(&mut self, j: usize, r: &RayHit)
     where
         R: Real,

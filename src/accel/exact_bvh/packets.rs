@@ -260,8 +260,8 @@ impl ExactBvhPackets<'_> {
         } else {
             self.walk_packet(rays, &mut state.stack);
         }
-        for r in rays.drain(..) {
-            out.put(r.index, query.gathered(r.gather, r.visited));
+        for mut r in rays.drain(..) {
+            out.put(r.index, query.gathered(&mut r.gather, r.visited));
         }
     }
 }
