@@ -93,15 +93,31 @@ pub(crate) fn tally<R: Real>(
 
 struct Cast<R> {
     t: Vec<R>,
+    u: Vec<R>,
+    v: Vec<R>,
     tri: Vec<i32>,
+    tet: Vec<i32>,
     status: Vec<u8>,
     steps: Vec<u32>,
+    /// Two per ray when the cast was audited ([`cast_audited`]), else empty.
+    audit: Vec<u32>,
 }
 
 fn cast<R: Real>(
     scene: &Scene,
     o: &[R],
     d: &[R],
+    f: impl Fn(&Scene, &Rays<R>, HitsOut<R>) -> crate::Result<()>,
+) -> Cast<R> {
+    cast_audited(scene, o, d, false, f)
+}
+
+/// [`cast`], with the exact audit's column (two counts a ray) when `audit` is set.
+fn cast_audited<R: Real>(
+    scene: &Scene,
+    o: &[R],
+    d: &[R],
+    audit: bool,
     f: impl Fn(&Scene, &Rays<R>, HitsOut<R>) -> crate::Result<()>,
 ) -> Cast<R> {
     let n = o.len() / 3;
@@ -113,6 +129,7 @@ fn cast<R: Real>(
     );
     let (mut tri, mut tet, mut steps, mut status) =
         (vec![0; n], vec![0; n], vec![0; n], vec![0; n]);
+    let mut counts = vec![0; if audit { 2 * n } else { 0 }];
     let rays = Rays {
         origins: o,
         directions: d,
@@ -129,13 +146,17 @@ fn cast<R: Real>(
         tet: &mut tet,
         steps: &mut steps,
         status: &mut status,
-        audit: &mut [],
+        audit: &mut counts,
     };
     f(scene, &rays, out).unwrap();
     Cast {
         t,
+        u,
+        v,
         tri,
+        tet,
         status,
         steps,
+        audit: counts,
     }
 }

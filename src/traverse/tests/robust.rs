@@ -370,7 +370,6 @@ fn method_names_are_the_types_names() {
 /// predicates, not by the method under test.
 #[test]
 fn the_audit_counts_reach_the_answers() {
-    use crate::scene::CastOptions;
     let mut rng = Rng::xorshift(7);
     let GridScene { scene, pts, .. } = grid_scene(&mut rng, 4, 0.2, 0.1);
     let (mut o, mut d) = (Vec::new(), Vec::new());
@@ -381,43 +380,15 @@ fn the_audit_counts_reach_the_answers() {
             d.extend([0, 1, 2].map(|k| p[k] - from[k]));
         }
     }
-    let n = o.len() / 3;
     let wrong_exits = |method: &str| {
-        let (mut t, mut u, mut v, mut p) =
-            (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; 3 * n]);
-        let (mut tri, mut tet, mut steps, mut status) =
-            (vec![0; n], vec![0; n], vec![0; n], vec![0; n]);
-        let mut audit = vec![0u32; 2 * n];
-        let rays = Rays {
-            origins: &o,
-            directions: &d,
-            tmin: &[0.0],
-            tmax: &[f64::INFINITY],
-            leaving: None,
-        };
-        let out = HitsOut {
-            t: &mut t,
-            u: &mut u,
-            v: &mut v,
-            point: &mut p,
-            triangle: &mut tri,
-            tet: &mut tet,
-            steps: &mut steps,
-            status: &mut status,
-            audit: &mut audit,
-        };
-        let opts = CastOptions {
-            threads: Some(1),
-            ..Default::default()
-        };
-        scene
-            .cast_named(method, "tet32", &rays, out, &opts)
-            .unwrap();
-        audit.iter().step_by(2).sum::<u32>()
+        let res = cast_audited::<f64>(&scene, &o, &d, true, |s, r, out| {
+            s.cast_named(method, "tet32", r, out, &one_thread())
+        });
+        res.audit.iter().step_by(2).sum::<u32>()
     };
-    let float = wrong_exits("aman2022");
+    let n = o.len() / 3;
     assert!(
-        float > 0,
+        wrong_exits("aman2022") > 0,
         "aman2022 took no wrong exit on {n} rays through vertices"
     );
     assert_eq!(wrong_exits("robust"), 0);
@@ -431,63 +402,42 @@ fn the_audit_counts_reach_the_answers() {
 /// (its constrained face is not the start tet's entry), and a hit's (u, v) on its triangle.
 #[test]
 fn the_walks_end_is_reported_by_every_answer() {
-    use crate::scene::CastOptions;
     let mut rng = Rng::xorshift(11);
     let GridScene { scene, .. } = grid_scene(&mut rng, 4, 0.2, 0.1);
-    let mut o = Vec::new();
-    let mut d = Vec::new();
+    let (mut o, mut d) = (Vec::new(), Vec::new());
     for _ in 0..400 {
         o.extend([0, 1, 2].map(|_| rng.f()));
         d.extend([0, 1, 2].map(|_| rng.f() - 0.5));
     }
-    let opts = CastOptions {
-        threads: Some(1),
-        ..Default::default()
-    };
     let walk = |method: &str| {
-        let n = o.len() / 3;
-        let (mut t, mut u, mut v, mut p) =
-            (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; 3 * n]);
-        let (mut tri, mut tet, mut steps, mut status) =
-            (vec![0; n], vec![0; n], vec![0; n], vec![0; n]);
-        let rays = Rays {
-            origins: &o,
-            directions: &d,
-            tmin: &[0.0],
-            tmax: &[f64::INFINITY],
-            leaving: None,
-        };
-        let out = HitsOut {
-            t: &mut t,
-            u: &mut u,
-            v: &mut v,
-            point: &mut p,
-            triangle: &mut tri,
-            tet: &mut tet,
-            steps: &mut steps,
-            status: &mut status,
-            audit: &mut [],
-        };
-        scene
-            .cast_named(method, "tet32", &rays, out, &opts)
-            .unwrap();
-        (status, tet, steps, u, v)
+        cast::<f64>(&scene, &o, &d, |s, r, out| {
+            s.cast_named(method, "tet32", r, out, &one_thread())
+        })
     };
-    let (status, tet, steps, u, v) = walk("exact");
-    let robust = walk("robust");
-    assert_eq!((&status, &tet, &steps), (&robust.0, &robust.1, &robust.2));
-    for k in (0..status.len()).filter(|&k| status[k] == HIT) {
+    let (exact, robust) = (walk("exact"), walk("robust"));
+    assert_eq!(
+        (&exact.status, &exact.tet, &exact.steps),
+        (&robust.status, &robust.tet, &robust.steps)
+    );
+    let hits = exact.status.iter().filter(|&&s| s == HIT).count();
+    assert!(hits > 50, "only {hits} hits");
+    for k in 0..exact.status.len() {
+        assert!(exact.tet[k] >= 0, "ray {k} walked from no tet");
+        if exact.status[k] != HIT {
+            continue;
+        }
+        assert!(exact.steps[k] >= 1, "ray {k} hit without a step");
         // (u, v) on the same triangle, each rounded from its exact value (within an ulp).
-        for (a, b) in [(u[k], robust.3[k]), (v[k], robust.4[k])] {
+        for (a, b) in [(exact.u[k], robust.u[k]), (exact.v[k], robust.v[k])] {
             assert!((a - b).abs() <= 1e-12, "ray {k}: (u, v) {a} and {b}");
         }
     }
-    let hits = status.iter().filter(|&&s| s == HIT).count();
-    assert!(hits > 50, "only {hits} hits");
-    for k in 0..status.len() {
-        assert!(tet[k] >= 0, "ray {k} walked from no tet");
-        if status[k] == HIT {
-            assert!(steps[k] >= 1, "ray {k} hit without a step");
-        }
+}
+
+/// One thread, the default guard.
+fn one_thread() -> crate::scene::CastOptions {
+    crate::scene::CastOptions {
+        threads: Some(1),
+        ..Default::default()
     }
 }
