@@ -1202,7 +1202,7 @@ impl ExactBvhAt<'_> {
         // Until some ray is ready or none is left (a batch may hold only rays answered on
         // the way).
         while ready.is_empty() && *next < out.len() {
-            // First pass: the next READY rays (each returned through memory by `ray_at`).
+            // First pass: the next READY rays (`ray_at`, inlined by the cast, builds each in place).
             let mut rays = [const { MaybeUninit::<Ray>::uninit() }; READY];
             let first = *next;
             let read = READY.min(out.len() - first);

@@ -140,7 +140,7 @@ impl<'a> QueryKind for ClosestHit<'a> {
 
     // Inlined into the walk: as a call (and `HitsOut::set` another), each ray's answer went
     // through memory between the two, and both calls saved the walk's registers at every
-    // ray's end. Inlined, bunny's camera rays cast 8-13% faster (docs/performance.md).
+    // ray's end. Inlined: bunny's camera rays +13%, random +5-11% (docs/performance.md).
     #[inline(always)]
     fn gathered(&self, g: &mut Nearest<'a>, visited: u32) -> RayHit {
         let mut r = RayHit {
