@@ -2,6 +2,7 @@
 //! Its answers are judged with the other accelerators': against the referee, the exact walk
 //! and Reshetov's BVH (`reshetov_bvh/tests.rs`, `query/tests`, the fuzz targets).
 
+use super::packets::packet_box_tests;
 use super::*;
 use crate::geom::exact::triangle_sides;
 use crate::layout::LayoutKind;
@@ -132,12 +133,14 @@ fn box_tests(line: &Line, infinite: bool) -> Vec<(&'static str, Box<dyn BoxTest>
 /// A ray that meets a box exactly at one point of its boundary (a corner, an edge or a face:
 /// o + t·d = p exactly, with t a power of two), with tmin or tmax at that t or not, from
 /// origins that float32 cannot hold and directions with zero components: every box test
-/// keeps the box. Its entry bound is at most t. A box the ray passes an ulp beside is
-/// dropped by the float32 test often enough to show the test culls at all.
+/// keeps the box. Its entry bound is at most t. So does the packet test of that ray with
+/// others from its origin. A box the ray passes an ulp beside is dropped by the float32 test
+/// (and the packet test of that ray alone) often enough to show the test culls at all.
 #[test]
 fn box_tests_keep_every_box_a_ray_touches() {
     let mut rng = Rng::xorshift(11);
     let (mut kept, mut tested, mut culled_beside) = (0, 0, 0);
+    let (mut packets, mut packets_culled_beside) = (0, 0);
     for i in 0..20_000 {
         let scale = [1.0, 1e-3, 1e4, 1e-30, 1e30][i % 5];
         let f32at = |rng: &mut Rng| ((rng.f() - 0.5) * scale) as f32;
@@ -173,11 +176,15 @@ fn box_tests_keep_every_box_a_ray_touches() {
         });
         // t = 2^e, and either d with few bits (o = p − t·d exact in float64, often a float32)
         // or an origin of 53 bits within a factor of two of p per axis (p − o exact by
-        // Sterbenz's lemma, d = (p − o)/t exact), which float32 cannot hold. Some components
-        // of d zero.
+        // Sterbenz's lemma, d = (p − o)/t exact), which float32 cannot hold, or the origin 0
+        // (d = p/t). Some components of d zero.
         let e = rng.below(40) as i32 - 20;
         let t = 2f64.powi(e);
-        let (o, d) = if rng.below(2) == 0 {
+        let mode = rng.below(3);
+        let (o, d) = if mode == 2 {
+            // From the origin itself (o = 0: no slack from the origin's rounding).
+            ([0.0; 3], p.map(|x| x / t))
+        } else if mode == 0 {
             let d: [f64; 3] = [0, 1, 2].map(|_| {
                 if rng.below(5) == 0 {
                     0.0
@@ -234,6 +241,35 @@ fn box_tests_keep_every_box_a_ray_touches() {
             );
             kept += 1;
         }
+        // A packet of that ray and up to three more from its origin, whose directions scale
+        // its components (signs kept; the packet test takes no zero component): the packet's
+        // test keeps the box too, its entry bound at most t.
+        if !d.contains(&0.0) {
+            let mut lines = vec![line];
+            for _ in 0..rng.below(4) {
+                let d2 = d.map(|x| x * (0.5 + rng.f()));
+                let ray = Ray {
+                    o,
+                    d: d2,
+                    tmin,
+                    tmax,
+                    leaving: None,
+                };
+                lines.push(Line::new(&ray).unwrap());
+            }
+            let last = lines.len() - 1;
+            lines.swap(0, rng.below(last + 1));
+            for (mask, nears) in packet_box_tests(&lines, &node).into_iter().flatten() {
+                packets += 1;
+                assert!(
+                    mask & (1 << s) != 0 && nears[s] as f64 <= t,
+                    "packet of ray {i} o {o:?} d {d:?} [{tmin}, {tmax}] touching box {:?} at \
+                     t = {t}: mask {mask:b}, entry bound {}",
+                    boxes[s],
+                    nears[s]
+                );
+            }
+        }
         // The same ray moved off the box by far more than the padding on an axis where p is
         // on a bound and d is not zero: it misses; the float32 test sees that mostly.
         if let Some(k) = (0..3).find(|&k| kinds[k] < 2 && d[k] != 0.0) {
@@ -251,13 +287,24 @@ fn box_tests_keep_every_box_a_ray_touches() {
             if let Some(r) = RayBoxes::new(&line2, false) {
                 culled_beside += (r.test(&node, t, t).0 & (1 << s) == 0) as usize;
             }
+            for (mask, _) in packet_box_tests(&[line2], &node).into_iter().flatten() {
+                packets_culled_beside += (mask & (1 << s) == 0) as usize;
+            }
         }
     }
-    eprintln!("{kept} of {tested} kept, {culled_beside} culled beside");
+    eprintln!(
+        "{kept} of {tested} kept, {culled_beside} culled beside; {packets} packet tests, \
+         {packets_culled_beside} culled beside"
+    );
     assert!(tested > 30_000, "{tested} tests");
     assert!(
         culled_beside > 5_000,
         "{culled_beside}: the float32 test culls too little"
+    );
+    assert!(packets > 5_000, "{packets} packet tests");
+    assert!(
+        packets_culled_beside > 2_000,
+        "{packets_culled_beside}: the packet test culls too little"
     );
 }
 
