@@ -372,7 +372,7 @@ impl Accel<f64> for ExactBvhPackets<'_> {
         PacketState {
             one: self.alone().state(chunk),
             stack: Vec::with_capacity(8 * 32),
-            order: Vec::with_capacity(crate::scene::CHUNK),
+            order: Vec::new(),
         }
     }
 
