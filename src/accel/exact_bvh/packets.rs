@@ -42,8 +42,8 @@ pub struct ExactBvhPackets<'a> {
     pub simd: Simd,
 }
 
-/// One ray of a packet: its line and box constants, what its query keeps, the boxes it entered, and its index
-/// in the chunk.
+/// One ray of a packet: its line and box constants, what its query keeps, the boxes it
+/// entered, and its index in the chunk.
 struct PacketRay<G> {
     line: Line,
     boxes: RayBoxes,
@@ -53,7 +53,8 @@ struct PacketRay<G> {
 }
 
 /// What a chunk carries from packet to packet: the one-ray walk's state (for rays walked
-/// alone) and the packet's stack of (child code, the packet's entry bound).
+/// alone), the packet's stack of (child code, the rays that may enter it, the packet's entry
+/// bound), and the chunk's order.
 pub struct PacketState {
     one: State,
     stack: Vec<(u32, u64, f32)>,
