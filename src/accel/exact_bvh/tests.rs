@@ -308,6 +308,90 @@ fn box_tests_keep_every_box_a_ray_touches() {
     );
 }
 
+/// A ray from the origin 0 with a direction of 53 random bits enters a box by its lower face
+/// on axis k at the exact t* = lo/d, crossing the other axes well inside: every box test (one
+/// ray's, and the packet test of that ray with others from 0) keeps the box with an entry
+/// bound at most t*, decided exactly (`near·d ≤ lo` by a product and its fma residue). Here
+/// the products round either way (the touching rays above are dyadic and round benignly), so
+/// the packet test without the outward rounding of its 1/d interval and without its pad
+/// fails.
+#[test]
+fn box_tests_keep_boxes_entered_where_the_products_round() {
+    let mut rng = Rng::xorshift(12);
+    let (mut tested, mut packets) = (0, 0);
+    // near ≤ lo/d exactly, for d > 0: near·d = p + e exactly (e the fma's residue).
+    let at_most = |near: f32, lo: f64, d: f64| {
+        let p = near as f64 * d;
+        let e = (near as f64).mul_add(d, -p);
+        p < lo || (p == lo && e <= 0.0)
+    };
+    for i in 0..20_000 {
+        let scale = [1.0, 1e-3, 1e4][i % 3];
+        // d > 0 on every axis: its signs do not matter to the rounding, and the packet takes
+        // one sign per axis.
+        let d: [f64; 3] = [0, 1, 2].map(|_| (0.05 + rng.f()) * scale);
+        let k = rng.below(3);
+        let t = 0.5 + rng.f() * 4.0;
+        // The plane lo on axis k (a float32 near t·d_k), so the exact entry is t* = lo/d_k.
+        let lo_k = (t * d[k]) as f32;
+        let t_star = lo_k as f64 / d[k];
+        let mut node = Node8::EMPTY;
+        let mut lo = [0f32; 3];
+        let mut hi = [0f32; 3];
+        for a in 0..3 {
+            let x = t_star * d[a];
+            if a == k {
+                (lo[a], hi[a]) = (lo_k, (x * 1.5) as f32);
+            } else {
+                // Well inside: the ray crosses these slabs long before and after t*.
+                (lo[a], hi[a]) = ((x * 0.5) as f32, (x * 1.5) as f32);
+            }
+        }
+        let s = rng.below(WIDTH);
+        let bn = BvhNode {
+            lo,
+            first: 0,
+            hi,
+            count: 0,
+        };
+        node.set(s, &bn, LEAF | (s as u32) << COUNT_BITS);
+        let ray = |d: [f64; 3]| Ray {
+            o: [0.0; 3],
+            d,
+            tmin: 0.0,
+            tmax: f64::INFINITY,
+            leaving: None,
+        };
+        let line = Line::new(&ray(d)).unwrap();
+        for (name, test) in box_tests(&line, false) {
+            tested += 1;
+            let (mask, nears) = test.test(&node, line.tmin, line.tmax);
+            assert!(
+                mask & (1 << s) != 0 && at_most(nears[s], lo_k as f64, d[k]),
+                "{name}: ray {i} d {d:?} enters {bn:?} at t* = {t_star}: mask {mask:b}, entry \
+                 bound {}",
+                nears[s]
+            );
+        }
+        let mut lines = vec![line];
+        for _ in 0..rng.below(4) {
+            lines.push(Line::new(&ray(d.map(|x| x * (0.5 + rng.f())))).unwrap());
+        }
+        let last = lines.len() - 1;
+        lines.swap(0, rng.below(last + 1));
+        for (mask, nears) in packet_box_tests(&lines, &node).into_iter().flatten() {
+            packets += 1;
+            assert!(
+                mask & (1 << s) != 0 && at_most(nears[s], lo_k as f64, d[k]),
+                "packet of ray {i} d {d:?} entering {bn:?} at t* = {t_star}: mask {mask:b}, \
+                 entry bound {}",
+                nears[s]
+            );
+        }
+    }
+    assert!(tested >= 20_000 && packets >= 20_000, "{tested}, {packets}");
+}
+
 /// The portable and AVX2 walks visit the same nodes and give the same answers, bit for bit
 /// (steps included), on the agreement rays; the answers are also Reshetov's BVH's.
 #[test]
