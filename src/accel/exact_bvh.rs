@@ -818,6 +818,23 @@ fn below32(x: f64) -> f32 {
     (x - (x.abs() * REL32 + ABS32)) as f32
 }
 
+/// `(c_near, c_far)` for the origin coordinate `o` and the float32 factor `inv`: float32s with
+/// `c_near ≥ o·inv ≥ c_far` exactly (infinite where they leave float32's range). With o32 the
+/// nearest float32 to o, `c = o32·inv` is exact in float64 (two 24-bit significands) and
+/// |o − o32| is exact; the pad's product is rounded up by its factor, the sums by `above32`
+/// and `below32`. One ray's box constants and a packet's make them so.
+#[inline(always)]
+fn c_bounds(o: f64, inv: f32) -> (f32, f32) {
+    let o32 = o as f32;
+    let c = o32 as f64 * inv as f64;
+    let pad = ((o - o32 as f64).abs() * (inv as f64).abs()) * (1.0 + f64::EPSILON);
+    let (cn, cf) = (above32(c + pad), below32(c - pad));
+    debug_assert!(
+        !(cn.is_finite() && cf.is_finite()) || (cn as f64 >= c + pad && (cf as f64) <= c - pad)
+    );
+    (cn, cf)
+}
+
 impl RayBoxes {
     /// [`RayBoxes::new`], in AVX2 at that level (the same constants).
     #[inline(always)]
@@ -865,15 +882,7 @@ impl RayBoxes {
             }
             let inv = (1.0 / d) as f32;
             fine &= inv.is_finite() && inv.abs() >= f32::MIN_POSITIVE;
-            let c = o32 as f64 * inv as f64; // exact: two 24-bit significands
-                                             // |o − o32| is exact (o32 is o's nearest float32); the product is rounded up by
-                                             // the factor, the sums by `above32` and `below32`.
-            let pad = ((o - o32 as f64).abs() * (inv as f64).abs()) * (1.0 + f64::EPSILON);
-            let (cn, cf) = (above32(c + pad), below32(c - pad));
-            debug_assert!(
-                !(cn.is_finite() && cf.is_finite())
-                    || (cn as f64 >= c + pad && (cf as f64) <= c - pad)
-            );
+            let (cn, cf) = c_bounds(o, inv);
             fine &= cn.is_finite() && cf.is_finite();
             r.inv[k] = inv;
             r.neg_c_near[k] = -cn;

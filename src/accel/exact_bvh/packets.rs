@@ -22,8 +22,8 @@
 //! Not the CPU default: on bunny's camera it is still 0.85–0.95× the one-ray walk's speed
 //! (docs/bvh.md).
 use super::{
-    above32, below32, beyond_reach, offer_leaf, push_by_entry, Child, ExactBvh, ExactBvhAt, Node8,
-    RayBoxes, State, PAD, TINY, WIDTH,
+    above32, below32, beyond_reach, c_bounds, offer_leaf, push_by_entry, Child, ExactBvh,
+    ExactBvhAt, Node8, RayBoxes, State, PAD, TINY, WIDTH,
 };
 use crate::accel::reshetov_bvh::{max32, min32};
 use crate::accel::tetwalk::direction_key;
@@ -120,14 +120,11 @@ impl PacketBoxes {
                 return None;
             }
             let o = origin[k];
-            let o32 = o as f32;
-            if !o32.is_finite() {
+            if !(o as f32).is_finite() {
                 return None;
             }
             for (e, v) in [l, h].into_iter().enumerate() {
-                let c = o32 as f64 * v as f64; // exact: two 24-bit significands
-                let pad = ((o - o32 as f64).abs() * (v as f64).abs()) * (1.0 + f64::EPSILON);
-                let (cn, cf) = (above32(c + pad), below32(c - pad));
+                let (cn, cf) = c_bounds(o, v);
                 if !(cn.is_finite() && cf.is_finite()) {
                     return None;
                 }
