@@ -352,93 +352,137 @@ macro_rules! avx2_box_test {
 
 /// [`may_meet_avx2`] as a macro, to be expanded inside a function compiled with AVX2 and FMA
 /// (the walk's): as a function it stayed a call per leaf, with the walk's registers saved
-/// around it and the ray's constants broadcast again each time.
+/// around it and the ray's constants broadcast again each time. Per block of four triangles,
+/// the terms that depend on the origin alone ([`leaf_edges_avx2!`]), then their signs along
+/// the direction ([`edge_signs_avx2!`]): a packet, whose rays share their origin, makes the
+/// first once per leaf and the second per ray, with the same operations in the same order.
 #[cfg(target_arch = "x86_64")]
 macro_rules! may_meet_avx2 {
     ($line:expr, $tris:expr) => {{
-        use crate::geom::exact::{DET_BOUND, TINY};
         use std::arch::x86_64::*;
-        // No closures here: they do not take the target features, and stayed calls.
         let (line, tris): (&crate::query::gather::Line, &[crate::query::gather::Tri]) =
             ($line, $tris);
-        let (o, d) = (line.o, line.dir);
-        let mut dv = [_mm256_setzero_pd(); 3];
-        let mut da = [_mm256_setzero_pd(); 3];
-        let mut ov = [_mm256_setzero_pd(); 3];
-        for k in 0..3 {
-            dv[k] = _mm256_set1_pd(d[k]);
-            da[k] = _mm256_set1_pd(d[k].abs());
-            ov[k] = _mm256_set1_pd(o[k]);
+        let ov = line.o.map(|x| _mm256_set1_pd(x));
+        let (dv, da) = direction_avx2!(line);
+        debug_assert!(tris.len() <= 32, "a bit per triangle in a u32");
+        let (mut may, mut sure) = (0u32, 0u32);
+        for (block, four) in tris.chunks(4).enumerate() {
+            let edges = leaf_edges_avx2!(&ov, four);
+            let (out, all) = edge_signs_avx2!(&dv, &da, &edges);
+            may |= (!out & 0xf) << (4 * block);
+            sure |= all << (4 * block);
         }
+        (may, sure)
+    }};
+}
+
+/// The line's scaled direction and its magnitudes, broadcast (what [`edge_signs_avx2!`]
+/// takes).
+#[cfg(target_arch = "x86_64")]
+macro_rules! direction_avx2 {
+    ($line:expr) => {{
+        use std::arch::x86_64::*;
+        let d: [f64; 3] = $line.dir;
+        (
+            d.map(|x| _mm256_set1_pd(x)),
+            d.map(|x| _mm256_set1_pd(x.abs())),
+        )
+    }};
+}
+
+/// Of four triangles (a short block repeats its last: those lanes are not read), per edge k
+/// (corners b = k, c = k + 1 less the origin `ov`, per lane): the three 2×2 minors of
+/// `det_perm(d, b, c)` and the three sums of their products' magnitudes, `[m0, m1, m2, s0,
+/// s1, s2]`, as `geom::exact::triangle_sides` forms them.
+#[cfg(target_arch = "x86_64")]
+macro_rules! leaf_edges_avx2 {
+    ($ov:expr, $four:expr) => {{
+        use std::arch::x86_64::*;
+        let (ov, four): (&[__m256d; 3], &[crate::query::gather::Tri]) = ($ov, $four);
+        let last = four.len() - 1;
+        let t = [
+            &four[0],
+            &four[1.min(last)],
+            &four[2.min(last)],
+            &four[last],
+        ];
+        // Corner v's coordinate k minus the origin's, per lane.
+        let mut p = [[_mm256_setzero_pd(); 3]; 3];
+        for v in 0..3 {
+            for k in 0..3 {
+                let x = _mm256_set_pd(t[3][v][k], t[2][v][k], t[1][v][k], t[0][v][k]);
+                p[v][k] = _mm256_sub_pd(x, ov[k]);
+            }
+        }
+        let sign = _mm256_set1_pd(-0.0);
+        let mut edges = [[_mm256_setzero_pd(); 6]; 3];
+        for k in 0..3 {
+            let (b, c) = (&p[k], &p[(k + 1) % 3]);
+            // det_perm(d, b, c), term by term.
+            let (b1c2, b2c1) = (_mm256_mul_pd(b[1], c[2]), _mm256_mul_pd(b[2], c[1]));
+            let (b0c2, b2c0) = (_mm256_mul_pd(b[0], c[2]), _mm256_mul_pd(b[2], c[0]));
+            let (b0c1, b1c0) = (_mm256_mul_pd(b[0], c[1]), _mm256_mul_pd(b[1], c[0]));
+            let (a12, a21) = (_mm256_andnot_pd(sign, b1c2), _mm256_andnot_pd(sign, b2c1));
+            let (a02, a20) = (_mm256_andnot_pd(sign, b0c2), _mm256_andnot_pd(sign, b2c0));
+            let (a01, a10) = (_mm256_andnot_pd(sign, b0c1), _mm256_andnot_pd(sign, b1c0));
+            edges[k] = [
+                _mm256_sub_pd(b1c2, b2c1),
+                _mm256_sub_pd(b0c2, b2c0),
+                _mm256_sub_pd(b0c1, b1c0),
+                _mm256_add_pd(a12, a21),
+                _mm256_add_pd(a02, a20),
+                _mm256_add_pd(a01, a10),
+            ];
+        }
+        edges
+    }};
+}
+
+/// The signs of a block's three side products along the direction `(dv, da)`
+/// ([`direction_avx2!`]) from its [`leaf_edges_avx2!`] terms, each certified as
+/// `triangle_sides` certifies it (`|det| > DET_BOUND · perm`, the permanent finite and above
+/// TINY): four bits of triangles with two of certain opposite signs (surely missed), and four
+/// of those whose three it certified of one sign.
+#[cfg(target_arch = "x86_64")]
+macro_rules! edge_signs_avx2 {
+    ($dv:expr, $da:expr, $edges:expr) => {{
+        use crate::geom::exact::{DET_BOUND, TINY};
+        use std::arch::x86_64::*;
+        let (dv, da, edges): (&[__m256d; 3], &[__m256d; 3], &[[__m256d; 6]; 3]) =
+            ($dv, $da, $edges);
         let sign = _mm256_set1_pd(-0.0);
         let (bound_k, tiny, inf) = (
             _mm256_set1_pd(DET_BOUND),
             _mm256_set1_pd(TINY),
             _mm256_set1_pd(f64::INFINITY),
         );
-        debug_assert!(tris.len() <= 32, "a bit per triangle in a u32");
-        let (mut may, mut sure) = (0u32, 0u32);
         let all = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
-        for (block, four) in tris.chunks(4).enumerate() {
-            // Four triangles (a short block repeats its last: those lanes are not read).
-            let last = four.len() - 1;
-            let t = [
-                &four[0],
-                &four[1.min(last)],
-                &four[2.min(last)],
-                &four[last],
-            ];
-            // Corner v's coordinate k minus the origin's, per lane.
-            let mut p = [[_mm256_setzero_pd(); 3]; 3];
-            for v in 0..3 {
-                for k in 0..3 {
-                    let x = _mm256_set_pd(t[3][v][k], t[2][v][k], t[1][v][k], t[0][v][k]);
-                    p[v][k] = _mm256_sub_pd(x, ov[k]);
-                }
-            }
-            let (mut pos, mut neg) = (_mm256_setzero_pd(), _mm256_setzero_pd());
-            let (mut pos_all, mut neg_all) = (all, all);
-            for k in 0..3 {
-                let (b, c) = (&p[k], &p[(k + 1) % 3]);
-                // det_perm(d, b, c), term by term.
-                let (b1c2, b2c1) = (_mm256_mul_pd(b[1], c[2]), _mm256_mul_pd(b[2], c[1]));
-                let (b0c2, b2c0) = (_mm256_mul_pd(b[0], c[2]), _mm256_mul_pd(b[2], c[0]));
-                let (b0c1, b1c0) = (_mm256_mul_pd(b[0], c[1]), _mm256_mul_pd(b[1], c[0]));
-                let (m0, m1, m2) = (
-                    _mm256_sub_pd(b1c2, b2c1),
-                    _mm256_sub_pd(b0c2, b2c0),
-                    _mm256_sub_pd(b0c1, b1c0),
-                );
-                let det = _mm256_add_pd(
-                    _mm256_sub_pd(_mm256_mul_pd(dv[0], m0), _mm256_mul_pd(dv[1], m1)),
-                    _mm256_mul_pd(dv[2], m2),
-                );
-                let (a12, a21) = (_mm256_andnot_pd(sign, b1c2), _mm256_andnot_pd(sign, b2c1));
-                let (a02, a20) = (_mm256_andnot_pd(sign, b0c2), _mm256_andnot_pd(sign, b2c0));
-                let (a01, a10) = (_mm256_andnot_pd(sign, b0c1), _mm256_andnot_pd(sign, b1c0));
-                let perm = _mm256_add_pd(
-                    _mm256_add_pd(
-                        _mm256_mul_pd(da[0], _mm256_add_pd(a12, a21)),
-                        _mm256_mul_pd(da[1], _mm256_add_pd(a02, a20)),
-                    ),
-                    _mm256_mul_pd(da[2], _mm256_add_pd(a01, a10)),
-                );
-                let bound = _mm256_mul_pd(bound_k, perm);
-                let ok = _mm256_and_pd(
-                    _mm256_cmp_pd::<_CMP_GT_OQ>(perm, tiny),
-                    _mm256_cmp_pd::<_CMP_LT_OQ>(perm, inf),
-                );
-                let neg_det = _mm256_xor_pd(det, sign);
-                let p = _mm256_and_pd(ok, _mm256_cmp_pd::<_CMP_GT_OQ>(det, bound));
-                let n = _mm256_and_pd(ok, _mm256_cmp_pd::<_CMP_GT_OQ>(neg_det, bound));
-                (pos, neg) = (_mm256_or_pd(pos, p), _mm256_or_pd(neg, n));
-                (pos_all, neg_all) = (_mm256_and_pd(pos_all, p), _mm256_and_pd(neg_all, n));
-            }
-            let out = _mm256_movemask_pd(_mm256_and_pd(pos, neg)) as u32;
-            may |= (!out & 0xf) << (4 * block);
-            sure |= (_mm256_movemask_pd(_mm256_or_pd(pos_all, neg_all)) as u32) << (4 * block);
+        let (mut pos, mut neg) = (_mm256_setzero_pd(), _mm256_setzero_pd());
+        let (mut pos_all, mut neg_all) = (all, all);
+        for [m0, m1, m2, s0, s1, s2] in *edges {
+            let det = _mm256_add_pd(
+                _mm256_sub_pd(_mm256_mul_pd(dv[0], m0), _mm256_mul_pd(dv[1], m1)),
+                _mm256_mul_pd(dv[2], m2),
+            );
+            let perm = _mm256_add_pd(
+                _mm256_add_pd(_mm256_mul_pd(da[0], s0), _mm256_mul_pd(da[1], s1)),
+                _mm256_mul_pd(da[2], s2),
+            );
+            let bound = _mm256_mul_pd(bound_k, perm);
+            let ok = _mm256_and_pd(
+                _mm256_cmp_pd::<_CMP_GT_OQ>(perm, tiny),
+                _mm256_cmp_pd::<_CMP_LT_OQ>(perm, inf),
+            );
+            let neg_det = _mm256_xor_pd(det, sign);
+            let p = _mm256_and_pd(ok, _mm256_cmp_pd::<_CMP_GT_OQ>(det, bound));
+            let n = _mm256_and_pd(ok, _mm256_cmp_pd::<_CMP_GT_OQ>(neg_det, bound));
+            (pos, neg) = (_mm256_or_pd(pos, p), _mm256_or_pd(neg, n));
+            (pos_all, neg_all) = (_mm256_and_pd(pos_all, p), _mm256_and_pd(neg_all, n));
         }
-        (may, sure)
+        (
+            _mm256_movemask_pd(_mm256_and_pd(pos, neg)) as u32,
+            _mm256_movemask_pd(_mm256_or_pd(pos_all, neg_all)) as u32,
+        )
     }};
 }
 
