@@ -374,7 +374,7 @@ impl ExactBvhPackets<'_> {
             |node, t1| avx2_packet_test!(p, node, t1),
             |r, node, tmin, reach| {
                 let (t0, t1) = RayBoxes::range(tmin, reach);
-                avx2_box_test!(r, node, t0, t1, f32::INFINITY)
+                avx2_box_test!(r, node, t0, t1)
             },
             |o, tris| {
                 // Per block of four triangles, the edge terms of the shared origin (written
