@@ -12,12 +12,13 @@
 //! is entered only by the rays whose own test keeps it; there each of them tests the
 //! triangles as the one-ray walk does (the leaf filter, then `Line::meets_at`) and offers what
 //! it meets to its own query. The leaf filter's terms that depend on the origin and the
-//! triangles alone (corners less the origin, their 2×2 minors and magnitudes) are made once per
-//! leaf for the packet, and each ray takes only their products with its direction: the same
-//! operations in the same order as its own filter, so the same masks. So a ray is offered every triangle it meets within its range
-//! (and only triangles its own box test keeps), and its answer, decided exactly by the query
-//! whatever the order, is the same bit for bit; only the count of boxes it entered (`steps`:
-//! here those the packet entered while the ray was unsettled) differs.
+//! triangles alone (corners less the origin, their 2×2 minors and magnitudes) are made once
+//! per leaf for the packet, and each ray takes only their products with its direction: the
+//! same operations in the same order as its own filter, so the same masks. So a ray is offered
+//! every triangle it meets within its range (and only triangles its own box test keeps), and
+//! its answer, decided exactly by the query whatever the order, is the same bit for bit; only
+//! the count of boxes it entered (`steps`: here those the packet entered while the ray was
+//! unsettled) differs.
 //!
 //! A packet of one ray, a ray the float32 box test does not take (see [`RayBoxes::new`]), and
 //! the rays of a packet whose directions have a zero component walk alone, as
