@@ -95,6 +95,8 @@ struct Cast<R> {
     t: Vec<R>,
     u: Vec<R>,
     v: Vec<R>,
+    /// Three per ray.
+    point: Vec<R>,
     tri: Vec<i32>,
     tet: Vec<i32>,
     status: Vec<u8>,
@@ -153,6 +155,7 @@ fn cast_audited<R: Real>(
         t,
         u,
         v,
+        point: p,
         tri,
         tet,
         status,

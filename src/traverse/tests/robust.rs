@@ -431,6 +431,13 @@ fn the_walks_end_is_reported_by_every_answer() {
         for (a, b) in [(exact.u[k], robust.u[k]), (exact.v[k], robust.v[k])] {
             assert!((a - b).abs() <= 1e-12, "ray {k}: (u, v) {a} and {b}");
         }
+        // The point: each coordinate within an ulp of the exact point's, so the two within
+        // two ulps of the larger (a NaN fails).
+        for a in 0..3 {
+            let (p, q) = (exact.point[3 * k + a], robust.point[3 * k + a]);
+            let ulp = f64::EPSILON * p.abs().max(q.abs()).max(f64::MIN_POSITIVE);
+            assert!((p - q).abs() <= 2.0 * ulp, "ray {k}: point {p} and {q}");
+        }
     }
 }
 
