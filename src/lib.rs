@@ -7,6 +7,7 @@
 
 pub mod accel;
 pub mod bench;
+pub mod camera;
 pub mod error;
 /// Stable-Rust fuzz targets (construction, the walk): `cargo test --features fuzz` runs them
 /// bounded, `examples/fuzz.rs` long (docs/fuzzing.md). Not in the wheel.

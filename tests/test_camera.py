@@ -127,17 +127,51 @@ def test_look_at_corner_rays_make_the_field_of_view(width, height, fov):
         dict(eye=(1e3, 0, 0), target=(0, 0, 0), fov_deg=1.0, width=1, height=1),
     ],
 )
-def test_dev_pinhole_is_bit_identical_to_before_the_move(view, dtype):
+def test_dev_pinhole_is_the_camera_and_the_float32_recipe(view, dtype):
+    """Float64 rays are the old dev pinhole's, bit for bit; float32 rays are the float32
+    recipe (tetrace.camera's docstring), which the GPU's kernel follows too: the old float64
+    rays within the recipe's derived error of them."""
     o, d = pinhole(**view, dtype=dtype)
     oo, od = _old_pinhole(**view, dtype=dtype)
-    for new, old in ((o, oo), (d, od)):
-        assert new.dtype == old.dtype and new.shape == old.shape
-        assert new.tobytes() == old.tobytes()
+    assert o.tobytes() == oo.tobytes() and o.dtype == oo.dtype
+    assert d.dtype == od.dtype and d.shape == od.shape
+    for new in (o, d):
         assert new.flags.c_contiguous and new.flags.writeable
-    # the public camera gives the same numbers in image layout
-    co, cd = Camera.look_at(**view).rays(dtype)
-    assert cd.tobytes() == od.tobytes() and cd.shape == (view["height"], view["width"], 3)
+    cam = Camera.look_at(**view)
+    co, cd = cam.rays(dtype)
+    assert cd.tobytes() == d.tobytes() and cd.shape == (view["height"], view["width"], 3)
     assert np.array_equal(co.reshape(-1, 3), oo)
+    if dtype == np.float64:
+        assert d.tobytes() == od.tobytes()
+        return
+    assert d.tobytes() == _recipe32(cam).reshape(-1, 3).tobytes()
+    # Against the exact unit vector e (the old float64 rays, within U64 of it): each
+    # unnormalized component is within gamma_5 S_i of the exact one (its five roundings:
+    # three inputs of a product or one of forward, the product, two sums; S_i the sum of the
+    # terms' magnitudes), which moves the normalized vector by at most 2 gamma_5 |S| / |d|;
+    # the sum of squares (gamma_3), sqrt and the division add 1.5 gamma_3 + 2 U relative.
+    f64 = np.float64
+    right, up, forward = cam.axes
+    x, y = cam.xs[None, :, None], cam.ys[:, None, None]
+    exact = forward + x * right + y * up
+    s = np.abs(forward) + np.abs(x) * np.abs(right) + np.abs(y) * np.abs(up)
+    g5 = 5 * U32 / (1 - 5 * U32)
+    bound = 2 * g5 * np.linalg.norm(s, axis=-1) / np.linalg.norm(exact, axis=-1) + 7 * U32
+    err = np.abs(d.astype(f64) - od.astype(f64)).reshape(cam.shape + (3,)).max(axis=-1)
+    assert np.all(err <= bound + U32)  # + U32: the old rays' own rounding
+
+
+def _recipe32(cam):
+    """The float32 recipe in numpy's float32 arithmetic (each operation rounded; numpy never
+    fuses): an implementation independent of the core's."""
+    right, up, forward = np.asarray(cam.axes, dtype=np.float32)
+    x = np.asarray(cam.xs, dtype=np.float32)[None, :, None]
+    y = np.asarray(cam.ys, dtype=np.float32)[:, None, None]
+    d = (forward + x * right) + y * up
+    if cam.normalize:
+        n = np.sqrt((d[..., 0] * d[..., 0] + d[..., 1] * d[..., 1]) + d[..., 2] * d[..., 2])
+        d = d / n[..., None]
+    return d
 
 
 # ---------------------------------------------------------------------- from_intrinsics
@@ -151,19 +185,25 @@ def test_from_intrinsics_matches_open3d(open3d, name, seed):
         open3d.core.Tensor(k), open3d.core.Tensor(e), W, H
     ).numpy()
     assert want.shape == (H, W, 6) and want.dtype == np.float32
-    o, d = Camera.from_intrinsics(k, e, W, H).rays(np.float32)
+    cam = Camera.from_intrinsics(k, e, W, H)
+    o, d = cam.rays(np.float32)
     assert o.dtype == d.dtype == np.float32 and o.shape == d.shape == (H, W, 3)
+    assert d.tobytes() == _recipe32(cam).tobytes()
     # Open3D rounds M = R^T K^-1 to float32 (each entry within U32 |M_ik|) and takes the
     # dot products M (u, v, 1) in float32 (u = x + 0.5 is exact; a dot product of length 3
     # is within gamma_3 ~ 3 U32 of |M| |p|, with or without FMA), so each component is
-    # within 4 U32 (|M| |p|)_i of the exact R^T K^-1 p; ours is float64 (error ~1e-16) rounded
-    # once, within U32 |d_i| <= U32 (|M| |p|)_i. Hence 5 U32 (|M| |p|)_i: a few float32 ulps
-    # of the terms summed (a component that cancels to ~0 can differ by more of its own).
+    # within 4 U32 (|M| |p|)_i of the exact R^T K^-1 p. Ours is the float32 recipe on the
+    # camera's float64 numbers (error ~1e-16), rounded: within gamma_5 S_i of the exact,
+    # S_i = |forward_i| + |x| |right_i| + |y| |up_i| (five roundings: three inputs or one,
+    # the product, two sums). Hence 4 U32 (|M| |p|)_i + 6 U32 S_i: a few float32 ulps of the
+    # terms summed (a component that cancels to ~0 can differ by more of its own).
     m = np.abs(e[:3, :3].T @ np.linalg.inv(k))
     grid = np.meshgrid(np.arange(W) + 0.5, np.arange(H) + 0.5)
     p = np.stack([*grid, np.ones((H, W))], -1)
     scale = np.abs(p) @ m.T
-    assert np.all(np.abs(d - want[..., 3:]) <= 5 * U32 * scale)
+    right, up, forward = np.abs(cam.axes)
+    terms = forward + np.abs(cam.xs)[None, :, None] * right + np.abs(cam.ys)[:, None, None] * up
+    assert np.all(np.abs(d - want[..., 3:]) <= 4 * U32 * scale + 6 * U32 * terms)
     # not normalized: the same lengths as Open3D's (for K[2, 2] = 1, camera depth 1)
     assert not np.allclose(np.linalg.norm(d, axis=-1), 1.0)
     # origins: the camera centre -R^T t, computed in float64 by both and rounded once; the
@@ -367,6 +407,23 @@ def test_gpu_cast_takes_a_camera(spot):
     cam = _spot_camera(spot, 32, 24)
     got = spot.cast(camera=cam, device="gpu")
     assert got.shape == (24, 32) and got.t.dtype == np.float32
+    # the directions were made by the GPU's camera kernel, not uploaded
+    assert got.timings["camera_rays"] and got.timings["shared_origin"]
     _assert_same_hits(got, spot.cast(*cam.rays(), device="gpu"))
     # the GPU exact walk's answers are the CPU exact walk's, bit for bit (tet and steps too)
     _assert_same_hits(got, spot.cast(camera=cam, accel="tetwalk"))
+
+
+def test_core_camera_directions_refuse_bad_numbers():
+    from tetrace import _native
+
+    axes, xs, ys, _ = Camera.look_at((0, 0, 3), (0, 0, 0), width=4, height=3).float32_numbers()
+    assert _native.camera_directions(axes, xs, ys, True).shape == (3, 4, 3)
+    with pytest.raises(ValueError, match=r"camera axes must have shape \(3, 3\)"):
+        _native.camera_directions(axes[:2], xs, ys, True)
+    with pytest.raises(ValueError, match="at least one pixel"):
+        _native.camera_directions(axes, xs[:0], ys, True)
+    with pytest.raises(ValueError, match="must be finite"):
+        _native.camera_directions(axes, np.array([np.nan, 1], np.float32), ys, True)
+    with pytest.raises(ValueError, match="C-contiguous"):
+        _native.camera_directions(axes, np.repeat(xs, 2)[::2], ys, True)

@@ -16,6 +16,7 @@ __all__ = [
     "structure_defaults",
     "check_threads",
     "take_rows",
+    "camera_directions",
     "triangle_normals",
     "layouts",
     "simd_levels",
@@ -61,6 +62,16 @@ def check_threads(threads: int | None = None) -> int | None: ...
 def take_rows(
     rows: npt.NDArray[np.floating], index: npt.NDArray[np.int32], threads: int | None = None
 ) -> npt.NDArray[np.floating]: ...
+
+# A camera's float32 directions (H, W, 3) by the recipe the GPU's camera kernel follows:
+# axes (3, 3) rows right, up, forward; xs (W,), ys (H,) image-plane coordinates.
+def camera_directions(
+    axes: npt.NDArray[np.float32],
+    xs: npt.NDArray[np.float32],
+    ys: npt.NDArray[np.float32],
+    normalize: bool,
+    threads: int | None = None,
+) -> npt.NDArray[np.float32]: ...
 def triangle_normals(
     vertices: npt.NDArray[np.float64], faces: npt.NDArray[np.int64], threads: int | None = None
 ) -> npt.NDArray[np.float64]: ...
@@ -94,7 +105,9 @@ class GpuError(RuntimeError): ...
 class RayRequest:
     # One ray query's arguments, checked once: origins, directions (N, 3) C-contiguous in the
     # named precision; tmin, tmax float64 (1 or N); names None for the core's defaults; start:
-    # per ray the scene triangle it leaves and the tet its hit's walk ended in (int32, -1: none).
+    # per ray the scene triangle it leaves and the tet its hit's walk ended in (int32, -1: none);
+    # camera: the (axes, xs, ys, normalize) float32 numbers that made these float32 rays (a GPU
+    # cast then makes them in its kernel).
     def __new__(
         cls,
         origins: npt.NDArray[np.floating],
@@ -111,6 +124,10 @@ class RayRequest:
         packet: bool | None = None,
         start: tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]] | None = None,
         audit: bool = False,
+        camera: tuple[
+            npt.NDArray[np.float32], npt.NDArray[np.float32], npt.NDArray[np.float32], bool
+        ]
+        | None = None,
     ) -> RayRequest: ...
     def __len__(self) -> int: ...
     @property

@@ -11,10 +11,17 @@
 Two ways to make one: :meth:`Camera.look_at` (an eye, a target, an up vector and a vertical
 field of view, as :func:`tetrace.dev.camera.pinhole` always did) and
 :meth:`Camera.from_intrinsics` (a 3x3 intrinsic matrix and a world-to-camera extrinsic, as
-Open3D's ``RaycastingScene.create_rays_pinhole`` takes them). The rays are numpy arrays,
-generated on the host, for a cast on any device.
+Open3D's ``RaycastingScene.create_rays_pinhole`` takes them). The rays are numpy arrays for a
+cast on any device; a GPU cast of ``camera=cam`` makes the same float32 rays in its kernel
+instead of uploading them.
 
-Imports only numpy.
+Float32 rays follow one recipe, the same bits wherever they are made: the camera's numbers
+rounded once to float32, then ``d = (forward + x * right) + y * up`` and, when the camera
+normalizes, ``d / sqrt((dx * dx + dy * dy) + dz * dz)``, each operation correctly rounded in
+float32 (the core makes them, ``tetrace._native.camera_directions``; the GPU's kernel
+``shaders/camera.wgsl`` makes them alike). Float64 rays are computed in float64.
+
+Imports numpy, and the core for float32 rays.
 """
 
 from __future__ import annotations
@@ -183,8 +190,9 @@ class Camera:
           point's depth along the optical axis, as in Open3D.
 
         Open3D computes ``R^T K^{-1}`` in float64, rounds it to float32 and multiplies in
-        float32; here everything is float64 until :meth:`rays` rounds once, so float32 rays
-        agree with Open3D's to a few float32 ulps (they are the more accurate ones).
+        float32; here ``axes``, ``xs`` and ``ys`` are float64, and float32 rays round them once
+        and combine them in float32 (:meth:`rays`), so both agree to a few float32 ulps of
+        the terms summed.
 
         Parameters
         ----------
@@ -280,8 +288,10 @@ class Camera:
         Parameters
         ----------
         dtype : {numpy.float32, numpy.float64}, optional
-            Float type of the arrays. The directions are computed in float64 and rounded
-            once.
+            Float type of the arrays. Float64 directions are computed in float64; float32
+            ones by the module's float32 recipe (the camera's numbers rounded once, then
+            each operation rounded in float32), the rays a GPU cast of ``camera=`` makes in
+            its kernel, bit for bit.
 
         Returns
         -------
@@ -297,6 +307,12 @@ class Camera:
         dtype = np.dtype(dtype)
         if dtype not in (np.float32, np.float64):
             raise ValueError(f"dtype must be float32 or float64, got {dtype}")
+        origins = np.broadcast_to(self.eye.astype(dtype), self.shape + (3,))
+        if dtype == np.float32:
+            from . import _native
+
+            directions = _native.camera_directions(*self.float32_numbers())
+            return origins, directions
         right, vertical, forward = self.axes
         dirs = (
             forward[None, None, :]
@@ -305,9 +321,21 @@ class Camera:
         ).reshape(-1, 3)
         if self.normalize:
             dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
-        directions = dirs.astype(dtype).reshape(self.shape + (3,))
-        origins = np.broadcast_to(self.eye.astype(dtype), self.shape + (3,))
+        directions = dirs.reshape(self.shape + (3,))
         return origins, directions
+
+    def float32_numbers(self):
+        """Return the numbers float32 rays are made from: ``(axes, xs, ys, normalize)``,
+        each array rounded once to float32 (C-contiguous).
+
+        Returns
+        -------
+        tuple
+            ``(3, 3)``, ``(width,)`` and ``(height,)`` float32 arrays, and the bool
+            :attr:`normalize`.
+        """
+        f32 = lambda a: np.ascontiguousarray(a, dtype=np.float32)  # noqa: E731
+        return f32(self.axes), f32(self.xs), f32(self.ys), self.normalize
 
     def __repr__(self):
         return (

@@ -26,6 +26,7 @@ use super::structs::{
 use super::timings::GpuTimings;
 use super::upload::LayoutBuffers;
 use crate::accel::TetWalk;
+use crate::camera::CameraF32;
 use crate::error::{Error, Result};
 use crate::layout::Tet20;
 use crate::locate::{LocateState, Start, WalkStart};
@@ -59,12 +60,64 @@ impl DeviceScene {
         self.cast_with(scene, kernel, rays, out, opts, Batching::default())
     }
 
+    /// [`DeviceScene::cast`] of a camera's rays with the exact kernel (the default): `rays`
+    /// are `cam`'s, from its eye (`camera::directions`, as `Camera.rays` makes them), which
+    /// the host reads only for the rays the device hands back. Where the shared-origin
+    /// kernel takes the batch and the camera kernel takes the camera
+    /// ([`CameraF32::fits_device`]), the directions are made on the device, not uploaded;
+    /// otherwise `rays` are cast as they are. The same answers either way.
+    pub fn cast_camera(
+        &self,
+        scene: &Scene,
+        cam: &CameraF32,
+        rays: &Rays<f32>,
+        out: HitsOut<f32>,
+        opts: &CastOptions,
+    ) -> Result<GpuTimings> {
+        self.cast_camera_with(scene, cam, rays, out, opts, Batching::default())
+    }
+
+    /// [`DeviceScene::cast_camera`] with a given batching.
+    pub(crate) fn cast_camera_with(
+        &self,
+        scene: &Scene,
+        cam: &CameraF32,
+        rays: &Rays<f32>,
+        out: HitsOut<f32>,
+        opts: &CastOptions,
+        batching: Batching,
+    ) -> Result<GpuTimings> {
+        if rays.len() != cam.n_rays() {
+            return Err(Error::InvalidInput(format!(
+                "{} rays for a camera of {} pixels",
+                rays.len(),
+                cam.n_rays()
+            )));
+        }
+        let kernel = KernelSpec::find(None, None)?;
+        self.cast_inner(scene, kernel, rays, Some(cam), out, opts, batching)
+    }
+
     /// [`DeviceScene::cast`] with a given kernel and batching.
     pub(crate) fn cast_with(
         &self,
         scene: &Scene,
         kernel: &KernelSpec,
         rays: &Rays<f32>,
+        out: HitsOut<f32>,
+        opts: &CastOptions,
+        batching: Batching,
+    ) -> Result<GpuTimings> {
+        self.cast_inner(scene, kernel, rays, None, out, opts, batching)
+    }
+
+    #[allow(clippy::too_many_arguments)] // a cast's parts, and the camera that made its rays
+    fn cast_inner(
+        &self,
+        scene: &Scene,
+        kernel: &KernelSpec,
+        rays: &Rays<f32>,
+        camera: Option<&CameraF32>,
         out: HitsOut<f32>,
         opts: &CastOptions,
         batching: Batching,
@@ -95,9 +148,15 @@ impl DeviceScene {
                     Some(_) => None,
                 };
                 return match shared {
-                    Some(shared) => {
-                        self.cast_shared(scene, device, (shared, t0), rays, out, opts, timings)
-                    }
+                    Some(shared) => self.cast_shared(
+                        scene,
+                        device,
+                        (shared, t0),
+                        (rays, camera.filter(|c| c.fits_device())),
+                        out,
+                        opts,
+                        timings,
+                    ),
                     None => {
                         let fast = Some(boundary_miss as fn(&RayOut) -> RayHit);
                         resumed(
@@ -226,7 +285,7 @@ impl DeviceScene {
         scene: &Scene,
         exact: &OnDevice,
         (shared, t0): (Shared, Instant),
-        rays: &Rays<f32>,
+        (rays, camera): (&Rays<f32>, Option<&CameraF32>),
         out: HitsOut<f32>,
         opts: &CastOptions,
         timings: &mut GpuTimings,
@@ -245,6 +304,13 @@ impl DeviceScene {
         };
         let cache = self.run_buffers(&SHARED_ORIGIN);
         let extra = [(7, &grid.cells), (8, &grid.faces), (9, &table.buffer)];
+        // A camera's directions are made by its kernel on the device (its numbers, a few
+        // bytes, are the upload); the host's copy of them answers the rays handed back.
+        let kernel = camera.map(|_| g.camera_kernel()).transpose()?;
+        let on_device = match (&kernel, camera) {
+            (Some(k), Some(c)) => Some(k.upload(g, c)?),
+            _ => None,
+        };
         let launch = Launch {
             g,
             pipeline: &pipeline,
@@ -255,7 +321,9 @@ impl DeviceScene {
             input_binding: 6,
             shared: Some(shared),
             extra: &extra,
+            camera: kernel.as_deref().zip(on_device.as_ref()),
         };
+        timings.camera_rays = launch.camera.is_some();
         let n = rays.len();
         timings.shared_origin = true;
         timings.locate = t0.elapsed().as_secs_f64() - grid_upload - table_upload;
@@ -391,6 +459,7 @@ impl OnDevice<'_> {
             input_binding: 1,
             shared: None,
             extra: &[],
+            camera: None,
         };
         let mut by_chunk = ByChunk::new(chunks, &ends);
         launch.run(&all, walked, timings, |before, results| {

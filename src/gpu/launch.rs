@@ -1,6 +1,7 @@
 //! Running a kernel over prepared rays: the ray buffers, the bind group, then per batch an
 //! upload, a dispatch (a 2D grid when one row of workgroups is not enough) and a readback.
 
+use super::camera::{CameraKernel, DeviceCamera};
 use super::context::Gpu;
 use super::structs::{Params, RayOut, Shared, WORKGROUP};
 use super::timings::GpuTimings;
@@ -54,6 +55,9 @@ pub(crate) struct Launch<'a> {
     pub shared: Option<Shared>,
     /// The scene's further buffers the kernel reads, by binding (the entry grid).
     pub extra: &'a [(u32, &'a wgpu::Buffer)],
+    /// Directions made on the device by the camera kernel, batch by batch, instead of
+    /// uploaded (the shared-origin kernel's `dirs`): `run`'s parts are then not read.
+    pub camera: Option<(&'a CameraKernel, &'a DeviceCamera)>,
 }
 
 /// A kernel's ray buffers for batches of up to `batch` rays, and their bind group.
@@ -152,7 +156,10 @@ impl Launch<'_> {
         let mut before = 0usize;
         loop {
             let (mut pieces, mut n) = (Vec::new(), 0usize);
-            while n < batch {
+            if self.camera.is_some() {
+                n = batch.min(walked - before);
+            }
+            while n < batch && self.camera.is_none() {
                 if carry.is_empty() {
                     match rest.next() {
                         Some(p) => carry = p,
@@ -170,7 +177,7 @@ impl Launch<'_> {
             // Between batches, Ctrl-C (the bindings' poll) stops the cast.
             crate::threads::checkpoint()?;
             timings.batches += 1;
-            self.upload(bufs, &pieces, n, timings)?;
+            self.upload(bufs, &pieces, before, n, timings)?;
             self.dispatch(bind, bufs, n, max_dim, timings)?;
             read_back(g, bufs, n, timings, |results| take(before, results))??;
             before += n;
@@ -282,17 +289,35 @@ impl Launch<'_> {
         })
     }
 
+    /// Writes the batch's rays (`pieces`, or the camera kernel's directions for rays
+    /// `before .. before + n`) and its uniforms, and waits for them.
     fn upload<T: bytemuck::Pod>(
         &self,
         bufs: &RayBuffers,
         pieces: &[&[T]],
+        before: usize,
         n: usize,
         timings: &mut GpuTimings,
     ) -> Result<()> {
         let g = self.g;
         let t = Instant::now();
         let mapped = bufs.mapped();
-        if mapped {
+        if let Some((kernel, cam)) = self.camera {
+            let mut enc = g.device.create_command_encoder(&Default::default());
+            let max_dim = self.batching.max_groups.unwrap_or(u32::MAX);
+            kernel.record(
+                g,
+                &mut enc,
+                cam,
+                before as u32,
+                n as u32,
+                &bufs.rays,
+                max_dim,
+            )?;
+            g.scoped("making the camera's rays", || {
+                g.queue.submit([enc.finish()])
+            })?;
+        } else if mapped {
             // Shared memory (`Gpu::mapped_results`): the rays go where the kernel reads them.
             let size = (n * std::mem::size_of::<T>()) as u64;
             g.write_mapped(&bufs.rays, size, "the rays", |dst| {
@@ -306,7 +331,7 @@ impl Launch<'_> {
             })?;
         }
         g.scoped("uploading rays", || {
-            if !mapped {
+            if !mapped && self.camera.is_none() {
                 // Through the queue's staging memory.
                 let mut offset = 0u64;
                 for p in pieces {

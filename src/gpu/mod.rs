@@ -13,6 +13,7 @@
 //! (`cast.rs`), so its answers are the CPU exact cast's. Design, bounds and measurements:
 //! docs/gpu.md.
 
+pub mod camera;
 pub mod cast;
 pub mod context;
 pub mod device_scene;

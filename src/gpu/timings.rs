@@ -8,7 +8,7 @@ pub struct GpuTimings {
     pub locate: f64,
     /// Uploading the scene's buffers (0 when they were already on the device).
     pub scene_upload: f64,
-    /// Copying the rays to the device.
+    /// Copying the rays to the device (or, `camera_rays`, making them there).
     pub upload: f64,
     /// The traversal kernel: the GPU's timestamps around each dispatch, summed, where the
     /// device has them (`Gpu::timestamps`), else `kernel_wall`.
@@ -30,4 +30,7 @@ pub struct GpuTimings {
     /// Whether the batch took the shared-origin exact kernel (`gpu::origin`): one origin
     /// located once, every start on the device.
     pub shared_origin: bool,
+    /// Whether the directions were made on the device by the camera kernel
+    /// (`DeviceScene::cast_camera`), not uploaded.
+    pub camera_rays: bool,
 }

@@ -106,3 +106,53 @@ pub(crate) fn triangle_normals<'py>(
     }
     Ok(out)
 }
+
+/// A camera's float32 numbers from Python (`Camera.rays`, `RayRequest(camera=...)`): `axes`
+/// (3, 3) rows right, up, forward; `xs` and `ys` each column's and row's image-plane
+/// coordinate (1-D, not empty); `normalize`.
+pub(crate) fn camera_arg(
+    axes: &PyReadonlyArray2<'_, f32>,
+    xs: &PyReadonlyArray1<'_, f32>,
+    ys: &PyReadonlyArray1<'_, f32>,
+    normalize: bool,
+) -> PyResult<crate::camera::CameraF32> {
+    if axes.shape() != [3, 3] {
+        return Err(PyValueError::new_err(format!(
+            "camera axes must have shape (3, 3), got {:?}",
+            axes.shape()
+        )));
+    }
+    let a = slice(axes, "camera axes")?;
+    let row = |k: usize| [a[3 * k], a[3 * k + 1], a[3 * k + 2]];
+    let cam = crate::camera::CameraF32 {
+        right: row(0),
+        up: row(1),
+        forward: row(2),
+        xs: slice(xs, "camera xs")?.to_vec(),
+        ys: slice(ys, "camera ys")?.to_vec(),
+        normalize,
+    };
+    cam.check()?;
+    Ok(cam)
+}
+
+/// A camera's float32 ray directions, (H, W, 3), made on the pool's threads by the recipe
+/// the GPU's camera kernel follows (`camera.rs`): `Camera.rays(np.float32)`.
+#[pyfunction]
+#[pyo3(signature = (axes, xs, ys, normalize, threads=None))]
+pub(crate) fn camera_directions<'py>(
+    py: Python<'py>,
+    axes: PyReadonlyArray2<'py, f32>,
+    xs: PyReadonlyArray1<'py, f32>,
+    ys: PyReadonlyArray1<'py, f32>,
+    normalize: bool,
+    threads: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let threads = super::request::threads_arg(threads)?;
+    let cam = camera_arg(&axes, &xs, &ys, normalize)?;
+    let (h, w) = (cam.height(), cam.width());
+    let dirs = py.detach(|| guarded(|| crate::camera::directions(&cam, threads)))?;
+    Ok(numpy::PyArray1::from_vec(py, dirs)
+        .reshape([h, w, 3])?
+        .into_any())
+}

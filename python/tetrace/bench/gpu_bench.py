@@ -250,8 +250,8 @@ def run_gpu_bench(
         "kernel Grays/s = rays walked on the GPU / kernel seconds (timestamps where the device "
         "has them); host ns/ray = (whole call − kernel) / rays, best of the timed casts; "
         "handed back = rays the GPU handed to the CPU exact walk before a face; camera= = "
-        "scene.cast(camera=..., device='gpu') (rays generated on the host until the kernel "
-        "generates them)"
+        "scene.cast(camera=..., device='gpu') (directions made by the camera kernel on the "
+        "device; the host also makes them, for the rays handed back)"
     )
     out(
         _table(

@@ -7,6 +7,7 @@
 //! the CPU from the same triangle on both. `host.rs` tests the host's side (location, ray
 //! preparation, the kernel table, limits) without a GPU.
 
+mod camera;
 mod finish;
 mod host;
 mod intersections;

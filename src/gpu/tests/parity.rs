@@ -147,7 +147,7 @@ pub(super) fn float_kernel_parity(test: &str, differ: usize, n: usize) {
 /// Every column of two casts (the CPU's and the GPU's, or two GPU casts), bit for bit (NaNs
 /// compared by their bits too); a difference is reported by its count and first ray, not by
 /// dumping the columns.
-fn assert_same_answers(test: &str, cpu: &Out, gpu: &Out) {
+pub(super) fn assert_same_answers(test: &str, cpu: &Out, gpu: &Out) {
     fn same<T: PartialEq + std::fmt::Debug>(test: &str, what: &str, a: &[T], b: &[T]) {
         assert_eq!(a.len(), b.len(), "{test}: {what}");
         let differ: Vec<usize> = (0..a.len()).filter(|&i| a[i] != b[i]).collect();

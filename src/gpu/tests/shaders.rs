@@ -56,6 +56,13 @@ fn every_shader_validates_with_naga() {
         let disk = std::fs::read_to_string(shaders_dir().join(OCTREE)).unwrap();
         assert_eq!(disk, crate::gpu::octree::file(), "octree kernel: stale");
     }
+    // The camera kernel stands alone too (one file, no parts).
+    used.push(crate::gpu::camera::PATH.to_string());
+    let disk = std::fs::read_to_string(shaders_dir().join(crate::gpu::camera::PATH)).unwrap();
+    assert_eq!(disk, crate::gpu::camera::FILE, "camera kernel: stale");
+    let (module, _) = parse_and_validate("camera", crate::gpu::camera::FILE);
+    assert_eq!(module.entry_points.len(), 1, "camera: one entry point");
+    assert_eq!(module.entry_points[0].workgroup_size, [WORKGROUP, 1, 1]);
     used.sort();
     used.dedup();
     assert_eq!(files, used, "shaders/ holds exactly the kernels' parts");
@@ -110,6 +117,19 @@ fn rust_mirrors_match_wgsl_layouts() {
                 ("max_steps", offset_of!(Params, max_steps)),
             ],
         ),
+        ("CamParams", size_of::<crate::gpu::camera::CamParams>(), {
+            use crate::gpu::camera::CamParams as C;
+            vec![
+                ("forward", offset_of!(C, forward)),
+                ("n_rays", offset_of!(C, n_rays)),
+                ("right", offset_of!(C, right)),
+                ("width", offset_of!(C, width)),
+                ("up", offset_of!(C, up)),
+                ("first", offset_of!(C, first)),
+                ("normalize", offset_of!(C, normalize)),
+                ("height", offset_of!(C, height)),
+            ]
+        }),
         (
             "RayIn",
             size_of::<RayIn>(),
@@ -188,9 +208,11 @@ fn rust_mirrors_match_wgsl_layouts() {
         ),
     ];
     let mut seen = std::collections::HashSet::new();
-    for k in all_kernels() {
-        let file = k.name();
-        let (module, _) = parse_and_validate(&file, &k.source());
+    let modules = all_kernels()
+        .map(|k| (k.name(), k.source()))
+        .chain([("camera".to_string(), crate::gpu::camera::FILE.to_string())]);
+    for (file, source) in modules {
+        let (module, _) = parse_and_validate(&file, &source);
         let mut layouter = naga::proc::Layouter::default();
         layouter.update(module.to_ctx()).unwrap();
         for (h, ty) in module.types.iter() {
