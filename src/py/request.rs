@@ -48,6 +48,7 @@ pub struct PyRayRequest {
     pub(crate) accel_named: bool,
     /// The camera that made these rays (`camera=cam`, float32): the GPU's exact cast makes
     /// their directions on the device instead of uploading them (`DeviceScene::cast_camera`).
+    #[cfg_attr(not(feature = "gpu"), allow(dead_code))] // read by the GPU cast only
     pub(crate) camera: Option<crate::camera::CameraF32>,
     n: usize,
 }
