@@ -409,6 +409,13 @@ def test_gpu_cast_takes_a_camera(spot):
     assert got.shape == (24, 32) and got.t.dtype == np.float32
     # the directions were made by the GPU's camera kernel, not uploaded
     assert got.timings["camera_rays"] and got.timings["shared_origin"]
+    # a finite range: the same as the camera's rays passed with it, and as the CPU's
+    o, d = cam.rays()
+    tmax = float(np.nanmedian(got.t))
+    near = spot.cast(camera=cam, tmax=tmax, device="gpu")
+    assert near.timings["camera_rays"] and (near.status == tetrace.MISS).any()
+    _assert_same_hits(near, spot.cast(o, d, tmax=tmax, device="gpu"))
+    _assert_same_hits(near, spot.cast(camera=cam, tmax=tmax, accel="tetwalk"))
     _assert_same_hits(got, spot.cast(*cam.rays(), device="gpu"))
     # the GPU exact walk's answers are the CPU exact walk's, bit for bit (tet and steps too)
     _assert_same_hits(got, spot.cast(camera=cam, accel="tetwalk"))
@@ -427,3 +434,20 @@ def test_core_camera_directions_refuse_bad_numbers():
         _native.camera_directions(axes, np.array([np.nan, 1], np.float32), ys, True)
     with pytest.raises(ValueError, match="C-contiguous"):
         _native.camera_directions(axes, np.repeat(xs, 2)[::2], ys, True)
+
+
+def test_gpu_camera_ray_of_zero_length_is_invalid(spot):
+    """A pixel whose direction is zero (forward + x right = 0 at y = 0): the kernel hands it
+    back, and the cast raises naming it, or marks it INVALID as the CPU does."""
+    from conftest import gpu_device
+
+    gpu_device()
+    centre = spot.vertices.mean(axis=0)
+    axes = np.array([[-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]])
+    xs, ys = np.array([1.0, 0.5, 0.25]), np.array([0.1, 0.0])
+    cam = Camera(centre + (-3.0, 0.0, 0.1), axes, xs, ys, normalize=False)
+    with pytest.raises(ValueError, match=r"first: ray \(1, 0\), directions: zero length"):
+        spot.cast(camera=cam, device="gpu")
+    got = spot.cast(camera=cam, device="gpu", invalid="mark")
+    assert got.timings["camera_rays"] and got.status[1, 0] == tetrace.INVALID
+    _assert_same_hits(got, spot.cast(camera=cam, invalid="mark", accel="tetwalk"))

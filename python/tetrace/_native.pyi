@@ -180,6 +180,20 @@ class NativeScene:
     def cast_gpu(
         self, request: RayRequest, kind: str = "closest"
     ) -> tuple[dict[str, np.ndarray], dict[str, float]]: ...
+    # A camera's rays (its float32 axes, xs, ys, normalize; its eye; one range) on the GPU's
+    # exact kernel, the directions made on the device: the closest hits and the phases.
+    def cast_gpu_camera(
+        self,
+        axes: npt.NDArray[np.float32],
+        xs: npt.NDArray[np.float32],
+        ys: npt.NDArray[np.float32],
+        normalize: bool,
+        eye: npt.NDArray[np.float32],
+        tmin: float,
+        tmax: float,
+        threads: int | None = None,
+        max_steps: int | None = None,
+    ) -> tuple[dict[str, np.ndarray], dict[str, float]]: ...
     # (N, 3) float64 points -> (N,) bool: inside (on the surface counts as inside).
     def contains(
         self, points: npt.NDArray[np.floating], threads: int | None = None

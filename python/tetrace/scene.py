@@ -360,6 +360,8 @@ class Scene:
         gpu.check_cast(device)
         if device == "gpu" and precision is None:
             precision = "f32"  # WGSL has no float64: the GPU walks float32 rays
+        if self._camera_on_gpu(locals()):
+            return self._cast_camera_gpu(locals())
         q = self._request(locals())
         timings = None
         if gpu.wanted(device, q.precision, method, layout, accel, start):
@@ -376,6 +378,52 @@ class Scene:
         if q.native.accel == "tetwalk":
             self.build_ct()
         return self._native
+
+    @staticmethod
+    def _camera_on_gpu(args):
+        """Whether a cast (``locals()`` of :meth:`cast`) is a camera's that the GPU's exact
+        kernel takes with no rays on the host: ``camera=`` alone, float32, the default
+        method and layout, one scalar range, on a GPU the cast goes to. (Anything else makes
+        the camera's rays on the host, as any rays.)"""
+        from .camera import Camera
+
+        return (
+            isinstance(args["camera"], Camera)
+            and all(args[k] is None for k in ("origins", "directions", "start"))
+            and args["precision"] in (None, "f32")
+            and args["method"] in (None, "exact")
+            and args["layout"] in (None, "tet20")
+            and args["accel"] in (None, "tetwalk")
+            and args["invalid"] in ("raise", "mark")
+            and np.ndim(args["tmin"]) == 0
+            and np.ndim(args["tmax"]) == 0
+            and gpu.wanted(args["device"], "f32", args["method"], None, args["accel"], None)
+        )
+
+    def _cast_camera_gpu(self, args):
+        """:meth:`cast` of a camera on the GPU (:meth:`_camera_on_gpu`): the directions made
+        in the kernel, the host's only per-ray work the answers (and the rays handed back)."""
+        from .progress import enabled
+        from .rays import prepare_bounds, raise_invalid
+
+        enabled(args["progress"])  # a TypeError for anything but None/True/False
+        cam = args["camera"]
+        tmin = prepare_bounds(args["tmin"], cam.n_rays, "tmin")[0]
+        tmax = prepare_bounds(args["tmax"], cam.n_rays, "tmax")[0]
+        r, timings = self.build_ct()._native.cast_gpu_camera(
+            *cam.float32_numbers(),
+            cam.eye.astype(np.float32),
+            tmin,
+            tmax,
+            threads=args["threads"],
+            max_steps=args["max_steps"],
+        )
+        if args["invalid"] == "raise" and (np.asarray(r["status"]) == INVALID).any():
+            o, d = cam.rays(np.float32)
+            raise_invalid(r["status"], o.reshape(-1, 3), d.reshape(-1, 3), cam.shape)
+        rows = self._normal_rows(np.float32)
+        hits = Hits.from_core(r, rows, self.geometries, timings, args["threads"])
+        return hits.reshape(cam.shape)
 
     def _request(self, args):
         """The :class:`~tetrace.rays.RayRequest` of a ray query's arguments (the public

@@ -18,7 +18,7 @@ use super::finish::NONE;
 use super::kernels::{KernelSpec, SHARED_ORIGIN};
 use super::launch::{Batching, Launch, RunBuffers};
 use super::origin::finished_hit;
-use super::origin::{boundary_miss, plain_state, shared_origin, start_of};
+use super::origin::{boundary_miss, plain_state, shared_at, shared_origin};
 use super::structs::{
     RayIn, RayOut, Shared, END_BOUNDARY, END_DEFERRED, END_FINISHED, END_HIT, END_MISS_BOX,
     END_UNBEGUN,
@@ -28,6 +28,7 @@ use super::upload::LayoutBuffers;
 use crate::accel::TetWalk;
 use crate::camera::CameraF32;
 use crate::error::{Error, Result};
+use crate::geom::ray::Ray;
 use crate::layout::Tet20;
 use crate::locate::{LocateState, Start, WalkStart};
 use crate::query::{Listed, QueryKind, RayHit, Sink};
@@ -75,6 +76,77 @@ impl DeviceScene {
         opts: &CastOptions,
     ) -> Result<GpuTimings> {
         self.cast_camera_with(scene, cam, rays, out, opts, Batching::default())
+    }
+
+    /// [`DeviceScene::cast_camera`] with no rays on the host: the camera `cam` at `eye`,
+    /// every ray in `[tmin, tmax]`. Where the shared-origin kernel takes the eye and the
+    /// camera kernel the camera, the host makes only the directions of the rays the device
+    /// hands back (the twin's, one at a time); otherwise it makes every ray and casts them
+    /// as [`DeviceScene::cast_camera`] does. The same answers either way.
+    pub fn cast_camera_at(
+        &self,
+        scene: &Scene,
+        cam: &CameraF32,
+        eye: [f32; 3],
+        (tmin, tmax): (f64, f64),
+        out: HitsOut<f32>,
+        opts: &CastOptions,
+    ) -> Result<GpuTimings> {
+        cam.check()?;
+        let n = cam.n_rays();
+        if out.len() != n || out.point.len() != 3 * n || !out.audit.is_empty() {
+            return Err(Error::InvalidInput(format!(
+                "a camera of {n} pixels needs {n} answers and no audit"
+            )));
+        }
+        let rays = HostRays::Camera {
+            cam,
+            eye,
+            tmin,
+            tmax,
+        };
+        let kernel = KernelSpec::find(None, None)?;
+        let t0 = Instant::now();
+        let mut out = Some(out);
+        let timings = self.on_device(
+            scene,
+            kernel,
+            opts,
+            Batching::default(),
+            |device, timings| {
+                let slack = device.scene.points_slack;
+                let shared = cam
+                    .fits_device()
+                    .then(|| shared_at(scene, &rays.ray(0), &scene.closest(), slack))
+                    .flatten();
+                match (shared, out.take()) {
+                    (Some(shared), Some(o)) => {
+                        let at = (rays, Some(cam));
+                        self.cast_shared(scene, device, (shared, t0), at, o, opts, timings)
+                    }
+                    (_, o) => {
+                        out = o; // not taken: made on the host below
+                        Ok(())
+                    }
+                }
+            },
+        )?;
+        let Some(out) = out else {
+            return Ok(timings);
+        };
+        let directions = crate::camera::directions(cam, opts.threads)?;
+        let mut origins = crate::error::try_with_capacity(3 * n, "the camera's origins")?;
+        for _ in 0..n {
+            origins.extend(eye);
+        }
+        let given = Rays {
+            origins: &origins,
+            directions: &directions,
+            tmin: &[tmin],
+            tmax: &[tmax],
+            leaving: None,
+        };
+        self.cast_camera(scene, cam, &given, out, opts)
     }
 
     /// [`DeviceScene::cast_camera`] with a given batching.
@@ -152,7 +224,7 @@ impl DeviceScene {
                         scene,
                         device,
                         (shared, t0),
-                        (rays, camera.filter(|c| c.fits_device())),
+                        (HostRays::Given(rays), camera.filter(|c| c.fits_device())),
                         out,
                         opts,
                         timings,
@@ -273,6 +345,46 @@ impl DeviceScene {
     }
 }
 
+/// A shared-origin cast's rays as the host reads them (for the rays the device hands back):
+/// the caller's arrays, or a camera's, made one at a time by the twin.
+#[derive(Clone, Copy)]
+enum HostRays<'a> {
+    Given(&'a Rays<'a, f32>),
+    Camera {
+        cam: &'a CameraF32,
+        eye: [f32; 3],
+        tmin: f64,
+        tmax: f64,
+    },
+}
+
+impl HostRays<'_> {
+    fn len(&self) -> usize {
+        match self {
+            HostRays::Given(r) => r.len(),
+            HostRays::Camera { cam, .. } => cam.n_rays(),
+        }
+    }
+
+    fn ray(&self, i: usize) -> Ray {
+        match *self {
+            HostRays::Given(r) => r.ray(i),
+            HostRays::Camera {
+                cam,
+                eye,
+                tmin,
+                tmax,
+            } => Ray {
+                o: eye.map(f64::from),
+                d: cam.ray(i).map(f64::from),
+                tmin,
+                tmax,
+                leaving: None,
+            },
+        }
+    }
+}
+
 impl DeviceScene {
     /// A batch from one origin (`gpu::origin`): the shared-origin kernel begins every walk
     /// from the ray's direction, walks on and finishes the hits it can certify; the host
@@ -285,7 +397,7 @@ impl DeviceScene {
         scene: &Scene,
         exact: &OnDevice,
         (shared, t0): (Shared, Instant),
-        (rays, camera): (&Rays<f32>, Option<&CameraF32>),
+        (rays, camera): (HostRays, Option<&CameraF32>),
         out: HitsOut<f32>,
         opts: &CastOptions,
         timings: &mut GpuTimings,
@@ -296,7 +408,7 @@ impl DeviceScene {
         let (table, table_upload) = self.hit_table(g, scene)?;
         timings.scene_upload += grid_upload + table_upload;
         // The kernel finishes hits where the host would compare nothing against tmax.
-        let finite_tmax = rays.tmax.first().is_some_and(|t| *t != f64::INFINITY);
+        let finite_tmax = rays.ray(0).tmax != f64::INFINITY;
         let shared = Shared {
             sides: grid.sides,
             finish: if finite_tmax { NONE } else { table.sides },
@@ -306,7 +418,7 @@ impl DeviceScene {
         let extra = [(7, &grid.cells), (8, &grid.faces), (9, &table.buffer)];
         // A camera's directions are made by its kernel on the device (its numbers, a few
         // bytes, are the upload); the host's copy of them answers the rays handed back.
-        let kernel = camera.map(|_| g.camera_kernel()).transpose()?;
+        let kernel = camera.map(|_| self.camera_kernel(g)).transpose()?;
         let on_device = match (&kernel, camera) {
             (Some(k), Some(c)) => Some(k.upload(g, c)?),
             _ => None,
@@ -355,7 +467,7 @@ impl DeviceScene {
                     }
                     end => {
                         sent += (end == END_DEFERRED) as usize;
-                        match start_of(rays, i) {
+                        match WalkStart::exact(&rays.ray(i)) {
                             Ok(s) => walk.walk_on_from(&query, &s, plain_state(o)),
                             Err(status) => query.skipped(status),
                         }
@@ -369,8 +481,17 @@ impl DeviceScene {
         let chunks = crate::query::chunks(out, CHUNK);
         let ends: Vec<usize> = (1..=chunks.len()).map(|k| (k * CHUNK).min(n)).collect();
         let mut by_chunk = ByChunk::new(chunks, &ends);
-        // Straight from the caller's array: 12 bytes a ray.
-        let dirs: &[[f32; 3]] = bytemuck::cast_slice(rays.directions);
+        // Straight from the caller's array (12 bytes a ray), or made on the device.
+        let dirs: &[[f32; 3]] = match rays {
+            HostRays::Given(r) if launch.camera.is_none() => bytemuck::cast_slice(r.directions),
+            HostRays::Given(_) => &[],
+            HostRays::Camera { .. } if launch.camera.is_some() => &[],
+            HostRays::Camera { .. } => {
+                return Err(Error::InvalidInput(
+                    "internal: a camera's rays without the camera kernel".into(),
+                ))
+            }
+        };
         launch.run(&[dirs], n, timings, |before, results| {
             by_chunk.take(before, results, opts.threads, &answer)
         })?;

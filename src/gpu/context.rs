@@ -140,8 +140,6 @@ pub struct Gpu {
     pub mapped_results: bool,
     /// Compiled kernels, by (method, layout) (`Gpu::pipeline`, in kernels.rs).
     pub(super) pipelines: Mutex<HashMap<KernelKey, Arc<wgpu::ComputePipeline>>>,
-    /// The camera kernel, compiled on first use (`Gpu::camera_kernel`).
-    camera: Mutex<Option<Arc<super::camera::CameraKernel>>>,
 }
 
 static GPU: Mutex<Option<Arc<Gpu>>> = Mutex::new(None);
@@ -217,23 +215,11 @@ impl Gpu {
             device,
             queue,
             pipelines: Mutex::new(HashMap::new()),
-            camera: Mutex::new(None),
         })
     }
 
     /// Runs `f` inside validation and out-of-memory error scopes; a captured error becomes
     /// `Error::Gpu` naming `what`.
-    /// The camera kernel (`gpu::camera`), compiled on first use and kept.
-    pub fn camera_kernel(&self) -> Result<Arc<super::camera::CameraKernel>> {
-        let mut slot = self.camera.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some(k) = slot.as_ref() {
-            return Ok(k.clone());
-        }
-        let k = Arc::new(super::camera::CameraKernel::new(self)?);
-        *slot = Some(k.clone());
-        Ok(k)
-    }
-
     pub fn scoped<T>(&self, what: &str, f: impl FnOnce() -> T) -> Result<T> {
         let oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let val = self.device.push_error_scope(wgpu::ErrorFilter::Validation);

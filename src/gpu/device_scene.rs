@@ -2,6 +2,7 @@
 //! cast with a kernel on that layout and kept for the next. The CPU scene does not hold them:
 //! whoever casts on the GPU keeps a [`DeviceScene`] beside its [`Scene`].
 
+use super::camera::CameraKernel;
 use super::context::Gpu;
 use super::context::KernelKey;
 use super::finish::{upload_hit_table, HitTable};
@@ -31,6 +32,8 @@ pub struct DeviceScene {
     entry_grid: Mutex<Option<Arc<EntryGrid>>>,
     /// The shared-origin kernel's hit table (uploaded by its first cast).
     hit_table: Mutex<Option<Arc<HitTable>>>,
+    /// The camera kernel (compiled by the first cast of a camera's rays).
+    camera: Mutex<Option<Arc<CameraKernel>>>,
 }
 
 impl DeviceScene {
@@ -78,6 +81,11 @@ impl DeviceScene {
     /// yet, and the seconds the upload took.
     pub(crate) fn hit_table(&self, g: &Gpu, scene: &Scene) -> Result<(Arc<HitTable>, f64)> {
         kept(g, &self.hit_table, || upload_hit_table(g, scene))
+    }
+
+    /// The camera kernel (`gpu::camera`), compiled now if it is not yet.
+    pub(crate) fn camera_kernel(&self, g: &Gpu) -> Result<Arc<CameraKernel>> {
+        Ok(kept(g, &self.camera, || CameraKernel::new(g))?.0)
     }
 
     /// The buffers for `kernel`'s layout, uploaded now if they are not on the device yet, and

@@ -300,7 +300,7 @@ impl Launch<'_> {
         timings: &mut GpuTimings,
     ) -> Result<()> {
         let g = self.g;
-        let t = Instant::now();
+        let mut t = Instant::now();
         let mapped = bufs.mapped();
         if let Some((kernel, cam)) = self.camera {
             let mut enc = g.device.create_command_encoder(&Default::default());
@@ -317,6 +317,10 @@ impl Launch<'_> {
             g.scoped("making the camera's rays", || {
                 g.queue.submit([enc.finish()])
             })?;
+            // The camera kernel's time is its own phase (a kernel's, not the upload's).
+            g.wait()?;
+            timings.camera += t.elapsed().as_secs_f64();
+            t = Instant::now();
         } else if mapped {
             // Shared memory (`Gpu::mapped_results`): the rays go where the kernel reads them.
             let size = (n * std::mem::size_of::<T>()) as u64;

@@ -21,7 +21,7 @@ use super::upload::upload_records;
 use crate::accel::tetwalk::PlainState;
 use crate::error::Result;
 use crate::geom::predicates::orient;
-use crate::locate::{LocateState, WalkStart};
+use crate::locate::LocateState;
 use crate::mesh::build::OUTWARD_FACES;
 use crate::query::{ClosestHit, QueryKind};
 use crate::scene::{Rays, Scene};
@@ -114,16 +114,31 @@ pub(crate) fn shared_origin(
     if n == 0 || rays.leaving.is_some() || rays.tmin.len() != 1 || rays.tmax.len() != 1 {
         return None;
     }
-    let (tmin, tmax) = (rays.tmin[0], rays.tmax[0]);
-    // The walk starts at the origin: tmin clamps to 0 (and no ray's range is empty).
-    if !(tmin <= 0.0 && tmax >= 0.0) {
-        return None;
-    }
     let o32: [f32; 3] = rays.origins[..3].try_into().ok()?;
     if !o32.iter().all(|x| x.is_finite()) || !all_at(rays.origins, o32, threads) {
         return None;
     }
-    let o = o32.map(f64::from);
+    shared_at(scene, &rays.ray(0), query, points_slack)
+}
+
+/// [`shared_origin`] for rays known to share `ray0`'s origin and range (a camera's): None
+/// where the shared-origin kernel does not take them.
+pub(crate) fn shared_at(
+    scene: &Scene,
+    ray0: &crate::geom::ray::Ray,
+    query: &ClosestHit,
+    points_slack: f32,
+) -> Option<Shared> {
+    let (tmin, tmax) = (ray0.tmin, ray0.tmax);
+    // The walk starts at the origin: tmin clamps to 0 (and no ray's range is empty).
+    if !(tmin <= 0.0 && tmax >= 0.0) {
+        return None;
+    }
+    let o = ray0.o;
+    let o32 = o.map(|x| x as f32);
+    if !o32.iter().all(|x| x.is_finite()) || o32.map(f64::from) != o {
+        return None;
+    }
     let mesh = &scene.mesh;
     let [lo, hi] = mesh.bounds;
     let beyond = [0, 1, 2].map(|a| {
@@ -149,11 +164,10 @@ pub(crate) fn shared_origin(
         return (tmax == f64::INFINITY).then_some(shared);
     }
     // Inside: the start tet as the CPU exact walk locates it, for a ray from this origin.
-    let ray = rays.ray(0);
     let locators = scene.locators();
     let mut st = LocateState::for_chunk(0);
     let (s, _) = locators
-        .locate_exact::<f64, Exact>(&ray, &mesh.points, &mut st)
+        .locate_exact::<f64, Exact>(ray0, &mesh.points, &mut st)
         .ok()?;
     let tet = mesh.tets[s.tet as usize];
     let p = |k: usize| mesh.points[tet[k] as usize];
@@ -191,12 +205,6 @@ fn round_up(x: f64) -> f32 {
     } else {
         r
     }
-}
-
-/// Where ray i's walk starts, for walking on from a state the kernel reached: the ray's line
-/// and range (the walk on needs nothing else of it), or the status of a ray that does not walk.
-pub(crate) fn start_of(rays: &Rays<f32>, i: usize) -> std::result::Result<WalkStart, u8> {
-    WalkStart::exact(&rays.ray(i))
 }
 
 /// The state a kernel handed back, as the host's walk takes it on.

@@ -8,8 +8,11 @@ pub struct GpuTimings {
     pub locate: f64,
     /// Uploading the scene's buffers (0 when they were already on the device).
     pub scene_upload: f64,
-    /// Copying the rays to the device (or, `camera_rays`, making them there).
+    /// Copying the rays to the device (with `camera_rays`, the batches' uniforms only).
     pub upload: f64,
+    /// With `camera_rays`: the camera kernel making the directions on the device (the host's
+    /// wall time from its submission to its end, summed over the batches).
+    pub camera: f64,
     /// The traversal kernel: the GPU's timestamps around each dispatch, summed, where the
     /// device has them (`Gpu::timestamps`), else `kernel_wall`.
     pub kernel: f64,

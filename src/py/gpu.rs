@@ -67,6 +67,7 @@ mod built {
             ("locate", timings.locate),
             ("scene_upload", timings.scene_upload),
             ("upload", timings.upload),
+            ("camera", timings.camera),
             ("kernel", timings.kernel),
             ("kernel_wall", timings.kernel_wall),
             ("readback", timings.readback),

@@ -3,6 +3,7 @@
 
 mod arrays;
 mod bench;
+mod camera;
 mod errors;
 mod gpu;
 mod names;
@@ -22,7 +23,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(names::structure_defaults, m)?)?;
     m.add_function(wrap_pyfunction!(request::check_threads, m)?)?;
     m.add_function(wrap_pyfunction!(arrays::take_rows, m)?)?;
-    m.add_function(wrap_pyfunction!(arrays::camera_directions, m)?)?;
+    m.add_function(wrap_pyfunction!(camera::camera_directions, m)?)?;
     m.add_function(wrap_pyfunction!(arrays::triangle_normals, m)?)?;
     m.add_function(wrap_pyfunction!(names::layouts, m)?)?;
     m.add_function(wrap_pyfunction!(names::simd_levels, m)?)?;

@@ -105,15 +105,7 @@ impl PyRayRequest {
             }
         }
         let threads = threads_arg(threads)?;
-        let max_steps = match int_arg(max_steps, "max_steps", "None")? {
-            None => None,
-            Some(k) if k > 0 && k <= u32::MAX as usize => Some(k as u32),
-            Some(k) => {
-                return Err(PyValueError::new_err(format!(
-                    "max_steps must be a positive int below 2**32, got {k}"
-                )))
-            }
-        };
+        let max_steps = max_steps_arg(max_steps)?;
         // None (the default) is True: packets where rays share an origin.
         let packet = match packet {
             None => true,
@@ -196,6 +188,17 @@ pub(crate) fn threads_arg(obj: Option<&Bound<'_, PyAny>>) -> PyResult<Option<usi
     let threads = int_arg(obj, "threads", "None")?;
     crate::threads::check_threads(threads)?;
     Ok(threads)
+}
+
+/// A `max_steps` argument: None, or an int in [1, 2**32).
+pub(crate) fn max_steps_arg(obj: Option<&Bound<'_, PyAny>>) -> PyResult<Option<u32>> {
+    match int_arg(obj, "max_steps", "None")? {
+        None => Ok(None),
+        Some(k) if k > 0 && k <= u32::MAX as usize => Ok(Some(k as u32)),
+        Some(k) => Err(PyValueError::new_err(format!(
+            "max_steps must be a positive int below 2**32, got {k}"
+        ))),
+    }
 }
 
 /// Checks a `threads` argument by the core's rule and returns it (Python's point queries

@@ -15,7 +15,6 @@ use crate::error::{try_vec, try_zeroed_vec};
 use crate::geom::real::Real;
 #[cfg(feature = "gpu")]
 use crate::scene::queries::{All, Closest, Column, Count, RayJob};
-#[cfg(feature = "gpu")]
 use crate::scene::CastOptions;
 use crate::scene::{AccelKind, Scene};
 use numpy::{
@@ -266,6 +265,54 @@ impl PyScene {
             Ok((
                 columns_dict(py, columns)?,
                 super::gpu::timings_dict(py, &timings)?,
+            ))
+        }
+    }
+
+    /// Casts a camera's rays on the GPU with the exact kernel (the default): the camera's
+    /// float32 numbers (`Camera.float32_numbers()`), its `eye`, and one range [tmin, tmax]
+    /// for every ray. The directions are made on the device; the host makes only those of
+    /// the rays the device hands back (`DeviceScene::cast_camera_at`). Returns the closest
+    /// hits' columns (row-major pixels) and the seconds of each phase.
+    #[pyo3(signature = (axes, xs, ys, normalize, eye, tmin, tmax, threads=None, max_steps=None))]
+    #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
+    fn cast_gpu_camera<'py>(
+        &self,
+        py: Python<'py>,
+        axes: PyReadonlyArray2<'py, f32>,
+        xs: PyReadonlyArray1<'py, f32>,
+        ys: PyReadonlyArray1<'py, f32>,
+        normalize: bool,
+        eye: [f32; 3],
+        tmin: f64,
+        tmax: f64,
+        threads: Option<&Bound<'py, PyAny>>,
+        max_steps: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<(Bound<'py, PyDict>, Bound<'py, PyDict>)> {
+        let cam = super::arrays::camera_arg(&axes, &xs, &ys, normalize)?;
+        let opts = CastOptions {
+            threads: threads_arg(threads)?,
+            max_steps: super::request::max_steps_arg(max_steps)?,
+            ..Default::default()
+        };
+        #[cfg(not(feature = "gpu"))]
+        {
+            let _ = (py, cam, eye, tmin, tmax, opts);
+            Err(super::gpu::not_built())
+        }
+        #[cfg(feature = "gpu")]
+        {
+            let loaded = self.with_ct("device=\"gpu\"")?;
+            let mut out = Closest::output::<f32>(cam.n_rays(), &Default::default())?;
+            let t = interruptible(py, || {
+                let (scene, range) = (&loaded.scene, (tmin, tmax));
+                loaded
+                    .device
+                    .cast_camera_at(scene, &cam, eye, range, out.out(), &opts)
+            })?;
+            Ok((
+                columns_dict(py, Closest::columns(out)?)?,
+                super::gpu::timings_dict(py, &t)?,
             ))
         }
     }

@@ -455,6 +455,14 @@ fn gpu_camera_cast_is_the_cpu_exact_cast() {
             });
             super::parity::assert_same_answers(&format!("{name}, {batching:?}"), &cpu, &again);
         }
+        // With no rays on the host: the handed-back rays' directions made one at a time.
+        let at = run(&scene, &o, &d, |_, out| {
+            let range = (0.0, f64::INFINITY);
+            let t = DeviceScene::default().cast_camera_at(&scene, &cam, eye, range, out, &opts)?;
+            assert_eq!(t.camera_rays, on_device, "{name}: no host rays");
+            Ok(())
+        });
+        super::parity::assert_same_answers(&format!("{name}, no host rays"), &cpu, &at);
         eprintln!(
             "{name}: {} rays, shared origin {}, made on the device {}, {} handed back",
             cam.n_rays(),
@@ -466,6 +474,7 @@ fn gpu_camera_cast_is_the_cpu_exact_cast() {
         let c = judged(&name, &verdicts32(&o, &d, &tris), &gpu);
         assert_eq!(c.bad(), 0, "{name}: {c:?}");
         assert_eq!(t.camera_rays, on_device, "{name}");
+        assert_eq!(t.camera > 0.0, on_device, "{name}: the camera kernel's time");
         if name.ends_with("extreme, inside") {
             assert!(
                 t.deferred >= 8,
