@@ -59,19 +59,7 @@ pub struct DeviceCamera {
 impl CameraKernel {
     pub fn new(g: &Gpu) -> Result<CameraKernel> {
         let pipeline = g.scoped("compiling the camera kernel", || {
-            let module = g.device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some(PATH),
-                source: wgpu::ShaderSource::Wgsl(FILE.into()),
-            });
-            g.device
-                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some(PATH),
-                    layout: None,
-                    module: &module,
-                    entry_point: Some("main"),
-                    compilation_options: Default::default(),
-                    cache: None,
-                })
+            g.compute_pipeline(PATH, FILE, "main")
         })?;
         Ok(CameraKernel { pipeline })
     }

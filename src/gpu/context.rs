@@ -220,6 +220,32 @@ impl Gpu {
 
     /// Runs `f` inside validation and out-of-memory error scopes; a captured error becomes
     /// `Error::Gpu` naming `what`.
+    /// A compute pipeline from a WGSL module's `source` and its entry point `entry`, the
+    /// bind group layout taken from the shader (call it inside [`Gpu::scoped`]: wgpu reports
+    /// a bad shader through the device's error scope).
+    pub fn compute_pipeline(
+        &self,
+        label: &str,
+        source: &str,
+        entry: &str,
+    ) -> wgpu::ComputePipeline {
+        let module = self
+            .device
+            .create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(label),
+                source: wgpu::ShaderSource::Wgsl(source.into()),
+            });
+        self.device
+            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(label),
+                layout: None,
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+    }
+
     pub fn scoped<T>(&self, what: &str, f: impl FnOnce() -> T) -> Result<T> {
         let oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let val = self.device.push_error_scope(wgpu::ErrorFilter::Validation);

@@ -250,23 +250,7 @@ impl Gpu {
         let label = format!("kernel {}", kernel.name());
         let files: Vec<&str> = kernel.parts().iter().map(|w| w.path).collect();
         let what = format!("compiling {label} (shaders/{{{}}})", files.join(", "));
-        let pipeline = self.scoped(&what, || {
-            let module = self
-                .device
-                .create_shader_module(wgpu::ShaderModuleDescriptor {
-                    label: Some(&label),
-                    source: wgpu::ShaderSource::Wgsl(source.into()),
-                });
-            self.device
-                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some(&label),
-                    layout: None,
-                    module: &module,
-                    entry_point: Some("main"),
-                    compilation_options: Default::default(),
-                    cache: None,
-                })
-        })?;
+        let pipeline = self.scoped(&what, || self.compute_pipeline(&label, &source, "main"))?;
         let pipeline = Arc::new(pipeline);
         p.insert(key, pipeline.clone());
         Ok(pipeline)

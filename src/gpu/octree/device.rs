@@ -54,21 +54,7 @@ impl DeviceOctree {
                         })
                 })
                 .collect();
-            let module = g.device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some(PATH),
-                source: wgpu::ShaderSource::Wgsl(source.into()),
-            });
-            let pipeline = g
-                .device
-                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some(PATH),
-                    layout: None,
-                    module: &module,
-                    entry_point: Some("main"),
-                    compilation_options: Default::default(),
-                    cache: None,
-                });
-            (bufs, pipeline)
+            (bufs, g.compute_pipeline(PATH, &source, "main"))
         })?;
         let [records, boxes, grid, tris, cube]: [wgpu::Buffer; 5] =
             bufs.try_into().expect("five buffers");

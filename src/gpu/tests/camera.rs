@@ -9,22 +9,23 @@ use crate::gpu::camera::{CameraKernel, FILE};
 use crate::gpu::gpu;
 use crate::gpu::{Batching, DeviceScene};
 use crate::scene::CastOptions;
-use wgpu::util::DeviceExt;
+
+fn unit(a: [f64; 3]) -> [f64; 3] {
+    let n = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+    a.map(|x| x / n)
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
 
 /// A right-handed frame from a random rotation (the rows of a look-at camera's `axes`).
 fn frame(rng: &mut Rng) -> [[f32; 3]; 3] {
     let v = |rng: &mut Rng| [rng.f() - 0.5, rng.f() - 0.5, rng.f() - 0.5];
-    let unit = |a: [f64; 3]| {
-        let n = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
-        a.map(|x| x / n)
-    };
-    let cross = |a: [f64; 3], b: [f64; 3]| {
-        [
-            a[1] * b[2] - a[2] * b[1],
-            a[2] * b[0] - a[0] * b[2],
-            a[0] * b[1] - a[1] * b[0],
-        ]
-    };
     let f = unit(v(rng));
     let r = unit(cross(f, v(rng)));
     let u = cross(r, f);
@@ -157,78 +158,16 @@ fn device_camera_rays_are_the_twins() {
 /// Runs `body` (WGSL statements reading `coords[words * i ..]`, writing `dirs[i]`) over `n`
 /// cases with camera.wgsl's functions in scope.
 fn run_cases(body: &str, inp: &[f32], n: usize) -> Vec<f32> {
-    let g = gpu().unwrap();
     let source = format!(
         "{FILE}\n@compute @workgroup_size(64) fn harness(@builtin(global_invocation_id) g: vec3<u32>) {{\n\
          let i = g.x; if i >= cam.n_rays {{ return; }}\n\
          zero_bits = bitcast<u32>(coords[arrayLength(&coords) - 1u]);\n{body}\n}}"
     );
-    let module = g.device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("camera harness"),
-        source: wgpu::ShaderSource::Wgsl(source.into()),
-    });
-    let pipeline = g
-        .device
-        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: None,
-            layout: None,
-            module: &module,
-            entry_point: Some("harness"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
-    use wgpu::BufferUsages as U;
     let params = crate::gpu::camera::CamParams {
         n_rays: n as u32,
         ..Default::default()
     };
-    let init = |contents: &[u8], usage| {
-        g.device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: None,
-                contents,
-                usage,
-            })
-    };
-    let pbuf = init(bytemuck::bytes_of(&params), U::UNIFORM);
-    let inp: Vec<f32> = inp.iter().copied().chain([0.0]).collect();
-    let ibuf = init(bytemuck::cast_slice(&inp), U::STORAGE);
-    let size = (4 * n) as u64;
-    let mk = |usage| {
-        g.device.create_buffer(&wgpu::BufferDescriptor {
-            label: None,
-            size,
-            usage,
-            mapped_at_creation: false,
-        })
-    };
-    let (obuf, rbuf) = (mk(U::STORAGE | U::COPY_SRC), mk(U::MAP_READ | U::COPY_DST));
-    let entries: Vec<_> = [&pbuf, &ibuf, &obuf]
-        .iter()
-        .enumerate()
-        .map(|(k, b)| wgpu::BindGroupEntry {
-            binding: k as u32,
-            resource: b.as_entire_binding(),
-        })
-        .collect();
-    let bind = g.device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: None,
-        layout: &pipeline.get_bind_group_layout(0),
-        entries: &entries,
-    });
-    let mut enc = g.device.create_command_encoder(&Default::default());
-    {
-        let mut pass = enc.begin_compute_pass(&Default::default());
-        pass.set_pipeline(&pipeline);
-        pass.set_bind_group(0, &bind, &[]);
-        pass.dispatch_workgroups((n as u32).div_ceil(64), 1, 1);
-    }
-    enc.copy_buffer_to_buffer(&obuf, 0, &rbuf, 0, size);
-    g.queue.submit([enc.finish()]);
-    let mut out = Vec::new();
-    g.read_mapped(&rbuf, size, &mut out, "harness results")
-        .unwrap();
-    out
+    run_harness(&source, "harness", bytemuck::bytes_of(&params), inp, n, 1)
 }
 
 /// `x` moved by `k` ulps (through its bits: a positive float's neighbours).
@@ -351,17 +290,6 @@ fn twin_directions_in_parallel_are_ray_by_ray() {
 
 /// A look-at camera's float32 numbers (as `Camera.look_at` makes them, then rounded).
 fn look_at(eye: [f64; 3], target: [f64; 3], w: usize, h: usize, half: f64) -> CameraF32 {
-    let unit = |a: [f64; 3]| {
-        let n = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
-        a.map(|x| x / n)
-    };
-    let cross = |a: [f64; 3], b: [f64; 3]| {
-        [
-            a[1] * b[2] - a[2] * b[1],
-            a[2] * b[0] - a[0] * b[2],
-            a[0] * b[1] - a[1] * b[0],
-        ]
-    };
     let f = unit([0, 1, 2].map(|k| target[k] - eye[k]));
     let r = unit(cross(f, [0.0, 1.0, 0.1]));
     let u = cross(r, f);
@@ -474,7 +402,11 @@ fn gpu_camera_cast_is_the_cpu_exact_cast() {
         let c = judged(&name, &verdicts32(&o, &d, &tris), &gpu);
         assert_eq!(c.bad(), 0, "{name}: {c:?}");
         assert_eq!(t.camera_rays, on_device, "{name}");
-        assert_eq!(t.camera > 0.0, on_device, "{name}: the camera kernel's time");
+        assert_eq!(
+            t.camera > 0.0,
+            on_device,
+            "{name}: the camera kernel's time"
+        );
         if name.ends_with("extreme, inside") {
             assert!(
                 t.deferred >= 8,

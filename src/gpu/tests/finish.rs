@@ -7,9 +7,7 @@
 
 use super::*;
 use crate::gpu::finish::{finish_hit, tri_words, two_prod, two_sum, TRI_WORDS};
-use crate::gpu::gpu;
 use crate::gpu::kernels::Wgsl;
-use wgpu::util::DeviceExt;
 
 const HIT: Wgsl = Wgsl {
     path: "methods/exact_hit.wgsl",
@@ -18,10 +16,6 @@ const HIT: Wgsl = Wgsl {
 
 /// Runs `main` (reading `inp`, writing `outp`, `words` f32 words per case) over `n` cases.
 fn run_kernel(main: &str, inp: &[f32], n: usize, words: usize) -> Vec<f32> {
-    let g = gpu().unwrap();
-    // Last, 0 for `zero_bits` (read from storage, as the kernel reads it).
-    let inp: Vec<f32> = inp.iter().copied().chain([0.0]).collect();
-    let inp = &inp[..];
     let source = format!(
         "struct Params {{ n_rays: u32, max_steps: u32, _pad0: u32, _pad1: u32 }}\n\
          @group(0) @binding(0) var<uniform> params: Params;\n\
@@ -29,83 +23,11 @@ fn run_kernel(main: &str, inp: &[f32], n: usize, words: usize) -> Vec<f32> {
          @group(0) @binding(2) var<storage, read_write> outp: array<f32>;\n{}\n{main}",
         HIT.source
     );
-    let module = g.device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("finish harness"),
-        source: wgpu::ShaderSource::Wgsl(source.into()),
-    });
-    let pipeline = g
-        .device
-        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: None,
-            layout: None,
-            module: &module,
-            entry_point: Some("main"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
-    use wgpu::BufferUsages as U;
     let params = crate::gpu::structs::Params {
         n_rays: n as u32,
         ..Default::default()
     };
-    let pbuf = g
-        .device
-        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: None,
-            contents: bytemuck::bytes_of(&params),
-            usage: U::UNIFORM,
-        });
-    let ibuf = g
-        .device
-        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: None,
-            contents: bytemuck::cast_slice(inp),
-            usage: U::STORAGE,
-        });
-    let size = (n * words * 4) as u64;
-    let obuf = g.device.create_buffer(&wgpu::BufferDescriptor {
-        label: None,
-        size,
-        usage: U::STORAGE | U::COPY_SRC,
-        mapped_at_creation: false,
-    });
-    let rbuf = g.device.create_buffer(&wgpu::BufferDescriptor {
-        label: None,
-        size,
-        usage: U::MAP_READ | U::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let bind = g.device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: None,
-        layout: &pipeline.get_bind_group_layout(0),
-        entries: &[
-            wgpu::BindGroupEntry {
-                binding: 0,
-                resource: pbuf.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 1,
-                resource: ibuf.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 2,
-                resource: obuf.as_entire_binding(),
-            },
-        ],
-    });
-    let mut enc = g.device.create_command_encoder(&Default::default());
-    {
-        let mut pass = enc.begin_compute_pass(&Default::default());
-        pass.set_pipeline(&pipeline);
-        pass.set_bind_group(0, &bind, &[]);
-        pass.dispatch_workgroups((n as u32).div_ceil(64), 1, 1);
-    }
-    enc.copy_buffer_to_buffer(&obuf, 0, &rbuf, 0, size);
-    g.queue.submit([enc.finish()]);
-    let mut out = Vec::new();
-    g.read_mapped(&rbuf, size, &mut out, "harness results")
-        .unwrap();
-    out
+    run_harness(&source, "main", bytemuck::bytes_of(&params), inp, n, words)
 }
 
 /// TwoSum is exact and the product within its bound on the device, as on the CPU: the same

@@ -37,6 +37,72 @@ fn cast_gpu(
     DeviceScene::default().cast(scene, method, layout, rays, out, opts)
 }
 
+/// Runs entry point `entry` of WGSL `source` over `n` cases, one invocation each (a
+/// workgroup of 64), with `uniform` at binding 0 (its first word the case count the entry
+/// compares with), `inp` and then a 0.0 (what the kernels read as `zero_bits`) at binding 1,
+/// and `words` f32 a case written at binding 2; returns binding 2 (the finishing's and the
+/// camera kernel's function-by-function tests).
+fn run_harness(
+    source: &str,
+    entry: &str,
+    uniform: &[u8],
+    inp: &[f32],
+    n: usize,
+    words: usize,
+) -> Vec<f32> {
+    use wgpu::util::DeviceExt;
+    use wgpu::BufferUsages as U;
+    let g = crate::gpu::gpu().unwrap();
+    let pipeline = g.compute_pipeline("test harness", source, entry);
+    let init = |contents: &[u8], usage| {
+        g.device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: None,
+                contents,
+                usage,
+            })
+    };
+    let pbuf = init(uniform, U::UNIFORM);
+    let inp: Vec<f32> = inp.iter().copied().chain([0.0]).collect();
+    let ibuf = init(bytemuck::cast_slice(&inp), U::STORAGE);
+    let size = (n * words * 4) as u64;
+    let mk = |usage| {
+        g.device.create_buffer(&wgpu::BufferDescriptor {
+            label: None,
+            size,
+            usage,
+            mapped_at_creation: false,
+        })
+    };
+    let (obuf, rbuf) = (mk(U::STORAGE | U::COPY_SRC), mk(U::MAP_READ | U::COPY_DST));
+    let entries: Vec<_> = [&pbuf, &ibuf, &obuf]
+        .iter()
+        .enumerate()
+        .map(|(k, b)| wgpu::BindGroupEntry {
+            binding: k as u32,
+            resource: b.as_entire_binding(),
+        })
+        .collect();
+    let bind = g.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &entries,
+    });
+    let mut enc = g.device.create_command_encoder(&Default::default());
+    {
+        let mut pass = enc.begin_compute_pass(&Default::default());
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &bind, &[]);
+        pass.dispatch_workgroups((n as u32).div_ceil(64), 1, 1);
+    }
+    enc.copy_buffer_to_buffer(&obuf, 0, &rbuf, 0, size);
+    g.queue.submit([enc.finish()]);
+    let mut out = Vec::new();
+    g.read_mapped(&rbuf, size, &mut out, "harness results")
+        .unwrap();
+    out
+}
+
 /// The kernel named `method`/`layout` (it must exist).
 fn kernel(method: &str, layout: &str) -> &'static KernelSpec {
     KernelSpec::find(Some(method), Some(layout)).unwrap()
