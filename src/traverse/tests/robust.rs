@@ -321,6 +321,29 @@ fn hits_name_the_alternative_the_ray_crosses() {
         .set_alternatives(offsets.clone(), ids.clone())
         .unwrap();
     let after = methods.map(|m| score(&scene, m, "with"));
+    // The same rays with directions a thousandth as long, on robust: every answer right
+    // still. Whether a crossed named triangle is near enough to the face to be the answer
+    // without trying the alternatives is a distance along the ray, the same whatever the
+    // direction's length (a gap taken as a ratio of the two t's would pass the long rays).
+    let short: Vec<f64> = d.iter().map(|x| x * 1e-3).collect();
+    let res = cast::<f64>(&scene, &o, &short, |s, r, out| {
+        s.cast_named(
+            "robust",
+            crate::layout::LayoutKind::DEFAULT.name(),
+            r,
+            out,
+            &opts,
+        )
+    });
+    let name = "alternatives robust, short directions";
+    let c = tally(
+        name,
+        &verdicts(&o, &short, &tris),
+        &res.status,
+        &res.tri,
+        &res.t,
+    );
+    assert_eq!(c.bad(), 0, "{name}: {c:?}");
     // Robust ends each hit on a face the ray crosses at t* (its exit faces are exact), so
     // without alternatives the named triangle, disjoint from that face, is never tied: no
     // hit is right (only the misses are). With them, every ray is right. The default
