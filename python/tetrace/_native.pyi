@@ -105,9 +105,7 @@ class GpuError(RuntimeError): ...
 class RayRequest:
     # One ray query's arguments, checked once: origins, directions (N, 3) C-contiguous in the
     # named precision; tmin, tmax float64 (1 or N); names None for the core's defaults; start:
-    # per ray the scene triangle it leaves and the tet its hit's walk ended in (int32, -1: none);
-    # camera: the (axes, xs, ys, normalize) float32 numbers that made these float32 rays (a GPU
-    # cast then makes them in its kernel).
+    # per ray the scene triangle it leaves and the tet its hit's walk ended in (int32, -1: none).
     def __new__(
         cls,
         origins: npt.NDArray[np.floating],
@@ -124,10 +122,6 @@ class RayRequest:
         packet: bool | None = None,
         start: tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]] | None = None,
         audit: bool = False,
-        camera: tuple[
-            npt.NDArray[np.float32], npt.NDArray[np.float32], npt.NDArray[np.float32], bool
-        ]
-        | None = None,
     ) -> RayRequest: ...
     def __len__(self) -> int: ...
     @property

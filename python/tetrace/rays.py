@@ -370,8 +370,6 @@ class RayRequest:
             hi[~hit] = -np.inf  # below tmin: the core answers MISS
             start_ids = (triangle, tet)
         self.method, self.layout = method, layout
-        # A camera's float32 rays: the GPU's exact cast makes them in its kernel.
-        made_by = camera.float32_numbers() if camera is not None and precision == "f32" else None
         self.native = _native.RayRequest(
             o,
             d,
@@ -386,7 +384,6 @@ class RayRequest:
             packet=packet,
             start=start_ids,
             audit=audit,
-            camera=made_by,
         )
 
     @property

@@ -61,29 +61,27 @@ impl DeviceScene {
         self.cast_with(scene, kernel, rays, out, opts, Batching::default())
     }
 
-    /// [`DeviceScene::cast`] of a camera's rays with the exact kernel (the default): `rays`
-    /// are `cam`'s, from its eye (`camera::directions`, as `Camera.rays` makes them), which
-    /// the host reads only for the rays the device hands back. Where the shared-origin
-    /// kernel takes the batch and the camera kernel takes the camera
-    /// ([`CameraF32::fits_device`]), the directions are made on the device, not uploaded;
-    /// otherwise `rays` are cast as they are. The same answers either way.
-    pub fn cast_camera(
+    /// [`DeviceScene::cast`] of a camera's rays with the exact kernel (the default), with no
+    /// rays on the host: the camera `cam` at `eye`, every ray in `[tmin, tmax]`. Where the
+    /// shared-origin kernel takes the eye and the camera kernel the camera
+    /// ([`CameraF32::fits_device`]), the directions are made on the device and the host
+    /// makes only those of the rays the device hands back (the twin's, one at a time);
+    /// otherwise it makes every ray and casts them as any rays. The same answers either way.
+    pub fn cast_camera_at(
         &self,
         scene: &Scene,
         cam: &CameraF32,
-        rays: &Rays<f32>,
+        eye: [f32; 3],
+        range: (f64, f64),
         out: HitsOut<f32>,
         opts: &CastOptions,
     ) -> Result<GpuTimings> {
-        self.cast_camera_with(scene, cam, rays, out, opts, Batching::default())
+        self.cast_camera_at_with(scene, cam, eye, range, out, opts, Batching::default())
     }
 
-    /// [`DeviceScene::cast_camera`] with no rays on the host: the camera `cam` at `eye`,
-    /// every ray in `[tmin, tmax]`. Where the shared-origin kernel takes the eye and the
-    /// camera kernel the camera, the host makes only the directions of the rays the device
-    /// hands back (the twin's, one at a time); otherwise it makes every ray and casts them
-    /// as [`DeviceScene::cast_camera`] does. The same answers either way.
-    pub fn cast_camera_at(
+    /// [`DeviceScene::cast_camera_at`] with a given batching.
+    #[allow(clippy::too_many_arguments)] // a camera cast's parts, and the batching tests set
+    pub(crate) fn cast_camera_at_with(
         &self,
         scene: &Scene,
         cam: &CameraF32,
@@ -91,6 +89,7 @@ impl DeviceScene {
         (tmin, tmax): (f64, f64),
         out: HitsOut<f32>,
         opts: &CastOptions,
+        batching: Batching,
     ) -> Result<GpuTimings> {
         cam.check()?;
         let n = cam.n_rays();
@@ -108,29 +107,22 @@ impl DeviceScene {
         let kernel = KernelSpec::find(None, None)?;
         let t0 = Instant::now();
         let mut out = Some(out);
-        let timings = self.on_device(
-            scene,
-            kernel,
-            opts,
-            Batching::default(),
-            |device, timings| {
-                let slack = device.scene.points_slack;
-                let shared = cam
-                    .fits_device()
-                    .then(|| shared_at(scene, &rays.ray(0), &scene.closest(), slack))
-                    .flatten();
-                match (shared, out.take()) {
-                    (Some(shared), Some(o)) => {
-                        let at = (rays, Some(cam));
-                        self.cast_shared(scene, device, (shared, t0), at, o, opts, timings)
-                    }
-                    (_, o) => {
-                        out = o; // not taken: made on the host below
-                        Ok(())
-                    }
+        let timings = self.on_device(scene, kernel, opts, batching, |device, timings| {
+            let slack = device.scene.points_slack;
+            let shared = cam
+                .fits_device()
+                .then(|| shared_at(scene, &rays.ray(0), &scene.closest(), slack))
+                .flatten();
+            match (shared, out.take()) {
+                (Some(shared), Some(o)) => {
+                    self.cast_shared(scene, device, (shared, t0), rays, o, opts, timings)
                 }
-            },
-        )?;
+                (_, o) => {
+                    out = o; // not taken: made on the host below
+                    Ok(())
+                }
+            }
+        })?;
         let Some(out) = out else {
             return Ok(timings);
         };
@@ -146,28 +138,7 @@ impl DeviceScene {
             tmax: &[tmax],
             leaving: None,
         };
-        self.cast_camera(scene, cam, &given, out, opts)
-    }
-
-    /// [`DeviceScene::cast_camera`] with a given batching.
-    pub(crate) fn cast_camera_with(
-        &self,
-        scene: &Scene,
-        cam: &CameraF32,
-        rays: &Rays<f32>,
-        out: HitsOut<f32>,
-        opts: &CastOptions,
-        batching: Batching,
-    ) -> Result<GpuTimings> {
-        if rays.len() != cam.n_rays() {
-            return Err(Error::InvalidInput(format!(
-                "{} rays for a camera of {} pixels",
-                rays.len(),
-                cam.n_rays()
-            )));
-        }
-        let kernel = KernelSpec::find(None, None)?;
-        self.cast_inner(scene, kernel, rays, Some(cam), out, opts, batching)
+        self.cast_with(scene, kernel, &given, out, opts, batching)
     }
 
     /// [`DeviceScene::cast`] with a given kernel and batching.
@@ -176,20 +147,6 @@ impl DeviceScene {
         scene: &Scene,
         kernel: &KernelSpec,
         rays: &Rays<f32>,
-        out: HitsOut<f32>,
-        opts: &CastOptions,
-        batching: Batching,
-    ) -> Result<GpuTimings> {
-        self.cast_inner(scene, kernel, rays, None, out, opts, batching)
-    }
-
-    #[allow(clippy::too_many_arguments)] // a cast's parts, and the camera that made its rays
-    fn cast_inner(
-        &self,
-        scene: &Scene,
-        kernel: &KernelSpec,
-        rays: &Rays<f32>,
-        camera: Option<&CameraF32>,
         out: HitsOut<f32>,
         opts: &CastOptions,
         batching: Batching,
@@ -224,7 +181,7 @@ impl DeviceScene {
                         scene,
                         device,
                         (shared, t0),
-                        (HostRays::Given(rays), camera.filter(|c| c.fits_device())),
+                        HostRays::Given(rays),
                         out,
                         opts,
                         timings,
@@ -397,7 +354,7 @@ impl DeviceScene {
         scene: &Scene,
         exact: &OnDevice,
         (shared, t0): (Shared, Instant),
-        (rays, camera): (HostRays, Option<&CameraF32>),
+        rays: HostRays,
         out: HitsOut<f32>,
         opts: &CastOptions,
         timings: &mut GpuTimings,
@@ -417,11 +374,14 @@ impl DeviceScene {
         let cache = self.run_buffers(&SHARED_ORIGIN);
         let extra = [(7, &grid.cells), (8, &grid.faces), (9, &table.buffer)];
         // A camera's directions are made by its kernel on the device (its numbers, a few
-        // bytes, are the upload); the host's copy of them answers the rays handed back.
-        let kernel = camera.map(|_| self.camera_kernel(g)).transpose()?;
-        let on_device = match (&kernel, camera) {
-            (Some(k), Some(c)) => Some(k.upload(g, c)?),
-            _ => None,
+        // bytes, are the upload); the host makes those of the rays handed back.
+        let (kernel, on_device) = match rays {
+            HostRays::Camera { cam, .. } => {
+                let k = self.camera_kernel(g)?;
+                let c = k.upload(g, cam)?;
+                (Some(k), Some(c))
+            }
+            HostRays::Given(_) => (None, None),
         };
         let launch = Launch {
             g,
@@ -483,14 +443,8 @@ impl DeviceScene {
         let mut by_chunk = ByChunk::new(chunks, &ends);
         // Straight from the caller's array (12 bytes a ray), or made on the device.
         let dirs: &[[f32; 3]] = match rays {
-            HostRays::Given(r) if launch.camera.is_none() => bytemuck::cast_slice(r.directions),
-            HostRays::Given(_) => &[],
-            HostRays::Camera { .. } if launch.camera.is_some() => &[],
-            HostRays::Camera { .. } => {
-                return Err(Error::InvalidInput(
-                    "internal: a camera's rays without the camera kernel".into(),
-                ))
-            }
+            HostRays::Given(r) => bytemuck::cast_slice(r.directions),
+            HostRays::Camera { .. } => &[],
         };
         launch.run(&[dirs], n, timings, |before, results| {
             by_chunk.take(before, results, opts.threads, &answer)

@@ -25,13 +25,6 @@ enum Arrays {
 type Start = (Py<PyArray1<i32>>, Py<PyArray1<i32>>);
 /// The same, as Python passes it.
 type StartArg<'py> = (Bound<'py, PyArray1<i32>>, Bound<'py, PyArray1<i32>>);
-/// `camera=`: (axes (3, 3), xs, ys, normalize), float32, as `Camera` holds them rounded.
-type CameraArg<'py> = (
-    numpy::PyReadonlyArray2<'py, f32>,
-    numpy::PyReadonlyArray1<'py, f32>,
-    numpy::PyReadonlyArray1<'py, f32>,
-    bool,
-);
 /// The same, borrowed for one call.
 type StartRead<'py> = (PyReadonlyArray1<'py, i32>, PyReadonlyArray1<'py, i32>);
 
@@ -46,10 +39,6 @@ pub struct PyRayRequest {
     /// Whether the caller named the accelerator (else `opts.accel` is the CPU default,
     /// [`Ask::default_accel`], and the GPU walks the tets as it always does).
     pub(crate) accel_named: bool,
-    /// The camera that made these rays (`camera=cam`, float32): the GPU's exact cast makes
-    /// their directions on the device instead of uploading them (`DeviceScene::cast_camera`).
-    #[cfg_attr(not(feature = "gpu"), allow(dead_code))] // read by the GPU cast only
-    pub(crate) camera: Option<crate::camera::CameraF32>,
     n: usize,
 }
 
@@ -62,7 +51,7 @@ impl PyRayRequest {
     /// bool; `start` None or two int32 arrays of N (the triangle each ray leaves, the tet its
     /// hit's walk ended in); `audit` (closest hits only) counts rejected exit faces.
     #[new]
-    #[pyo3(signature = (origins, directions, tmin, tmax, *, precision, threads=None, max_steps=None, method=None, layout=None, accel=None, packet=None, start=None, audit=false, camera=None))]
+    #[pyo3(signature = (origins, directions, tmin, tmax, *, precision, threads=None, max_steps=None, method=None, layout=None, accel=None, packet=None, start=None, audit=false))]
     #[allow(clippy::too_many_arguments)] // a Python signature: keyword arguments, not a design
     fn new(
         origins: &Bound<'_, PyAny>,
@@ -78,7 +67,6 @@ impl PyRayRequest {
         packet: Option<&Bound<'_, PyAny>>,
         start: Option<StartArg<'_>>,
         audit: bool,
-        camera: Option<CameraArg<'_>>,
     ) -> PyResult<Self> {
         let (arrays, n) = match precision {
             "f32" => {
@@ -117,19 +105,6 @@ impl PyRayRequest {
                 )))
             }
         };
-        let camera = match camera {
-            None => None,
-            Some((axes, xs, ys, normalize)) => {
-                let cam = super::arrays::camera_arg(&axes, &xs, &ys, normalize)?;
-                if cam.n_rays() != n || precision != "f32" {
-                    return Err(PyValueError::new_err(format!(
-                        "camera describes {} float32 rays, the request has {n} {precision} rays",
-                        cam.n_rays()
-                    )));
-                }
-                Some(cam)
-            }
-        };
         let ask = Ask {
             method: method.map(|m| m.0),
             layout: layout.map(|l| l.0),
@@ -150,7 +125,6 @@ impl PyRayRequest {
             opts,
             ask,
             accel_named: accel.is_some(),
-            camera,
             n,
         })
     }

@@ -252,13 +252,8 @@ impl PyScene {
             } else {
                 let (method, layout) = (ask.method.map(|m| m.name()), ask.layout.map(|l| l.name()));
                 let mut out = Closest::output::<f32>(rays.len(), &ask)?;
-                // A camera's rays with the default kernel: their directions made on the device.
-                let find = crate::gpu::KernelSpec::find;
-                let default_kernel = std::ptr::eq(find(method, layout)?, find(None, None)?);
-                let camera = request.camera.as_ref().filter(|_| default_kernel);
-                let t = interruptible(py, || match camera {
-                    Some(cam) => device.cast_camera(scene, cam, &rays, out.out(), &opts),
-                    None => device.cast(scene, method, layout, &rays, out.out(), &opts),
+                let t = interruptible(py, || {
+                    device.cast(scene, method, layout, &rays, out.out(), &opts)
                 })?;
                 (Closest::columns(out)?, t)
             };
