@@ -40,7 +40,9 @@ const WORKGROUP: u32 = 64u;
 struct Params {
     n_rays: u32,
     max_steps: u32,
-    _pad0: u32,
+    // The own-origin kernel: where the batch's origins begin in its ray buffer (in floats,
+    // after the directions); 0 for every other kernel.
+    origins_at: u32,
     _pad1: u32,
 }
 

@@ -184,11 +184,16 @@ def _check(scene, o, d, what, device):
             # Rays from one origin begin their walks on the GPU (docs/gpu.md, shared origin).
             one_origin = bool((o == o[:1]).all())
             assert t["shared_origin"] == one_origin, msg
-            # From one origin the kernel finishes hits itself (docs/gpu.md, "Hits finished
-            # on the device"), each one of the columns compared above; never more than hit.
+            # Rays with their own origins are located on the GPU (docs/gpu.md, the own-origin
+            # kernel) unless the scene's faces split its triangles.
+            assert t["own_origins"] == (not one_origin and not scene.splits_triangles), msg
+            # Where the GPU begins the walks it finishes hits itself (docs/gpu.md, "Hits
+            # finished on the device"), each one of the columns compared above; never more
+            # than hit.
             n_hits = int((hits.status == tetrace.HIT).sum())
+            begun = t["shared_origin"] or t["own_origins"]
             assert t["finished"] <= n_hits, msg
-            assert (t["finished"] > 0) == (one_origin and n_hits > 0), msg
+            assert (t["finished"] > 0) == (begun and n_hits > 0), msg
         elif len(differ):
             # Information, not a failure (pytest turns warnings into errors): printed.
             print(

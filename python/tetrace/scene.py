@@ -981,6 +981,14 @@ class Scene:
         return len(self.faces)
 
     @property
+    def splits_triangles(self):
+        """bool : Whether the tetrahedralization (built now if it is not yet) splits some of
+        the caller's triangles into several faces (a mesher's Steiner points on them). The
+        exact answers are the same either way; where it is False, GPU casts of rays with
+        their own origins locate each origin on the device (docs/gpu.md)."""
+        return self.build_ct()._native.splits_triangles
+
+    @property
     def domain(self):
         """numpy.ndarray : ``(2, 3)`` lower and upper corners of the domain box (the
         tetrahedralization's, built now if it is not yet)."""

@@ -15,10 +15,10 @@
 use super::context::{gpu, Gpu};
 use super::device_scene::DeviceScene;
 use super::finish::NONE;
-use super::kernels::{KernelSpec, SHARED_ORIGIN};
+use super::kernels::{KernelSpec, OWN_ORIGINS, SHARED_ORIGIN};
 use super::launch::{Batching, Launch, RunBuffers};
 use super::origin::finished_hit;
-use super::origin::{boundary_miss, plain_state, shared_at, shared_origin};
+use super::origin::{boundary_miss, own_origins, plain_state, shared_at, shared_origin};
 use super::structs::{
     RayIn, RayOut, Shared, END_BOUNDARY, END_DEFERRED, END_FINISHED, END_HIT, END_MISS_BOX,
     END_UNBEGUN,
@@ -114,9 +114,15 @@ impl DeviceScene {
                 .then(|| shared_at(scene, &rays.ray(0), &scene.closest(), slack))
                 .flatten();
             match (shared, out.take()) {
-                (Some(shared), Some(o)) => {
-                    self.cast_shared(scene, device, (shared, t0), rays, o, opts, timings)
-                }
+                (Some(shared), Some(o)) => self.cast_shared(
+                    scene,
+                    device,
+                    (&SHARED_ORIGIN, shared, t0),
+                    rays,
+                    o,
+                    opts,
+                    timings,
+                ),
                 (_, o) => {
                     out = o; // not taken: made on the host below
                     Ok(())
@@ -172,15 +178,20 @@ impl DeviceScene {
                 let t0 = Instant::now();
                 let query = scene.closest();
                 let slack = device.scene.points_slack;
-                let shared = match rays.leaving {
-                    None => shared_origin(scene, rays, &query, slack, opts.threads),
+                // Rays from one origin take the shared-origin kernel, others with their own
+                // origins the own-origin kernel, where each can take them.
+                let begun = match rays.leaving {
+                    _ if !device.batching.begin_on_device => None,
+                    None => shared_origin(scene, rays, &query, slack, opts.threads)
+                        .map(|u| (&SHARED_ORIGIN, u))
+                        .or_else(|| own_origins(scene, rays, slack).map(|u| (&OWN_ORIGINS, u))),
                     Some(_) => None,
                 };
-                return match shared {
-                    Some(shared) => self.cast_shared(
+                return match begun {
+                    Some((k, uniform)) => self.cast_shared(
                         scene,
                         device,
-                        (shared, t0),
+                        (k, uniform, t0),
                         HostRays::Given(rays),
                         out,
                         opts,
@@ -343,36 +354,47 @@ impl HostRays<'_> {
 }
 
 impl DeviceScene {
-    /// A batch from one origin (`gpu::origin`): the shared-origin kernel begins every walk
-    /// from the ray's direction, walks on and finishes the hits it can certify; the host
-    /// copies those, answers each other ray from where its walk was handed back, walks the
-    /// rays whose start the kernel could not certify from their start, and answers the
-    /// certain misses of the box.
+    /// A batch from one origin (`gpu::origin`), or of rays with their own origins: the
+    /// shared-origin kernel ([`SHARED_ORIGIN`]) or the own-origin kernel ([`OWN_ORIGINS`],
+    /// which also locates each origin) begins every walk, walks on and finishes the hits it
+    /// can certify; the host copies those, answers each other ray from where its walk was
+    /// handed back, walks the rays whose start the kernel could not certify from their
+    /// start, and answers the certain misses of the box.
     #[allow(clippy::too_many_arguments)] // one cast's parts, as `resumed` takes them
     fn cast_shared(
         &self,
         scene: &Scene,
         exact: &OnDevice,
-        (shared, t0): (Shared, Instant),
+        (begins, shared, t0): (&KernelSpec, Shared, Instant),
         rays: HostRays,
         out: HitsOut<f32>,
         opts: &CastOptions,
         timings: &mut GpuTimings,
     ) -> Result<()> {
         let g = exact.g;
-        let pipeline = g.pipeline(&SHARED_ORIGIN)?;
+        let pipeline = g.pipeline(begins)?;
         let (grid, grid_upload) = self.entry_grid(g, scene)?;
         let (table, table_upload) = self.hit_table(g, scene)?;
-        timings.scene_upload += grid_upload + table_upload;
+        let own = std::ptr::eq(begins, &OWN_ORIGINS);
+        let (locate, locate_upload) = match own {
+            true => self.locate_table(g, scene).map(|(t, s)| (Some(t), s))?,
+            false => (None, 0.0),
+        };
+        let uploads = grid_upload + table_upload + locate_upload;
+        timings.scene_upload += uploads;
         // The kernel finishes hits where the host would compare nothing against tmax.
         let finite_tmax = rays.ray(0).tmax != f64::INFINITY;
         let shared = Shared {
             sides: grid.sides,
             finish: if finite_tmax { NONE } else { table.sides },
+            beyond_at: locate.as_ref().map_or(0, |l| l.beyond_at),
             ..shared
         };
-        let cache = self.run_buffers(&SHARED_ORIGIN);
-        let extra = [(7, &grid.cells), (8, &grid.faces), (9, &table.buffer)];
+        let cache = self.run_buffers(begins);
+        let mut extra = vec![(7, &grid.cells), (8, &grid.faces), (9, &table.buffer)];
+        if let Some(l) = &locate {
+            extra.push((10, &l.buffer));
+        }
         // A camera's directions are made by its kernel on the device (its numbers, a few
         // bytes, are the upload); the host makes those of the rays handed back.
         let (kernel, on_device) = match rays {
@@ -394,11 +416,16 @@ impl DeviceScene {
             shared: Some(shared),
             extra: &extra,
             camera: kernel.as_deref().zip(on_device.as_ref()),
+            origins: match rays {
+                HostRays::Given(r) if own => Some(r.origins),
+                _ => None,
+            },
         };
         timings.camera_rays = launch.camera.is_some();
         let n = rays.len();
-        timings.shared_origin = true;
-        timings.locate = t0.elapsed().as_secs_f64() - grid_upload - table_upload;
+        timings.shared_origin = !own;
+        timings.own_origins = own;
+        timings.locate = t0.elapsed().as_secs_f64() - uploads;
         timings.walked = n;
         let setup = exact_setup(scene, exact.max_steps)?;
         let walk = TetWalk::<f64, Tet20, Exact, NoObserver>::new(scene.locators(), setup);
@@ -535,6 +562,7 @@ impl OnDevice<'_> {
             shared: None,
             extra: &[],
             camera: None,
+            origins: None,
         };
         let mut by_chunk = ByChunk::new(chunks, &ends);
         launch.run(&all, walked, timings, |before, results| {

@@ -8,7 +8,7 @@ use super::context::KernelKey;
 use super::finish::{upload_hit_table, HitTable};
 use super::kernels::{GpuLayout, KernelSpec};
 use super::launch::RunBuffers;
-use super::origin::{upload_entry_grid, EntryGrid};
+use super::origin::{upload_entry_grid, upload_locate_table, EntryGrid, LocateTable};
 use super::upload::LayoutBuffers;
 use crate::error::Result;
 use crate::scene::Scene;
@@ -32,6 +32,8 @@ pub struct DeviceScene {
     entry_grid: Mutex<Option<Arc<EntryGrid>>>,
     /// The shared-origin kernel's hit table (uploaded by its first cast).
     hit_table: Mutex<Option<Arc<HitTable>>>,
+    /// The own-origin kernel's locate table (uploaded by its first cast).
+    locate_table: Mutex<Option<Arc<LocateTable>>>,
     /// The camera kernel (compiled by the first cast of a camera's rays).
     camera: Mutex<Option<Arc<CameraKernel>>>,
 }
@@ -62,6 +64,10 @@ impl DeviceScene {
         if let Some(t) = table.as_ref() {
             out.push(("hit_table", t.bytes()));
         }
+        let locate = self.locate_table.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(t) = locate.as_ref() {
+            out.push(("locate_table", t.bytes()));
+        }
         out
     }
 
@@ -81,6 +87,12 @@ impl DeviceScene {
     /// yet, and the seconds the upload took.
     pub(crate) fn hit_table(&self, g: &Gpu, scene: &Scene) -> Result<(Arc<HitTable>, f64)> {
         kept(g, &self.hit_table, || upload_hit_table(g, scene))
+    }
+
+    /// The scene's locate table on the device (`gpu::origin`), uploaded now if it is not
+    /// there yet, and the seconds the upload took.
+    pub(crate) fn locate_table(&self, g: &Gpu, scene: &Scene) -> Result<(Arc<LocateTable>, f64)> {
+        kept(g, &self.locate_table, || upload_locate_table(g, scene))
     }
 
     /// The camera kernel (`gpu::camera`), compiled now if it is not yet.

@@ -125,6 +125,15 @@ pub static KERNELS: [KernelSpec; 4] = [
     KernelSpec::of::<Robust>(&GPU_LAYOUTS[0], &[ROBUST], Some(robust_tet20_on_cpu)),
 ];
 
+/// What the exact kernels that begin their walks on the device share (`shaders/walks/begin.wgsl`),
+/// after the exact kernel's plain step and the hit finishing.
+const BEGIN: [Wgsl; 4] = [
+    ROBUST,
+    wgsl!("methods/exact.wgsl"),
+    wgsl!("methods/exact_hit.wgsl"),
+    wgsl!("walks/begin.wgsl"),
+];
+
 /// The exact kernel for batches whose rays share one origin (`gpu::origin`): chosen by the
 /// exact kernel's cast, never named by a caller. It begins each walk on the device from the
 /// ray's direction, walks on as the exact kernel does, and finishes the hits it can certify
@@ -132,20 +141,22 @@ pub static KERNELS: [KernelSpec; 4] = [
 pub static SHARED_ORIGIN: KernelSpec = KernelSpec {
     resumes: true,
     walk: Some(wgsl!("walks/shared_origin.wgsl")),
-    ..KernelSpec::of::<Exact>(
-        &GPU_LAYOUTS[0],
-        &[
-            ROBUST,
-            wgsl!("methods/exact.wgsl"),
-            wgsl!("methods/exact_hit.wgsl"),
-        ],
-        None,
-    )
+    ..KernelSpec::of::<Exact>(&GPU_LAYOUTS[0], &BEGIN, None)
 };
 
-/// Every kernel the device may compile: [`KERNELS`] and the shared-origin exact kernel.
+/// The exact kernel for rays with their own origins (`gpu::origin::own_origins`): as
+/// [`SHARED_ORIGIN`], with each ray's origin located on the device (the seed grid's walk on
+/// certified orientations) or, outside the box, its entry found there.
+pub static OWN_ORIGINS: KernelSpec = KernelSpec {
+    resumes: true,
+    walk: Some(wgsl!("walks/own_origin.wgsl")),
+    ..KernelSpec::of::<Exact>(&GPU_LAYOUTS[0], &BEGIN, None)
+};
+
+/// Every kernel the device may compile: [`KERNELS`] and the exact kernels that begin their
+/// walks on the device.
 pub fn all_kernels() -> impl Iterator<Item = &'static KernelSpec> {
-    KERNELS.iter().chain(std::iter::once(&SHARED_ORIGIN))
+    KERNELS.iter().chain([&SHARED_ORIGIN, &OWN_ORIGINS])
 }
 
 impl KernelSpec {

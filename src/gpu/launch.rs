@@ -26,6 +26,10 @@ pub struct Batching {
     /// buffer even where the device could map both where they lie (`Gpu::mapped_results`):
     /// a discrete GPU's path, which tests take on lavapipe.
     pub copy_results: bool,
+    /// Let the exact kernels that begin walks on the device take the rays they can (one
+    /// origin, or their own origins: `gpu::origin`); tests turn it off to send every ray
+    /// through the resumed kernel, which the host begins.
+    pub begin_on_device: bool,
 }
 
 impl Default for Batching {
@@ -34,6 +38,7 @@ impl Default for Batching {
             max_batch: MAX_BATCH,
             max_groups: None,
             copy_results: false,
+            begin_on_device: true,
         }
     }
 }
@@ -58,6 +63,9 @@ pub(crate) struct Launch<'a> {
     /// Directions made on the device by the camera kernel, batch by batch, instead of
     /// uploaded (the shared-origin kernel's `dirs`): `run`'s parts are then not read.
     pub camera: Option<(&'a CameraKernel, &'a DeviceCamera)>,
+    /// The own-origin kernel's origins (three floats a ray, every ray of the run), written
+    /// after each batch's rays in the same buffer (`Params::origins_at`).
+    pub origins: Option<&'a [f32]>,
 }
 
 /// A kernel's ray buffers for batches of up to `batch` rays, and their bind group.
@@ -121,7 +129,8 @@ impl Launch<'_> {
         mut take: impl FnMut(usize, &[RayOut]) -> Result<()>,
     ) -> Result<()> {
         let g = self.g;
-        let ray_bytes = std::mem::size_of::<T>() as u64;
+        // With origins, each ray also has its 12 bytes of origin in the ray buffer.
+        let ray_bytes = std::mem::size_of::<T>() as u64 + 12 * self.origins.is_some() as u64;
         let cap = (g
             .limits
             .max_storage_buffer_binding_size
@@ -321,13 +330,19 @@ impl Launch<'_> {
             g.wait()?;
             timings.camera += t.elapsed().as_secs_f64();
             t = Instant::now();
-        } else if mapped {
+        }
+        // The batch's rays, then its origins (the own-origin kernel's), one piece after another.
+        let origins = self.origins.map(|o| &o[3 * before..3 * (before + n)]);
+        let slices = || {
+            let rays = pieces.iter().map(|p| bytemuck::cast_slice::<T, u8>(p));
+            rays.chain(origins.map(bytemuck::cast_slice))
+        };
+        if mapped && self.camera.is_none() {
             // Shared memory (`Gpu::mapped_results`): the rays go where the kernel reads them.
-            let size = (n * std::mem::size_of::<T>()) as u64;
-            g.write_mapped(&bufs.rays, size, "the rays", |dst| {
+            let size: usize = slices().map(<[u8]>::len).sum();
+            g.write_mapped(&bufs.rays, size as u64, "the rays", |dst| {
                 let mut offset = 0;
-                for p in pieces {
-                    let bytes: &[u8] = bytemuck::cast_slice(p);
+                for bytes in slices() {
                     dst.slice(offset..offset + bytes.len())
                         .copy_from_slice(bytes);
                     offset += bytes.len();
@@ -338,8 +353,7 @@ impl Launch<'_> {
             if !mapped && self.camera.is_none() {
                 // Through the queue's staging memory.
                 let mut offset = 0u64;
-                for p in pieces {
-                    let bytes: &[u8] = bytemuck::cast_slice(p);
+                for bytes in slices() {
                     g.queue.write_buffer(&bufs.rays, offset, bytes);
                     offset += bytes.len() as u64;
                 }
@@ -353,6 +367,7 @@ impl Launch<'_> {
                 bytemuck::bytes_of(&Params {
                     n_rays: n as u32,
                     max_steps: self.max_steps,
+                    origins_at: origins.map_or(0, |_| 3 * n as u32),
                     ..Default::default()
                 }),
             );

@@ -10,13 +10,18 @@
 //!   kernel certifies a miss of the box or the boundary face the ray enters by, as
 //!   `Locators::locate_exact` finds it, then takes the first step.
 //!
-//! Any other batch (an origin on a face, edge or vertex, rays with their own origins or
-//! ranges, rays started from hits) takes the resumed path (`cast::resumed`). A ray whose start
-//! the kernel cannot certify is walked by the host from its start; every answer is the CPU
-//! exact walk's (docs/gpu.md).
+//! Rays with their own origins take the own-origin kernel (`shaders/walks/own_origin.wgsl`,
+//! [`own_origins`]): per ray, where the origin lies against the box (exactly), then outside
+//! the box as above, inside it located on the device by the seed grid's visibility walk on
+//! certified orientations ([`LocateTable`]).
+//!
+//! Any other batch (an origin on a face, edge or vertex; per-ray ranges; rays started from
+//! hits; a scene whose faces split the caller's triangles) takes the resumed path
+//! (`cast::resumed`). A ray whose start the kernel cannot certify is walked by the host from
+//! its start; every answer is the CPU exact walk's (docs/gpu.md).
 
 use super::context::Gpu;
-use super::structs::{GridSide, Shared};
+use super::structs::{GridSide, Shared, OWN_INSIDE, OWN_OUTSIDE};
 use super::upload::upload_records;
 use crate::accel::tetwalk::PlainState;
 use crate::error::Result;
@@ -71,6 +76,84 @@ pub(crate) fn upload_entry_grid(g: &Gpu, scene: &Scene) -> Result<EntryGrid> {
         sides,
         cells,
         faces,
+    })
+}
+
+/// The own-origin kernel's locate table (binding 10): the seed grid's cells (each its seed tet
+/// and that tet's vertex ids: Tet20 names a tet's vertices only by their xor), then each
+/// constrained side's far tet (the walk crosses the surface; Tet20's link there names the
+/// side).
+pub struct LocateTable {
+    pub buffer: wgpu::Buffer,
+    /// Where the sides' far tets begin (words).
+    pub beyond_at: u32,
+}
+
+impl LocateTable {
+    pub(crate) fn bytes(&self) -> u64 {
+        self.buffer.size()
+    }
+}
+
+/// Uploads the scene's locate table for the own-origin kernel.
+pub(crate) fn upload_locate_table(g: &Gpu, scene: &Scene) -> Result<LocateTable> {
+    let mesh = &scene.mesh;
+    let (_, _, _, seeds) = scene.locator.parts();
+    let beyond_at = 5 * seeds.len();
+    let words = beyond_at + mesh.constrained.len();
+    let buffer = upload_records(g, "locate table", words, |i| {
+        match i.checked_sub(beyond_at) {
+            Some(side) => mesh.constrained[side].beyond,
+            None => match (seeds[i / 5], i % 5) {
+                (t, 0) => t,
+                (t, k) => mesh.tets[t as usize][k - 1],
+            },
+        }
+    })?;
+    Ok(LocateTable {
+        buffer,
+        beyond_at: beyond_at as u32,
+    })
+}
+
+/// The uniform of a batch of rays with their own origins for the own-origin kernel, or None
+/// where it does not take them: rays from hits, per-ray ranges, a range not holding 0, a
+/// scene whose faces split the caller's triangles (an origin strictly inside a tet may then
+/// lie in a triangle's plane: the host's `origin_may_touch` asks), or coordinates beyond
+/// 2^32 (the orientation filter's bound must not overflow). The caller sets the entry grid's
+/// sides, the hit table and the locate table's offsets.
+pub(crate) fn own_origins(scene: &Scene, rays: &Rays<f32>, points_slack: f32) -> Option<Shared> {
+    const LIMIT: f64 = 4294967296.0; // 2^32
+    let mesh = &scene.mesh;
+    if rays.is_empty() || mesh.is_empty() || rays.leaving.is_some() || scene.incidence.split {
+        return None;
+    }
+    let (&[tmin], &[tmax]) = (rays.tmin, rays.tmax) else {
+        return None;
+    };
+    let [lo, hi] = mesh.bounds;
+    if !(tmin <= 0.0 && tmax >= 0.0) || !lo.iter().chain(&hi).all(|x| x.abs() <= LIMIT) {
+        return None;
+    }
+    let (glo, inv, dims, _) = scene.locator.parts();
+    // From outside, the kernel certifies a miss of the whole box; a ray ending before the box
+    // is the host's (`exact_line` clips [0, tmax]).
+    let outside = if tmax == f64::INFINITY {
+        OWN_OUTSIDE
+    } else {
+        0
+    };
+    Some(Shared {
+        slack: points_slack,
+        box_lo: lo.map(round_down),
+        box_hi: hi.map(round_up),
+        in_lo: lo.map(round_up),
+        in_hi: hi.map(round_down),
+        own: OWN_INSIDE | outside,
+        grid_lo: glo.map(|x| x as f32),
+        grid_inv: inv.map(|x| x as f32),
+        grid_dims: dims.map(|x| x as u32),
+        ..Default::default()
     })
 }
 

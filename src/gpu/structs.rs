@@ -5,13 +5,14 @@
 use bytemuck::{Pod, Zeroable};
 use std::mem::{offset_of, size_of};
 
-/// `Params` (uniform): rays in the batch and the step guard.
+/// `Params` (uniform): rays in the batch, the step guard and, for the own-origin kernel,
+/// where the batch's origins begin in its ray buffer (in floats, after the directions).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
 pub struct Params {
     pub n_rays: u32,
     pub max_steps: u32,
-    pub _pad0: u32,
+    pub origins_at: u32,
     pub _pad1: u32,
 }
 
@@ -101,7 +102,30 @@ pub struct Shared {
     /// the kernel then finishes no hit (a finite tmax, which the host compares).
     pub finish: u32,
     pub sides: [GridSide; 6],
+    /// The own-origin kernel's (the shared-origin kernel ignores them, `gpu::origin`): the
+    /// box rounded inward, so that a float32 origin's side against the float64 box is a
+    /// float32 comparison.
+    pub in_lo: [f32; 3],
+    /// [`OWN_INSIDE`] | [`OWN_OUTSIDE`]: which origins the kernel begins.
+    pub own: u32,
+    pub in_hi: [f32; 3],
+    /// Where the constrained sides' far tets begin in the locate table (`gpu::origin`).
+    pub beyond_at: u32,
+    /// The seed grid (`locate::GridLocator`), in float32 (it only picks a start).
+    pub grid_lo: [f32; 3],
+    pub _pad1: u32,
+    pub grid_inv: [f32; 3],
+    pub _pad: u32,
+    pub grid_dims: [u32; 3],
+    pub _pad2: u32,
 }
+
+/// `Shared::own`: origins inside the box are located on the device (a scene whose faces are
+/// whole caller's triangles: an origin strictly inside a tet then lies in no triangle's plane).
+pub const OWN_INSIDE: u32 = 1;
+/// `Shared::own`: origins outside the box are begun on the device (an infinite tmax: a finite
+/// one is clipped to the box by the host's `exact_line`).
+pub const OWN_OUTSIDE: u32 = 2;
 
 /// `END_*` of shaders/common.wgsl (any other end is END_STEP_LIMIT).
 pub const END_BOUNDARY: u32 = 0;
@@ -142,7 +166,7 @@ const _: () = {
     assert!(offset_of!(GridSide, dims) == 16);
     assert!(offset_of!(GridSide, cells) == 24);
     assert!(offset_of!(GridSide, faces) == 28);
-    assert!(size_of::<Shared>() == 80 + 6 * 32);
+    assert!(size_of::<Shared>() == 80 + 6 * 32 + 80);
     assert!(offset_of!(Shared, slack) == 12);
     assert!(offset_of!(Shared, verts) == 16);
     assert!(offset_of!(Shared, box_lo) == 32);
@@ -152,6 +176,13 @@ const _: () = {
     assert!(offset_of!(Shared, beyond) == 64);
     assert!(offset_of!(Shared, finish) == 76);
     assert!(offset_of!(Shared, sides) == 80);
+    assert!(offset_of!(Shared, in_lo) == 272);
+    assert!(offset_of!(Shared, own) == 284);
+    assert!(offset_of!(Shared, in_hi) == 288);
+    assert!(offset_of!(Shared, beyond_at) == 300);
+    assert!(offset_of!(Shared, grid_lo) == 304);
+    assert!(offset_of!(Shared, grid_inv) == 320);
+    assert!(offset_of!(Shared, grid_dims) == 336);
     assert!(size_of::<Tet20>() == 20);
     assert!(offset_of!(Tet20, vertex_xor) == 0);
     assert!(offset_of!(Tet20, links) == 4);

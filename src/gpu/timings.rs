@@ -33,6 +33,9 @@ pub struct GpuTimings {
     /// Whether the batch took the shared-origin exact kernel (`gpu::origin`): one origin
     /// located once, every start on the device.
     pub shared_origin: bool,
+    /// Whether the batch took the own-origin exact kernel (`gpu::origin::own_origins`): each
+    /// ray's origin located (or its entry into the box found) on the device.
+    pub own_origins: bool,
     /// Whether the directions were made on the device by the camera kernel
     /// (`DeviceScene::cast_camera`), not uploaded.
     pub camera_rays: bool,

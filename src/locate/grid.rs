@@ -109,6 +109,12 @@ impl GridLocator {
         self.seeds.len() * 4
     }
 
+    /// The grid's lower corner, cells per unit length and cells per axis, and each cell's
+    /// seed tet (x fastest, then y, then z), as the GPU's locator reads them (`gpu::origin`).
+    pub fn parts(&self) -> ([f64; 3], [f64; 3], [usize; 3], &[u32]) {
+        (self.lo, self.inv_cell, self.dims, &self.seeds)
+    }
+
     /// The tet holding `p` (on its boundary counts), or Outside when p is outside the domain.
     /// `hint`: the previous point's cell and tet, used when p falls in that cell, and set to
     /// p's cell and tet when p is found.

@@ -79,6 +79,7 @@ mod built {
         t.set_item("deferred", timings.deferred)?;
         t.set_item("batches", timings.batches)?;
         t.set_item("shared_origin", timings.shared_origin)?;
+        t.set_item("own_origins", timings.own_origins)?;
         t.set_item("camera_rays", timings.camera_rays)?;
         t.set_item("finished", timings.finished)?;
         Ok(t)

@@ -624,6 +624,11 @@ impl PyScene {
     fn n_constrained(&self) -> usize {
         self.loaded().scene.mesh.constrained.len()
     }
+    /// Whether the mesher split caller's triangles into several faces (`Incidence::split`).
+    #[getter]
+    fn splits_triangles(&self) -> bool {
+        self.loaded().scene.incidence.split
+    }
     /// Builds a traversal layout now instead of at its first cast; returns its bytes.
     fn prepare_layout(&self, py: Python<'_>, layout: LayoutArg) -> PyResult<usize> {
         let loaded = self.loaded();

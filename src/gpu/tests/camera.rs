@@ -370,7 +370,7 @@ fn gpu_camera_cast_is_the_cpu_exact_cast() {
             Batching {
                 max_batch: 100,
                 max_groups: Some(1),
-                copy_results: false,
+                ..Default::default()
             },
             Batching {
                 copy_results: true,

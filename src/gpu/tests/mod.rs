@@ -342,6 +342,17 @@ fn run(
     d: &[f32],
     f: impl FnOnce(&Rays<f32>, HitsOut<f32>) -> crate::Result<()>,
 ) -> Out {
+    let _ = scene;
+    run_within(o, d, f64::INFINITY, f)
+}
+
+/// [`run`] with every ray's range [0, tmax].
+fn run_within(
+    o: &[f32],
+    d: &[f32],
+    tmax: f64,
+    f: impl FnOnce(&Rays<f32>, HitsOut<f32>) -> crate::Result<()>,
+) -> Out {
     let n = o.len() / 3;
     let (mut t, mut u, mut v, mut p) = (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; 3 * n]);
     let (mut tri, mut tet, mut steps, mut status) =
@@ -350,7 +361,7 @@ fn run(
         origins: o,
         directions: d,
         tmin: &[0.0],
-        tmax: &[f64::INFINITY],
+        tmax: &[tmax],
         leaving: None,
     };
     let out = HitsOut {
@@ -365,7 +376,6 @@ fn run(
         audit: &mut [],
     };
     f(&rays, out).unwrap();
-    let _ = scene;
     Out {
         t,
         u,

@@ -180,31 +180,49 @@ fn assert_gpu_is_cpu_exact(
     tris: &[[[f64; 3]; 3]],
     o: &[f32],
     d: &[f32],
+    batching: Batching,
+) -> crate::gpu::GpuTimings {
+    assert_gpu_is_cpu_exact_within(name, scene, tris, (o, d, f64::INFINITY), batching)
+}
+
+/// [`assert_gpu_is_cpu_exact`] with every ray's range [0, tmax]; the referee judges the rays
+/// of an infinite range (a finite one is the CPU exact cast's to clip, compared column by
+/// column).
+fn assert_gpu_is_cpu_exact_within(
+    name: &str,
+    scene: &Scene,
+    tris: &[[[f64; 3]; 3]],
+    (o, d, tmax): (&[f32], &[f32], f64),
+    batching: Batching,
 ) -> crate::gpu::GpuTimings {
     let opts = CastOptions {
         threads: None,
         max_steps: Some(scene.mesh.len() as u32 + 1),
         ..Default::default()
     };
-    let cpu = run(scene, o, d, |r, out| scene.cast(r, out, &opts));
+    let cpu = run_within(o, d, tmax, |r, out| scene.cast(r, out, &opts));
     let mut timings = None;
-    let gpu = run(scene, o, d, |r, out| {
-        timings = Some(cast_gpu(scene, None, None, r, out, &opts)?);
+    let gpu = run_within(o, d, tmax, |r, out| {
+        let device = DeviceScene::default();
+        timings = Some(device.cast_with(scene, &KERNELS[0], r, out, &opts, batching)?);
         Ok(())
     });
     let t = timings.expect("the GPU cast ran");
     eprintln!(
-        "{name}: {} rays, {} walked on the GPU (shared origin: {}), {} handed back before a \
-         face, {} hits finished on the GPU",
+        "{name}: {} rays, {} walked on the GPU (shared origin: {}, own origins: {}), {} \
+         handed back before a face, {} hits finished on the GPU",
         o.len() / 3,
         t.walked,
         t.shared_origin,
+        t.own_origins,
         t.deferred,
         t.finished
     );
     assert_same_answers(name, &cpu, &gpu);
-    let c = judged(name, &verdicts32(o, d, tris), &gpu);
-    assert_eq!(c.bad(), 0, "{name}: {c:?}");
+    if tmax == f64::INFINITY {
+        let c = judged(name, &verdicts32(o, d, tris), &gpu);
+        assert_eq!(c.bad(), 0, "{name}: {c:?}");
+    }
     t
 }
 
@@ -278,10 +296,22 @@ fn gpu_exact_is_the_cpu_exact_walk() {
         }
         for scale in [1e-30f32, 1.0, 1e30] {
             let d: Vec<f32> = d0.iter().map(|x| x * scale).collect();
-            let name = format!("{test} offset {offset} f32 points {f32_points} |d| x {scale:e}");
-            let t = assert_gpu_is_cpu_exact(&name, &scene, &tris, &o, &d);
-            assert!(t.walked > o.len() / 6, "{name}: {t:?}");
-            handed_back += t.deferred;
+            // Begun by the host (the resumed kernel), and where it can, by the device (the
+            // own-origin kernel: gpu_own_origins_is_the_cpu_exact_walk).
+            for begin_on_device in [false, true] {
+                let name = format!(
+                    "{test} offset {offset} f32 points {f32_points} |d| x {scale:e} begun on \
+                     the device {begin_on_device}"
+                );
+                let batching = Batching {
+                    begin_on_device,
+                    ..Default::default()
+                };
+                let t = assert_gpu_is_cpu_exact(&name, &scene, &tris, &o, &d, batching);
+                assert_eq!(t.own_origins, begin_on_device, "{name}");
+                assert!(t.walked > o.len() / 6, "{name}: {t:?}");
+                handed_back += t.deferred;
+            }
         }
     }
     // The degenerate rays reach the CPU's predicates through the hand-back.
@@ -411,7 +441,7 @@ fn gpu_shared_origin_is_the_cpu_exact_walk() {
             for scale in [1e-30f32, 1.0, 1e30] {
                 let d: Vec<f32> = d0.iter().map(|x| x * scale).collect();
                 let name = format!("{test} offset {offset} origin {origin:?} |d| x {scale:e}");
-                let t = assert_gpu_is_cpu_exact(&name, &scene, &tris, &o, &d);
+                let t = assert_gpu_is_cpu_exact(&name, &scene, &tris, &o, &d, Batching::default());
                 assert_eq!(t.shared_origin, shared, "{name}");
                 took[shared as usize] += 1;
                 finished += t.finished;
@@ -422,6 +452,123 @@ fn gpu_shared_origin_is_the_cpu_exact_walk() {
     // The kernel finished hits (gpu::finish), each one of the columns compared above.
     assert!(finished > 0, "no hit was finished on the device");
     eprintln!("{test}: {finished} hits finished on the device");
+}
+
+/// The own-origin exact kernel (`gpu::origin::own_origins`), which locates each ray's origin
+/// on the device (or, outside the box, finds its entry there): every column equals the CPU
+/// exact cast's and the referee's verdict, for origins at random in and around the box, on
+/// mesh vertices, edge midpoints and face centroids (rounded to float32: on or within a
+/// rounding of the faces, where no orientation certifies), on the box's faces and an ulp or
+/// two either side of them; rays aimed at vertices and random, directions scaled from 1e-30
+/// to 1e30; with an infinite tmax and a finite one (then the host begins the rays from
+/// outside the box).
+#[test]
+fn gpu_own_origins_is_the_cpu_exact_walk() {
+    let test = "gpu own origins";
+    if !device_or_skip(test) {
+        return;
+    }
+    let (mut begun, mut finished, mut rays_cast) = (0usize, 0usize, 0usize);
+    for (offset, seed, f32_points) in [(0.0, 81u64, true), (10.0, 83, false), (1000.0, 85, true)] {
+        let (scene, tris) = grid_scene_with(6, 0.08, offset, seed, f32_points);
+        let mut rng = Rng::xorshift(seed + 1);
+        let [lo, hi] = scene.mesh.bounds;
+        let pts = &scene.mesh.points;
+        let mut origins: Vec<[f64; 3]> = Vec::new();
+        for _ in 0..6000 {
+            origins.push([0, 1, 2].map(|_| offset + rng.f() * 1.6 - 0.3));
+        }
+        origins.extend(pts.iter().step_by(2));
+        for tet in scene.mesh.tets.iter().step_by(5) {
+            let [a, b, c] = [0, 1, 2].map(|k| pts[tet[k] as usize]);
+            origins.push([0, 1, 2].map(|x| 0.5 * (a[x] + b[x])));
+            origins.push([0, 1, 2].map(|x| (a[x] + b[x] + c[x]) / 3.0));
+        }
+        // On each face of the box and one and two float32 ulps either side of it.
+        for a in 0..3 {
+            for plane in [lo[a], hi[a]] {
+                for _ in 0..40 {
+                    let mut p = [0, 1, 2].map(|x| lo[x] + rng.f() * (hi[x] - lo[x]));
+                    let at = plane as f32;
+                    for v in [at.next_down().next_down(), at.next_down(), at, at.next_up()] {
+                        p[a] = v as f64;
+                        origins.push(p);
+                    }
+                }
+            }
+        }
+        let inner: Vec<[f64; 3]> = (pts.iter().copied())
+            .filter(|p| (0..3).all(|a| lo[a] < p[a] && p[a] < hi[a]))
+            .collect();
+        let (mut o, mut d0): (Vec<f32>, Vec<f32>) = (Vec::new(), Vec::new());
+        for (k, p) in origins.iter().enumerate() {
+            let from = p.map(|x| x as f32);
+            o.extend(from);
+            if k % 2 == 0 {
+                d0.extend([0, 1, 2].map(|_| (rng.f() - 0.5) as f32));
+            } else {
+                // Vertices strictly inside the box: a ray grazing the box at a triangle's
+                // vertex is a known miss of the CPU exact walk (query/tests/grazing.rs).
+                let target = inner[(rng.u64() % inner.len() as u64) as usize];
+                d0.extend([0, 1, 2].map(|x| (target[x] - from[x] as f64) as f32));
+            }
+        }
+        let n = o.len() / 3;
+        for (scale, tmax) in [(1e-30f32, f64::INFINITY), (1.0, f64::INFINITY), (1e30, 0.7)] {
+            let d: Vec<f32> = d0.iter().map(|x| x * scale).collect();
+            let name = format!("{test} offset {offset} |d| x {scale:e} tmax {tmax}");
+            let rays = (&o[..], &d[..], tmax);
+            let t = assert_gpu_is_cpu_exact_within(&name, &scene, &tris, rays, Batching::default());
+            assert!(t.own_origins && !t.shared_origin, "{name}: {t:?}");
+            // Most rays begin on the device (with a finite tmax, those from inside the box).
+            let most = if tmax == f64::INFINITY {
+                n / 2
+            } else {
+                n - n / 10
+            };
+            assert!(t.deferred < most, "{name}: {t:?}");
+            begun += n - t.deferred;
+            finished += t.finished;
+            rays_cast += n;
+        }
+        // Random origins strictly inside the box, random directions: nearly every origin is
+        // located on the device, and nearly every walk goes on there.
+        let (mut o, mut d) = (Vec::new(), Vec::new());
+        for _ in 0..3000 {
+            o.extend([0, 1, 2].map(|a| (lo[a] + (0.01 + 0.98 * rng.f()) * (hi[a] - lo[a])) as f32));
+            d.extend([0, 1, 2].map(|_| (rng.f() - 0.5) as f32));
+        }
+        // Along mesh edges, exactly: from o = 2p - q toward q - p through vertices p and q
+        // (where both are float32 numbers), so the walk meets vertices exactly (where its
+        // exact steps decide on a perturbed ray), from origins located away from their cell's
+        // seed (then named in the device walk's own vertex order, not `mesh.tets`').
+        for tet in &scene.mesh.tets {
+            for (i, j) in [(0, 1), (2, 3), (1, 3)] {
+                let (p, q) = (pts[tet[i] as usize], pts[tet[j] as usize]);
+                let from = [0, 1, 2].map(|a| 2.0 * p[a] - q[a]);
+                let dir = [0, 1, 2].map(|a| q[a] - p[a]);
+                let f32_exact = |v: &[f64; 3]| v.iter().all(|&x| x as f32 as f64 == x);
+                let inside = (0..3).all(|a| lo[a] < from[a] && from[a] < hi[a]);
+                if inside && f32_exact(&from) && f32_exact(&dir) && o.len() < 3 * 6000 {
+                    o.extend(from.map(|x| x as f32));
+                    d.extend(dir.map(|x| x as f32));
+                }
+            }
+        }
+        let n = o.len() / 3;
+        let name = format!("{test} offset {offset} from inside");
+        let t = assert_gpu_is_cpu_exact(&name, &scene, &tris, &o, &d, Batching::default());
+        // The rays along edges are handed back where they meet a vertex; the others begin
+        // and walk on the device.
+        assert!(
+            t.own_origins && t.deferred <= n - 3000 + 3000 / 50,
+            "{name}: {t:?}"
+        );
+    }
+    eprintln!(
+        "{test}: {begun} of {rays_cast} rays begun on the device, {finished} hits finished there"
+    );
+    assert!(finished > 0, "no hit was finished on the device");
 }
 
 /// A batch the shared-origin kernel must not take: rays with their own origins, a range
@@ -456,6 +603,45 @@ fn gpu_shared_origin_is_taken_only_where_it_holds() {
     apart[3] = 0.432;
     assert!(!take(&apart, &d, 0.0, f64::INFINITY));
     assert!(!take(&[f32::NAN, 0.0, 0.0], &d[..3], 0.0, f64::INFINITY));
+
+    // Rays with their own origins: the own-origin kernel, beginning origins outside the box
+    // only with an infinite tmax; not per-ray ranges, a range starting after the origin, rays
+    // from hits, a scene whose faces split its triangles, nor coordinates beyond 2^32.
+    use crate::gpu::origin::own_origins;
+    use crate::gpu::structs::{OWN_INSIDE, OWN_OUTSIDE};
+    let own = |scene: &Scene, tmin: &[f64], tmax: &[f64]| {
+        let rays = Rays {
+            origins: &apart,
+            directions: &d,
+            tmin,
+            tmax,
+            leaving: None,
+        };
+        own_origins(scene, &rays, 0.0).map(|u| u.own)
+    };
+    let (inf, both) = (f64::INFINITY, OWN_INSIDE | OWN_OUTSIDE);
+    assert_eq!(own(&scene, &[0.0], &[inf]), Some(both));
+    assert_eq!(own(&scene, &[-1.0], &[2.0]), Some(OWN_INSIDE));
+    assert_eq!(own(&scene, &[0.5], &[inf]), None);
+    assert_eq!(own(&scene, &[0.0, 0.0], &[inf, inf]), None);
+    let (mut split, _) = grid_scene(4, 0.1, 0.0, 71);
+    split.incidence.split = true;
+    assert_eq!(own(&split, &[0.0], &[inf]), None);
+    let (far, _) = grid_scene_with(2, 0.1, 5e9, 73, false);
+    assert_eq!(own(&far, &[0.0], &[inf]), None);
+    let leaving = crate::scene::buffers::LeavingRays {
+        triangle: &[-1, -1],
+        tet: &[-1, -1],
+        triangles: &[],
+    };
+    let rays = Rays {
+        origins: &apart,
+        directions: &d,
+        tmin: &[0.0],
+        tmax: &[inf],
+        leaving: Some(leaving),
+    };
+    assert!(own_origins(&scene, &rays, 0.0).is_none());
 }
 
 #[test]
@@ -503,6 +689,7 @@ fn gpu_batches_do_not_change_results() {
                 max_batch: 1000,
                 max_groups: Some(7),
                 copy_results: true,
+                ..Default::default()
             };
             let device = DeviceScene::default();
             timings = Some(device.cast_with(&scene, &KERNELS[0], r, out, &opts, batching)?);
@@ -513,7 +700,9 @@ fn gpu_batches_do_not_change_results() {
     let (many, t) = batched(&o, &d);
     assert_eq!(t.batches, t.walked.div_ceil(1000), "{t:?}");
     assert!(t.batches > 10, "{t:?}");
-    assert!(!t.shared_origin, "{t:?}");
+    // Rays with their own origins: the own-origin kernel, its origins after each batch's
+    // directions in the buffer.
+    assert!(!t.shared_origin && t.own_origins, "{t:?}");
     assert_same_answers("gpu batches", &one(&o, &d), &many);
     judged("gpu batches", &verdicts32(&o, &d, &tris), &many);
 

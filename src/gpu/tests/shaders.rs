@@ -180,6 +180,13 @@ fn rust_mirrors_match_wgsl_layouts() {
                 ("beyond", offset_of!(Shared, beyond)),
                 ("finish", offset_of!(Shared, finish)),
                 ("sides", offset_of!(Shared, sides)),
+                ("in_lo", offset_of!(Shared, in_lo)),
+                ("own", offset_of!(Shared, own)),
+                ("in_hi", offset_of!(Shared, in_hi)),
+                ("beyond_at", offset_of!(Shared, beyond_at)),
+                ("grid_lo", offset_of!(Shared, grid_lo)),
+                ("grid_inv", offset_of!(Shared, grid_inv)),
+                ("grid_dims", offset_of!(Shared, grid_dims)),
             ],
         ),
         (
