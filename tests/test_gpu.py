@@ -379,6 +379,38 @@ def test_occluded_on_the_gpu_is_the_cpu_exact_walk(spot, device):
     )
 
 
+def test_contains_on_the_gpu_is_the_cpus(spot, device):
+    """``contains(device="gpu")``: each float32 point located on the GPU, its region's parity
+    answering (docs/gpu.md). Every answer is the CPU's; away from the surface, the winding
+    number's (libigl's, no tetrahedralization) parity agrees. Points in and around the box,
+    on the surface's vertices and edge midpoints (answered by the CPU), float64 points
+    rounded to float32."""
+    from tetrace.winding import winding_numbers
+
+    rng = np.random.default_rng(5)
+    lo, hi = spot.vertices.min(0), spot.vertices.max(0)
+    pts = (lo + (rng.random((30_000, 3)) * 1.2 - 0.1) * (hi - lo)).astype(np.float32)
+    v = spot.vertices[spot.faces]
+    on = np.concatenate([v[:, 0], 0.5 * (v[:, 0] + v[:, 1])]).astype(np.float32)
+    pts = np.concatenate([pts, on])
+    got = spot.contains(pts, device="gpu")
+    want = spot.contains(pts.astype(np.float64), mode="parity")
+    np.testing.assert_array_equal(got, want)
+    assert got.dtype == bool and got.shape == (len(pts),)
+    assert 0 < got[:30_000].sum() < 30_000
+    w = winding_numbers(spot.vertices, spot.faces, pts[:30_000].astype(np.float64))
+    clear = np.abs(w - np.round(w)) < 0.01
+    assert clear.mean() > 0.9
+    np.testing.assert_array_equal(got[:30_000][clear], (np.round(w[clear]) % 2) == 1)
+    # float64 points are taken as float32, as GPU casts take rays; shapes are kept.
+    p64 = pts[:100].astype(np.float64).reshape(10, 10, 3)
+    np.testing.assert_array_equal(spot.contains(p64, device="gpu"), got[:100].reshape(10, 10))
+    with pytest.raises(ValueError, match="device must be"):
+        spot.contains(pts[:3], device="tpu")
+    with pytest.raises(ValueError, match="parity"):
+        spot.contains(pts[:3], mode="winding", device="gpu")
+
+
 def test_intersections_and_counts_on_the_gpu_are_the_cpu_exact_walk(spot, device):
     """``intersections`` and ``count_intersections`` with ``device="gpu"``: the exact kernel
     with the all-hits query. On camera and random rays, unbounded and with short ``tmax``,

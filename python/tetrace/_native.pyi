@@ -188,6 +188,10 @@ class NativeScene:
         threads: int | None = None,
         max_steps: int | None = None,
     ) -> tuple[dict[str, np.ndarray], dict[str, float]]: ...
+    # (N, 3) float32 points -> (N,) bool as contains answers, on the GPU, and its timings.
+    def contains_gpu(
+        self, points: npt.NDArray[np.float32], threads: int | None = None
+    ) -> tuple[npt.NDArray[np.bool_], dict[str, float]]: ...
     # (N, 3) float64 points -> (N,) bool: inside (on the surface counts as inside).
     def contains(
         self, points: npt.NDArray[np.floating], threads: int | None = None

@@ -855,7 +855,7 @@ class Scene:
         """
         return self._native.exact_bvh_info()
 
-    def contains(self, points, *, mode=None, threads=None):
+    def contains(self, points, *, mode=None, threads=None, device="cpu"):
         """Return whether each point lies inside the surface.
 
         Two rules; :attr:`is_closed` picks one unless ``mode`` does:
@@ -891,6 +891,12 @@ class Scene:
         threads : int, optional
             Worker threads of the parity mode (the GIL released); None uses all cores. The
             winding number runs on libigl's own threads (all cores), holding the GIL.
+        device : {"cpu", "gpu"}
+            ``"gpu"``: the parity mode on the tetrahedralization (built if needed), each
+            point located on the GPU (docs/gpu.md); the points are taken as float32 (float64
+            ones rounded, as GPU casts take rays), and each answer is the CPU's for those
+            numbers. The points the GPU cannot certify (on or near a face) are answered on
+            the CPU.
 
         Returns
         -------
@@ -900,17 +906,30 @@ class Scene:
         Raises
         ------
         ValueError
-            ``mode`` is not one of the above, a point has a NaN or infinite coordinate, or
-            ``points`` is not ``(..., 3)``.
+            ``mode`` is not one of the above, a point has a NaN or infinite coordinate,
+            ``points`` is not ``(..., 3)``, or ``device="gpu"`` with the winding mode.
+        tetrace.gpu.GpuError
+            ``device="gpu"`` without a usable adapter, or the device failed.
 
         Warns
         -----
         UserWarning
             ``mode="parity"`` on a scene that is not closed (once per scene).
         """
+        if device not in ("cpu", "gpu"):
+            raise ValueError(f'device must be "cpu" or "gpu", got {device!r}')
         flat, shape = _query_points(points)
         _check_threads(threads)
         mode = point_queries.contains_mode(self, mode)
+        if device == "gpu":
+            if mode != "parity":
+                raise ValueError(
+                    'contains(device="gpu") answers by parity (mode="parity" or a closed '
+                    f"surface); mode {mode!r} runs on the CPU"
+                )
+            points32 = np.ascontiguousarray(flat, dtype=np.float32)
+            inside, _ = self.build_ct()._native.contains_gpu(points32, threads)
+            return np.asarray(inside, dtype=bool).reshape(shape)
         return point_queries.inside(self, flat, mode, threads).reshape(shape)
 
     @property

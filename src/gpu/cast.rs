@@ -284,7 +284,7 @@ impl DeviceScene {
 
     /// Runs `f` with `kernel` ready on the device for `scene` (its pipeline, the scene's
     /// buffers for its layout, the kept ray buffers); returns the cast's timings.
-    fn on_device(
+    pub(super) fn on_device(
         &self,
         scene: &Scene,
         kernel: &KernelSpec,
@@ -494,13 +494,13 @@ fn exact_setup(scene: &Scene, max_steps: u32) -> Result<WalkSetup<'_, f64, Tet20
 }
 
 /// A kernel ready to run on the device, with the scene's buffers for it.
-struct OnDevice<'a> {
-    g: &'a Gpu,
-    pipeline: &'a wgpu::ComputePipeline,
-    scene: &'a LayoutBuffers,
-    max_steps: u32,
-    batching: Batching,
-    cache: &'a Mutex<Option<RunBuffers>>,
+pub(super) struct OnDevice<'a> {
+    pub g: &'a Gpu,
+    pub pipeline: &'a wgpu::ComputePipeline,
+    pub scene: &'a LayoutBuffers,
+    pub max_steps: u32,
+    pub batching: Batching,
+    pub cache: &'a Mutex<Option<RunBuffers>>,
 }
 
 impl OnDevice<'_> {

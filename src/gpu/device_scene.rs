@@ -34,6 +34,8 @@ pub struct DeviceScene {
     hit_table: Mutex<Option<Arc<HitTable>>>,
     /// The own-origin kernel's locate table (uploaded by its first cast).
     locate_table: Mutex<Option<Arc<LocateTable>>>,
+    /// Containment's region parity, a bit a tet (uploaded by the first GPU `contains`).
+    parity: Mutex<Option<Arc<wgpu::Buffer>>>,
     /// The camera kernel (compiled by the first cast of a camera's rays).
     camera: Mutex<Option<Arc<CameraKernel>>>,
 }
@@ -68,6 +70,10 @@ impl DeviceScene {
         if let Some(t) = locate.as_ref() {
             out.push(("locate_table", t.bytes()));
         }
+        let parity = self.parity.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(b) = parity.as_ref() {
+            out.push(("parity", b.size()));
+        }
         out
     }
 
@@ -93,6 +99,16 @@ impl DeviceScene {
     /// there yet, and the seconds the upload took.
     pub(crate) fn locate_table(&self, g: &Gpu, scene: &Scene) -> Result<(Arc<LocateTable>, f64)> {
         kept(g, &self.locate_table, || upload_locate_table(g, scene))
+    }
+
+    /// Containment's region parity on the device, uploaded now by `upload` if it is not
+    /// there yet, and the seconds the upload took.
+    pub(crate) fn parity_bits(
+        &self,
+        g: &Gpu,
+        upload: impl FnOnce() -> Result<wgpu::Buffer>,
+    ) -> Result<(Arc<wgpu::Buffer>, f64)> {
+        kept(g, &self.parity, upload)
     }
 
     /// The camera kernel (`gpu::camera`), compiled now if it is not yet.

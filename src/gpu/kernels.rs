@@ -144,19 +144,37 @@ pub static SHARED_ORIGIN: KernelSpec = KernelSpec {
     ..KernelSpec::of::<Exact>(&GPU_LAYOUTS[0], &BEGIN, None)
 };
 
+/// [`BEGIN`] and the location of points on the device (`shaders/walks/locate.wgsl`).
+const LOCATE: [Wgsl; 5] = [
+    BEGIN[0],
+    BEGIN[1],
+    BEGIN[2],
+    BEGIN[3],
+    wgsl!("walks/locate.wgsl"),
+];
+
 /// The exact kernel for rays with their own origins (`gpu::origin::own_origins`): as
 /// [`SHARED_ORIGIN`], with each ray's origin located on the device (the seed grid's walk on
 /// certified orientations) or, outside the box, its entry found there.
 pub static OWN_ORIGINS: KernelSpec = KernelSpec {
     resumes: true,
     walk: Some(wgsl!("walks/own_origin.wgsl")),
-    ..KernelSpec::of::<Exact>(&GPU_LAYOUTS[0], &BEGIN, None)
+    ..KernelSpec::of::<Exact>(&GPU_LAYOUTS[0], &LOCATE, None)
 };
 
-/// Every kernel the device may compile: [`KERNELS`] and the exact kernels that begin their
-/// walks on the device.
+/// Containment of points (`gpu::contains`): each point located on the device, its tet's
+/// region parity answering (no walk along a ray; the exact walk names the kernel's kind).
+pub static CONTAINS: KernelSpec = KernelSpec {
+    walk: Some(wgsl!("walks/contains.wgsl")),
+    ..KernelSpec::of::<Exact>(&GPU_LAYOUTS[0], &LOCATE, None)
+};
+
+/// Every kernel the device may compile: [`KERNELS`], the exact kernels that begin their
+/// walks on the device, and containment.
 pub fn all_kernels() -> impl Iterator<Item = &'static KernelSpec> {
-    KERNELS.iter().chain([&SHARED_ORIGIN, &OWN_ORIGINS])
+    KERNELS
+        .iter()
+        .chain([&SHARED_ORIGIN, &OWN_ORIGINS, &CONTAINS])
 }
 
 impl KernelSpec {

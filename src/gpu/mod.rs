@@ -15,6 +15,7 @@
 
 pub mod camera;
 pub mod cast;
+pub mod contains;
 pub mod context;
 pub mod device_scene;
 pub mod finish;

@@ -119,23 +119,19 @@ pub(crate) fn upload_locate_table(g: &Gpu, scene: &Scene) -> Result<LocateTable>
 /// The uniform of a batch of rays with their own origins for the own-origin kernel, or None
 /// where it does not take them: rays from hits, per-ray ranges, a range not holding 0, a
 /// scene whose faces split the caller's triangles (an origin strictly inside a tet may then
-/// lie in a triangle's plane: the host's `origin_may_touch` asks), or coordinates beyond
-/// 2^32 (the orientation filter's bound must not overflow). The caller sets the entry grid's
-/// sides, the hit table and the locate table's offsets.
+/// lie in a triangle's plane: the host's `origin_may_touch` asks), or one [`locate_uniform`]
+/// refuses. The caller sets the entry grid's sides, the hit table and the locate table's
+/// offset.
 pub(crate) fn own_origins(scene: &Scene, rays: &Rays<f32>, points_slack: f32) -> Option<Shared> {
-    const LIMIT: f64 = 4294967296.0; // 2^32
-    let mesh = &scene.mesh;
-    if rays.is_empty() || mesh.is_empty() || rays.leaving.is_some() || scene.incidence.split {
+    if rays.is_empty() || rays.leaving.is_some() || scene.incidence.split {
         return None;
     }
     let (&[tmin], &[tmax]) = (rays.tmin, rays.tmax) else {
         return None;
     };
-    let [lo, hi] = mesh.bounds;
-    if !(tmin <= 0.0 && tmax >= 0.0) || !lo.iter().chain(&hi).all(|x| x.abs() <= LIMIT) {
+    if !(tmin <= 0.0 && tmax >= 0.0) {
         return None;
     }
-    let (glo, inv, dims, _) = scene.locator.parts();
     // From outside, the kernel certifies a miss of the whole box; a ray ending before the box
     // is the host's (`exact_line` clips [0, tmax]).
     let outside = if tmax == f64::INFINITY {
@@ -144,12 +140,29 @@ pub(crate) fn own_origins(scene: &Scene, rays: &Rays<f32>, points_slack: f32) ->
         0
     };
     Some(Shared {
+        own: OWN_INSIDE | outside,
+        ..locate_uniform(scene, points_slack)?
+    })
+}
+
+/// What a kernel that locates points on the device (`shaders/walks/locate.wgsl`) reads in its
+/// uniform: the points' slack, the box rounded outward and inward, the seed grid. None for an
+/// empty scene or one with a coordinate beyond 2^32 (the orientation filter's bound must not
+/// overflow).
+pub(crate) fn locate_uniform(scene: &Scene, points_slack: f32) -> Option<Shared> {
+    const LIMIT: f64 = 4294967296.0; // 2^32
+    let mesh = &scene.mesh;
+    let [lo, hi] = mesh.bounds;
+    if mesh.is_empty() || !lo.iter().chain(&hi).all(|x| x.abs() <= LIMIT) {
+        return None;
+    }
+    let (glo, inv, dims, _) = scene.locator.parts();
+    Some(Shared {
         slack: points_slack,
         box_lo: lo.map(round_down),
         box_hi: hi.map(round_up),
         in_lo: lo.map(round_up),
         in_hi: hi.map(round_down),
-        own: OWN_INSIDE | outside,
         grid_lo: glo.map(|x| x as f32),
         grid_inv: inv.map(|x| x as f32),
         grid_dims: dims.map(|x| x as u32),

@@ -312,6 +312,35 @@ impl PyScene {
         }
     }
 
+    /// Containment of float32 points ((N, 3)) on the GPU, as `contains` answers (the kernel
+    /// locates each point; the host answers those it cannot certify). Returns (N,) bool and
+    /// the seconds of each phase.
+    #[pyo3(signature = (points, threads=None))]
+    fn contains_gpu<'py>(
+        &self,
+        py: Python<'py>,
+        points: PyReadonlyArray2<'py, f32>,
+        threads: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<(Bound<'py, PyArray1<bool>>, Bound<'py, PyDict>)> {
+        let threads = threads_arg(threads)?;
+        let n = check_cols(&points, 3, "points")?;
+        let p = slice(&points, "points")?;
+        #[cfg(not(feature = "gpu"))]
+        {
+            let _ = (py, n, p, threads);
+            Err(super::gpu::not_built())
+        }
+        #[cfg(feature = "gpu")]
+        {
+            let loaded = self.with_ct("contains on the GPU")?;
+            let mut out = try_zeroed_vec::<bool>(n, "the answers of contains")?;
+            let t = interruptible(py, || {
+                loaded.device.contains(&loaded.scene, p, &mut out, threads)
+            })?;
+            Ok((out.into_pyarray(py), super::gpu::timings_dict(py, &t)?))
+        }
+    }
+
     /// Containment: per row of `points` ((N, 3), float32 or float64), True when the point is
     /// inside the scene's surface or on it (the fewest scene-triangle crossings to outside the
     /// domain box is odd; points outside the box or not finite are False). Returns (N,) bool.

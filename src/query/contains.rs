@@ -131,6 +131,11 @@ impl Parity {
         self.odd.get(t / 64).is_some_and(|w| w >> (t % 64) & 1 == 1)
     }
 
+    /// The bits as 32-bit words (tet t: bit t % 32 of word t / 32), as the GPU reads them.
+    pub fn word32(&self, k: usize) -> u32 {
+        (self.odd.get(k / 2).map_or(0, |w| w >> (32 * (k % 2)))) as u32
+    }
+
     pub fn bytes(&self) -> usize {
         self.odd.len() * 8
     }
@@ -283,4 +288,4 @@ impl Containment<'_> {
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

@@ -291,14 +291,18 @@ impl Scene {
         threads: Option<usize>,
     ) -> Result<()> {
         contains::check(points.len(), out.len(), threads)?;
-        let parity = self.parity.get_or_init(|| Parity::build(&self.mesh));
+        self.containment().points(points, out, threads)
+    }
+
+    /// Containment's rule on this scene (the parity of each region built now if it is not
+    /// yet).
+    pub fn containment(&self) -> Containment<'_> {
         Containment {
             mesh: &self.mesh,
             grid: &self.locator,
             incidence: &self.incidence,
-            parity,
+            parity: self.parity.get_or_init(|| Parity::build(&self.mesh)),
         }
-        .points(points, out, threads)
     }
 
     /// Containment by the parity of one ray's crossings, on the exact BVH and without the

@@ -8,6 +8,7 @@
 //! preparation, the kernel table, limits) without a GPU.
 
 mod camera;
+mod contains;
 mod finish;
 mod host;
 mod intersections;

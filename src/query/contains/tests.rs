@@ -8,7 +8,7 @@ use crate::testing::{grid_scene, kuhn_grid, Rng};
 
 /// Kuhn grid of n³ cubes (6 tets each, cube by cube, x fastest) and the boundary faces of
 /// the union of the cubes `keep` selects (by cube index), oriented out of that union.
-fn block_surface(
+pub(crate) fn block_surface(
     pts: &[[f64; 3]],
     tets: &[[u32; 4]],
     n: usize,
@@ -40,7 +40,7 @@ fn block_surface(
         .collect()
 }
 
-fn scene_of(pts: &[[f64; 3]], tets: &[[u32; 4]], faces: &[[u32; 3]]) -> Scene {
+pub(crate) fn scene_of(pts: &[[f64; 3]], tets: &[[u32; 4]], faces: &[[u32; 3]]) -> Scene {
     let tris: Vec<_> = faces.iter().map(|f| f.map(|v| pts[v as usize])).collect();
     let ids: Vec<u32> = (0..faces.len() as u32).collect();
     Scene::build(pts.to_vec(), tets, faces, &ids, tris).unwrap()
@@ -176,7 +176,7 @@ fn surface_on_the_domain_box_encloses_the_whole_domain() {
 
 /// The generalized winding number of a closed, outward oriented triangle surface at p
 /// (Van Oosterom & Strackee's solid angle per triangle): 1 inside, 0 outside.
-fn winding(tris: &[[[f64; 3]; 3]], p: [f64; 3]) -> f64 {
+pub(crate) fn winding(tris: &[[[f64; 3]; 3]], p: [f64; 3]) -> f64 {
     let sub = |a: [f64; 3]| [a[0] - p[0], a[1] - p[1], a[2] - p[2]];
     let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
     let norm = |a: [f64; 3]| dot(a, a).sqrt();
