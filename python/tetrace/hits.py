@@ -90,8 +90,9 @@ class Hits:
         the kernel handed back to the CPU walk before a face, ``batches``) and
         ``shared_origin`` (whether the rays shared one origin, located once, and began their
         walks on the GPU from their directions alone), ``own_origins`` (whether rays with
-        their own origins were located, or entered the box, on the GPU), ``camera_rays`` (whether a camera's
-        directions were made on the GPU, not uploaded; ``camera``: that kernel's seconds)
+        their own origins were located, or entered the box, on the GPU), ``camera_rays``
+        (whether a camera's directions were made on the GPU, not uploaded; ``camera``: that
+        kernel's seconds)
         and ``finished`` (hits the GPU finished itself: triangle, t, u, v and point certified
         to be the CPU's). None for CPU
         casts and other casters. :meth:`reshape` keeps it; :meth:`__getitem__` drops it (the
