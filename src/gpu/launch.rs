@@ -14,6 +14,25 @@ use wgpu::util::DeviceExt;
 /// Rays per batch at most: bounds the ray buffers (at most 64 + 2 × 32 bytes a ray).
 pub const MAX_BATCH: usize = 1 << 20;
 
+/// Rays in a run's first batch (or fewer). A batch's kernel cannot be interrupted: Ctrl-C is
+/// seen between batches. Batches start at this size and grow while the device is quick
+/// ([`next_batch`]), so a slow device (lavapipe walks an exact batch at microseconds a ray)
+/// keeps batches of a fraction of a second and a fast one reaches full batches in a few.
+const FIRST_BATCH: usize = 1 << 16;
+
+/// What a batch's kernel may take (seconds) before batches stop growing.
+const BATCH_SECONDS: f64 = 0.25;
+
+/// The next batch's size after one of `size` rays whose kernel took `took` seconds: four
+/// times larger (at most `cap`) while four times the time stays within [`BATCH_SECONDS`].
+pub(crate) fn next_batch(size: usize, took: f64, cap: usize) -> usize {
+    if 4.0 * took <= BATCH_SECONDS {
+        (4 * size).min(cap)
+    } else {
+        size
+    }
+}
+
 /// How rays are cut into dispatches.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Batching {
@@ -163,19 +182,20 @@ impl Launch<'_> {
         let mut rest = parts.iter().copied().filter(|p| !p.is_empty());
         let mut carry: &[T] = &[];
         let mut before = 0usize;
+        let mut size = batch.min(FIRST_BATCH);
         loop {
             let (mut pieces, mut n) = (Vec::new(), 0usize);
             if self.camera.is_some() {
-                n = batch.min(walked - before);
+                n = size.min(walked - before);
             }
-            while n < batch && self.camera.is_none() {
+            while n < size && self.camera.is_none() {
                 if carry.is_empty() {
                     match rest.next() {
                         Some(p) => carry = p,
                         None => break,
                     }
                 }
-                let take = (batch - n).min(carry.len());
+                let take = (size - n).min(carry.len());
                 pieces.push(&carry[..take]);
                 carry = &carry[take..];
                 n += take;
@@ -187,7 +207,11 @@ impl Launch<'_> {
             crate::threads::checkpoint()?;
             timings.batches += 1;
             self.upload(bufs, &pieces, before, n, timings)?;
+            let wall = timings.kernel_wall;
             self.dispatch(bind, bufs, n, max_dim, timings)?;
+            if n == size {
+                size = next_batch(size, timings.kernel_wall - wall, batch);
+            }
             read_back(g, bufs, n, timings, |results| take(before, results))??;
             before += n;
         }
@@ -470,4 +494,22 @@ fn read_back<R>(
     timings.finish += taken;
     timings.readback += t.elapsed().as_secs_f64() - taken;
     Ok(r)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{next_batch, BATCH_SECONDS};
+
+    /// Batches grow fourfold while the kernel is quick, up to the cap, and stop growing once
+    /// a fourfold batch could pass the time a batch may take (Ctrl-C waits for a batch).
+    #[test]
+    fn batches_grow_only_while_the_kernel_is_quick() {
+        assert_eq!(next_batch(1 << 16, 0.001, 1 << 20), 1 << 18);
+        assert_eq!(next_batch(1 << 18, 0.001, 1 << 20), 1 << 20);
+        assert_eq!(next_batch(1 << 20, 0.001, 1 << 20), 1 << 20);
+        assert_eq!(next_batch(1000, 0.0, 1000), 1000);
+        assert_eq!(next_batch(1 << 16, BATCH_SECONDS / 4.0, 1 << 20), 1 << 18);
+        assert_eq!(next_batch(1 << 16, BATCH_SECONDS / 3.9, 1 << 20), 1 << 16);
+        assert_eq!(next_batch(1 << 16, 6.0, 1 << 20), 1 << 16);
+    }
 }

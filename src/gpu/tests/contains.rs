@@ -5,38 +5,7 @@
 
 use super::*;
 use crate::gpu::launch::Batching;
-use crate::query::contains::tests::{block_surface, scene_of, winding};
-
-/// Two nested shells in a jittered Kuhn grid of n³ cubes, its points rounded to float32 or
-/// not, and the shells' triangles.
-fn shells(n: usize, seed: u64, f32_points: bool) -> (Scene, Vec<[[f64; 3]; 3]>) {
-    let (mut pts, tets) = kuhn_grid(n, 0.3, &mut Rng::xorshift(seed));
-    if f32_points {
-        let before = pts.clone();
-        for p in &mut pts {
-            *p = p.map(|x| x as f32 as f64);
-        }
-        // Rounding must flip no tet (a flipped one would overlap its neighbours: no longer a
-        // tetrahedralization, whose answers no judge could check).
-        let sign = |p: &[[f64; 3]], t: &[u32; 4]| {
-            let [a, b, c, d] = t.map(|v| p[v as usize]);
-            crate::geom::predicates::orient(a, b, c, d) > 0.0
-        };
-        assert!(
-            tets.iter().all(|t| sign(&before, t) == sign(&pts, t)),
-            "seed {seed}: a tet flips"
-        );
-    }
-    let mut faces = Vec::new();
-    for k in [1, 2] {
-        let range = k..n - k;
-        faces.extend(block_surface(&pts, &tets, n, |c| {
-            c.iter().all(|x| range.contains(x))
-        }));
-    }
-    let tris: Vec<_> = faces.iter().map(|f| f.map(|v| pts[v as usize])).collect();
-    (scene_of(&pts, &tets, &faces), tris)
-}
+use crate::query::contains::tests::{jittered_shells, winding};
 
 /// Random points first in [`points`].
 const RANDOM: usize = 20_000;
@@ -91,7 +60,7 @@ fn gpu_contains_is_the_cpu_contains() {
         return;
     }
     for (seed, f32_points) in [(9u64, false), (29, true)] {
-        let (scene, tris) = shells(6, seed, f32_points);
+        let (scene, tris) = jittered_shells(6, seed, f32_points);
         let flat = points(&scene, &mut Rng::xorshift(seed + 1));
         let n = flat.len() / 3;
         let mut cpu = vec![false; n];

@@ -8,7 +8,7 @@ use crate::testing::{grid_scene, kuhn_grid, Rng};
 
 /// Kuhn grid of n³ cubes (6 tets each, cube by cube, x fastest) and the boundary faces of
 /// the union of the cubes `keep` selects (by cube index), oriented out of that union.
-pub(crate) fn block_surface(
+fn block_surface(
     pts: &[[f64; 3]],
     tets: &[[u32; 4]],
     n: usize,
@@ -40,7 +40,7 @@ pub(crate) fn block_surface(
         .collect()
 }
 
-pub(crate) fn scene_of(pts: &[[f64; 3]], tets: &[[u32; 4]], faces: &[[u32; 3]]) -> Scene {
+fn scene_of(pts: &[[f64; 3]], tets: &[[u32; 4]], faces: &[[u32; 3]]) -> Scene {
     let tris: Vec<_> = faces.iter().map(|f| f.map(|v| pts[v as usize])).collect();
     let ids: Vec<u32> = (0..faces.len() as u32).collect();
     Scene::build(pts.to_vec(), tets, faces, &ids, tris).unwrap()
@@ -200,12 +200,27 @@ pub(crate) fn winding(tris: &[[[f64; 3]; 3]], p: [f64; 3]) -> f64 {
     total / (4.0 * std::f64::consts::PI)
 }
 
-#[test]
-fn jittered_closed_surfaces_agree_with_the_winding_number() {
-    // A jittered grid: the shells' sides are no longer planes. Two shells, so the parity
-    // of the winding number is the answer; the surfaces' vertices lie on them (inside).
-    let n = 6;
-    let (pts, tets) = kuhn_grid(n, 0.3, &mut Rng::xorshift(9));
+/// Two nested closed shells (the cubes from 1 to n - 1 and from 2 to n - 2) in a jittered
+/// Kuhn grid of n³ cubes, its points rounded to float32 or not (`f32_points`: no tet may flip,
+/// which would leave no tetrahedralization to judge), and the shells' triangles.
+pub(crate) fn jittered_shells(
+    n: usize,
+    seed: u64,
+    f32_points: bool,
+) -> (Scene, Vec<[[f64; 3]; 3]>) {
+    let (mut pts, tets) = kuhn_grid(n, 0.3, &mut Rng::xorshift(seed));
+    if f32_points {
+        let before = pts.clone();
+        for p in &mut pts {
+            *p = p.map(|x| x as f32 as f64);
+        }
+        let sign = |p: &[[f64; 3]], t: &[u32; 4]| {
+            let [a, b, c, d] = t.map(|v| p[v as usize]);
+            orient(a, b, c, d) > 0.0
+        };
+        let flips = tets.iter().any(|t| sign(&before, t) != sign(&pts, t));
+        assert!(!flips, "seed {seed}: rounding flips a tet");
+    }
     let mut faces = Vec::new();
     for k in [1, 2] {
         let range = k..n - k;
@@ -214,12 +229,19 @@ fn jittered_closed_surfaces_agree_with_the_winding_number() {
         }));
     }
     let tris: Vec<_> = faces.iter().map(|f| f.map(|v| pts[v as usize])).collect();
-    let scene = scene_of(&pts, &tets, &faces);
+    (scene_of(&pts, &tets, &faces), tris)
+}
+
+#[test]
+fn jittered_closed_surfaces_agree_with_the_winding_number() {
+    // A jittered grid: the shells' sides are no longer planes. Two shells, so the parity
+    // of the winding number is the answer; the surfaces' vertices lie on them (inside).
+    let (scene, tris) = jittered_shells(6, 9, false);
     let mut rng = Rng::xorshift(10);
     let sample: Vec<[f64; 3]> = (0..3 * CHUNK)
         .map(|_| rng.p3().map(|x| 1.2 * x - 0.1))
         .collect();
-    let mut on: Vec<[f64; 3]> = faces.iter().flatten().map(|&v| pts[v as usize]).collect();
+    let mut on: Vec<[f64; 3]> = tris.iter().flatten().copied().collect();
     on.sort_by(|a, b| a.partial_cmp(b).unwrap());
     on.dedup();
     let got = contains(&scene, &sample);
