@@ -114,7 +114,9 @@ impl CameraKernel {
 
     /// Records the kernel writing rays `first .. first + n` into `dirs` (three f32 a ray,
     /// from its start) into `enc`, in rows of at most `max_dim` workgroups (a 2D dispatch
-    /// beyond). One record per submission: each writes the camera's uniform.
+    /// beyond), its pass timed by `stamps` where given. One record per submission: each
+    /// writes the camera's uniform (queue writes land before the next submission, after the
+    /// ones before it, so batches in flight keep theirs).
     #[allow(clippy::too_many_arguments)] // a dispatch's parts
     pub fn record(
         &self,
@@ -125,6 +127,7 @@ impl CameraKernel {
         n: u32,
         dirs: &wgpu::Buffer,
         max_dim: u32,
+        stamps: Option<wgpu::ComputePassTimestampWrites>,
     ) -> Result<()> {
         let params = CamParams {
             first,
@@ -162,7 +165,10 @@ impl CameraKernel {
         } else {
             (max_dim, groups.div_ceil(max_dim))
         };
-        let mut pass = enc.begin_compute_pass(&Default::default());
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("camera"),
+            timestamp_writes: stamps,
+        });
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &bind, &[]);
         pass.dispatch_workgroups(gx, gy, 1);
@@ -187,7 +193,7 @@ impl CameraKernel {
         let dirs = mk("camera directions", U::STORAGE | U::COPY_SRC);
         let readback = mk("camera directions readback", U::MAP_READ | U::COPY_DST);
         let mut enc = g.device.create_command_encoder(&Default::default());
-        self.record(g, &mut enc, &cam, 0, n, &dirs, u32::MAX)?;
+        self.record(g, &mut enc, &cam, 0, n, &dirs, u32::MAX, None)?;
         enc.copy_buffer_to_buffer(&dirs, 0, &readback, 0, size);
         g.scoped("running the camera kernel", || {
             g.queue.submit([enc.finish()])

@@ -260,8 +260,18 @@ impl Gpu {
 
     /// Waits for all submitted work.
     pub fn wait(&self) -> Result<()> {
+        self.wait_for(None)
+    }
+
+    /// Waits for the submission `index` (and those before it), or for all submitted work
+    /// where None, running the callbacks of buffers mapped meanwhile. A pipelined run waits
+    /// for one batch while the next one's kernel runs (`launch.rs`).
+    pub fn wait_for(&self, index: Option<wgpu::SubmissionIndex>) -> Result<()> {
         self.device
-            .poll(wgpu::PollType::wait_indefinitely())
+            .poll(wgpu::PollType::Wait {
+                submission_index: index,
+                timeout: None,
+            })
             .map(|_| ())
             .map_err(|e| Error::Gpu(format!("waiting for the device: {e}")))
     }
@@ -287,7 +297,20 @@ impl Gpu {
         what: &str,
         f: impl FnOnce(&[T]) -> R,
     ) -> Result<R> {
-        self.map(readback, size, wgpu::MapMode::Read, what)?;
+        self.with_mapped_after(readback, size, None, what, f)
+    }
+
+    /// [`Gpu::with_mapped`] for a buffer whose last use is the submission `after` (or
+    /// earlier): the wait for the mapping is a wait for it, not for later work.
+    pub fn with_mapped_after<T: bytemuck::Pod, R>(
+        &self,
+        readback: &wgpu::Buffer,
+        size: u64,
+        after: Option<wgpu::SubmissionIndex>,
+        what: &str,
+        f: impl FnOnce(&[T]) -> R,
+    ) -> Result<R> {
+        self.map(readback, size, wgpu::MapMode::Read, after, what)?;
         let r = {
             let view = readback
                 .slice(..size)
@@ -306,14 +329,16 @@ impl Gpu {
     /// Maps the first `size` bytes of `buffer` (MAP_WRITE), lets `f` write them (write-only:
     /// the memory may be write-combined), and unmaps it: the device then reads what `f`
     /// wrote, with no staging copy between.
+    /// Where `after` is given, the buffer's last use is that submission (or an earlier one).
     pub fn write_mapped<R>(
         &self,
         buffer: &wgpu::Buffer,
         size: u64,
+        after: Option<wgpu::SubmissionIndex>,
         what: &str,
         f: impl FnOnce(&mut wgpu::BufferViewMut) -> R,
     ) -> Result<R> {
-        self.map(buffer, size, wgpu::MapMode::Write, what)?;
+        self.map(buffer, size, wgpu::MapMode::Write, after, what)?;
         let r = {
             let mut view = buffer
                 .slice(..size)
@@ -325,15 +350,42 @@ impl Gpu {
         Ok(r)
     }
 
-    /// Maps the first `size` bytes of `buffer` and waits until it is mapped.
-    fn map(&self, buffer: &wgpu::Buffer, size: u64, mode: wgpu::MapMode, what: &str) -> Result<()> {
+    /// Maps the first `size` bytes of `buffer` and waits until it is mapped: for the
+    /// submission `after`, the buffer's last use, or where None, not at all if the buffer is
+    /// idle (a pipelined run's other set), else for all submitted work.
+    fn map(
+        &self,
+        buffer: &wgpu::Buffer,
+        size: u64,
+        mode: wgpu::MapMode,
+        after: Option<wgpu::SubmissionIndex>,
+        what: &str,
+    ) -> Result<()> {
         let (tx, rx) = std::sync::mpsc::channel();
         buffer.slice(..size).map_async(mode, move |r| {
             let _ = tx.send(r);
         });
-        self.wait()?;
-        rx.recv()
-            .map_err(|_| Error::Gpu(format!("mapping {what}: the callback never ran")))?
-            .map_err(|e| Error::Gpu(format!("mapping {what}: {e}")))
+        let poll = match after {
+            Some(index) => wgpu::PollType::Wait {
+                submission_index: Some(index),
+                timeout: None,
+            },
+            None => wgpu::PollType::Poll,
+        };
+        self.device
+            .poll(poll)
+            .map_err(|e| Error::Gpu(format!("waiting for the device: {e}")))?;
+        // The callback has run once the buffer's last submission is done; where it has not
+        // (the buffer is still in use, or `after` was not its last use), all work is waited
+        // for.
+        let r = match rx.try_recv() {
+            Ok(r) => r,
+            Err(_) => {
+                self.wait()?;
+                rx.recv()
+                    .map_err(|_| Error::Gpu(format!("mapping {what}: the callback never ran")))?
+            }
+        };
+        r.map_err(|e| Error::Gpu(format!("mapping {what}: {e}")))
     }
 }

@@ -87,9 +87,17 @@ pub(crate) struct Launch<'a> {
     pub origins: Option<&'a [f32]>,
 }
 
-/// A kernel's ray buffers for batches of up to `batch` rays, and their bind group.
+/// A kernel's ray buffers for batches of up to `batch` rays, and their bind groups: one set,
+/// or two for a run of more than one batch, which is pipelined (a batch's kernel runs while the
+/// host finishes the batch before it and writes the one after it).
 pub(crate) struct RunBuffers {
     batch: usize,
+    mapped: bool,
+    sets: Vec<BatchSet>,
+}
+
+/// One batch's buffers on the device and the kernel's bind group over them.
+struct BatchSet {
     bufs: RayBuffers,
     bind: wgpu::BindGroup,
 }
@@ -97,13 +105,21 @@ pub(crate) struct RunBuffers {
 impl RunBuffers {
     /// Bytes on the device.
     pub(crate) fn bytes(&self) -> u64 {
-        let b = &self.bufs;
-        b.rays.size()
-            + b.hits.size()
-            + b.readback.as_ref().map_or(0, wgpu::Buffer::size)
-            + b.params.size()
-            + b.shared.as_ref().map_or(0, wgpu::Buffer::size)
+        self.sets.iter().map(|s| s.bufs.bytes()).sum()
     }
+}
+
+/// A batch submitted and not yet read back.
+struct InFlight {
+    /// Its buffer set.
+    slot: usize,
+    /// Rays of the run before it, and its own.
+    before: usize,
+    n: usize,
+    /// Whether it was as large as the schedule allowed (its time then informs the next size).
+    full: bool,
+    index: wgpu::SubmissionIndex,
+    submitted: Instant,
 }
 
 /// The device buffers of a run, sized for one batch.
@@ -121,13 +137,21 @@ struct RayBuffers {
 }
 
 impl RayBuffers {
+    fn bytes(&self) -> u64 {
+        self.rays.size()
+            + self.hits.size()
+            + self.readback.as_ref().map_or(0, wgpu::Buffer::size)
+            + self.params.size()
+            + self.shared.as_ref().map_or(0, wgpu::Buffer::size)
+    }
+
     /// Whether rays and results are mapped where the kernel reads and writes them.
     fn mapped(&self) -> bool {
         self.readback.is_none()
     }
 }
 
-/// The kernel's begin and end timestamps (`Gpu::timestamps`).
+/// The walk's begin and end timestamps, then the camera kernel's (`Gpu::timestamps`).
 struct Stamps {
     set: wgpu::QuerySet,
     resolved: wgpu::Buffer,
@@ -140,6 +164,10 @@ impl Launch<'_> {
     /// of rays before it, in order, where they lie in the mapped readback buffer: the host
     /// copies nothing before it answers from them. A ray is a RayIn, or for the
     /// shared-origin kernel its direction. `take`'s time counts as the cast's finishing.
+    ///
+    /// Batches are pipelined: each is one submission (its rays or camera kernel, the walk,
+    /// the copies back), and the host writes and submits batch k + 1 before it waits for
+    /// batch k and answers from it, so the device walks k + 1 meanwhile.
     pub fn run<T: bytemuck::Pod>(
         &self,
         parts: &[&[T]],
@@ -158,18 +186,29 @@ impl Launch<'_> {
             .min(self.batching.max_batch as u64) as usize;
         let batch = walked.min(cap).max(1);
         let mapped = g.mapped_results && !self.batching.copy_results;
+        let mut size = batch.min(FIRST_BATCH);
+        // A run of one batch needs one set of buffers; a longer one two, to overlap.
+        let sets = if walked > size { 2 } else { 1 };
         let mut cache = self.cache.lock().unwrap_or_else(|e| e.into_inner());
         if cache
             .as_ref()
-            .is_none_or(|c| c.batch < batch || c.bufs.mapped() != mapped)
+            .is_none_or(|c| c.batch < batch || c.mapped != mapped)
         {
             // Dropped first: the old buffers and the new need not both fit.
             *cache = None;
-            let bufs = self.allocate(batch, ray_bytes, mapped)?;
-            let bind = self.bind(&bufs)?;
-            *cache = Some(RunBuffers { batch, bufs, bind });
+            *cache = Some(RunBuffers {
+                batch,
+                mapped,
+                sets: Vec::new(),
+            });
         }
-        let RunBuffers { bufs, bind, .. } = cache.as_ref().expect("made just above");
+        let kept = cache.as_mut().expect("made just above");
+        while kept.sets.len() < sets {
+            let bufs = self.allocate(kept.batch, ray_bytes, mapped)?;
+            let bind = self.bind(&bufs)?;
+            kept.sets.push(BatchSet { bufs, bind });
+        }
+        let kept = &kept.sets[..sets];
         let max_dim = self
             .batching
             .max_groups
@@ -182,7 +221,11 @@ impl Launch<'_> {
         let mut rest = parts.iter().copied().filter(|p| !p.is_empty());
         let mut carry: &[T] = &[];
         let mut before = 0usize;
-        let mut size = batch.min(FIRST_BATCH);
+        // Each set's last submission in this run: what writing into it again waits for (None:
+        // everything, as at a run's start, where an interrupted run may have left work).
+        let mut last: Vec<Option<wgpu::SubmissionIndex>> = vec![None; sets];
+        let mut in_flight: Option<InFlight> = None;
+        let mut slot = 0;
         loop {
             let (mut pieces, mut n) = (Vec::new(), 0usize);
             if self.camera.is_some() {
@@ -206,14 +249,30 @@ impl Launch<'_> {
             // Between batches, Ctrl-C (the bindings' poll) stops the cast.
             crate::threads::checkpoint()?;
             timings.batches += 1;
-            self.upload(bufs, &pieces, before, n, timings)?;
-            let wall = timings.kernel_wall;
-            self.dispatch(bind, bufs, n, max_dim, timings)?;
-            if n == size {
-                size = next_batch(size, timings.kernel_wall - wall, batch);
+            if let Some(p) = in_flight.take_if(|p| p.slot == slot) {
+                // One set: the batch before is read back before its buffers are reused.
+                size = self.complete(&kept[p.slot], p, size, batch, timings, &mut take)?;
             }
-            read_back(g, bufs, n, timings, |results| take(before, results))??;
+            let set = &kept[slot];
+            let (index, submitted) =
+                self.submit(set, last[slot].take(), &pieces, before, n, max_dim, timings)?;
+            last[slot] = Some(index.clone());
+            let now = InFlight {
+                slot,
+                before,
+                n,
+                full: n == size,
+                index,
+                submitted,
+            };
+            if let Some(p) = in_flight.replace(now) {
+                size = self.complete(&kept[p.slot], p, size, batch, timings, &mut take)?;
+            }
+            slot = (slot + 1) % sets;
             before += n;
+        }
+        if let Some(p) = in_flight {
+            self.complete(&kept[p.slot], p, size, batch, timings, &mut take)?;
         }
         Ok(())
     }
@@ -266,10 +325,10 @@ impl Launch<'_> {
                     set: g.device.create_query_set(&wgpu::QuerySetDescriptor {
                         label: Some("kernel timestamps"),
                         ty: wgpu::QueryType::Timestamp,
-                        count: 2,
+                        count: 4,
                     }),
-                    resolved: mk("timestamps", 16, U::QUERY_RESOLVE | U::COPY_SRC),
-                    readback: mk("timestamps readback", 16, U::MAP_READ | U::COPY_DST),
+                    resolved: mk("timestamps", 32, U::QUERY_RESOLVE | U::COPY_SRC),
+                    readback: mk("timestamps readback", 32, U::MAP_READ | U::COPY_DST),
                 }),
             }
         })
@@ -322,39 +381,26 @@ impl Launch<'_> {
         })
     }
 
-    /// Writes the batch's rays (`pieces`, or the camera kernel's directions for rays
-    /// `before .. before + n`) and its uniforms, and waits for them.
-    fn upload<T: bytemuck::Pod>(
+    /// Writes batch `before .. before + n`'s rays (`pieces`, with their origins) and
+    /// uniforms into `set`, and submits, in one submission, the camera kernel making its
+    /// directions where there is one, the walk, and the copies of its timestamps and results
+    /// to where they are read back. `last` is the set's previous submission in this run.
+    /// Returns the submission and when it was made.
+    #[allow(clippy::too_many_arguments)] // a batch's parts
+    fn submit<T: bytemuck::Pod>(
         &self,
-        bufs: &RayBuffers,
+        set: &BatchSet,
+        last: Option<wgpu::SubmissionIndex>,
         pieces: &[&[T]],
         before: usize,
         n: usize,
+        max_dim: u32,
         timings: &mut GpuTimings,
-    ) -> Result<()> {
+    ) -> Result<(wgpu::SubmissionIndex, Instant)> {
         let g = self.g;
-        let mut t = Instant::now();
+        let t = Instant::now();
+        let bufs = &set.bufs;
         let mapped = bufs.mapped();
-        if let Some((kernel, cam)) = self.camera {
-            let mut enc = g.device.create_command_encoder(&Default::default());
-            let max_dim = self.batching.max_groups.unwrap_or(u32::MAX);
-            kernel.record(
-                g,
-                &mut enc,
-                cam,
-                before as u32,
-                n as u32,
-                &bufs.rays,
-                max_dim,
-            )?;
-            g.scoped("making the camera's rays", || {
-                g.queue.submit([enc.finish()])
-            })?;
-            // The camera kernel's time is its own phase (a kernel's, not the upload's).
-            g.wait()?;
-            timings.camera += t.elapsed().as_secs_f64();
-            t = Instant::now();
-        }
         // The batch's rays, then its origins (the own-origin kernel's), one piece after another.
         let origins = self.origins.map(|o| &o[3 * before..3 * (before + n)]);
         let slices = || {
@@ -364,7 +410,7 @@ impl Launch<'_> {
         if mapped && self.camera.is_none() {
             // Shared memory (`Gpu::mapped_results`): the rays go where the kernel reads them.
             let size: usize = slices().map(<[u8]>::len).sum();
-            g.write_mapped(&bufs.rays, size as u64, "the rays", |dst| {
+            g.write_mapped(&bufs.rays, size as u64, last, "the rays", |dst| {
                 let mut offset = 0;
                 for bytes in slices() {
                     dst.slice(offset..offset + bytes.len())
@@ -373,7 +419,22 @@ impl Launch<'_> {
                 }
             })?;
         }
-        g.scoped("uploading rays", || {
+        let groups = (n as u32).div_ceil(WORKGROUP);
+        let (gx, gy) = if groups <= max_dim {
+            (groups, 1)
+        } else {
+            (max_dim, groups.div_ceil(max_dim))
+        };
+        let stamps = |at: u32| {
+            bufs.stamps
+                .as_ref()
+                .map(|s| wgpu::ComputePassTimestampWrites {
+                    query_set: &s.set,
+                    beginning_of_pass_write_index: Some(at),
+                    end_of_pass_write_index: Some(at + 1),
+                })
+        };
+        let index = g.scoped("running the traversal kernel", || {
             if !mapped && self.camera.is_none() {
                 // Through the queue's staging memory.
                 let mut offset = 0u64;
@@ -395,105 +456,120 @@ impl Launch<'_> {
                     ..Default::default()
                 }),
             );
-            g.queue.submit([]);
-        })?;
-        g.wait()?;
-        timings.upload += t.elapsed().as_secs_f64();
-        Ok(())
-    }
-
-    fn dispatch(
-        &self,
-        bind: &wgpu::BindGroup,
-        bufs: &RayBuffers,
-        n: usize,
-        max_dim: u32,
-        timings: &mut GpuTimings,
-    ) -> Result<()> {
-        let g = self.g;
-        let t = Instant::now();
-        let groups = (n as u32).div_ceil(WORKGROUP);
-        let (gx, gy) = if groups <= max_dim {
-            (groups, 1)
-        } else {
-            (max_dim, groups.div_ceil(max_dim))
-        };
-        g.scoped("running the traversal kernel", || {
             let mut enc = g.device.create_command_encoder(&Default::default());
+            if let Some((kernel, cam)) = self.camera {
+                let max_dim = self.batching.max_groups.unwrap_or(u32::MAX);
+                kernel.record(
+                    g,
+                    &mut enc,
+                    cam,
+                    before as u32,
+                    n as u32,
+                    &bufs.rays,
+                    max_dim,
+                    stamps(2),
+                )?;
+            }
             {
                 let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
                     label: Some("walk"),
-                    timestamp_writes: bufs.stamps.as_ref().map(|s| {
-                        wgpu::ComputePassTimestampWrites {
-                            query_set: &s.set,
-                            beginning_of_pass_write_index: Some(0),
-                            end_of_pass_write_index: Some(1),
-                        }
-                    }),
+                    timestamp_writes: stamps(0),
                 });
                 pass.set_pipeline(self.pipeline);
-                pass.set_bind_group(0, bind, &[]);
+                pass.set_bind_group(0, &set.bind, &[]);
                 pass.dispatch_workgroups(gx, gy, 1);
             }
             if let Some(s) = &bufs.stamps {
-                enc.resolve_query_set(&s.set, 0..2, &s.resolved, 0);
-                enc.copy_buffer_to_buffer(&s.resolved, 0, &s.readback, 0, 16);
+                let count = self.stamp_count();
+                enc.resolve_query_set(&s.set, 0..count, &s.resolved, 0);
+                enc.copy_buffer_to_buffer(&s.resolved, 0, &s.readback, 0, 8 * count as u64);
             }
-            g.queue.submit([enc.finish()]);
-        })?;
-        g.wait()?;
-        let wall = t.elapsed().as_secs_f64();
+            if let Some(readback) = &bufs.readback {
+                let size = n as u64 * std::mem::size_of::<RayOut>() as u64;
+                enc.copy_buffer_to_buffer(&bufs.hits, 0, readback, 0, size);
+            }
+            let cmd = enc.finish();
+            // The submission counts as the kernel's (`kernel_wall`), not the upload's: a
+            // driver may run the work before `submit` returns (lavapipe does).
+            let at = Instant::now();
+            Ok((g.queue.submit([cmd]), at))
+        })??;
+        timings.upload += (index.1 - t).as_secs_f64();
+        Ok(index)
+    }
+
+    /// The timestamps a batch writes: the walk's two, and the camera kernel's.
+    fn stamp_count(&self) -> u32 {
+        if self.camera.is_some() {
+            4
+        } else {
+            2
+        }
+    }
+
+    /// Waits for batch `p`, reads its kernels' times and gives its results, mapped where they
+    /// lie, to `take` (its time is the finishing's; the mappings' the readback's). Returns
+    /// the next batch's size: `size`, grown by [`next_batch`] after a full batch.
+    fn complete(
+        &self,
+        set: &BatchSet,
+        p: InFlight,
+        size: usize,
+        cap: usize,
+        timings: &mut GpuTimings,
+        take: &mut impl FnMut(usize, &[RayOut]) -> Result<()>,
+    ) -> Result<usize> {
+        let g = self.g;
+        g.wait_for(Some(p.index.clone()))?;
+        // From the submission to the host seeing its end: with the batch before it in flight,
+        // this includes the time the device spent on that one.
+        let wall = p.submitted.elapsed().as_secs_f64();
         timings.kernel_wall += wall;
-        timings.kernel += match &bufs.stamps {
+        let t = Instant::now();
+        let bufs = &set.bufs;
+        let (kernel, camera) = match &bufs.stamps {
             Some(s) => {
-                let mut ticks: Vec<u64> = Vec::with_capacity(2);
-                g.read_mapped(&s.readback, 16, &mut ticks, "the kernel's timestamps")?;
+                let count = self.stamp_count();
+                let mut ticks: Vec<u64> = Vec::with_capacity(count as usize);
+                g.with_mapped_after(
+                    &s.readback,
+                    8 * count as u64,
+                    Some(p.index.clone()),
+                    "the kernel's timestamps",
+                    |v: &[u64]| ticks.extend_from_slice(v),
+                )?;
                 // Ticks of `get_timestamp_period` nanoseconds; a device that wraps or resets
                 // them between the two gives no time: the wall time stands in.
                 let period = g.queue.get_timestamp_period() as f64;
-                match ticks[1].checked_sub(ticks[0]) {
-                    Some(dt) if period > 0.0 => dt as f64 * period * 1e-9,
-                    _ => wall,
-                }
+                let span = |at: usize| match ticks[at + 1].checked_sub(ticks[at]) {
+                    Some(dt) if period > 0.0 => Some(dt as f64 * period * 1e-9),
+                    _ => None,
+                };
+                let camera = if self.camera.is_some() { span(2) } else { None };
+                (span(0).unwrap_or(wall), camera.unwrap_or(0.0))
             }
-            None => wall,
+            // No timestamps: the wall time holds the camera kernel's too.
+            None => (wall, 0.0),
         };
-        Ok(())
+        timings.kernel += kernel;
+        timings.camera += camera;
+        let results = bufs.readback.as_ref().unwrap_or(&bufs.hits);
+        let bytes = p.n as u64 * std::mem::size_of::<RayOut>() as u64;
+        let mut taken = 0.0;
+        g.with_mapped_after(results, bytes, Some(p.index), "the results", |r| {
+            let t = Instant::now();
+            let out = take(p.before, r);
+            taken = t.elapsed().as_secs_f64();
+            out
+        })??;
+        timings.finish += taken;
+        timings.readback += t.elapsed().as_secs_f64() - taken;
+        Ok(if p.full {
+            size.max(next_batch(p.n, kernel + camera, cap))
+        } else {
+            size
+        })
     }
-}
-
-/// Copies the first `n` results to the readback buffer and gives them, mapped, to `take`
-/// (its time is the finishing's, the rest the readback's).
-fn read_back<R>(
-    g: &Gpu,
-    bufs: &RayBuffers,
-    n: usize,
-    timings: &mut GpuTimings,
-    take: impl FnOnce(&[RayOut]) -> R,
-) -> Result<R> {
-    let t = Instant::now();
-    let size = n as u64 * std::mem::size_of::<RayOut>() as u64;
-    let mapped = match &bufs.readback {
-        Some(readback) => {
-            g.scoped("reading results back", || {
-                let mut enc = g.device.create_command_encoder(&Default::default());
-                enc.copy_buffer_to_buffer(&bufs.hits, 0, readback, 0, size);
-                g.queue.submit([enc.finish()]);
-            })?;
-            readback
-        }
-        None => &bufs.hits,
-    };
-    let mut taken = 0.0;
-    let r = g.with_mapped(mapped, size, "the results", |results| {
-        let t = Instant::now();
-        let r = take(results);
-        taken = t.elapsed().as_secs_f64();
-        r
-    })?;
-    timings.finish += taken;
-    timings.readback += t.elapsed().as_secs_f64() - taken;
-    Ok(r)
 }
 
 #[cfg(test)]
