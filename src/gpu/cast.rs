@@ -334,6 +334,14 @@ impl HostRays<'_> {
         }
     }
 
+    /// Whether every ray's tmax is infinite.
+    fn infinite(&self) -> bool {
+        match self {
+            HostRays::Given(r) => r.tmax.iter().all(|&t| t == f64::INFINITY),
+            HostRays::Camera { tmax, .. } => *tmax == f64::INFINITY,
+        }
+    }
+
     fn ray(&self, i: usize) -> Ray {
         match *self {
             HostRays::Given(r) => r.ray(i),
@@ -383,7 +391,7 @@ impl DeviceScene {
         let uploads = grid_upload + table_upload + locate_upload;
         timings.scene_upload += uploads;
         // The kernel finishes hits where the host would compare nothing against tmax.
-        let finite_tmax = rays.ray(0).tmax != f64::INFINITY;
+        let finite_tmax = !rays.infinite();
         let shared = Shared {
             sides: grid.sides,
             finish: if finite_tmax { NONE } else { table.sides },

@@ -15,8 +15,10 @@
 //! the box as above, inside it located on the device by the seed grid's visibility walk on
 //! certified orientations ([`LocateTable`]).
 //!
-//! Any other batch (an origin on a face, edge or vertex; per-ray ranges; rays started from
-//! hits; a scene whose faces split the caller's triangles) takes the resumed path
+//! Per-ray ranges are taken where every range holds 0 (the walk starts at the origin); the
+//! kernel then finishes hits only where every tmax is infinite. Any other batch (an origin on
+//! a face, edge or vertex; a range starting after its origin; rays started from hits; a scene
+//! whose faces split the caller's triangles) takes the resumed path
 //! (`cast::resumed`). A ray whose start the kernel cannot certify is walked by the host from
 //! its start; every answer is the CPU exact walk's (docs/gpu.md).
 
@@ -117,7 +119,8 @@ pub(crate) fn upload_locate_table(g: &Gpu, scene: &Scene) -> Result<LocateTable>
 }
 
 /// The uniform of a batch of rays with their own origins for the own-origin kernel, or None
-/// where it does not take them: rays from hits, per-ray ranges, a range not holding 0, a
+/// where it does not take them: rays from hits, a range not holding 0
+/// ([`ranges_start_at_origins`]), a
 /// scene whose faces split the caller's triangles (an origin strictly inside a tet may then
 /// lie in a triangle's plane: the host's `origin_may_touch` asks), or one [`locate_uniform`]
 /// refuses. The caller sets the entry grid's sides, the hit table and the locate table's
@@ -126,23 +129,26 @@ pub(crate) fn own_origins(scene: &Scene, rays: &Rays<f32>, points_slack: f32) ->
     if rays.is_empty() || rays.leaving.is_some() || scene.incidence.split {
         return None;
     }
-    let (&[tmin], &[tmax]) = (rays.tmin, rays.tmax) else {
-        return None;
-    };
-    if !(tmin <= 0.0 && tmax >= 0.0) {
-        return None;
-    }
     // From outside, the kernel certifies a miss of the whole box; a ray ending before the box
     // is the host's (`exact_line` clips [0, tmax]).
-    let outside = if tmax == f64::INFINITY {
-        OWN_OUTSIDE
-    } else {
-        0
+    let outside = match ranges_start_at_origins(rays)? {
+        true => OWN_OUTSIDE,
+        false => 0,
     };
     Some(Shared {
         own: OWN_INSIDE | outside,
         ..locate_uniform(scene, points_slack)?
     })
+}
+
+/// Whether every ray's walk starts at its origin: each range holds 0 (tmin ≤ 0 ≤ tmax; tmin
+/// then clamps to 0), one range for the batch or one per ray. Then Some(whether every tmax is
+/// infinite): only then may the kernel begin a ray from outside the box or finish a hit, which
+/// a finite tmax leaves to the host's comparison. None where a range does not hold 0 (or has
+/// a NaN bound): the host begins those walks.
+pub(crate) fn ranges_start_at_origins(rays: &Rays<f32>) -> Option<bool> {
+    let holds = rays.tmin.iter().all(|&t| t <= 0.0) && rays.tmax.iter().all(|&t| t >= 0.0);
+    holds.then(|| rays.tmax.iter().all(|&t| t == f64::INFINITY))
 }
 
 /// What a kernel that locates points on the device (`shaders/walks/locate.wgsl`) reads in its
@@ -207,14 +213,21 @@ pub(crate) fn shared_origin(
     threads: Option<usize>,
 ) -> Option<Shared> {
     let n = rays.len();
-    if n == 0 || rays.leaving.is_some() || rays.tmin.len() != 1 || rays.tmax.len() != 1 {
+    if n == 0 || rays.leaving.is_some() {
         return None;
     }
+    let infinite = ranges_start_at_origins(rays)?;
     let o32: [f32; 3] = rays.origins[..3].try_into().ok()?;
     if !o32.iter().all(|x| x.is_finite()) || !all_at(rays.origins, o32, threads) {
         return None;
     }
-    shared_at(scene, &rays.ray(0), query, points_slack)
+    // Per-ray ranges: the origin is located as for any range holding 0, and taken from outside
+    // the box only where every tmax is infinite.
+    let ray0 = crate::geom::ray::Ray {
+        tmax: if infinite { f64::INFINITY } else { f64::MAX },
+        ..rays.ray(0)
+    };
+    shared_at(scene, &ray0, query, points_slack)
 }
 
 /// [`shared_origin`] for rays known to share `ray0`'s origin and range (a camera's): None

@@ -337,6 +337,26 @@ struct Out {
     status: Vec<u8>,
 }
 
+impl Out {
+    /// The answers of rays `rows`, in that order.
+    fn rows(&self, rows: &[usize]) -> Out {
+        let pick = |n: usize| rows.iter().flat_map(move |&i| n * i..n * i + n);
+        fn take<T: Copy>(x: &[T], at: impl Iterator<Item = usize>) -> Vec<T> {
+            at.map(|i| x[i]).collect()
+        }
+        Out {
+            t: take(&self.t, pick(1)),
+            u: take(&self.u, pick(1)),
+            v: take(&self.v, pick(1)),
+            point: take(&self.point, pick(3)),
+            tri: take(&self.tri, pick(1)),
+            tet: take(&self.tet, pick(1)),
+            steps: take(&self.steps, pick(1)),
+            status: take(&self.status, pick(1)),
+        }
+    }
+}
+
 fn run(
     scene: &Scene,
     o: &[f32],
@@ -354,6 +374,16 @@ fn run_within(
     tmax: f64,
     f: impl FnOnce(&Rays<f32>, HitsOut<f32>) -> crate::Result<()>,
 ) -> Out {
+    run_ranges(o, d, (&[0.0], &[tmax]), f)
+}
+
+/// [`run`] with the ranges `[tmin, tmax]`: one for every ray, or one per ray.
+fn run_ranges(
+    o: &[f32],
+    d: &[f32],
+    (tmin, tmax): (&[f64], &[f64]),
+    f: impl FnOnce(&Rays<f32>, HitsOut<f32>) -> crate::Result<()>,
+) -> Out {
     let n = o.len() / 3;
     let (mut t, mut u, mut v, mut p) = (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; 3 * n]);
     let (mut tri, mut tet, mut steps, mut status) =
@@ -361,8 +391,8 @@ fn run_within(
     let rays = Rays {
         origins: o,
         directions: d,
-        tmin: &[0.0],
-        tmax: &[tmax],
+        tmin,
+        tmax,
         leaving: None,
     };
     let out = HitsOut {

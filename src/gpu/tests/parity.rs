@@ -195,14 +195,28 @@ fn assert_gpu_is_cpu_exact_within(
     (o, d, tmax): (&[f32], &[f32], f64),
     batching: Batching,
 ) -> crate::gpu::GpuTimings {
+    assert_gpu_is_cpu_exact_ranges(name, scene, tris, (o, d, &[0.0], &[tmax]), batching)
+}
+
+/// [`assert_gpu_is_cpu_exact`] with the ranges `[tmin, tmax]` (one for every ray, or one per
+/// ray); the referee judges the rays whose range is `[≤ 0, ∞]` (the others are the CPU exact
+/// cast's to clip, compared column by column).
+fn assert_gpu_is_cpu_exact_ranges(
+    name: &str,
+    scene: &Scene,
+    tris: &[[[f64; 3]; 3]],
+    (o, d, tmin, tmax): (&[f32], &[f32], &[f64], &[f64]),
+    batching: Batching,
+) -> crate::gpu::GpuTimings {
     let opts = CastOptions {
         threads: None,
         max_steps: Some(scene.mesh.len() as u32 + 1),
         ..Default::default()
     };
-    let cpu = run_within(o, d, tmax, |r, out| scene.cast(r, out, &opts));
+    let ranges = (tmin, tmax);
+    let cpu = run_ranges(o, d, ranges, |r, out| scene.cast(r, out, &opts));
     let mut timings = None;
-    let gpu = run_within(o, d, tmax, |r, out| {
+    let gpu = run_ranges(o, d, ranges, |r, out| {
         let device = DeviceScene::default();
         timings = Some(device.cast_with(scene, &KERNELS[0], r, out, &opts, batching)?);
         Ok(())
@@ -219,8 +233,20 @@ fn assert_gpu_is_cpu_exact_within(
         t.finished
     );
     assert_same_answers(name, &cpu, &gpu);
-    if tmax == f64::INFINITY {
-        let c = judged(name, &verdicts32(o, d, tris), &gpu);
+    let n = o.len() / 3;
+    let at = |b: &[f64], i: usize| b[if b.len() == 1 { 0 } else { i }];
+    let whole: Vec<usize> = (0..n)
+        .filter(|&i| at(tmin, i) <= 0.0 && at(tmax, i) == f64::INFINITY)
+        .collect();
+    if !whole.is_empty() {
+        let pick = |x: &[f32]| -> Vec<f32> {
+            whole
+                .iter()
+                .flat_map(|&i| x[3 * i..3 * i + 3].to_vec())
+                .collect()
+        };
+        let (wo, wd) = (pick(o), pick(d));
+        let c = judged(name, &verdicts32(&wo, &wd, tris), &gpu.rows(&whole));
         assert_eq!(c.bad(), 0, "{name}: {c:?}");
     }
     t
@@ -599,6 +625,23 @@ fn gpu_shared_origin_is_taken_only_where_it_holds() {
     assert!(!take(&inside, &d, 0.5, f64::INFINITY));
     assert!(take(&outside, &d, 0.0, f64::INFINITY));
     assert!(!take(&outside, &d, 0.0, 5.0));
+    // Per-ray ranges: every one must hold 0; from outside, every tmax must be infinite.
+    let ranged = |o: &[f32], tmin: &[f64], tmax: &[f64]| {
+        let rays = Rays {
+            origins: o,
+            directions: &d,
+            tmin,
+            tmax,
+            leaving: None,
+        };
+        crate::gpu::origin::shared_origin(&scene, &rays, &query, 0.0, None).is_some()
+    };
+    let inf = f64::INFINITY;
+    assert!(ranged(&inside, &[0.0, -2.0], &[inf, 0.5]));
+    assert!(ranged(&inside, &[0.0], &[0.0, 0.5]));
+    assert!(!ranged(&inside, &[0.0, 0.5], &[inf, inf]));
+    assert!(ranged(&outside, &[0.0, 0.0], &[inf, inf]));
+    assert!(!ranged(&outside, &[0.0], &[inf, 5.0]));
     let mut apart = inside;
     apart[3] = 0.432;
     assert!(!take(&apart, &d, 0.0, f64::INFINITY));
@@ -623,7 +666,17 @@ fn gpu_shared_origin_is_taken_only_where_it_holds() {
     assert_eq!(own(&scene, &[0.0], &[inf]), Some(both));
     assert_eq!(own(&scene, &[-1.0], &[2.0]), Some(OWN_INSIDE));
     assert_eq!(own(&scene, &[0.5], &[inf]), None);
-    assert_eq!(own(&scene, &[0.0, 0.0], &[inf, inf]), None);
+    // Per-ray ranges: taken where every range holds 0, from outside only if every tmax is ∞.
+    assert_eq!(own(&scene, &[0.0, 0.0], &[inf, inf]), Some(both));
+    assert_eq!(own(&scene, &[0.0, -1.0], &[inf, 3.0]), Some(OWN_INSIDE));
+    assert_eq!(
+        own(&scene, &[f64::NEG_INFINITY], &[inf, 0.0]),
+        Some(OWN_INSIDE)
+    );
+    assert_eq!(own(&scene, &[0.0, 1e-300], &[inf, inf]), None);
+    assert_eq!(own(&scene, &[0.0], &[inf, -1e-300]), None);
+    assert_eq!(own(&scene, &[0.0], &[inf, f64::NAN]), None);
+    assert_eq!(own(&scene, &[f64::NAN, 0.0], &[inf]), None);
     let (mut split, _) = grid_scene(4, 0.1, 0.0, 71);
     split.incidence.split = true;
     assert_eq!(own(&split, &[0.0], &[inf]), None);
@@ -642,6 +695,82 @@ fn gpu_shared_origin_is_taken_only_where_it_holds() {
         leaving: Some(leaving),
     };
     assert!(own_origins(&scene, &rays, 0.0).is_none());
+}
+
+/// Per-ray ranges that all hold 0 begin on the device: rays with their own origins (the
+/// own-origin kernel) and rays from one origin inside the box (the shared-origin kernel), with
+/// ranges [0, ∞], [-1, t], [-∞, 0] and [0, t] mixed ray by ray, answer as the CPU exact cast
+/// does with the same ranges, every column bit for bit, and right by the referee where the
+/// range is [≤ 0, ∞]. With every tmax infinite (one per ray) the device finishes hits; with
+/// one range starting after its origin, the host begins every walk, with the same answers.
+#[test]
+fn gpu_per_ray_ranges_begin_on_the_device() {
+    let test = "gpu per-ray ranges";
+    if !device_or_skip(test) {
+        return;
+    }
+    let (scene, tris) = grid_scene(6, 0.1, 0.0, 91);
+    let mut rng = Rng::xorshift(93);
+    let (o, d) = rays(6_000, 0.0, 95);
+    let (o, d) = (&o[..3 * 6_000], &d[..3 * 6_000]);
+    let n = o.len() / 3;
+    let mut tmax = mixed_tmax(n, &mut rng);
+    tmax[7] = 0.0;
+    let tmin: Vec<f64> = (0..n)
+        .map(|i| match i % 5 {
+            0 => -1.0,
+            1 => f64::NEG_INFINITY,
+            _ => 0.0,
+        })
+        .collect();
+    let all = Batching::default();
+    let name = |what: &str| format!("{test}: {what}");
+    let t = assert_gpu_is_cpu_exact_ranges(
+        &name("own origins"),
+        &scene,
+        &tris,
+        (o, d, &tmin, &tmax),
+        all,
+    );
+    assert!(t.own_origins && t.deferred < t.walked, "{t:?}");
+    let infinite = vec![f64::INFINITY; n];
+    let t = assert_gpu_is_cpu_exact_ranges(
+        &name("own origins, every tmax ∞"),
+        &scene,
+        &tris,
+        (o, d, &tmin, &infinite),
+        all,
+    );
+    assert!(t.own_origins && t.finished > 0, "{t:?}");
+    // One origin inside the box, the random directions.
+    let eye: Vec<f32> = [0.431f32, 0.377, 0.619].repeat(n);
+    let t = assert_gpu_is_cpu_exact_ranges(
+        &name("one origin"),
+        &scene,
+        &tris,
+        (&eye, d, &tmin, &tmax),
+        all,
+    );
+    assert!(t.shared_origin && t.deferred < t.walked, "{t:?}");
+    let t = assert_gpu_is_cpu_exact_ranges(
+        &name("one origin, every tmax ∞"),
+        &scene,
+        &tris,
+        (&eye, d, &tmin, &infinite),
+        all,
+    );
+    assert!(t.shared_origin && t.finished > 0, "{t:?}");
+    // A range that starts after its origin: the host begins every walk.
+    let mut late = tmin.clone();
+    late[n - 1] = 1e-3;
+    let t = assert_gpu_is_cpu_exact_ranges(
+        &name("one range after its origin"),
+        &scene,
+        &tris,
+        (o, d, &late, &tmax),
+        all,
+    );
+    assert!(!t.own_origins && !t.shared_origin, "{t:?}");
 }
 
 #[test]
