@@ -440,6 +440,16 @@ impl DeviceScene {
         let query = scene.closest();
         let handed = AtomicUsize::new(0);
         let finished = AtomicUsize::new(0);
+        // A ray from outside the box whose finite tmax ends before it does not walk on the CPU
+        // (`exact_line` clips [0, tmax] to the box): the kernel began it all the same, so the
+        // host skips it as the CPU does. None: the ray walks (every infinite tmax does).
+        let locators = scene.locators();
+        let ends_before_box = |ray: &Ray| {
+            (ray.tmax != f64::INFINITY)
+                .then(|| locators.exact_line(ray).err())
+                .flatten()
+                .map(|status| query.skipped(status))
+        };
         // Each chunk answered from its rays' results, as they come back.
         let answer = |k: usize, mut chunk: HitsOut<f32>, results: &[RayOut]| {
             let mut st = LocateState::for_chunk(k);
@@ -452,6 +462,9 @@ impl DeviceScene {
                         finished_hit(o)
                     }
                     END_MISS_BOX => query.skipped(crate::status::MISS),
+                    END_BOUNDARY if finite_tmax => {
+                        ends_before_box(&rays.ray(i)).unwrap_or_else(|| boundary_miss(o))
+                    }
                     END_BOUNDARY => boundary_miss(o),
                     END_UNBEGUN => {
                         sent += 1;
@@ -462,9 +475,13 @@ impl DeviceScene {
                     }
                     end => {
                         sent += (end == END_DEFERRED) as usize;
-                        match WalkStart::exact(&rays.ray(i)) {
-                            Ok(s) => walk.walk_on_from(&query, &s, plain_state(o)),
-                            Err(status) => query.skipped(status),
+                        let ray = rays.ray(i);
+                        match ends_before_box(&ray) {
+                            Some(skipped) => skipped,
+                            None => match WalkStart::exact(&ray) {
+                                Ok(s) => walk.walk_on_from(&query, &s, plain_state(o)),
+                                Err(status) => query.skipped(status),
+                            },
                         }
                     }
                 };

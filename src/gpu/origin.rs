@@ -16,7 +16,8 @@
 //! certified orientations ([`LocateTable`]).
 //!
 //! Per-ray ranges are taken where every range holds 0 (the walk starts at the origin); the
-//! kernel then finishes hits only where every tmax is infinite. Any other batch (an origin on
+//! kernel then finishes hits only where every tmax is infinite, and the host skips a ray from
+//! outside the box that ends before it, as the CPU's `exact_line` does. Any other batch (an origin on
 //! a face, edge or vertex; a range starting after its origin; rays started from hits; a scene
 //! whose faces split the caller's triangles) takes the resumed path
 //! (`cast::resumed`). A ray whose start the kernel cannot certify is walked by the host from
@@ -129,26 +130,22 @@ pub(crate) fn own_origins(scene: &Scene, rays: &Rays<f32>, points_slack: f32) ->
     if rays.is_empty() || rays.leaving.is_some() || scene.incidence.split {
         return None;
     }
-    // From outside, the kernel certifies a miss of the whole box; a ray ending before the box
-    // is the host's (`exact_line` clips [0, tmax]).
-    let outside = match ranges_start_at_origins(rays)? {
-        true => OWN_OUTSIDE,
-        false => 0,
-    };
+    if !ranges_start_at_origins(rays) {
+        return None;
+    }
     Some(Shared {
-        own: OWN_INSIDE | outside,
+        own: OWN_INSIDE | OWN_OUTSIDE,
         ..locate_uniform(scene, points_slack)?
     })
 }
 
 /// Whether every ray's walk starts at its origin: each range holds 0 (tmin ≤ 0 ≤ tmax; tmin
-/// then clamps to 0), one range for the batch or one per ray. Then Some(whether every tmax is
-/// infinite): only then may the kernel begin a ray from outside the box or finish a hit, which
-/// a finite tmax leaves to the host's comparison. None where a range does not hold 0 (or has
-/// a NaN bound): the host begins those walks.
-pub(crate) fn ranges_start_at_origins(rays: &Rays<f32>) -> Option<bool> {
-    let holds = rays.tmin.iter().all(|&t| t <= 0.0) && rays.tmax.iter().all(|&t| t >= 0.0);
-    holds.then(|| rays.tmax.iter().all(|&t| t == f64::INFINITY))
+/// then clamps to 0), one range for the batch or one per ray. False where a range does not
+/// (or has a NaN bound): the host begins those walks. A finite tmax is the host's to compare:
+/// the kernels then finish no hit, and the host skips a ray from outside the box that ends
+/// before it as the CPU does (`cast_shared`, `exact_line`).
+pub(crate) fn ranges_start_at_origins(rays: &Rays<f32>) -> bool {
+    rays.tmin.iter().all(|&t| t <= 0.0) && rays.tmax.iter().all(|&t| t >= 0.0)
 }
 
 /// What a kernel that locates points on the device (`shaders/walks/locate.wgsl`) reads in its
@@ -216,18 +213,15 @@ pub(crate) fn shared_origin(
     if n == 0 || rays.leaving.is_some() {
         return None;
     }
-    let infinite = ranges_start_at_origins(rays)?;
+    if !ranges_start_at_origins(rays) {
+        return None;
+    }
     let o32: [f32; 3] = rays.origins[..3].try_into().ok()?;
     if !o32.iter().all(|x| x.is_finite()) || !all_at(rays.origins, o32, threads) {
         return None;
     }
-    // Per-ray ranges: the origin is located as for any range holding 0, and taken from outside
-    // the box only where every tmax is infinite.
-    let ray0 = crate::geom::ray::Ray {
-        tmax: if infinite { f64::INFINITY } else { f64::MAX },
-        ..rays.ray(0)
-    };
-    shared_at(scene, &ray0, query, points_slack)
+    // The origin is located as for any range holding 0 (ray 0's among them).
+    shared_at(scene, &rays.ray(0), query, points_slack)
 }
 
 /// [`shared_origin`] for rays known to share `ray0`'s origin and range (a camera's): None
@@ -268,9 +262,9 @@ pub(crate) fn shared_at(
         ..Default::default()
     };
     if beyond != [0; 3] {
-        // From outside, the kernel certifies a miss of the whole box; a ray ending before
-        // the box is the host's (`exact_line` clips [0, tmax]).
-        return (tmax == f64::INFINITY).then_some(shared);
+        // From outside, the kernel certifies a miss of the whole box or the face the line
+        // enters by; a ray ending before the box is the host's to skip (`cast_shared`).
+        return Some(shared);
     }
     // Inside: the start tet as the CPU exact walk locates it, for a ray from this origin.
     let locators = scene.locators();

@@ -486,8 +486,8 @@ fn gpu_shared_origin_is_the_cpu_exact_walk() {
 /// mesh vertices, edge midpoints and face centroids (rounded to float32: on or within a
 /// rounding of the faces, where no orientation certifies), on the box's faces and an ulp or
 /// two either side of them; rays aimed at vertices and random, directions scaled from 1e-30
-/// to 1e30; with an infinite tmax and a finite one (then the host begins the rays from
-/// outside the box).
+/// to 1e30; with an infinite tmax and a finite one (then the host skips the rays from outside
+/// the box that end before it, as the CPU does).
 #[test]
 fn gpu_own_origins_is_the_cpu_exact_walk() {
     let test = "gpu own origins";
@@ -546,13 +546,8 @@ fn gpu_own_origins_is_the_cpu_exact_walk() {
             let rays = (&o[..], &d[..], tmax);
             let t = assert_gpu_is_cpu_exact_within(&name, &scene, &tris, rays, Batching::default());
             assert!(t.own_origins && !t.shared_origin, "{name}: {t:?}");
-            // Most rays begin on the device (with a finite tmax, those from inside the box).
-            let most = if tmax == f64::INFINITY {
-                n / 2
-            } else {
-                n - n / 10
-            };
-            assert!(t.deferred < most, "{name}: {t:?}");
+            // Most rays begin on the device.
+            assert!(t.deferred < n / 2, "{name}: {t:?}");
             begun += n - t.deferred;
             finished += t.finished;
             rays_cast += n;
@@ -598,8 +593,8 @@ fn gpu_own_origins_is_the_cpu_exact_walk() {
 }
 
 /// A batch the shared-origin kernel must not take: rays with their own origins, a range
-/// starting after the origin, an origin in the box with a finite tmax is taken; outside the
-/// box it is not (the host clips the range to the box).
+/// starting after the origin. Ranges holding 0, one or one per ray, finite or not, are taken,
+/// from inside the box and from outside (the host then skips the rays that end before it).
 #[test]
 fn gpu_shared_origin_is_taken_only_where_it_holds() {
     if !device_or_skip("gpu shared origin batches") {
@@ -624,8 +619,8 @@ fn gpu_shared_origin_is_taken_only_where_it_holds() {
     assert!(take(&inside, &d, -1.0, 2.0));
     assert!(!take(&inside, &d, 0.5, f64::INFINITY));
     assert!(take(&outside, &d, 0.0, f64::INFINITY));
-    assert!(!take(&outside, &d, 0.0, 5.0));
-    // Per-ray ranges: every one must hold 0; from outside, every tmax must be infinite.
+    assert!(take(&outside, &d, 0.0, 5.0));
+    // Per-ray ranges: every one must hold 0.
     let ranged = |o: &[f32], tmin: &[f64], tmax: &[f64]| {
         let rays = Rays {
             origins: o,
@@ -641,15 +636,15 @@ fn gpu_shared_origin_is_taken_only_where_it_holds() {
     assert!(ranged(&inside, &[0.0], &[0.0, 0.5]));
     assert!(!ranged(&inside, &[0.0, 0.5], &[inf, inf]));
     assert!(ranged(&outside, &[0.0, 0.0], &[inf, inf]));
-    assert!(!ranged(&outside, &[0.0], &[inf, 5.0]));
+    assert!(ranged(&outside, &[0.0], &[inf, 5.0]));
     let mut apart = inside;
     apart[3] = 0.432;
     assert!(!take(&apart, &d, 0.0, f64::INFINITY));
     assert!(!take(&[f32::NAN, 0.0, 0.0], &d[..3], 0.0, f64::INFINITY));
 
-    // Rays with their own origins: the own-origin kernel, beginning origins outside the box
-    // only with an infinite tmax; not per-ray ranges, a range starting after the origin, rays
-    // from hits, a scene whose faces split its triangles, nor coordinates beyond 2^32.
+    // Rays with their own origins: the own-origin kernel, beginning origins inside and outside
+    // the box; not a range starting after the origin, rays from hits, a scene whose faces
+    // split its triangles, nor coordinates beyond 2^32.
     use crate::gpu::origin::own_origins;
     use crate::gpu::structs::{OWN_INSIDE, OWN_OUTSIDE};
     let own = |scene: &Scene, tmin: &[f64], tmax: &[f64]| {
@@ -664,15 +659,12 @@ fn gpu_shared_origin_is_taken_only_where_it_holds() {
     };
     let (inf, both) = (f64::INFINITY, OWN_INSIDE | OWN_OUTSIDE);
     assert_eq!(own(&scene, &[0.0], &[inf]), Some(both));
-    assert_eq!(own(&scene, &[-1.0], &[2.0]), Some(OWN_INSIDE));
+    assert_eq!(own(&scene, &[-1.0], &[2.0]), Some(both));
     assert_eq!(own(&scene, &[0.5], &[inf]), None);
-    // Per-ray ranges: taken where every range holds 0, from outside only if every tmax is ∞.
+    // Per-ray ranges: taken where every range holds 0.
     assert_eq!(own(&scene, &[0.0, 0.0], &[inf, inf]), Some(both));
-    assert_eq!(own(&scene, &[0.0, -1.0], &[inf, 3.0]), Some(OWN_INSIDE));
-    assert_eq!(
-        own(&scene, &[f64::NEG_INFINITY], &[inf, 0.0]),
-        Some(OWN_INSIDE)
-    );
+    assert_eq!(own(&scene, &[0.0, -1.0], &[inf, 3.0]), Some(both));
+    assert_eq!(own(&scene, &[f64::NEG_INFINITY], &[inf, 0.0]), Some(both));
     assert_eq!(own(&scene, &[0.0, 1e-300], &[inf, inf]), None);
     assert_eq!(own(&scene, &[0.0], &[inf, -1e-300]), None);
     assert_eq!(own(&scene, &[0.0], &[inf, f64::NAN]), None);
@@ -698,11 +690,13 @@ fn gpu_shared_origin_is_taken_only_where_it_holds() {
 }
 
 /// Per-ray ranges that all hold 0 begin on the device: rays with their own origins (the
-/// own-origin kernel) and rays from one origin inside the box (the shared-origin kernel), with
-/// ranges [0, ∞], [-1, t], [-∞, 0] and [0, t] mixed ray by ray, answer as the CPU exact cast
-/// does with the same ranges, every column bit for bit, and right by the referee where the
-/// range is [≤ 0, ∞]. With every tmax infinite (one per ray) the device finishes hits; with
-/// one range starting after its origin, the host begins every walk, with the same answers.
+/// own-origin kernel) and rays from one origin inside or outside the box (the shared-origin
+/// kernel), with ranges [0, t], [-1, t] and [-∞, t] mixed ray by ray (t = ∞ for every third
+/// ray, one t = 0, the others short of the box's far side or of the box itself), answer as the
+/// CPU exact cast does with the same ranges, every column bit for bit, and right by the
+/// referee where the range is [≤ 0, ∞]. The device finishes hits only where every tmax is
+/// infinite; with one range starting after its origin, the host begins every walk, with the
+/// same answers.
 #[test]
 fn gpu_per_ray_ranges_begin_on_the_device() {
     let test = "gpu per-ray ranges";
@@ -723,53 +717,30 @@ fn gpu_per_ray_ranges_begin_on_the_device() {
             _ => 0.0,
         })
         .collect();
-    let all = Batching::default();
-    let name = |what: &str| format!("{test}: {what}");
-    let t = assert_gpu_is_cpu_exact_ranges(
-        &name("own origins"),
-        &scene,
-        &tris,
-        (o, d, &tmin, &tmax),
-        all,
-    );
-    assert!(t.own_origins && t.deferred < t.walked, "{t:?}");
     let infinite = vec![f64::INFINITY; n];
-    let t = assert_gpu_is_cpu_exact_ranges(
-        &name("own origins, every tmax ∞"),
-        &scene,
-        &tris,
-        (o, d, &tmin, &infinite),
-        all,
-    );
-    assert!(t.own_origins && t.finished > 0, "{t:?}");
-    // One origin inside the box, the random directions.
-    let eye: Vec<f32> = [0.431f32, 0.377, 0.619].repeat(n);
-    let t = assert_gpu_is_cpu_exact_ranges(
-        &name("one origin"),
-        &scene,
-        &tris,
-        (&eye, d, &tmin, &tmax),
-        all,
-    );
-    assert!(t.shared_origin && t.deferred < t.walked, "{t:?}");
-    let t = assert_gpu_is_cpu_exact_ranges(
-        &name("one origin, every tmax ∞"),
-        &scene,
-        &tris,
-        (&eye, d, &tmin, &infinite),
-        all,
-    );
-    assert!(t.shared_origin && t.finished > 0, "{t:?}");
+    // Own origins, one origin inside the box, one outside it; with every tmax infinite the
+    // device also finishes hits.
+    let inside: Vec<f32> = [0.431f32, 0.377, 0.619].repeat(n);
+    let outside: Vec<f32> = [-0.5f32, 0.377, 0.619].repeat(n);
+    for (what, origins) in [("own", o), ("inside", &inside), ("outside", &outside)] {
+        for (bounds, tmax) in [("mixed", &tmax), ("∞", &infinite)] {
+            let name = format!("{test}: {what} origins, tmax {bounds}");
+            let rays = (origins, d, &tmin[..], &tmax[..]);
+            let t = assert_gpu_is_cpu_exact_ranges(&name, &scene, &tris, rays, Batching::default());
+            assert_eq!(t.own_origins, what == "own", "{name}: {t:?}");
+            assert_eq!(t.shared_origin, what != "own", "{name}: {t:?}");
+            assert!(t.deferred < n / 10, "{name}: {t:?}");
+            let hits_in_box = what != "outside" && bounds == "∞";
+            assert!(t.finished > 0 || !hits_in_box, "{name}: {t:?}");
+            assert!(t.finished == 0 || bounds == "∞", "{name}: {t:?}");
+        }
+    }
     // A range that starts after its origin: the host begins every walk.
     let mut late = tmin.clone();
     late[n - 1] = 1e-3;
-    let t = assert_gpu_is_cpu_exact_ranges(
-        &name("one range after its origin"),
-        &scene,
-        &tris,
-        (o, d, &late, &tmax),
-        all,
-    );
+    let name = format!("{test}: one range after its origin");
+    let rays = (o, d, &late[..], &tmax[..]);
+    let t = assert_gpu_is_cpu_exact_ranges(&name, &scene, &tris, rays, Batching::default());
     assert!(!t.own_origins && !t.shared_origin, "{t:?}");
 }
 
