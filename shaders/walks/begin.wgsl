@@ -38,8 +38,8 @@ struct Shared {
     box_hi: vec3<f32>,
     inside: u32,
     beyond: vec3<i32>,
-    // Where the hit table's corners begin, or NO_TRIANGLE: hits are then all the host's
-    // (a finite tmax, which only the host compares).
+    // Where the hit table's corners begin, or NO_TRIANGLE: hits are then all the host's.
+    // (With a finite tmax the host compares each finished hit's t with it.)
     finish: u32,
     sides: array<GridSide, 6>,
     // The own-origin kernel's (walks/own_origin.wgsl); the shared-origin kernel ignores them.

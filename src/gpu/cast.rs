@@ -14,7 +14,6 @@
 
 use super::context::{gpu, Gpu};
 use super::device_scene::DeviceScene;
-use super::finish::NONE;
 use super::kernels::{KernelSpec, OWN_ORIGINS, SHARED_ORIGIN};
 use super::launch::{Batching, Launch, RunBuffers};
 use super::origin::finished_hit;
@@ -390,11 +389,11 @@ impl DeviceScene {
         };
         let uploads = grid_upload + table_upload + locate_upload;
         timings.scene_upload += uploads;
-        // The kernel finishes hits where the host would compare nothing against tmax.
+        // With a finite tmax the host compares each finished hit's t with it (below).
         let finite_tmax = !rays.infinite();
         let shared = Shared {
             sides: grid.sides,
-            finish: if finite_tmax { NONE } else { table.sides },
+            finish: table.sides,
             beyond_at: locate.as_ref().map_or(0, |l| l.beyond_at),
             ..shared
         };
@@ -457,6 +456,31 @@ impl DeviceScene {
             for (j, o) in results.iter().enumerate() {
                 let i = k * CHUNK + j;
                 let answer = match o.end {
+                    END_FINISHED if finite_tmax => {
+                        // The hit is the CPU's first meet (`gpu::finish`); the CPU takes it if
+                        // the exact t ≤ tmax (`range_of`), else stops there with a miss. The
+                        // host's t rounds a float64 within an ulp of the exact t to float32,
+                        // so the exact t lies strictly between t's float32 neighbours.
+                        let ray = rays.ray(i);
+                        let t = o.hit[0];
+                        match ends_before_box(&ray) {
+                            Some(skipped) => skipped,
+                            None if ray.tmax >= f64::from(t.next_up()) => {
+                                done += 1;
+                                finished_hit(o)
+                            }
+                            // Past tmax: the walk's miss where it stopped.
+                            None if ray.tmax <= f64::from(t.next_down()) => boundary_miss(o),
+                            // Within an ulp of tmax: the host walks the ray again.
+                            None => {
+                                sent += 1;
+                                match walk.begin_elsewhere(&query, &ray, &mut st) {
+                                    Err(answer) => answer,
+                                    Ok((s, at)) => walk.walk_on_from(&query, &s, at),
+                                }
+                            }
+                        }
+                    }
                     END_FINISHED => {
                         done += 1;
                         finished_hit(o)

@@ -15,9 +15,9 @@
 //! the box as above, inside it located on the device by the seed grid's visibility walk on
 //! certified orientations ([`LocateTable`]).
 //!
-//! Per-ray ranges are taken where every range holds 0 (the walk starts at the origin); the
-//! kernel then finishes hits only where every tmax is infinite, and the host skips a ray from
-//! outside the box that ends before it, as the CPU's `exact_line` does. Any other batch (an origin on
+//! Per-ray ranges are taken where every range holds 0 (the walk starts at the origin); with a
+//! finite tmax the host compares each finished hit's t with it, and skips a ray from outside
+//! the box that ends before it, as the CPU's `exact_line` does. Any other batch (an origin on
 //! a face, edge or vertex; a range starting after its origin; rays started from hits; a scene
 //! whose faces split the caller's triangles) takes the resumed path
 //! (`cast::resumed`). A ray whose start the kernel cannot certify is walked by the host from
@@ -141,9 +141,9 @@ pub(crate) fn own_origins(scene: &Scene, rays: &Rays<f32>, points_slack: f32) ->
 
 /// Whether every ray's walk starts at its origin: each range holds 0 (tmin ≤ 0 ≤ tmax; tmin
 /// then clamps to 0), one range for the batch or one per ray. False where a range does not
-/// (or has a NaN bound): the host begins those walks. A finite tmax is the host's to compare:
-/// the kernels then finish no hit, and the host skips a ray from outside the box that ends
-/// before it as the CPU does (`cast_shared`, `exact_line`).
+/// (or has a NaN bound): the host begins those walks. A finite tmax is the host's to compare
+/// with each finished hit's t, and the host skips a ray from outside the box that ends before
+/// it as the CPU does (`cast_shared`, `exact_line`).
 pub(crate) fn ranges_start_at_origins(rays: &Rays<f32>) -> bool {
     rays.tmin.iter().all(|&t| t <= 0.0) && rays.tmax.iter().all(|&t| t >= 0.0)
 }
@@ -320,9 +320,11 @@ pub(crate) fn plain_state(o: &super::structs::RayOut) -> PlainState {
     }
 }
 
-/// The answer of an exact walk handed back at the domain boundary: a miss, in the tet and
-/// after the steps the walk took. What `TetWalk::walk_on_from` answers there with a fresh
-/// policy (no touch was told to it, so it kept no earlier meet), without preparing the ray.
+/// The answer of an exact walk that ended with no meet: handed back at the domain boundary, or
+/// finished at a face it crosses past its tmax (the CPU's policy stops there): a miss, in the
+/// tet and after the steps the walk took. What `TetWalk::walk_on_from` answers there with a
+/// fresh policy (no touch was told to it, so it kept no earlier meet), without preparing the
+/// ray.
 pub(crate) fn boundary_miss(o: &super::structs::RayOut) -> crate::query::RayHit {
     crate::query::RayHit {
         tet: o.tet as i32,

@@ -99,7 +99,7 @@ pub struct Shared {
     /// Per axis, where the origin lies against the box (exactly): −1 below, 0 within, 1 above.
     pub beyond: [i32; 3],
     /// Where the hit table's corners begin (`finish::HitTable::sides`), or `finish::NONE`:
-    /// the kernel then finishes no hit (a finite tmax, which the host compares).
+    /// the kernel then finishes no hit.
     pub finish: u32,
     pub sides: [GridSide; 6],
     /// The own-origin kernel's (the shared-origin kernel ignores them, `gpu::origin`): the
