@@ -355,6 +355,35 @@ def _bounded_ray_sets(scene, width, height, n_random, seed):
             yield what, oo, dd, tmax
 
 
+def test_per_ray_ranges_begin_on_the_gpu(spot, device):
+    """Per-ray ranges that hold 0 (``tmin`` 0, ``tmax`` unbounded or short, ray by ray) begin
+    on the device: camera rays from one origin and random rays with their own.
+    Every column is the CPU exact walk's, the referee finds every ray right, and few rays are
+    handed back. A range that starts after its origin is the host's to begin, with the same
+    answers."""
+    referee = Referee(spot.vertices, spot.faces)
+    for what, oo, dd, tmax in _bounded_ray_sets(spot, 160, 120, 20_000, seed=11):
+        n = len(dd)
+        tmin = np.zeros(n)
+        tmax = np.broadcast_to(tmax, n).copy()
+        tmax[::4] = np.inf
+        got = spot.cast(oo, dd, tmin=tmin, tmax=tmax, device="gpu")
+        cpu = spot.cast(oo, dd, tmin=tmin, tmax=tmax, precision="f32", accel="tetwalk")
+        for f in ("status", "triangle", "t", "u", "v", "point", "tet", "steps"):
+            np.testing.assert_array_equal(getattr(got, f), getattr(cpu, f), err_msg=f"{what} {f}")
+        kernel = "shared_origin" if what == "camera" else "own_origins"
+        assert got.timings[kernel] and got.timings["deferred"] < n / 100, (what, got.timings)
+        assert got.timings["finished"] > 0, (what, got.timings)
+        score = agreement(got, referee.first_hits(oo, dd, 0.0, tmax))
+        assert score.right == n, f"{what}: {score}"
+    late = np.where(np.arange(n) == 0, 1e-3, tmin)
+    got = spot.cast(oo, dd, tmin=late, tmax=tmax, device="gpu")
+    cpu = spot.cast(oo, dd, tmin=late, tmax=tmax, precision="f32", accel="tetwalk")
+    assert not got.timings["own_origins"]
+    for f in ("status", "triangle", "t", "tet", "steps"):
+        np.testing.assert_array_equal(getattr(got, f), getattr(cpu, f), err_msg=f"late {f}")
+
+
 def test_occluded_on_the_gpu_is_the_cpu_exact_walk(spot, device):
     """``occluded(device="gpu")``: the exact kernel with the any-hit query. Camera and random
     rays with unbounded and short ``tmax``: every status is the CPU exact walk's and the
