@@ -221,8 +221,9 @@ impl Launch<'_> {
         let mut rest = parts.iter().copied().filter(|p| !p.is_empty());
         let mut carry: &[T] = &[];
         let mut before = 0usize;
-        // Each set's last submission in this run: what writing into it again waits for (None:
-        // everything, as at a run's start, where an interrupted run may have left work).
+        // Each set's last submission in this run: what writing into it again waits for (None,
+        // at a run's start: a set no submission uses maps at once, else after all work, as
+        // where an interrupted run left a batch in flight).
         let mut last: Vec<Option<wgpu::SubmissionIndex>> = vec![None; sets];
         let mut in_flight: Option<InFlight> = None;
         let mut slot = 0;
