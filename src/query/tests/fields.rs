@@ -70,3 +70,47 @@ fn misses_and_rays_that_never_walked_name_nothing() {
         }
     }
 }
+
+/// A hit's tet is where the walk ended: beside the hit. Where the hit is at a corner of the
+/// hit triangle (the stress rays aim at the grid's vertices), that tet has the corner as one
+/// of its own: only the tets around a vertex come within an ulp of it. Mutation testing
+/// (docs/testing.md, `closest.rs:123`, `found || past` as `found && past`): the walk went on
+/// past a vertex it had met and ended in a later tet, with the same hit.
+#[test]
+fn a_hit_at_a_vertex_ends_its_walk_at_that_vertex() {
+    let a = Agreement::new(7);
+    let n = a.o.len() / 3;
+    let rays = Rays {
+        origins: &a.o,
+        directions: &a.d,
+        tmin: &[0.0],
+        tmax: &[f64::INFINITY],
+        leaving: None,
+    };
+    let mut out = HitBuffers::<f64>::new(n, false);
+    let scene = &a.g.scene;
+    scene
+        .cast(&rays, out.out(), &on(AccelKind::TetWalk))
+        .unwrap();
+    let mesh = &scene.mesh;
+    let mut at_corner = 0;
+    for i in 0..n {
+        if out.status[i] != HIT {
+            continue;
+        }
+        let p: [f64; 3] = out.point[3 * i..3 * i + 3].try_into().unwrap();
+        if !a.g.tris[out.triangle[i] as usize].contains(&p) {
+            continue;
+        }
+        at_corner += 1;
+        let tet = mesh.tets[out.tet[i] as usize];
+        assert!(
+            tet.iter().any(|&v| mesh.points[v as usize] == p),
+            "ray {i}: a hit at {p:?}, a corner of triangle {}, ends in tet {} ({:?})",
+            out.triangle[i],
+            out.tet[i],
+            tet.map(|v| mesh.points[v as usize])
+        );
+    }
+    assert!(at_corner >= 100, "only {at_corner} hits at a corner");
+}
