@@ -46,8 +46,7 @@ struct Shared {
     // The box rounded inward: a float32 o lies below the box's low plane on axis k exactly
     // when o < in_lo[k], above its high plane exactly when o > in_hi[k].
     in_lo: vec3<f32>,
-    // OWN_INSIDE | OWN_OUTSIDE: which origins the kernel begins (the others are unbegun).
-    own: u32,
+    _pad3: u32,
     in_hi: vec3<f32>,
     // Where the constrained sides' far tets begin in the `locate` table.
     beyond_at: u32,

@@ -2,16 +2,14 @@
 // kernel reads each ray's origin and direction, locates the origin (locate.wgsl) and begins
 // its walk as begin.wgsl says (both joined before this file). Where the origin lies against
 // the box is decided per ray, exactly:
-// - outside: the box's entry, as for a shared origin outside it (OWN_OUTSIDE: tmax = inf);
-// - inside: the origin is located (OWN_INSIDE: a scene whose faces are whole caller's
+// - outside: the box's entry, as for a shared origin outside it (with a finite tmax the host
+//   skips a ray that ends before the box, as the CPU does);
+// - inside: the origin is located (the host takes only scenes whose faces are whole caller's
 //   triangles, so an origin strictly inside a tet lies in no triangle's plane). Anything
 //   uncertain (an origin on or near a face, a walk past the guard, out of the domain) ends
 //   END_UNBEGUN: the host walks that ray from its start.
 //
 // Each decision is a certified sign, so every ray begins where the CPU exact walk begins it.
-
-const OWN_INSIDE: u32 = 1u;
-const OWN_OUTSIDE: u32 = 2u;
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
@@ -32,15 +30,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     }
     let beyond = box_side(bits);
     if any(beyond != vec3<i32>(0)) {
-        if (batch.own & OWN_OUTSIDE) == 0u {
-            unbegun(i);
-            return;
-        }
         begin(i, beyond, false, 0u, vec4<u32>(0u));
-        return;
-    }
-    if (batch.own & OWN_INSIDE) == 0u {
-        unbegun(i);
         return;
     }
     let names = locate_origin(i, o);

@@ -24,7 +24,7 @@
 //! its start; every answer is the CPU exact walk's (docs/gpu.md).
 
 use super::context::Gpu;
-use super::structs::{GridSide, Shared, OWN_INSIDE, OWN_OUTSIDE};
+use super::structs::{GridSide, Shared};
 use super::upload::upload_records;
 use crate::accel::tetwalk::PlainState;
 use crate::error::Result;
@@ -133,10 +133,7 @@ pub(crate) fn own_origins(scene: &Scene, rays: &Rays<f32>, points_slack: f32) ->
     if !ranges_start_at_origins(rays) {
         return None;
     }
-    Some(Shared {
-        own: OWN_INSIDE | OWN_OUTSIDE,
-        ..locate_uniform(scene, points_slack)?
-    })
+    locate_uniform(scene, points_slack)
 }
 
 /// Whether every ray's walk starts at its origin: each range holds 0 (tmin ≤ 0 ≤ tmax; tmin

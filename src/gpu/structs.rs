@@ -106,8 +106,7 @@ pub struct Shared {
     /// box rounded inward, so that a float32 origin's side against the float64 box is a
     /// float32 comparison.
     pub in_lo: [f32; 3],
-    /// [`OWN_INSIDE`] | [`OWN_OUTSIDE`]: which origins the kernel begins.
-    pub own: u32,
+    pub _pad3: u32,
     pub in_hi: [f32; 3],
     /// Where the constrained sides' far tets begin in the locate table (`gpu::origin`).
     pub beyond_at: u32,
@@ -119,13 +118,6 @@ pub struct Shared {
     pub grid_dims: [u32; 3],
     pub _pad2: u32,
 }
-
-/// `Shared::own`: origins inside the box are located on the device (a scene whose faces are
-/// whole caller's triangles: an origin strictly inside a tet then lies in no triangle's plane).
-pub const OWN_INSIDE: u32 = 1;
-/// `Shared::own`: origins outside the box are begun on the device (an infinite tmax: a finite
-/// one is clipped to the box by the host's `exact_line`).
-pub const OWN_OUTSIDE: u32 = 2;
 
 /// `END_*` of shaders/common.wgsl (any other end is END_STEP_LIMIT).
 pub const END_BOUNDARY: u32 = 0;
@@ -177,7 +169,7 @@ const _: () = {
     assert!(offset_of!(Shared, finish) == 76);
     assert!(offset_of!(Shared, sides) == 80);
     assert!(offset_of!(Shared, in_lo) == 272);
-    assert!(offset_of!(Shared, own) == 284);
+    assert!(offset_of!(Shared, _pad3) == 284);
     assert!(offset_of!(Shared, in_hi) == 288);
     assert!(offset_of!(Shared, beyond_at) == 300);
     assert!(offset_of!(Shared, grid_lo) == 304);

@@ -181,7 +181,7 @@ fn rust_mirrors_match_wgsl_layouts() {
                 ("finish", offset_of!(Shared, finish)),
                 ("sides", offset_of!(Shared, sides)),
                 ("in_lo", offset_of!(Shared, in_lo)),
-                ("own", offset_of!(Shared, own)),
+                ("_pad3", offset_of!(Shared, _pad3)),
                 ("in_hi", offset_of!(Shared, in_hi)),
                 ("beyond_at", offset_of!(Shared, beyond_at)),
                 ("grid_lo", offset_of!(Shared, grid_lo)),
