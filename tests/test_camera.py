@@ -411,11 +411,19 @@ def test_gpu_cast_takes_a_camera(spot):
     assert got.timings["camera_rays"] and got.timings["shared_origin"]
     # a finite range: the same as the camera's rays passed with it, and as the CPU's
     o, d = cam.rays()
-    tmax = float(np.nanmedian(got.t))
+    hit = got.status == tetrace.HIT
+    tmax = float(np.median(got.t[hit]))
     near = spot.cast(camera=cam, tmax=tmax, device="gpu")
-    assert near.timings["camera_rays"] and (near.status == tetrace.MISS).any()
+    assert near.timings["camera_rays"] and (near.status[hit] == tetrace.MISS).any()
     _assert_same_hits(near, spot.cast(o, d, tmax=tmax, device="gpu"))
     _assert_same_hits(near, spot.cast(camera=cam, tmax=tmax, accel="tetwalk"))
+    # a range after the eye (a near plane), still made and begun on the device: rays whose
+    # first hit lies before it are walked on by the host, as the CPU walks them
+    far = spot.cast(camera=cam, tmin=tmax, device="gpu")
+    assert far.timings["camera_rays"] and far.timings["shared_origin"]
+    assert ((far.status == tetrace.HIT) & hit & (far.t > got.t)).any()
+    _assert_same_hits(far, spot.cast(o, d, tmin=tmax, device="gpu"))
+    _assert_same_hits(far, spot.cast(camera=cam, tmin=tmax, accel="tetwalk"))
     _assert_same_hits(got, spot.cast(*cam.rays(), device="gpu"))
     # the GPU exact walk's answers are the CPU exact walk's, bit for bit (tet and steps too)
     _assert_same_hits(got, spot.cast(camera=cam, accel="tetwalk"))

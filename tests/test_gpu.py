@@ -356,46 +356,54 @@ def _bounded_ray_sets(scene, width, height, n_random, seed):
 
 
 def test_per_ray_ranges_begin_on_the_gpu(spot, device):
-    """Per-ray ranges that hold 0 (``tmin`` 0, ``tmax`` unbounded or short, ray by ray) begin
-    on the device: camera rays from one origin and random rays with their own.
-    Every column is the CPU exact walk's, the referee finds every ray right, and few rays are
-    handed back. A range that starts after its origin is the host's to begin, with the same
-    answers."""
+    """Per-ray ranges begin on the device: camera rays from one origin and random rays with
+    their own, ``tmax`` unbounded or short ray by ray, ``tmin`` 0 or after the origin (random
+    up to the farthest hit: the walk starts at the origin all the same and the host compares
+    each finished hit's ``t`` with ``tmin``). Every column is the CPU exact walk's and the
+    referee finds every ray right over its range; with ``tmin`` 0, few rays are handed back."""
     referee = Referee(spot.vertices, spot.faces)
     for what, oo, dd, tmax in _bounded_ray_sets(spot, 160, 120, 20_000, seed=11):
         n = len(dd)
-        tmin = np.zeros(n)
         tmax = np.broadcast_to(tmax, n).copy()
         tmax[::4] = np.inf
-        got = spot.cast(oo, dd, tmin=tmin, tmax=tmax, device="gpu")
-        cpu = spot.cast(oo, dd, tmin=tmin, tmax=tmax, precision="f32", accel="tetwalk")
-        for f in ("status", "triangle", "t", "u", "v", "point", "tet", "steps"):
-            np.testing.assert_array_equal(getattr(got, f), getattr(cpu, f), err_msg=f"{what} {f}")
-        kernel = "shared_origin" if what == "camera" else "own_origins"
-        assert got.timings[kernel] and got.timings["deferred"] < n / 100, (what, got.timings)
-        assert got.timings["finished"] > 0, (what, got.timings)
-        score = agreement(got, referee.first_hits(oo, dd, 0.0, tmax))
-        assert score.right == n, f"{what}: {score}"
-    late = np.where(np.arange(n) == 0, 1e-3, tmin)
-    got = spot.cast(oo, dd, tmin=late, tmax=tmax, device="gpu")
-    cpu = spot.cast(oo, dd, tmin=late, tmax=tmax, precision="f32", accel="tetwalk")
-    assert not got.timings["own_origins"]
-    for f in ("status", "triangle", "t", "tet", "steps"):
-        np.testing.assert_array_equal(getattr(got, f), getattr(cpu, f), err_msg=f"late {f}")
+        far = spot.cast(oo, dd).t
+        far = far[np.isfinite(far)].max()
+        late = np.random.default_rng(5).uniform(0, far, n)
+        late[::3] = 0.0
+        for starts, tmin in (("at the origin", np.zeros(n)), ("later", late)):
+            label = f"{what}, tmin {starts}"
+            got = spot.cast(oo, dd, tmin=tmin, tmax=tmax, device="gpu")
+            cpu = spot.cast(oo, dd, tmin=tmin, tmax=tmax, precision="f32", accel="tetwalk")
+            for f in ("status", "triangle", "t", "u", "v", "point", "tet", "steps"):
+                np.testing.assert_array_equal(
+                    getattr(got, f), getattr(cpu, f), err_msg=f"{label} {f}"
+                )
+            kernel = "shared_origin" if what == "camera" else "own_origins"
+            assert got.timings[kernel] and got.timings["finished"] > 0, (label, got.timings)
+            if starts == "at the origin":
+                assert got.timings["deferred"] < n / 100, (label, got.timings)
+            score = agreement(got, referee.first_hits(oo, dd, tmin, tmax))
+            assert score.right == n, f"{label}: {score}"
 
 
 def test_occluded_on_the_gpu_is_the_cpu_exact_walk(spot, device):
-    """``occluded(device="gpu")``: the exact kernel with the any-hit query. Camera and random
-    rays with unbounded and short ``tmax``: every status is the CPU exact walk's and the
-    referee's (a triangle in [0, tmax]). Other kernels and accelerators are refused."""
+    """``occluded(device="gpu")``: the exact kernels with the any-hit query. Camera and random
+    rays with unbounded and short ``tmax``, ``tmin`` 0 or after the origin: every status is
+    the CPU exact walk's and the referee's (a triangle in [tmin, tmax]). Other kernels and
+    accelerators are refused."""
     referee = Referee(spot.vertices, spot.faces)
     for what, oo, dd, tmax in _bounded_ray_sets(spot, 160, 120, 20_000, seed=7):
-        got, status = spot.occluded(oo, dd, tmax=tmax, device="gpu", return_status=True)
-        cpu, cpu_status = spot.occluded(oo, dd, tmax=tmax, precision="f32", return_status=True)
-        np.testing.assert_array_equal(status, cpu_status, err_msg=what)
-        want = referee.first_hits(oo, dd, 0.0, np.broadcast_to(tmax, len(dd))).hit
-        np.testing.assert_array_equal(got, want, err_msg=what)
-        assert 0 < got.sum() < len(got), what
+        n = len(dd)
+        late = np.random.default_rng(3).uniform(0, np.minimum(tmax, 1.0), n)
+        for tmin in (0.0, late):
+            label = f"{what}, tmin {'0' if np.ndim(tmin) == 0 else 'after the origin'}"
+            kw = dict(tmin=tmin, tmax=tmax, return_status=True)
+            got, status = spot.occluded(oo, dd, device="gpu", **kw)
+            cpu, cpu_status = spot.occluded(oo, dd, precision="f32", **kw)
+            np.testing.assert_array_equal(status, cpu_status, err_msg=label)
+            want = referee.first_hits(oo, dd, tmin, np.broadcast_to(tmax, n)).hit
+            np.testing.assert_array_equal(got, want, err_msg=label)
+            assert 0 < got.sum() < len(got), label
     o, d = np.zeros((8, 3), np.float32), np.ones((8, 3), np.float32)
     with pytest.raises(ValueError, match="exact kernel"):
         spot.occluded(o, d, device="gpu", method="aman2022")

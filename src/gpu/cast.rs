@@ -27,7 +27,7 @@ use super::upload::LayoutBuffers;
 use crate::accel::TetWalk;
 use crate::camera::CameraF32;
 use crate::error::{Error, Result};
-use crate::geom::ray::Ray;
+use crate::geom::ray::{checked_range, Ray};
 use crate::layout::Tet20;
 use crate::locate::{LocateState, Start, WalkStart};
 use crate::query::{Listed, QueryKind, RayHit, Sink};
@@ -115,6 +115,7 @@ impl DeviceScene {
             match (shared, out.take()) {
                 (Some(shared), Some(o)) => self.cast_shared(
                     scene,
+                    &scene.closest(),
                     device,
                     (&SHARED_ORIGIN, shared, t0),
                     rays,
@@ -171,38 +172,8 @@ impl DeviceScene {
         }
         self.on_device(scene, kernel, opts, batching, |device, timings| {
             if kernel.resumes {
-                // The scan for one origin and its location count as the cast's location. Rays
-                // leaving hits (`start=hits`) each begin next to their hit's tet (the CPU
-                // exact walk's `settle_from`: no point location): the resumed kernel.
-                let t0 = Instant::now();
                 let query = scene.closest();
-                let slack = device.scene.points_slack;
-                // Rays from one origin take the shared-origin kernel, others with their own
-                // origins the own-origin kernel, where each can take them.
-                let begun = match rays.leaving {
-                    _ if !device.batching.begin_on_device => None,
-                    None => shared_origin(scene, rays, &query, slack, opts.threads)
-                        .map(|u| (&SHARED_ORIGIN, u))
-                        .or_else(|| own_origins(scene, rays, slack).map(|u| (&OWN_ORIGINS, u))),
-                    Some(_) => None,
-                };
-                return match begun {
-                    Some((k, uniform)) => self.cast_shared(
-                        scene,
-                        device,
-                        (k, uniform, t0),
-                        HostRays::Given(rays),
-                        out,
-                        opts,
-                        timings,
-                    ),
-                    None => {
-                        let fast = Some(boundary_miss as fn(&RayOut) -> RayHit);
-                        resumed(
-                            scene, &query, fast, kernel, device, rays, out, opts, timings,
-                        )
-                    }
-                };
+                return self.exact(scene, &query, kernel, device, rays, out, opts, timings);
             }
             // Rays the kernel defers (the robust filter's) walk again on the CPU from their
             // start.
@@ -229,10 +200,11 @@ impl DeviceScene {
 
     /// Occlusion of float32 rays on the GPU (shadow rays, `Scene.occluded`): `out[i]` is HIT
     /// when a scene triangle lies on ray i in [tmin, tmax], else MISS (or the status of a ray
-    /// that did not walk). The exact kernel's resumed walk with the any-hit query: the CPU
-    /// exact walk begins each ray (or, from a hit, next to its tet), the GPU takes the plain
-    /// steps, and the CPU decides at the first constrained face, so every status is the CPU
-    /// exact walk's.
+    /// that did not walk). The exact kernel with the any-hit query, as the closest hit's
+    /// cast takes it ([`DeviceScene::exact`]): rays from one origin or with their own begin on
+    /// the device, which answers the rays whose first meet it certifies; the CPU exact walk
+    /// answers the others from where the device handed them back (or begins them: rays from
+    /// hits, and rays the device could not begin). Every status is the CPU exact walk's.
     pub fn occluded(
         &self,
         scene: &Scene,
@@ -242,7 +214,14 @@ impl DeviceScene {
     ) -> Result<GpuTimings> {
         check_ray_count(rays, out.len())?;
         let query = crate::query::AnyHit(scene.closest());
-        self.resumed_query(scene, &query, rays, out, opts)
+        let kernel = KernelSpec::find(Some("exact"), Some("tet20"))?;
+        self.on_device(
+            scene,
+            kernel,
+            opts,
+            Batching::default(),
+            |device, timings| self.exact(scene, &query, kernel, device, rays, out, opts, timings),
+        )
     }
 
     /// Every point where each float32 ray meets the surface in [tmin, tmax]
@@ -260,6 +239,49 @@ impl DeviceScene {
         check_ray_count(rays, out.len())?;
         let query = crate::query::AllHits(scene.closest());
         self.resumed_query(scene, &query, rays, out, opts)
+    }
+
+    /// `query` on the exact kernel: rays from one origin take the shared-origin kernel, others
+    /// with their own origins the own-origin kernel, where each can take them (both begin
+    /// every walk on the device: [`DeviceScene::cast_shared`]); any other batch the resumed
+    /// kernel, which the host begins ([`resumed`]).
+    #[allow(clippy::too_many_arguments)] // one cast's parts, as `resumed` takes them
+    fn exact<K: EndsOnDevice, S: Sink<K::Answer>>(
+        &self,
+        scene: &Scene,
+        query: &K,
+        kernel: &KernelSpec,
+        device: &OnDevice,
+        rays: &Rays<f32>,
+        out: S,
+        opts: &CastOptions,
+        timings: &mut GpuTimings,
+    ) -> Result<()> {
+        // The scan for one origin and its location count as the cast's location. Rays leaving
+        // hits (`start=hits`) each begin next to their hit's tet (the CPU exact walk's
+        // `settle_from`: no point location): the resumed kernel.
+        let t0 = Instant::now();
+        let slack = device.scene.points_slack;
+        let begun = match rays.leaving {
+            _ if !device.batching.begin_on_device => None,
+            None => shared_origin(scene, rays, query.closest(), slack, opts.threads)
+                .map(|u| (&SHARED_ORIGIN, u))
+                .or_else(|| own_origins(scene, rays, slack).map(|u| (&OWN_ORIGINS, u))),
+            Some(_) => None,
+        };
+        match begun {
+            Some((k, uniform)) => {
+                let rays = HostRays::Given(rays);
+                let begins = (k, uniform, t0);
+                self.cast_shared(scene, query, device, begins, rays, out, opts, timings)
+            }
+            None => {
+                let missed = Some(K::missed as fn(&RayOut) -> K::Answer);
+                resumed(
+                    scene, query, missed, kernel, device, rays, out, opts, timings,
+                )
+            }
+        }
     }
 
     /// `query` on the exact kernel's resumed walk (see [`resumed`]).
@@ -341,6 +363,19 @@ impl HostRays<'_> {
         }
     }
 
+    /// Whether some ray's range may start after its origin or be one the CPU refuses: a tmin
+    /// above 0, or a NaN bound (`checked_range`). The kernels walk such rays from their origins
+    /// all the same; the host then checks each ray's range.
+    fn late(&self) -> bool {
+        let late = |tmin: f64, tmax: f64| !(tmin <= 0.0) || tmax.is_nan();
+        match self {
+            HostRays::Given(r) => {
+                r.tmin.iter().any(|&t| late(t, 0.0)) || r.tmax.iter().any(|&t| late(0.0, t))
+            }
+            HostRays::Camera { tmin, tmax, .. } => late(*tmin, *tmax),
+        }
+    }
+
     fn ray(&self, i: usize) -> Ray {
         match *self {
             HostRays::Given(r) => r.ray(i),
@@ -360,6 +395,45 @@ impl HostRays<'_> {
     }
 }
 
+/// A query the exact kernels answer on the device where they end a walk without the host:
+/// at a hit they finished (`gpu::finish`: the CPU exact walk's first meet, its t in range)
+/// and at a walk that met nothing in range (handed back at the domain's boundary, or stopped
+/// at a face met past tmax, where the CPU's policy stops with a miss).
+pub(crate) trait EndsOnDevice: QueryKind {
+    /// The closest-hit query whose policy this query's walk follows (it decides whether an
+    /// origin may touch the surface).
+    fn closest(&self) -> &crate::query::ClosestHit<'_>;
+    fn finished(o: &RayOut) -> Self::Answer;
+    fn missed(o: &RayOut) -> Self::Answer;
+}
+
+impl EndsOnDevice for crate::query::ClosestHit<'_> {
+    fn closest(&self) -> &crate::query::ClosestHit<'_> {
+        self
+    }
+    #[inline(always)]
+    fn finished(o: &RayOut) -> RayHit {
+        finished_hit(o)
+    }
+    #[inline(always)]
+    fn missed(o: &RayOut) -> RayHit {
+        boundary_miss(o)
+    }
+}
+
+/// Occlusion: the first meet in range is a hit, whichever triangle it names.
+impl EndsOnDevice for crate::query::AnyHit<'_> {
+    fn closest(&self) -> &crate::query::ClosestHit<'_> {
+        &self.0
+    }
+    fn finished(_: &RayOut) -> u8 {
+        crate::status::HIT
+    }
+    fn missed(_: &RayOut) -> u8 {
+        crate::status::MISS
+    }
+}
+
 impl DeviceScene {
     /// A batch from one origin (`gpu::origin`), or of rays with their own origins: the
     /// shared-origin kernel ([`SHARED_ORIGIN`]) or the own-origin kernel ([`OWN_ORIGINS`],
@@ -368,13 +442,14 @@ impl DeviceScene {
     /// handed back, walks the rays whose start the kernel could not certify from their
     /// start, and answers the certain misses of the box.
     #[allow(clippy::too_many_arguments)] // one cast's parts, as `resumed` takes them
-    fn cast_shared(
+    fn cast_shared<K: EndsOnDevice, S: Sink<K::Answer>>(
         &self,
         scene: &Scene,
+        query: &K,
         exact: &OnDevice,
         (begins, shared, t0): (&KernelSpec, Shared, Instant),
         rays: HostRays,
-        out: HitsOut<f32>,
+        out: S,
         opts: &CastOptions,
         timings: &mut GpuTimings,
     ) -> Result<()> {
@@ -389,8 +464,9 @@ impl DeviceScene {
         };
         let uploads = grid_upload + table_upload + locate_upload;
         timings.scene_upload += uploads;
-        // With a finite tmax the host compares each finished hit's t with it (below).
-        let finite_tmax = !rays.infinite();
+        // With a finite tmax, or a tmin above 0, the host compares each finished hit's t with
+        // the ray's range (below).
+        let (finite_tmax, late) = (!rays.infinite(), rays.late());
         let shared = Shared {
             sides: grid.sides,
             finish: table.sides,
@@ -436,80 +512,82 @@ impl DeviceScene {
         timings.walked = n;
         let setup = exact_setup(scene, exact.max_steps)?;
         let walk = TetWalk::<f64, Tet20, Exact, NoObserver>::new(scene.locators(), setup);
-        let query = scene.closest();
         let handed = AtomicUsize::new(0);
         let finished = AtomicUsize::new(0);
-        // A ray from outside the box whose finite tmax ends before it does not walk on the CPU
-        // (`exact_line` clips [0, tmax] to the box): the kernel began it all the same, so the
-        // host skips it as the CPU does. None: the ray walks (every infinite tmax does).
+        // The rays the CPU does not walk: a range it refuses (`checked_range`), and a ray from
+        // outside the box whose finite tmax ends before it (`exact_line` clips [0, tmax] to
+        // the box). The kernel began them all the same, so the host answers them as the CPU
+        // does. None: the ray walks (every ray with tmin ≤ 0 and an infinite tmax does).
         let locators = scene.locators();
-        let ends_before_box = |ray: &Ray| {
-            (ray.tmax != f64::INFINITY)
-                .then(|| locators.exact_line(ray).err())
-                .flatten()
-                .map(|status| query.skipped(status))
+        let unwalked = |ray: &Ray| {
+            let status = match ray.tmax != f64::INFINITY {
+                true => locators.exact_line(ray).err(),
+                false => checked_range(ray).err(),
+            };
+            status.map(|s| query.skipped(s))
         };
+        // The host's walk of a ray from its start, as the CPU's.
+        let again = |ray: &Ray, st: &mut LocateState| match walk.begin_elsewhere(query, ray, st) {
+            Err(answer) => answer,
+            Ok((s, at)) => walk.walk_on_from(query, &s, at),
+        };
+        let ranged = finite_tmax || late;
         // Each chunk answered from its rays' results, as they come back.
-        let answer = |k: usize, mut chunk: HitsOut<f32>, results: &[RayOut]| {
+        let answer = |k: usize, mut chunk: S, results: &[RayOut]| {
             let mut st = LocateState::for_chunk(k);
             let (mut sent, mut done) = (0, 0);
             for (j, o) in results.iter().enumerate() {
                 let i = k * CHUNK + j;
+                // Where some range may end or start away from [0, ∞), each ray's own.
+                let ray = ranged.then(|| rays.ray(i));
+                if let Some(skipped) = ray.as_ref().and_then(unwalked) {
+                    chunk.put(j, skipped);
+                    continue;
+                }
                 let answer = match o.end {
-                    END_FINISHED if finite_tmax => {
-                        // The hit is the CPU's first meet (`gpu::finish`); the CPU takes it if
-                        // the exact t ≤ tmax (`range_of`), else stops there with a miss. The
-                        // host's t rounds a float64 within an ulp of the exact t to float32,
-                        // so the exact t lies strictly between t's float32 neighbours.
-                        let ray = rays.ray(i);
+                    END_FINISHED => {
+                        // The hit is the CPU's first meet from the origin (`gpu::finish`). The
+                        // CPU takes it if tmin ≤ its exact t ≤ tmax (`range_of`); past tmax it
+                        // stops there with a miss, before tmin it walks on. The host's t rounds
+                        // a float64 within an ulp of the exact t to float32, so the exact t
+                        // lies strictly between t's float32 neighbours.
                         let t = o.hit[0];
-                        match ends_before_box(&ray) {
-                            Some(skipped) => skipped,
-                            None if ray.tmax >= f64::from(t.next_up()) => {
-                                done += 1;
-                                finished_hit(o)
+                        let (below, above) = (f64::from(t.next_down()), f64::from(t.next_up()));
+                        match ray {
+                            Some(ray) if !(ray.tmin <= 0.0 || ray.tmin <= below) => {
+                                // Before tmin, or within an ulp of it: walked again.
+                                sent += 1;
+                                again(&ray, &mut st)
                             }
                             // Past tmax: the walk's miss where it stopped.
-                            None if ray.tmax <= f64::from(t.next_down()) => boundary_miss(o),
-                            // Within an ulp of tmax: the host walks the ray again.
-                            None => {
+                            Some(ray) if ray.tmax <= below => K::missed(o),
+                            // Within an ulp of tmax: walked again.
+                            Some(ray) if ray.tmax < above => {
                                 sent += 1;
-                                match walk.begin_elsewhere(&query, &ray, &mut st) {
-                                    Err(answer) => answer,
-                                    Ok((s, at)) => walk.walk_on_from(&query, &s, at),
-                                }
+                                again(&ray, &mut st)
+                            }
+                            _ => {
+                                done += 1;
+                                K::finished(o)
                             }
                         }
                     }
-                    END_FINISHED => {
-                        done += 1;
-                        finished_hit(o)
-                    }
                     END_MISS_BOX => query.skipped(crate::status::MISS),
-                    END_BOUNDARY if finite_tmax => {
-                        ends_before_box(&rays.ray(i)).unwrap_or_else(|| boundary_miss(o))
-                    }
-                    END_BOUNDARY => boundary_miss(o),
+                    END_BOUNDARY => K::missed(o),
                     END_UNBEGUN => {
                         sent += 1;
-                        match walk.begin_elsewhere(&query, &rays.ray(i), &mut st) {
-                            Err(answer) => answer,
-                            Ok((s, at)) => walk.walk_on_from(&query, &s, at),
-                        }
+                        again(&ray.unwrap_or_else(|| rays.ray(i)), &mut st)
                     }
                     end => {
                         sent += (end == END_DEFERRED) as usize;
-                        let ray = rays.ray(i);
-                        match ends_before_box(&ray) {
-                            Some(skipped) => skipped,
-                            None => match WalkStart::exact(&ray) {
-                                Ok(s) => walk.walk_on_from(&query, &s, plain_state(o)),
-                                Err(status) => query.skipped(status),
-                            },
+                        let ray = ray.unwrap_or_else(|| rays.ray(i));
+                        match WalkStart::exact(&ray) {
+                            Ok(s) => walk.walk_on_from(query, &s, plain_state(o)),
+                            Err(status) => query.skipped(status),
                         }
                     }
                 };
-                chunk.set(j, &answer);
+                chunk.put(j, answer);
             }
             handed.fetch_add(sent, Ordering::Relaxed);
             finished.fetch_add(done, Ordering::Relaxed);

@@ -15,11 +15,14 @@
 //! the box as above, inside it located on the device by the seed grid's visibility walk on
 //! certified orientations ([`LocateTable`]).
 //!
-//! Per-ray ranges are taken where every range holds 0 (the walk starts at the origin); with a
-//! finite tmax the host compares each finished hit's t with it, and skips a ray from outside
-//! the box that ends before it, as the CPU's `exact_line` does. Any other batch (an origin on
-//! a face, edge or vertex; a range starting after its origin; rays started from hits; a scene
-//! whose faces split the caller's triangles) takes the resumed path
+//! Every range is taken, one for the batch or one per ray: the CPU exact walk starts at the
+//! origin (or where the ray enters the box) whatever tmin is, and skips what it meets before
+//! tmin, so the kernels walk every ray from its origin and the host compares each finished
+//! hit's t with the ray's range (`cast_shared`): a hit before tmin, or within an ulp of either
+//! end, is walked again on the host. The host also answers the rays whose range the CPU
+//! refuses (`checked_range`) and skips a ray from outside the box that ends before it, as the
+//! CPU's `exact_line` does. Any other batch (an origin on a face, edge or vertex; rays started
+//! from hits; a scene whose faces split the caller's triangles) takes the resumed path
 //! (`cast::resumed`). A ray whose start the kernel cannot certify is walked by the host from
 //! its start; every answer is the CPU exact walk's (docs/gpu.md).
 
@@ -120,9 +123,7 @@ pub(crate) fn upload_locate_table(g: &Gpu, scene: &Scene) -> Result<LocateTable>
 }
 
 /// The uniform of a batch of rays with their own origins for the own-origin kernel, or None
-/// where it does not take them: rays from hits, a range not holding 0
-/// ([`ranges_start_at_origins`]), a
-/// scene whose faces split the caller's triangles (an origin strictly inside a tet may then
+/// where it does not take them: rays from hits, a scene whose faces split the caller's triangles (an origin strictly inside a tet may then
 /// lie in a triangle's plane: the host's `origin_may_touch` asks), or one [`locate_uniform`]
 /// refuses. The caller sets the entry grid's sides, the hit table and the locate table's
 /// offset.
@@ -130,19 +131,7 @@ pub(crate) fn own_origins(scene: &Scene, rays: &Rays<f32>, points_slack: f32) ->
     if rays.is_empty() || rays.leaving.is_some() || scene.incidence.split {
         return None;
     }
-    if !ranges_start_at_origins(rays) {
-        return None;
-    }
     locate_uniform(scene, points_slack)
-}
-
-/// Whether every ray's walk starts at its origin: each range holds 0 (tmin ≤ 0 ≤ tmax; tmin
-/// then clamps to 0), one range for the batch or one per ray. False where a range does not
-/// (or has a NaN bound): the host begins those walks. A finite tmax is the host's to compare
-/// with each finished hit's t, and the host skips a ray from outside the box that ends before
-/// it as the CPU does (`cast_shared`, `exact_line`).
-pub(crate) fn ranges_start_at_origins(rays: &Rays<f32>) -> bool {
-    rays.tmin.iter().all(|&t| t <= 0.0) && rays.tmax.iter().all(|&t| t >= 0.0)
 }
 
 /// What a kernel that locates points on the device (`shaders/walks/locate.wgsl`) reads in its
@@ -210,30 +199,23 @@ pub(crate) fn shared_origin(
     if n == 0 || rays.leaving.is_some() {
         return None;
     }
-    if !ranges_start_at_origins(rays) {
-        return None;
-    }
     let o32: [f32; 3] = rays.origins[..3].try_into().ok()?;
     if !o32.iter().all(|x| x.is_finite()) || !all_at(rays.origins, o32, threads) {
         return None;
     }
-    // The origin is located as for any range holding 0 (ray 0's among them).
+    // The origin is located as for any range: the walk starts there whatever tmin is.
     shared_at(scene, &rays.ray(0), query, points_slack)
 }
 
-/// [`shared_origin`] for rays known to share `ray0`'s origin and range (a camera's): None
-/// where the shared-origin kernel does not take them.
+/// [`shared_origin`] for rays known to share `ray0`'s origin (a camera's): None where the
+/// shared-origin kernel does not take them. Only the origin counts: each ray's range is the
+/// host's to apply (`cast_shared`).
 pub(crate) fn shared_at(
     scene: &Scene,
     ray0: &crate::geom::ray::Ray,
     query: &ClosestHit,
     points_slack: f32,
 ) -> Option<Shared> {
-    let (tmin, tmax) = (ray0.tmin, ray0.tmax);
-    // The walk starts at the origin: tmin clamps to 0 (and no ray's range is empty).
-    if !(tmin <= 0.0 && tmax >= 0.0) {
-        return None;
-    }
     let o = ray0.o;
     let o32 = o.map(|x| x as f32);
     if !o32.iter().all(|x| x.is_finite()) || o32.map(f64::from) != o {
@@ -263,11 +245,14 @@ pub(crate) fn shared_at(
         // enters by; a ray ending before the box is the host's to skip (`cast_shared`).
         return Some(shared);
     }
-    // Inside: the start tet as the CPU exact walk locates it, for a ray from this origin.
+    // Inside: the start tet as the CPU exact walk locates it, for a ray from this origin
+    // (whatever its range, which location does not read: ray 0's might be one the CPU
+    // refuses, and from inside the box the walk starts at the origin).
     let locators = scene.locators();
     let mut st = LocateState::for_chunk(0);
+    let probe = crate::geom::ray::Ray::new(o, ray0.d, 0.0, f64::INFINITY);
     let (s, _) = locators
-        .locate_exact::<f64, Exact>(ray0, &mesh.points, &mut st)
+        .locate_exact::<f64, Exact>(&probe, &mesh.points, &mut st)
         .ok()?;
     let tet = mesh.tets[s.tet as usize];
     let p = |k: usize| mesh.points[tet[k] as usize];

@@ -199,8 +199,9 @@ fn assert_gpu_is_cpu_exact_within(
 }
 
 /// [`assert_gpu_is_cpu_exact`] with the ranges `[tmin, tmax]` (one for every ray, or one per
-/// ray); the referee judges the rays whose range is `[≤ 0, ∞]` (the others are the CPU exact
-/// cast's to clip, compared column by column).
+/// ray); the referee judges every ray over its range where the CPU takes that range (no NaN
+/// bound, tmax ≥ max(tmin, 0)); the others are compared with the CPU exact cast column by
+/// column only.
 fn assert_gpu_is_cpu_exact_ranges(
     name: &str,
     scene: &Scene,
@@ -235,20 +236,21 @@ fn assert_gpu_is_cpu_exact_ranges(
     assert_same_answers(name, &cpu, &gpu);
     let n = o.len() / 3;
     let at = |b: &[f64], i: usize| b[if b.len() == 1 { 0 } else { i }];
-    let whole: Vec<usize> = (0..n)
-        .filter(|&i| at(tmin, i) <= 0.0 && at(tmax, i) == f64::INFINITY)
+    // (NaN.max(0.0) is 0: a NaN tmin is checked before it is raised.)
+    let range = |i: usize| (at(tmin, i).max(0.0), at(tmax, i));
+    let judged_rays: Vec<usize> = (0..n)
+        .filter(|&i| !at(tmin, i).is_nan() && matches!(range(i), (lo, hi) if hi >= lo))
         .collect();
-    if !whole.is_empty() {
-        let pick = |x: &[f32]| -> Vec<f32> {
-            whole
-                .iter()
-                .flat_map(|&i| x[3 * i..3 * i + 3].to_vec())
-                .collect()
-        };
-        let (wo, wd) = (pick(o), pick(d));
-        let c = judged(name, &verdicts32(&wo, &wd, tris), &gpu.rows(&whole));
-        assert_eq!(c.bad(), 0, "{name}: {c:?}");
-    }
+    let p = |x: &[f32], i: usize| [0, 1, 2].map(|a| f64::from(x[3 * i + a]));
+    let want: Vec<_> = judged_rays
+        .iter()
+        .map(|&i| {
+            let (lo, hi) = range(i);
+            crate::referee::first_hit(p(o, i), p(d, i), lo, hi, tris)
+        })
+        .collect();
+    let c = judged(name, &want, &gpu.rows(&judged_rays));
+    assert_eq!(c.bad(), 0, "{name}: {c:?}");
     t
 }
 
@@ -688,14 +690,15 @@ fn gpu_shared_origin_is_taken_only_where_it_holds() {
     assert!(own_origins(&scene, &rays, 0.0).is_none());
 }
 
-/// Per-ray ranges that all hold 0 begin on the device: rays with their own origins (the
-/// own-origin kernel) and rays from one origin inside or outside the box (the shared-origin
-/// kernel), with ranges [0, t], [-1, t] and [-∞, t] mixed ray by ray (t = ∞ for every third
-/// ray, one t = 0, the others short of the box's far side or of the box itself), answer as the
-/// CPU exact cast does with the same ranges, every column bit for bit, and right by the
-/// referee where the range is [≤ 0, ∞]. With a tmax on a hit's float32 t, a float32 either
-/// side of it or a quarter of the gap either side, too. With one range starting after its origin, the host begins every walk,
-/// with the same answers.
+/// Per-ray ranges begin on the device: rays with their own origins (the own-origin kernel)
+/// and rays from one origin inside or outside the box (the shared-origin kernel), with ranges
+/// [0, t], [-1, t] and [-∞, t] mixed ray by ray (t = ∞ for every third ray, one t = 0, the
+/// others short of the box's far side or of the box itself), answer as the CPU exact cast
+/// does with the same ranges, every column bit for bit, and right by the referee over each
+/// range. So they do with a tmax on a hit's float32 t, a float32 either side of it or a
+/// quarter of the gap either side; with a tmin there (ranges starting after their origins),
+/// or random, some above tmax; with a NaN bound; and with one range [0.25, ∞] for a batch
+/// from one origin.
 #[test]
 fn gpu_per_ray_ranges_begin_on_the_device() {
     let test = "gpu per-ray ranges";
@@ -758,13 +761,37 @@ fn gpu_per_ray_ranges_begin_on_the_device() {
         t.own_origins && t.finished > 0 && t.deferred > 0,
         "{name}: {t:?}"
     );
-    // A range that starts after its origin: the host begins every walk.
-    let mut late = tmin.clone();
-    late[n - 1] = 1e-3;
-    let name = format!("{test}: one range after its origin");
-    let rays = (o, d, &late[..], &tmax[..]);
+    // Ranges that start after their origins: each walk begins on the device, from its origin
+    // as the CPU's does, and the host compares each finished hit's t with tmin. tmin on the
+    // hits' own t, a float32 either side and a quarter of the gap either side (the host walks
+    // those within an ulp again), a random tmin with the mixed tmax (some above it: the CPU
+    // answers MISS without walking), and a NaN bound at either end.
+    let mut late: Vec<f64> = at_hits
+        .iter()
+        .zip(&tmax)
+        .map(|(&t, &hi)| match t {
+            f64::INFINITY => rng.f() * hi.min(2.0),
+            t => t,
+        })
+        .collect();
+    late[11] = f64::NAN;
+    let mut upto = tmax.clone();
+    upto[12] = f64::NAN;
+    for (what, origins) in [("own", o), ("inside", &inside), ("outside", &outside)] {
+        for (bounds, hi) in [("mixed", &upto), ("∞", &infinite)] {
+            let name = format!("{test}: ranges after their {what} origins, tmax {bounds}");
+            let rays = (origins, d, &late[..], &hi[..]);
+            let t = assert_gpu_is_cpu_exact_ranges(&name, &scene, &tris, rays, Batching::default());
+            assert_eq!(t.own_origins, what == "own", "{name}: {t:?}");
+            assert_eq!(t.shared_origin, what != "own", "{name}: {t:?}");
+            assert!(t.finished > 0 || what == "outside", "{name}: {t:?}");
+        }
+    }
+    // One range for the batch, after the origin: a camera's near plane.
+    let name = format!("{test}: one range after one origin");
+    let rays = (&inside[..], d, &[0.25][..], &[f64::INFINITY][..]);
     let t = assert_gpu_is_cpu_exact_ranges(&name, &scene, &tris, rays, Batching::default());
-    assert!(!t.own_origins && !t.shared_origin, "{t:?}");
+    assert!(t.shared_origin && t.finished > 0, "{name}: {t:?}");
 }
 
 #[test]
