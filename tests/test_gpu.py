@@ -449,26 +449,32 @@ def test_contains_on_the_gpu_is_the_cpus(spot, device):
 
 
 def test_intersections_and_counts_on_the_gpu_are_the_cpu_exact_walk(spot, device):
-    """``intersections`` and ``count_intersections`` with ``device="gpu"``: the exact kernel
+    """``intersections`` and ``count_intersections`` with ``device="gpu"``: the exact kernels
     with the all-hits query. On camera and random rays, unbounded and with short ``tmax``,
-    every column is the CPU default's (float32 rays), the lists are the referee's crossings,
-    and the counts are the lists' lengths. Other kernels and accelerators are refused."""
+    ``tmin`` 0 or after the origin, every column is the CPU default's (float32 rays), the
+    lists are the referee's crossings, and the counts are the lists' lengths. Other kernels
+    and accelerators are refused."""
     referee = Referee(spot.vertices, spot.faces)
     for what, oo, dd, tmax in _bounded_ray_sets(spot, 96, 72, 6_000, seed=11):
-        got = spot.intersections(oo, dd, tmax=tmax, device="gpu")
-        cpu = spot.intersections(oo, dd, tmax=tmax, precision="f32")
-        for f in ("offsets", "ray", "t", "triangle", "u", "v", "point", "status"):
-            np.testing.assert_array_equal(getattr(got, f), getattr(cpu, f), err_msg=f)
-        c = referee.crossings(oo, dd, 0.0, np.broadcast_to(tmax, len(dd)))
-        judged = judge_lists(got.offsets, got.t, got.triangle, c)
-        assert judged["right"].all(), (what, {k: int(x.sum()) for k, x in judged.items()})
-        count, status = spot.count_intersections(
-            oo, dd, tmax=tmax, device="gpu", return_status=True
-        )
-        np.testing.assert_array_equal(count, np.diff(got.offsets), err_msg=what)
-        np.testing.assert_array_equal(status, got.status, err_msg=what)
-        # Teeth: rays that cross the surface several times and rays that cross nothing.
-        assert (count > 1).sum() > 0 and (count == 0).sum() > 0, what
+        n = len(dd)
+        late = np.random.default_rng(2).uniform(0, np.minimum(tmax, 1.0), n)
+        for tmin in (0.0, late):
+            label = f"{what}, tmin {'0' if np.ndim(tmin) == 0 else 'after the origin'}"
+            kw = dict(tmin=tmin, tmax=tmax)
+            got = spot.intersections(oo, dd, device="gpu", **kw)
+            cpu = spot.intersections(oo, dd, precision="f32", **kw)
+            for f in ("offsets", "ray", "t", "triangle", "u", "v", "point", "status"):
+                np.testing.assert_array_equal(getattr(got, f), getattr(cpu, f), err_msg=label)
+            c = referee.crossings(oo, dd, tmin, np.broadcast_to(tmax, n))
+            judged = judge_lists(got.offsets, got.t, got.triangle, c)
+            assert judged["right"].all(), (label, {k: int(x.sum()) for k, x in judged.items()})
+            count, status = spot.count_intersections(
+                oo, dd, device="gpu", return_status=True, **kw
+            )
+            np.testing.assert_array_equal(count, np.diff(got.offsets), err_msg=label)
+            np.testing.assert_array_equal(status, got.status, err_msg=label)
+            # Teeth: rays that cross the surface several times and rays that cross nothing.
+            assert (count > 1).sum() > 0 and (count == 0).sum() > 0, label
     o, d = np.zeros((8, 3), np.float32), np.ones((8, 3), np.float32)
     with pytest.raises(ValueError, match="exact kernel"):
         spot.intersections(o, d, device="gpu", method="aman2022")

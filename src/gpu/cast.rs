@@ -214,21 +214,16 @@ impl DeviceScene {
     ) -> Result<GpuTimings> {
         check_ray_count(rays, out.len())?;
         let query = crate::query::AnyHit(scene.closest());
-        let kernel = KernelSpec::find(Some("exact"), Some("tet20"))?;
-        self.on_device(
-            scene,
-            kernel,
-            opts,
-            Batching::default(),
-            |device, timings| self.exact(scene, &query, kernel, device, rays, out, opts, timings),
-        )
+        self.exact_query(scene, &query, rays, out, opts)
     }
 
     /// Every point where each float32 ray meets the surface in [tmin, tmax]
-    /// (`Scene.intersections`, and `count_intersections` counts them): the exact kernel's
-    /// resumed walk with the all-hits query. The GPU takes the plain steps to the first
-    /// constrained face and the CPU exact walk lists that face's points and walks on from
-    /// there, so every list is the CPU exact walk's.
+    /// (`Scene.intersections`, and `count_intersections` counts them): the exact kernels
+    /// with the all-hits query ([`DeviceScene::exact`]). The GPU begins each walk where it
+    /// can (else the host does) and takes the plain steps to the first constrained face,
+    /// where it hands the walk back (it finishes no hit: the walk goes on); the CPU exact
+    /// walk lists that face's points and walks on from there, so every list is the CPU exact
+    /// walk's.
     pub fn intersections(
         &self,
         scene: &Scene,
@@ -238,7 +233,26 @@ impl DeviceScene {
     ) -> Result<GpuTimings> {
         check_ray_count(rays, out.len())?;
         let query = crate::query::AllHits(scene.closest());
-        self.resumed_query(scene, &query, rays, out, opts)
+        self.exact_query(scene, &query, rays, out, opts)
+    }
+
+    /// `query` on the exact kernels ([`DeviceScene::exact`]).
+    fn exact_query<K: EndsOnDevice, S: Sink<K::Answer>>(
+        &self,
+        scene: &Scene,
+        query: &K,
+        rays: &Rays<f32>,
+        out: S,
+        opts: &CastOptions,
+    ) -> Result<GpuTimings> {
+        let kernel = KernelSpec::find(Some("exact"), Some("tet20"))?;
+        self.on_device(
+            scene,
+            kernel,
+            opts,
+            Batching::default(),
+            |device, timings| self.exact(scene, query, kernel, device, rays, out, opts, timings),
+        )
     }
 
     /// `query` on the exact kernel: rays from one origin take the shared-origin kernel, others
@@ -282,25 +296,6 @@ impl DeviceScene {
                 )
             }
         }
-    }
-
-    /// `query` on the exact kernel's resumed walk (see [`resumed`]).
-    fn resumed_query<K: QueryKind, S: Sink<K::Answer>>(
-        &self,
-        scene: &Scene,
-        query: &K,
-        rays: &Rays<f32>,
-        out: S,
-        opts: &CastOptions,
-    ) -> Result<GpuTimings> {
-        let kernel = KernelSpec::find(Some("exact"), Some("tet20"))?;
-        self.on_device(
-            scene,
-            kernel,
-            opts,
-            Batching::default(),
-            |device, timings| resumed(scene, query, None, kernel, device, rays, out, opts, timings),
-        )
     }
 
     /// Runs `f` with `kernel` ready on the device for `scene` (its pipeline, the scene's
@@ -400,10 +395,14 @@ impl HostRays<'_> {
 /// and at a walk that met nothing in range (handed back at the domain's boundary, or stopped
 /// at a face met past tmax, where the CPU's policy stops with a miss).
 pub(crate) trait EndsOnDevice: QueryKind {
+    /// Whether the device finishes this query's hits (the hit table); where not, it hands
+    /// every walk back at its first constrained face, as it stands there.
+    const FINISHES: bool = true;
     /// The closest-hit query whose policy this query's walk follows (it decides whether an
     /// origin may touch the surface).
     fn closest(&self) -> &crate::query::ClosestHit<'_>;
-    fn finished(o: &RayOut) -> Self::Answer;
+    /// The answer at a hit the device finished; None where the query goes on past it.
+    fn finished(o: &RayOut) -> Option<Self::Answer>;
     fn missed(o: &RayOut) -> Self::Answer;
 }
 
@@ -412,8 +411,8 @@ impl EndsOnDevice for crate::query::ClosestHit<'_> {
         self
     }
     #[inline(always)]
-    fn finished(o: &RayOut) -> RayHit {
-        finished_hit(o)
+    fn finished(o: &RayOut) -> Option<RayHit> {
+        Some(finished_hit(o))
     }
     #[inline(always)]
     fn missed(o: &RayOut) -> RayHit {
@@ -426,11 +425,29 @@ impl EndsOnDevice for crate::query::AnyHit<'_> {
     fn closest(&self) -> &crate::query::ClosestHit<'_> {
         &self.0
     }
-    fn finished(_: &RayOut) -> u8 {
-        crate::status::HIT
+    fn finished(_: &RayOut) -> Option<u8> {
+        Some(crate::status::HIT)
     }
     fn missed(_: &RayOut) -> u8 {
         crate::status::MISS
+    }
+}
+
+/// Every point: the walk goes on past each hit, so the device finishes none and hands each
+/// walk back at its first constrained face; one that met nothing lists nothing.
+impl EndsOnDevice for crate::query::AllHits<'_> {
+    const FINISHES: bool = false;
+    fn closest(&self) -> &crate::query::ClosestHit<'_> {
+        &self.0
+    }
+    fn finished(_: &RayOut) -> Option<Listed> {
+        None
+    }
+    fn missed(_: &RayOut) -> Listed {
+        Listed {
+            status: crate::status::MISS,
+            meets: Vec::new(),
+        }
     }
 }
 
@@ -469,7 +486,11 @@ impl DeviceScene {
         let (finite_tmax, late) = (!rays.infinite(), rays.late());
         let shared = Shared {
             sides: grid.sides,
-            finish: table.sides,
+            finish: if K::FINISHES {
+                table.sides
+            } else {
+                super::finish::NONE
+            },
             beyond_at: locate.as_ref().map_or(0, |l| l.beyond_at),
             ..shared
         };
@@ -566,10 +587,18 @@ impl DeviceScene {
                                 sent += 1;
                                 again(&ray, &mut st)
                             }
-                            _ => {
-                                done += 1;
-                                K::finished(o)
-                            }
+                            _ => match K::finished(o) {
+                                Some(answer) => {
+                                    done += 1;
+                                    answer
+                                }
+                                // A query the device finishes no hit for: never so (its
+                                // uniform says so), but walked again if it were.
+                                None => {
+                                    sent += 1;
+                                    again(&rays.ray(i), &mut st)
+                                }
+                            },
                         }
                     }
                     END_MISS_BOX => query.skipped(crate::status::MISS),
