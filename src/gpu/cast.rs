@@ -289,12 +289,7 @@ impl DeviceScene {
                 let begins = (k, uniform, t0);
                 self.cast_shared(scene, query, device, begins, rays, out, opts, timings)
             }
-            None => {
-                let missed = Some(K::missed as fn(&RayOut) -> K::Answer);
-                resumed(
-                    scene, query, missed, kernel, device, rays, out, opts, timings,
-                )
-            }
+            None => resumed(scene, query, kernel, device, rays, out, opts, timings),
         }
     }
 
@@ -794,14 +789,13 @@ impl<'a, S: Send> ByChunk<'a, S> {
 }
 
 /// The exact kernel's cast (see the module docs) for `query`: the CPU exact walk on Tet20,
-/// its plain steps taken on the device. `at_boundary` answers a walk handed back at the
-/// domain's boundary without walking on (the closest hit's miss); without it the CPU walks on
-/// from there, as from any face.
+/// its plain steps taken on the device. A walk handed back at the domain's boundary met
+/// nothing (its policy was fresh: `begin_elsewhere`), so it is answered without walking on
+/// (`EndsOnDevice::missed`); the CPU walks on from any face.
 #[allow(clippy::too_many_arguments)] // one cast's parts, as `cast_shared` takes them
-fn resumed<K: QueryKind, S: Sink<K::Answer>>(
+fn resumed<K: EndsOnDevice, S: Sink<K::Answer>>(
     scene: &Scene,
     query: &K,
-    at_boundary: Option<fn(&RayOut) -> K::Answer>,
     kernel: &KernelSpec,
     device: &OnDevice,
     rays: &Rays<f32>,
@@ -839,8 +833,8 @@ fn resumed<K: QueryKind, S: Sink<K::Answer>>(
             }
             (starts, prepared)
         },
-        |s, o| match (o.end, at_boundary) {
-            (END_BOUNDARY, Some(answer)) => answer(o),
+        |s, o| match o.end {
+            END_BOUNDARY => K::missed(o),
             _ => walk.walk_on_from(query, s, plain_state(o)),
         },
     )

@@ -594,9 +594,10 @@ fn gpu_own_origins_is_the_cpu_exact_walk() {
     assert!(finished > 0, "no hit was finished on the device");
 }
 
-/// A batch the shared-origin kernel must not take: rays with their own origins, a range
-/// starting after the origin. Ranges holding 0, one or one per ray, finite or not, are taken,
-/// from inside the box and from outside (the host then skips the rays that end before it).
+/// A batch the shared-origin kernel must not take: rays with their own origins, a non-finite
+/// origin. Every range, one or one per ray, finite or not, after the origin or one the CPU
+/// refuses, is taken, from inside the box and from outside (the host applies each ray's range:
+/// `gpu_per_ray_ranges_begin_on_the_device`).
 #[test]
 fn gpu_shared_origin_is_taken_only_where_it_holds() {
     if !device_or_skip("gpu shared origin batches") {
@@ -619,10 +620,13 @@ fn gpu_shared_origin_is_taken_only_where_it_holds() {
     let d = [1.0f32, 0.1, 0.2, 0.3, 1.0, -0.4];
     assert!(take(&inside, &d, 0.0, f64::INFINITY));
     assert!(take(&inside, &d, -1.0, 2.0));
-    assert!(!take(&inside, &d, 0.5, f64::INFINITY));
+    assert!(take(&inside, &d, 0.5, f64::INFINITY));
+    assert!(take(&inside, &d, 3.0, 2.0));
+    assert!(take(&inside, &d, f64::NAN, 2.0));
     assert!(take(&outside, &d, 0.0, f64::INFINITY));
     assert!(take(&outside, &d, 0.0, 5.0));
-    // Per-ray ranges: every one must hold 0.
+    assert!(take(&outside, &d, 0.5, 5.0));
+    // Per-ray ranges.
     let ranged = |o: &[f32], tmin: &[f64], tmax: &[f64]| {
         let rays = Rays {
             origins: o,
@@ -636,7 +640,7 @@ fn gpu_shared_origin_is_taken_only_where_it_holds() {
     let inf = f64::INFINITY;
     assert!(ranged(&inside, &[0.0, -2.0], &[inf, 0.5]));
     assert!(ranged(&inside, &[0.0], &[0.0, 0.5]));
-    assert!(!ranged(&inside, &[0.0, 0.5], &[inf, inf]));
+    assert!(ranged(&inside, &[0.0, 0.5], &[inf, inf]));
     assert!(ranged(&outside, &[0.0, 0.0], &[inf, inf]));
     assert!(ranged(&outside, &[0.0], &[inf, 5.0]));
     let mut apart = inside;
@@ -645,8 +649,8 @@ fn gpu_shared_origin_is_taken_only_where_it_holds() {
     assert!(!take(&[f32::NAN, 0.0, 0.0], &d[..3], 0.0, f64::INFINITY));
 
     // Rays with their own origins: the own-origin kernel, beginning origins inside and outside
-    // the box; not a range starting after the origin, rays from hits, a scene whose faces
-    // split its triangles, nor coordinates beyond 2^32.
+    // the box, whatever the ranges; not rays from hits, a scene whose faces split its
+    // triangles, nor coordinates beyond 2^32.
     use crate::gpu::origin::own_origins;
     let own = |scene: &Scene, tmin: &[f64], tmax: &[f64]| {
         let rays = Rays {
@@ -661,15 +665,15 @@ fn gpu_shared_origin_is_taken_only_where_it_holds() {
     let inf = f64::INFINITY;
     assert!(own(&scene, &[0.0], &[inf]));
     assert!(own(&scene, &[-1.0], &[2.0]));
-    assert!(!own(&scene, &[0.5], &[inf]));
-    // Per-ray ranges: taken where every range holds 0.
+    assert!(own(&scene, &[0.5], &[inf]));
+    // Per-ray ranges.
     assert!(own(&scene, &[0.0, 0.0], &[inf, inf]));
     assert!(own(&scene, &[0.0, -1.0], &[inf, 3.0]));
     assert!(own(&scene, &[f64::NEG_INFINITY], &[inf, 0.0]));
-    assert!(!own(&scene, &[0.0, 1e-300], &[inf, inf]));
-    assert!(!own(&scene, &[0.0], &[inf, -1e-300]));
-    assert!(!own(&scene, &[0.0], &[inf, f64::NAN]));
-    assert!(!own(&scene, &[f64::NAN, 0.0], &[inf]));
+    assert!(own(&scene, &[0.0, 1e-300], &[inf, inf]));
+    assert!(own(&scene, &[0.0], &[inf, -1e-300]));
+    assert!(own(&scene, &[0.0], &[inf, f64::NAN]));
+    assert!(own(&scene, &[f64::NAN, 0.0], &[inf]));
     let (mut split, _) = grid_scene(4, 0.1, 0.0, 71);
     split.incidence.split = true;
     assert!(!own(&split, &[0.0], &[inf]));
