@@ -386,6 +386,23 @@ def test_per_ray_ranges_begin_on_the_gpu(spot, device):
             assert score.right == n, f"{label}: {score}"
 
 
+def test_gpu_is_the_cpu_exact_walk_on_every_stress_family(device):
+    """The exact default on the GPU on every local stress family's certified float32 rays
+    (through vertices and edges, in face planes, on the surface, tmin against a crossing at
+    t = 1, far from the origin, ...), as ``python -m tetrace.bench gpu --stress`` casts them:
+    every column is the CPU exact walk's and the referee finds every ray right. The device
+    begins every family's rays, finishes hits in some and hands rays back in others."""
+    from tetrace.bench.gpu_bench import run_gpu_stress
+
+    rows = run_gpu_stress(500, seed=1, out=lambda *_: None)
+    assert len(rows) > 20
+    for r in rows:
+        assert not r["differ"] and r["right"] == r["rays"] > 0, r
+        assert r["kernel"] != "host begins" and r["walked"] == r["rays"], r
+    assert sum(r["finished"] for r in rows) > 0
+    assert sum(r["handed_back"] == r["rays"] for r in rows) > 0
+
+
 def test_occluded_on_the_gpu_is_the_cpu_exact_walk(spot, device):
     """``occluded(device="gpu")``: the exact kernels with the any-hit query. Camera and random
     rays with unbounded and short ``tmax``, ``tmin`` 0 or after the origin: every status is

@@ -109,10 +109,27 @@ def gpu_main(argv):
         metavar="DIR",
         help="mesh the scenes and write them to DIR as .tetrace files instead of benching",
     )
+    p.add_argument(
+        "--stress",
+        type=int,
+        default=0,
+        metavar="N",
+        help="instead of benching, cast N certified rays of each stress family (needs a "
+        "mesher) and print where each was answered, the handed-back share, whether every "
+        "column is the CPU exact walk's and the referee's count",
+    )
     args = p.parse_args(argv)
     if args.save:
         save_scenes(args.scenes, args.save, preset=args.preset)
         return 0
+    if args.stress:
+        from .gpu_bench import run_gpu_stress
+
+        rows = run_gpu_stress(args.stress, seed=args.seed)
+        bad = [r for r in rows if r["differ"] or r["right"] != r["rays"]]
+        for r in bad:
+            print(f"not the CPU's or not right: {r}", file=sys.stderr)
+        return 1 if args.check and bad else 0
     results = run_gpu_bench(
         args.scenes,
         width=args.width,

@@ -264,3 +264,86 @@ def run_gpu_bench(
         with open(json_path, "w") as fh:
             json.dump(results, fh, indent=2, default=str)
     return results
+
+
+#: Columns of the stress-family table (:func:`run_gpu_stress`).
+STRESS_COLUMNS = [
+    ("family", "family"),
+    ("rays", "rays"),
+    ("kernel", "kernel"),
+    ("walked", "walked on the GPU"),
+    ("finished", "finished on the GPU"),
+    ("handed_back", "handed back"),
+    ("differ", "columns ≠ CPU exact walk"),
+    ("right", "referee right"),
+]
+
+
+def run_gpu_stress(n_per_family=2_000, seed=0, families=None, out=print):
+    """The exact default on the GPU on each stress family's certified float32 rays (the
+    families that need no shared scene, unless named): where each ray was answered (begun on
+    the device by the shared- or own-origin kernel, finished there, or handed back to the CPU
+    exact walk), whether every column equals the CPU exact walk's, and the referee's count
+    of right rays. Needs a mesher (each family's scene is built here).
+
+    Returns
+    -------
+    list of dict
+        One row per family, keys as :data:`STRESS_COLUMNS` (``differ`` lists the columns
+        that differ; ``right`` counts the rays the referee finds right).
+    """
+    from ..dev.compare import agreement
+    from ..dev.stress import FAMILIES, SHARED_SCENES, build_scene, cases
+
+    cols = ("status", "triangle", "t", "u", "v", "point", "tet", "steps")
+    if families is None:
+        families = [f for f in FAMILIES if f not in SHARED_SCENES]
+    rows = []
+    for case in cases(n_per_family, seed, families):
+        scene = build_scene(case)
+        o, d = case.rays("f32")
+        ranges = dict(tmin=case.tmin, tmax=case.tmax)
+        got = scene.cast(o, d, device="gpu", **ranges)
+        cpu = scene.cast(o, d, precision="f32", accel="tetwalk", **ranges)
+        tm = got.timings
+        kernel = (
+            "shared origin"
+            if tm["shared_origin"]
+            else "own origins"
+            if tm["own_origins"]
+            else "host begins"
+        )
+        row = dict(
+            family=case.family,
+            rays=len(d),
+            kernel=kernel,
+            walked=tm["walked"],
+            finished=tm["finished"],
+            handed_back=tm["deferred"],
+            differ=[
+                c
+                for c in cols
+                if not np.array_equal(getattr(got, c), getattr(cpu, c), equal_nan=True)
+            ],
+            right=agreement(got, case.verdicts["f32"], "f32").right,
+        )
+        rows.append(row)
+    out(
+        "stress families on the GPU, exact default, float32 rays as certified: walked = rays "
+        "the device walked (begun there, or by the host on the resumed kernel); finished = "
+        "hits it finished; handed back = rays the CPU exact walk took over (or began)"
+    )
+
+    def cell(k, r):
+        if k == "handed_back":
+            return f"{r[k]:,} ({r[k] / max(r['rays'], 1):.1%})"
+        if k == "differ":
+            return ", ".join(r[k]) or "none"
+        return f"{r[k]:,}" if isinstance(r[k], int) else str(r[k])
+
+    out(
+        _table(
+            [[cell(k, r) for k, _ in STRESS_COLUMNS] for r in rows], [h for _, h in STRESS_COLUMNS]
+        )
+    )
+    return rows
