@@ -276,7 +276,7 @@ fn hits_name_the_alternative_the_ray_crosses() {
         ids[next[j as usize] as usize] = k as u32;
         next[j as usize] += 1;
     }
-    let mut scene = Scene::build(pts, &tets, &faces, &named, tris.clone()).unwrap();
+    let mut scene = Scene::build(pts.clone(), &tets, &faces, &named, tris.clone()).unwrap();
 
     let n = 2000;
     let (mut o, mut d) = (Vec::new(), Vec::new());
@@ -321,29 +321,48 @@ fn hits_name_the_alternative_the_ray_crosses() {
         .set_alternatives(offsets.clone(), ids.clone())
         .unwrap();
     let after = methods.map(|m| score(&scene, m, "with"));
-    // The same rays with directions a thousandth as long, on robust: every answer right
-    // still. Whether a crossed named triangle is near enough to the face to be the answer
-    // without trying the alternatives is a distance along the ray, the same whatever the
-    // direction's length (a gap taken as a ratio of the two t's would pass the long rays).
-    let short: Vec<f64> = d.iter().map(|x| x * 1e-3).collect();
-    let res = cast::<f64>(&scene, &o, &short, |s, r, out| {
-        s.cast_named(
-            "robust",
-            crate::layout::LayoutKind::DEFAULT.name(),
-            r,
-            out,
-            &opts,
-        )
-    });
-    let name = "alternatives robust, short directions";
-    let c = tally(
-        name,
-        &verdicts(&o, &short, &tris),
-        &res.status,
-        &res.tri,
-        &res.t,
+    // The same rays with directions a thousandth and a thousand times as long, and in the
+    // scene made 128 times as large with directions 16 times as long (powers of two: the same
+    // geometry exactly), on robust: every answer
+    // right still. Whether a crossed named triangle is near enough to the face to be the
+    // answer without trying the alternatives is a distance along the ray (the gap in t times
+    // the direction's length) against the face's size, whatever the two scales: a gap taken
+    // as a ratio of the two t's would pass the short rays, one divided by the length the long
+    // ones, one plus the length the large scene's.
+    let robust_right = |scene: &Scene, o: &[f64], d: &[f64], tris: &[[[f64; 3]; 3]], what| {
+        let res = cast::<f64>(scene, o, d, |s, r, out| {
+            s.cast_named(
+                "robust",
+                crate::layout::LayoutKind::DEFAULT.name(),
+                r,
+                out,
+                &opts,
+            )
+        });
+        let name = format!("alternatives robust, {what}");
+        let c = tally(&name, &verdicts(o, d, tris), &res.status, &res.tri, &res.t);
+        assert_eq!(c.bad(), 0, "{name}: {c:?}");
+    };
+    for (k, what) in [(1e-3, "short directions"), (1e3, "long directions")] {
+        let scaled: Vec<f64> = d.iter().map(|x| x * k).collect();
+        robust_right(&scene, &o, &scaled, &tris, what);
+    }
+    let grow = |p: [f64; 3]| p.map(|x| x * 128.0);
+    let big_tris: Vec<[[f64; 3]; 3]> = tris.iter().map(|t| t.map(grow)).collect();
+    let big_pts: Vec<[f64; 3]> = pts.iter().map(|&p| grow(p)).collect();
+    let mut big = Scene::build(big_pts, &tets, &faces, &named, big_tris.clone()).unwrap();
+    big.set_alternatives(offsets.clone(), ids.clone()).unwrap();
+    let (big_o, big_d): (Vec<f64>, Vec<f64>) = (
+        o.iter().map(|x| x * 128.0).collect(),
+        d.iter().map(|x| x * 16.0).collect(),
     );
-    assert_eq!(c.bad(), 0, "{name}: {c:?}");
+    robust_right(
+        &big,
+        &big_o,
+        &big_d,
+        &big_tris,
+        "a scene 128 times as large",
+    );
     // Robust ends each hit on a face the ray crosses at t* (its exit faces are exact), so
     // without alternatives the named triangle, disjoint from that face, is never tied: no
     // hit is right (only the misses are). With them, every ray is right. The default
