@@ -485,9 +485,7 @@ def test_intersections_and_counts_on_the_gpu_are_the_cpu_exact_walk(spot, device
             c = referee.crossings(oo, dd, tmin, np.broadcast_to(tmax, n))
             judged = judge_lists(got.offsets, got.t, got.triangle, c)
             assert judged["right"].all(), (label, {k: int(x.sum()) for k, x in judged.items()})
-            count, status = spot.count_intersections(
-                oo, dd, device="gpu", return_status=True, **kw
-            )
+            count, status = spot.count_intersections(oo, dd, device="gpu", return_status=True, **kw)
             np.testing.assert_array_equal(count, np.diff(got.offsets), err_msg=label)
             np.testing.assert_array_equal(status, got.status, err_msg=label)
             # Teeth: rays that cross the surface several times and rays that cross nothing.

@@ -357,7 +357,7 @@ impl HostRays<'_> {
     /// above 0, or a NaN bound (`checked_range`). The kernels walk such rays from their origins
     /// all the same; the host then checks each ray's range.
     fn late(&self) -> bool {
-        let late = |tmin: f64, tmax: f64| !(tmin <= 0.0) || tmax.is_nan();
+        let late = |tmin: f64, tmax: f64| tmin > 0.0 || tmin.is_nan() || tmax.is_nan();
         match self {
             HostRays::Given(r) => {
                 r.tmin.iter().any(|&t| late(t, 0.0)) || r.tmax.iter().any(|&t| late(0.0, t))
@@ -570,7 +570,8 @@ impl DeviceScene {
                         let t = o.hit[0];
                         let (below, above) = (f64::from(t.next_down()), f64::from(t.next_up()));
                         match ray {
-                            Some(ray) if !(ray.tmin <= 0.0 || ray.tmin <= below) => {
+                            // (A NaN tmin was answered above: `unwalked`.)
+                            Some(ray) if ray.tmin > below.max(0.0) => {
                                 // Before tmin, or within an ulp of it: walked again.
                                 sent += 1;
                                 again(&ray, &mut st)

@@ -114,7 +114,7 @@ fn gpu_intersections_are_the_cpu_exact_walk() {
             // The batch began on the device, which finished no hit (the walk goes on).
             let one = what == "one origin";
             assert!(
-                t.shared_origin == one && t.own_origins == !one,
+                t.shared_origin == one && t.own_origins != one,
                 "{name}: {t:?}"
             );
             assert!(t.walked == n && t.finished == 0, "{name}: {t:?}");

@@ -95,7 +95,7 @@ fn gpu_occluded_is_the_cpu_exact_walk() {
             // The batch began on the device, which answered some rays itself.
             let one = what == "one origin";
             assert!(
-                t.shared_origin == one && t.own_origins == !one,
+                t.shared_origin == one && t.own_origins != one,
                 "{name}: {t:?}"
             );
             assert!(t.walked == n && t.finished > 0, "{name}: {t:?}");
