@@ -110,7 +110,7 @@ impl DeviceScene {
             let slack = device.scene.points_slack;
             let shared = cam
                 .fits_device()
-                .then(|| shared_at(scene, &rays.ray(0), &scene.closest(), slack))
+                .then(|| shared_at(scene, eye.map(f64::from), &scene.closest(), slack))
                 .flatten();
             match (shared, out.take()) {
                 (Some(shared), Some(o)) => self.cast_shared(

@@ -123,9 +123,9 @@ pub(crate) fn upload_locate_table(g: &Gpu, scene: &Scene) -> Result<LocateTable>
 }
 
 /// The uniform of a batch of rays with their own origins for the own-origin kernel, or None
-/// where it does not take them: rays from hits, a scene whose faces split the caller's triangles (an origin strictly inside a tet may then
-/// lie in a triangle's plane: the host's `origin_may_touch` asks), or one [`locate_uniform`]
-/// refuses. The caller sets the entry grid's sides, the hit table and the locate table's
+/// where it does not take them: rays from hits, a scene whose faces split the caller's
+/// triangles (an origin strictly inside a tet may then lie in a triangle's plane: the host's
+/// `origin_may_touch` asks), or one [`locate_uniform`] refuses. The caller sets the entry grid's sides, the hit table and the locate table's
 /// offset.
 pub(crate) fn own_origins(scene: &Scene, rays: &Rays<f32>, points_slack: f32) -> Option<Shared> {
     if rays.is_empty() || rays.leaving.is_some() || scene.incidence.split {
@@ -204,19 +204,18 @@ pub(crate) fn shared_origin(
         return None;
     }
     // The origin is located as for any range: the walk starts there whatever tmin is.
-    shared_at(scene, &rays.ray(0), query, points_slack)
+    shared_at(scene, o32.map(f64::from), query, points_slack)
 }
 
-/// [`shared_origin`] for rays known to share `ray0`'s origin (a camera's): None where the
-/// shared-origin kernel does not take them. Only the origin counts: each ray's range is the
-/// host's to apply (`cast_shared`).
+/// [`shared_origin`] for rays known to share the origin `o` (a camera's): None where the
+/// shared-origin kernel does not take them. Only the origin counts: each ray's direction and
+/// range are the host's to check (`cast_shared`).
 pub(crate) fn shared_at(
     scene: &Scene,
-    ray0: &crate::geom::ray::Ray,
+    o: [f64; 3],
     query: &ClosestHit,
     points_slack: f32,
 ) -> Option<Shared> {
-    let o = ray0.o;
     let o32 = o.map(|x| x as f32);
     if !o32.iter().all(|x| x.is_finite()) || o32.map(f64::from) != o {
         return None;
@@ -245,12 +244,12 @@ pub(crate) fn shared_at(
         // enters by; a ray ending before the box is the host's to skip (`cast_shared`).
         return Some(shared);
     }
-    // Inside: the start tet as the CPU exact walk locates it, for a ray from this origin
-    // (whatever its range, which location does not read: ray 0's might be one the CPU
-    // refuses, and from inside the box the walk starts at the origin).
+    // Inside: the start tet as the CPU exact walk locates it, for any ray from this origin
+    // (from inside the box, location reads neither the direction nor the range: a probe
+    // stands for the batch's rays, whose first might be one the CPU refuses).
     let locators = scene.locators();
     let mut st = LocateState::for_chunk(0);
-    let probe = crate::geom::ray::Ray::new(o, ray0.d, 0.0, f64::INFINITY);
+    let probe = crate::geom::ray::Ray::new(o, [1.0, 0.0, 0.0], 0.0, f64::INFINITY);
     let (s, _) = locators
         .locate_exact::<f64, Exact>(&probe, &mesh.points, &mut st)
         .ok()?;
