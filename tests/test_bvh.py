@@ -248,3 +248,47 @@ def test_exact_bvh_packets_answer_as_one_ray(precision):
     r = Referee(v, f).first_hits(o, d)
     score = agreement(scene.cast(o, d, accel="exact_bvh_packets"), r)
     assert score.right == score.rays == len(o), score
+
+
+@pytest.mark.parametrize("precision", PRECISIONS)
+def test_rays_from_one_origin_answer_as_one_ray(precision):
+    """Rays from one origin take the fan by default (``src/accel/exact_bvh/fan.rs``: a grid
+    over their directions, built per cast): a camera, and a sensor's sweep over the whole
+    sphere (every side of the fan's cube), from eyes around the model and one just off its
+    surface. Closest hits (every column), any hits and all hits equal the one-ray walk's
+    (``packet=False``) bit for bit, and the referee finds every closest hit and every list
+    right."""
+    from tetrace.dev.camera import orbit_views, pinhole
+
+    scene = tetrace.default_scene()
+    v, f = scene.vertices, scene.faces
+    box = np.array([v.min(0), v.max(0)])
+    dtype = np.float32 if precision == "f32" else np.float64
+    referee = Referee(v, f)
+    # Enough rays that the default takes the fan (at least 1024, and half the triangles).
+    sphere = np.random.default_rng(11).normal(size=(4 * len(f), 3))
+    normal = np.cross(v[f[0, 1]] - v[f[0, 0]], v[f[0, 2]] - v[f[0, 0]])
+    near = v[f[0]].mean(0) + 1e-3 * normal / np.linalg.norm(normal)
+    sets = []
+    for eye, target, up in orbit_views(box, n=3, distance=1.6):
+        o, d = pinhole(eye, target, up, fov_deg=40.0, width=96, height=64, dtype=dtype)
+        sets.append((o.reshape(-1, 3), d.reshape(-1, 3)))
+    for eye in (box[1] + (box[1] - box[0]), near):
+        sets.append((np.tile(eye, (len(sphere), 1)).astype(dtype), sphere.astype(dtype)))
+    hits = 0
+    for o, d in sets:
+        fan, one = scene.cast(o, d), scene.cast(o, d, packet=False)
+        for field in ("status", "t", "triangle", "u", "v", "point", "normal"):
+            np.testing.assert_array_equal(getattr(fan, field), getattr(one, field), field)
+        np.testing.assert_array_equal(scene.occluded(o, d), scene.occluded(o, d, packet=False))
+        lists, lists1 = scene.intersections(o, d), scene.intersections(o, d, packet=False)
+        for field in ("offsets", "t", "triangle", "point", "status"):
+            np.testing.assert_array_equal(getattr(lists, field), getattr(lists1, field), field)
+        score = agreement(fan, referee.first_hits(o, d))
+        assert score.right == score.rays == len(o), score
+        masks = judge_lists(
+            lists.offsets, lists.t, lists.triangle, referee.crossings(o, d), status=lists.status
+        )
+        assert masks["right"].all(), {k: int(m.sum()) for k, m in masks.items()}
+        hits += int((fan.status == HIT).sum())
+    assert hits > 5000, hits

@@ -489,8 +489,11 @@ packet : bool
     Let rays that share an origin (a camera, rays from one point) walk as packets
     where the method allows (the ``exact`` default): a chunk of rays is taken as
     sharing one when its first two rays do, and a packet steps once for all its
-    rays while every ray leaves a tet by the same face, exactly. Answers are the
-    same, bit for bit, either way; ``False`` walks every ray on its own.
+    rays while every ray leaves a tet by the same face, exactly. On ``"exact_bvh"``
+    (the CPU default), a batch of at least 1,024 rays (and half as many as the scene has
+    triangles) that all start from one point is answered through a grid over its
+    directions built for the cast (docs/bvh.md, "The fan"). Answers are the same, bit
+    for bit, either way; ``False`` walks every ray on its own.
 accel : str, optional
     Acceleration structure, one of :func:`tetrace.accels`. None (the default) takes
     ``"exact_bvh"`` on the CPU for the ``exact`` method with no ``layout`` named (an

@@ -1310,8 +1310,10 @@ impl ExactBvhAt<'_> {
     }
 }
 
+mod fan;
 mod packets;
 pub mod ray_parity;
+pub use fan::Fan;
 pub use packets::{ExactBvhPackets, PacketState};
 
 #[cfg(test)]

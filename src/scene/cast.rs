@@ -2,7 +2,8 @@
 //! monomorphized walk, run over 4096-ray chunks on the threads asked for.
 
 use super::{check_lengths, check_ray_count, HitsOut, Rays, Scene};
-use crate::accel::{Accel, AccelVisitor, TetWalk};
+use crate::accel::exact_bvh::Fan;
+use crate::accel::{Accel, AccelVisitor, ExactBvh, TetWalk};
 pub use crate::accel::{AccelKind, Lanes, Packets};
 use crate::error::{Error, Result};
 use crate::geom::real::Real;
@@ -93,6 +94,22 @@ pub fn cast_accel<R: Real, W: Real, A: Accel<W>, K: QueryKind, S: Sink<K::Answer
     };
     let pieces: Vec<_> = chunks(out, CHUNK).into_iter().enumerate().collect();
     run_pieces(pieces, threads, run_chunk)
+}
+
+/// The fewest rays from one origin that the exact BVH's default answers through the fan
+/// (`accel::exact_bvh::Fan`) rather than ray by ray.
+pub const FAN_MIN_RAYS: usize = 1024;
+
+/// The origin every ray of `rays` starts from (None: some differ, or rays start from hits).
+fn shared_origin<R: Real>(rays: &Rays<R>) -> Option<[f64; 3]> {
+    if rays.leaving.is_some() || rays.is_empty() {
+        return None;
+    }
+    let first = &rays.origins[..3];
+    rays.origins
+        .chunks_exact(3)
+        .all(|o| o == first)
+        .then(|| [0, 1, 2].map(|a| first[a].to_f64()))
 }
 
 /// What a cast writes: closest hits, any-hit statuses, or every hit.
@@ -225,6 +242,21 @@ impl Scene {
                 opts.accel.name(),
                 method.name()
             )));
+        }
+        if opts.accel == AccelKind::ExactBvh && opts.packets == Packets::Auto {
+            if let Some(o) = shared_origin(rays) {
+                let bvh = self.structures.get::<ExactBvh>(&self.surface.triangles)?;
+                // The fan's build reads every triangle once: it pays for batches with more
+                // rays than about half the triangles.
+                if rays.len() >= FAN_MIN_RAYS && 2 * rays.len() >= bvh.triangles.len() {
+                    let d = rays.directions;
+                    let dir = |i: usize| [0, 1, 2].map(|k| d[3 * i + k].to_f64());
+                    let simd = opts.simd_level()?;
+                    if let Some(fan) = Fan::build(&bvh, simd, o, rays.len(), &dir, opts.threads) {
+                        return self.cast_job(&fan, rays, job, opts);
+                    }
+                }
+            }
         }
         let visit = CastOn {
             scene: self,

@@ -764,6 +764,162 @@ fn two_rays_walked_in_turn_answer_as_one_ray_walks() {
     assert!(hits > n / 3, "{hits} hits of {} rays", 2 * n);
 }
 
+/// The fan (a batch from one origin answered through a grid over its directions,
+/// `fan.rs`) answers as the one-ray walk, bit for bit: on the unjittered grid scene (every
+/// plane an axis or diagonal plane: rays through vertices, along edges, in faces' planes,
+/// exactly), from origins inside (on a vertex, an edge, a face), outside and far from the
+/// box, towards every grid point and eight dyadic offsets of it, some directions scaled by
+/// 1e-30 and 1e30, with and without windows; closest hits in both precisions, any hits and
+/// all hits. The default (packets on) takes the fan wherever it builds; the batches are sized
+/// so that it is offered.
+#[test]
+fn the_fan_answers_as_one_ray_walks() {
+    use crate::scene::cast::FAN_MIN_RAYS;
+    use crate::testing::{grid_scene_inside, windows};
+    let mut rng = Rng::xorshift(87);
+    let g = grid_scene_inside(&mut rng, 4, 0.0, 0.35);
+    let bvh = g
+        .scene
+        .structures
+        .get::<ExactBvh>(&g.scene.surface.triangles)
+        .unwrap();
+    let t = &g.tris[g.tris.len() / 2];
+    let mid = |a: [f64; 3], b: [f64; 3]| [0, 1, 2].map(|k| (a[k] + b[k]) * 0.5);
+    let origins = [
+        g.pts[31],
+        g.pts[62],
+        mid(t[0], t[1]),
+        [0, 1, 2].map(|k| (t[0][k] + t[1][k] + 2.0 * t[2][k]) * 0.25),
+        [0.375, 0.625, 0.4375],
+        [-0.5, 0.3, 0.6],
+        [0.5, 0.5, 3.0],
+        [1.75, -0.25, 1.25],
+        [1e6, 2e6 + 0.5, -3e6],
+    ];
+    let e = 0.125;
+    let offsets = [
+        [0.0; 3],
+        [e, 0.0, 0.0],
+        [0.0, e, 0.0],
+        [0.0, 0.0, e],
+        [e, e, 0.0],
+        [0.0, e, e],
+        [e, 0.0, e],
+        [e, e, e],
+        [-e / 2.0, e / 4.0, 3.0 * e / 8.0],
+    ];
+    let (mut built, mut always, mut hits) = (0, 0, 0);
+    for o in origins {
+        let mut rays = Vec::new();
+        for q in &g.pts {
+            for off in offsets {
+                let d = [0, 1, 2].map(|k| q[k] + off[k] - o[k]);
+                let scale = [1.0, 1e-30, 1.0, 1e30, 1.0][rays.len() % 5];
+                if d != [0.0; 3] {
+                    rays.push((o, d.map(|x| x * scale)));
+                }
+            }
+        }
+        let n = rays.len();
+        assert!(
+            n >= FAN_MIN_RAYS && 2 * n >= bvh.triangles.len(),
+            "{n} rays"
+        );
+        if let Some(fan) = Fan::build(&bvh, Simd::Scalar, o, n, &|i| rays[i].1, None) {
+            built += 1;
+            always += fan.always();
+        }
+        let set = RaySet::new(&rays);
+        let opts = |packets| CastOptions {
+            accel: AccelKind::ExactBvh,
+            packets,
+            ..Default::default()
+        };
+        for window in [false, true] {
+            let (tmin, tmax) = if window {
+                windows(&rays, 0.25)
+            } else {
+                (vec![0.0; n], vec![f64::INFINITY; n])
+            };
+            let (r64, r32) = set.rays(&tmin, &tmax);
+            let one = Answers::of(&g.scene, &r64, &r32, &opts(Packets::Off));
+            hits += one.hits();
+            let fan = Answers::of(&g.scene, &r64, &r32, &opts(Packets::Auto));
+            one.assert_same(&fan, false, &format!("origin {o:?} window {window}"));
+        }
+    }
+    // The fan was built from most origins, some of them with triangles every ray tests.
+    assert!(
+        built >= 6 && always > 0,
+        "fan built from {built} origins, {always} always"
+    );
+    assert!(hits > 2000, "{hits} hits");
+}
+
+/// The fan's placement holds every ray that meets a triangle: on grids so fine (cells of
+/// 2^-40 and 2^-52 of the rays' spread) that a rounding of either side moves a cell, the cell
+/// a ray from the origin falls in (as the cast finds it) lies in the cells listed for every
+/// triangle the ray meets (`Line::meets`, exact). Triangles with two corners on one line
+/// through the origin (an edge that projects to a point, ahead of the origin or across it),
+/// straddling w = 0 or not; rays aimed at their corners, at points of their
+/// edges, and inside, with directions scaled by odd factors so that their roundings differ
+/// from the corners'.
+#[test]
+fn the_fan_lists_every_triangle_a_ray_meets() {
+    use super::fan::{cell_of_test, place_test};
+    let mut rng = Rng::xorshift(88);
+    let o = [0.3, -0.2, 0.1];
+    let (mut met, mut straddling) = (0, 0);
+    for _ in 0..4000 {
+        // A corner ahead of o, one on its line from o, and one anywhere near.
+        let p0 = [0, 1, 2].map(|k| o[k] + rng.f() * 2.0 - 1.0);
+        // On the line, ahead of o or behind it.
+        let s = [-1.5, -0.4, 0.25, 0.5, 2.0, 3.0][(rng.f() * 6.0) as usize] + rng.f() * 0.1;
+        let p1 = [0, 1, 2].map(|k| o[k] + (p0[k] - o[k]) * s);
+        let spread = [0.25, 2.0][(rng.f() * 2.0) as usize];
+        let p2 = [0, 1, 2].map(|k| p0[k] + (rng.f() - 0.5) * spread);
+        let mut tri = [p0, p1, p2];
+        tri.swap(0, (rng.f() * 3.0) as usize);
+        let w = [rng.f(), rng.f(), rng.f()];
+        let sum = w[0] + w[1] + w[2];
+        let aims = [
+            tri[0],
+            tri[1],
+            [0, 1, 2].map(|k| (tri[0][k] + tri[1][k]) * 0.5),
+            [0, 1, 2].map(|k| (tri[1][k] + tri[2][k]) * 0.5),
+            [0, 1, 2].map(|k| (w[0] * tri[0][k] + w[1] * tri[1][k] + w[2] * tri[2][k]) / sum),
+        ];
+        for aim in aims {
+            let scale = [1.0, 3.0, 0.7, 1e-3, 12345.678][(rng.f() * 5.0) as usize];
+            let d = [0, 1, 2].map(|k| (aim[k] - o[k]) * scale);
+            let ray = Ray::new(o, d, 0.0, f64::INFINITY);
+            let Ok(line) = Line::new(&ray) else { continue };
+            if !line.meets(&tri) {
+                continue;
+            }
+            met += 1;
+            for fine in [2f64.powi(-40), 2f64.powi(-52)] {
+                let Some((side, cells, grid)) = cell_of_test(d, fine) else {
+                    continue;
+                };
+                let (placed, straddles) = place_test(o, side, &tri, grid);
+                straddling += straddles as usize;
+                match placed {
+                    None => {} // tested by every ray of the side
+                    Some([c0, c1]) => assert!(
+                        (0..2).all(|i| c0[i] <= cells[i] && cells[i] <= c1[i]),
+                        "triangle {tri:?}, ray {d:?}: cell {cells:?} not in {c0:?}..={c1:?}"
+                    ),
+                }
+            }
+        }
+    }
+    assert!(
+        met > 5000 && straddling > 500,
+        "{met} rays met, {straddling} straddling"
+    );
+}
+
 /// Float64 values as bits (NaN and -0 compared exactly).
 fn bits(x: &[f64]) -> Vec<u64> {
     x.iter().map(|x| x.to_bits()).collect()
