@@ -563,7 +563,7 @@ fn the_leaf_filter_leaves_out_only_triangles_the_ray_misses() {
 /// precisions, any hits and all hits equal those of the one-ray walk at every SIMD level.
 #[test]
 fn packets_answer_as_one_ray_walks() {
-    use crate::testing::{grid_scene_inside, windows};
+    use crate::testing::grid_scene_inside;
     let mut rng = Rng::xorshift(84);
     let g = grid_scene_inside(&mut rng, 4, 0.0, 0.35);
     let mut rays = Vec::new();
@@ -597,11 +597,7 @@ fn packets_answer_as_one_ray_walks() {
     };
     let mut hits = 0;
     for window in [false, true] {
-        let (tmin, tmax) = if window {
-            windows(&rays, 0.25)
-        } else {
-            (vec![0.0; n], vec![f64::INFINITY; n])
-        };
+        let (tmin, tmax) = window_or_all(&rays, window);
         let (r64, r32) = set.rays(&tmin, &tmax);
         let cast = |opts: &CastOptions| Answers::of(&g.scene, &r64, &r32, opts);
         let one = cast(&opts(AccelKind::ExactBvh, Simd::Scalar));
@@ -775,7 +771,7 @@ fn two_rays_walked_in_turn_answer_as_one_ray_walks() {
 #[test]
 fn the_fan_answers_as_one_ray_walks() {
     use crate::scene::cast::FAN_MIN_RAYS;
-    use crate::testing::{grid_scene_inside, windows};
+    use crate::testing::grid_scene_inside;
     let mut rng = Rng::xorshift(87);
     let g = grid_scene_inside(&mut rng, 4, 0.0, 0.35);
     let bvh = g
@@ -836,11 +832,7 @@ fn the_fan_answers_as_one_ray_walks() {
             ..Default::default()
         };
         for window in [false, true] {
-            let (tmin, tmax) = if window {
-                windows(&rays, 0.25)
-            } else {
-                (vec![0.0; n], vec![f64::INFINITY; n])
-            };
+            let (tmin, tmax) = window_or_all(&rays, window);
             let (r64, r32) = set.rays(&tmin, &tmax);
             let one = Answers::of(&g.scene, &r64, &r32, &opts(Packets::Off));
             hits += one.hits();
@@ -918,6 +910,15 @@ fn the_fan_lists_every_triangle_a_ray_meets() {
         met > 5000 && straddling > 500,
         "{met} rays met, {straddling} straddling"
     );
+}
+
+/// The rays' ranges: each its window (`testing::windows`, from a quarter) or [0, ∞).
+fn window_or_all(rays: &[crate::testing::Ray6], window: bool) -> (Vec<f64>, Vec<f64>) {
+    if window {
+        crate::testing::windows(rays, 0.25)
+    } else {
+        (vec![0.0; rays.len()], vec![f64::INFINITY; rays.len()])
+    }
 }
 
 /// Float64 values as bits (NaN and -0 compared exactly).
