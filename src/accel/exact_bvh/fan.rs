@@ -113,9 +113,6 @@ struct Side {
     always: Vec<u32>,
 }
 
-/// A side's grid and the triangles it lists (leaf order), as a side's build makes them.
-type Listed = (Side, Vec<u32>);
-
 /// A triangle's place on a side: listed in cells `c0..=c1` (per axis) with its w bound, tested
 /// by every ray, or behind.
 enum Place {
@@ -217,8 +214,8 @@ pub struct Fan<'a> {
     pub simd: crate::simd::Simd,
     o: [f64; 3],
     sides: [Option<Side>; 6],
-    /// Per triangle a side lists (by leaf order; zeros elsewhere), its edges' terms that
-    /// depend on the origin alone ([`edge_terms`]).
+    /// Per triangle (by leaf order), its edges' terms that depend on the origin alone
+    /// ([`edge_terms`]).
     edges: Vec<[[f64; 6]; 3]>,
     /// Triangle entries over all cells (a measure of the build).
     pub entries: usize,
@@ -279,63 +276,75 @@ impl<'a> Fan<'a> {
         dir: &(impl Fn(usize) -> [f64; 3] + Sync),
         threads: Option<usize>,
     ) -> Option<Fan<'a>> {
-        use std::sync::Mutex;
         if !o.iter().all(|x| x.is_finite()) {
             return None;
         }
-        // Per side: its rays' count and the box of their (u, v), over pieces of the rays on
-        // the cast's threads.
+        crate::threads::install(threads, || Fan::build_here(bvh, simd, o, n, dir))
+            .ok()
+            .flatten()
+    }
+
+    /// [`Fan::build`] inside the cast's pool: every stage split over its threads (a camera
+    /// puts most of its rays on one side, so a thread per side left the others idle).
+    fn build_here(
+        bvh: &'a ExactBvh,
+        simd: crate::simd::Simd,
+        o: [f64; 3],
+        n: usize,
+        dir: &(impl Fn(usize) -> [f64; 3] + Sync),
+    ) -> Option<Fan<'a>> {
+        use rayon::prelude::*;
+        // Per side: its rays' count and the box of their (u, v), over pieces of the rays.
         type Boxes = ([usize; 6], [[f64; 2]; 6], [[f64; 2]; 6]);
         let empty: Boxes = ([0; 6], [[f64::INFINITY; 2]; 6], [[f64::NEG_INFINITY; 2]; 6]);
-        let merged = Mutex::new(empty);
-        const PIECE: usize = 1 << 16;
-        let pieces: Vec<usize> = (0..n.div_ceil(PIECE)).collect();
-        crate::threads::run_pieces(pieces, threads, |p| {
-            let (mut count, mut lo, mut hi) = empty;
-            for i in p * PIECE..(n.min((p + 1) * PIECE)) {
-                if let Some((s, u, v)) = project(dir(i)) {
-                    count[s] += 1;
-                    lo[s] = [lo[s][0].min(u), lo[s][1].min(v)];
-                    hi[s] = [hi[s][0].max(u), hi[s][1].max(v)];
+        const PIECE: usize = 1 << 14;
+        fn merge(b: &mut Boxes, (s, count, lo, hi): (usize, usize, [f64; 2], [f64; 2])) {
+            if s < 6 {
+                b.0[s] += count;
+                b.1[s] = [b.1[s][0].min(lo[0]), b.1[s][1].min(lo[1])];
+                b.2[s] = [b.2[s][0].max(hi[0]), b.2[s][1].max(hi[1])];
+            }
+        }
+        let (count, lo, hi) = (0..n.div_ceil(PIECE))
+            .into_par_iter()
+            .map(|p| {
+                let mut boxes = empty;
+                // A run of rays on one side (consecutive rays mostly are) grows its box in
+                // registers, merged into the side's where the run ends: indexed by side ray by
+                // ray, each update waited for the last one's store.
+                let mut run = (usize::MAX, 0, [f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+                for i in p * PIECE..(n.min((p + 1) * PIECE)) {
+                    if let Some((s, u, v)) = project(dir(i)) {
+                        if s != run.0 {
+                            merge(&mut boxes, run);
+                            run = (s, 0, [u, v], [u, v]);
+                        }
+                        run.1 += 1;
+                        run.2 = [run.2[0].min(u), run.2[1].min(v)];
+                        run.3 = [run.3[0].max(u), run.3[1].max(v)];
+                    }
                 }
-            }
-            let mut m = merged.lock().unwrap_or_else(|e| e.into_inner());
-            for s in 0..6 {
-                m.0[s] += count[s];
-                m.1[s] = [m.1[s][0].min(lo[s][0]), m.1[s][1].min(lo[s][1])];
-                m.2[s] = [m.2[s][0].max(hi[s][0]), m.2[s][1].max(hi[s][1])];
-            }
-        })
-        .ok()?;
-        let (count, lo, hi) = merged.into_inner().unwrap_or_else(|e| e.into_inner());
-        // The sides with rays, each on a thread.
-        let built: Mutex<Vec<(usize, Option<Listed>)>> = Mutex::new(Vec::new());
-        let todo: Vec<usize> = (0..6).filter(|&s| count[s] > 0).collect();
-        crate::threads::run_pieces(todo, threads, |s| {
-            let side = Fan::side(bvh, o, s, count[s], (lo[s], hi[s]));
-            built
-                .lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .push((s, side));
-        })
-        .ok()?;
+                merge(&mut boxes, run);
+                boxes
+            })
+            .reduce(
+                || empty,
+                |mut boxes, (c, l, h)| {
+                    for s in 0..6 {
+                        merge(&mut boxes, (s, c[s], l[s], h[s]));
+                    }
+                    boxes
+                },
+            );
         let mut sides: [Option<Side>; 6] = Default::default();
         let mut entries = 0;
-        let mut listed = vec![false; bvh.triangles.len()];
-        for (s, side) in built.into_inner().unwrap_or_else(|e| e.into_inner()) {
-            let (side, ids) = side?;
-            for j in ids {
-                listed[j as usize] = true;
-            }
+        for s in (0..6).filter(|&s| count[s] > 0) {
+            let side = Fan::side(bvh, o, s, count[s], (lo[s], hi[s]))?;
             entries += side.items.len();
             sides[s] = Some(side);
         }
-        let mut edges = vec![[[0.0; 6]; 3]; bvh.triangles.len()];
-        for (j, tri) in bvh.triangles.iter().enumerate() {
-            if listed[j] {
-                edges[j] = edge_terms(o, tri);
-            }
-        }
+        // Every triangle's (one not listed costs a few products, less than finding which are).
+        let edges = bvh.triangles.par_iter().map(|t| edge_terms(o, t)).collect();
         Some(Fan {
             bvh,
             simd,
@@ -351,14 +360,16 @@ impl<'a> Fan<'a> {
         self.sides.iter().flatten().map(|s| s.always.len()).sum()
     }
 
-    /// Side `s`'s grid for its `rays` rays in the box `lo..hi` of their (u, v).
+    /// Side `s`'s grid for its `rays` rays in the box `lo..hi` of their (u, v), built on the
+    /// current pool's threads.
     fn side(
         bvh: &ExactBvh,
         o: [f64; 3],
         s: usize,
         rays: usize,
         (lo, hi): ([f64; 2], [f64; 2]),
-    ) -> Option<Listed> {
+    ) -> Option<Side> {
+        use rayon::prelude::*;
         let a = s / 2;
         let axes = [a, (a + 1) % 3, (a + 2) % 3];
         let sign = if s.is_multiple_of(2) { 1.0 } else { -1.0 };
@@ -379,6 +390,7 @@ impl<'a> Fan<'a> {
         // Fewer cells where the triangles' boxes cover too many: entries at most a few per ray
         // and per triangle.
         let budget = 8 * rays + 4 * bvh.triangles.len();
+        const CHUNK: usize = 1 << 12;
         loop {
             let k = [0, 1].map(|i| {
                 if extent[i] > 0.0 {
@@ -387,24 +399,33 @@ impl<'a> Fan<'a> {
                     0.0
                 }
             });
-            let mut placed: Vec<([usize; 2], [usize; 2], f32, u32)> = Vec::new();
-            let mut always = Vec::new();
-            let mut total = 0usize;
-            for (j, tri) in bvh.triangles.iter().enumerate() {
-                match Side::place(o, axes, sign, tri, (lo, hi), (k, n)) {
-                    Place::Cells(c0, c1, wlo) => {
-                        total += (c1[0] - c0[0] + 1) * (c1[1] - c0[1] + 1);
-                        placed.push((c0, c1, wlo, j as u32));
-                    }
-                    Place::Always => {
-                        always.push(j as u32);
-                        if always.len() > MAX_ALWAYS {
-                            return None;
+            // Placed in chunks of triangles, in parallel, and joined in the triangles' order.
+            type Part = (Vec<([usize; 2], [usize; 2], f32, u32)>, Vec<u32>, usize);
+            let parts: Vec<Part> = bvh
+                .triangles
+                .par_chunks(CHUNK)
+                .enumerate()
+                .map(|(c, tris)| {
+                    let (mut placed, mut always, mut total) = (Vec::new(), Vec::new(), 0);
+                    for (i, tri) in tris.iter().enumerate() {
+                        let j = (c * CHUNK + i) as u32;
+                        match Side::place(o, axes, sign, tri, (lo, hi), (k, n)) {
+                            Place::Cells(c0, c1, wlo) => {
+                                total += (c1[0] - c0[0] + 1) * (c1[1] - c0[1] + 1);
+                                placed.push((c0, c1, wlo, j));
+                            }
+                            Place::Always => always.push(j),
+                            Place::Behind => {}
                         }
                     }
-                    Place::Behind => {}
-                }
+                    (placed, always, total)
+                })
+                .collect();
+            let always: Vec<u32> = parts.iter().flat_map(|p| p.1.iter().copied()).collect();
+            if always.len() > MAX_ALWAYS {
+                return None;
             }
+            let total: usize = parts.iter().map(|p| p.2).sum();
             if total > budget && n != [1, 1] {
                 n = n.map(|x| x.div_ceil(2));
                 continue;
@@ -412,57 +433,81 @@ impl<'a> Fan<'a> {
             if total >= u32::MAX as usize {
                 return None;
             }
-            let listed = placed
-                .iter()
-                .map(|p| p.3)
-                .chain(always.iter().copied())
-                .collect();
-            // Filled by the row, then column, of each triangle's first cell: the writes then
-            // move through the lists as the triangles do (in leaf order they scattered over
-            // memory several times the cache, a miss per entry).
-            placed.sort_unstable_by_key(|p| (p.0[1], p.0[0]));
+            let mut placed = Vec::with_capacity(parts.iter().map(|p| p.0.len()).sum());
+            for p in parts {
+                placed.extend(p.0);
+            }
+            // Nearest bound first: each cell's list, filled in this order, comes out sorted
+            // (one sort of the triangles, not one of every cell's entries: those cost more than
+            // the rest of the build).
+            placed.par_sort_unstable_by(|x, y| x.2.total_cmp(&y.2).then(x.3.cmp(&y.3)));
+            // Bands of rows, several a thread: each counts, then fills, its own cells (a band's
+            // lists fit a core's cache as they are written, in the triangles' order).
+            let rows = n[1].div_ceil(4 * rayon::current_num_threads());
+            let bands = n[1].div_ceil(rows);
+            let band = |b: usize| {
+                let (r0, r1) = (b * rows, ((b + 1) * rows).min(n[1]));
+                let over = placed.iter().filter(move |p| p.0[1] < r1 && p.1[1] >= r0);
+                (
+                    r0,
+                    r1,
+                    over.map(move |&(c0, c1, wlo, j)| {
+                        (c0[0]..=c1[0], c0[1].max(r0)..=c1[1].min(r1 - 1), wlo, j)
+                    }),
+                )
+            };
             let ncells = n[0] * n[1];
             let mut start = vec![0u32; ncells + 1];
-            for &(c0, c1, _, _) in &placed {
-                for cv in c0[1]..=c1[1] {
-                    for cu in c0[0]..=c1[0] {
-                        start[cv * n[0] + cu + 1] += 1;
+            start[1..]
+                .par_chunks_mut(rows * n[0])
+                .enumerate()
+                .for_each(|(b, counts)| {
+                    let (r0, _, over) = band(b);
+                    for (us, vs, _, _) in over {
+                        for cv in vs {
+                            for cu in us.clone() {
+                                counts[(cv - r0) * n[0] + cu] += 1;
+                            }
+                        }
                     }
-                }
-            }
+                });
             for i in 0..ncells {
                 start[i + 1] += start[i];
             }
-            let mut fill: Vec<u32> = start[..ncells].to_vec();
             let mut items = vec![(0f32, 0u32); total];
-            for &(c0, c1, wlo, j) in &placed {
-                for cv in c0[1]..=c1[1] {
-                    for cu in c0[0]..=c1[0] {
-                        let f = &mut fill[cv * n[0] + cu];
-                        items[*f as usize] = (wlo, j);
-                        *f += 1;
+            let mut slices = Vec::with_capacity(bands);
+            let mut rest = &mut items[..];
+            for b in 0..bands {
+                let (r0, r1) = (b * rows, ((b + 1) * rows).min(n[1]));
+                let len = (start[r1 * n[0]] - start[r0 * n[0]]) as usize;
+                let (here, later) = rest.split_at_mut(len);
+                slices.push(here);
+                rest = later;
+            }
+            slices.into_par_iter().enumerate().for_each(|(b, out)| {
+                let (r0, r1, over) = band(b);
+                let (c0, c1) = (r0 * n[0], r1 * n[0]);
+                let base = start[c0];
+                let mut fill: Vec<u32> = start[c0..c1].iter().map(|&x| x - base).collect();
+                for (us, vs, wlo, j) in over {
+                    for cv in vs {
+                        for cu in us.clone() {
+                            let f = &mut fill[cv * n[0] + cu - c0];
+                            out[*f as usize] = (wlo, j);
+                            *f += 1;
+                        }
                     }
                 }
-            }
-            // Nearest bound first within every cell (each cell's few sorted where they lie).
-            for c in 0..ncells {
-                let cell = &mut items[start[c] as usize..start[c + 1] as usize];
-                if cell.len() > 1 {
-                    cell.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
-                }
-            }
-            return Some((
-                Side {
-                    axes,
-                    lo,
-                    k,
-                    n,
-                    start,
-                    items,
-                    always,
-                },
-                listed,
-            ));
+            });
+            return Some(Side {
+                axes,
+                lo,
+                k,
+                n,
+                start,
+                items,
+                always,
+            });
         }
     }
 
@@ -587,6 +632,15 @@ impl Accel<f64> for Fan<'_> {
                     Ok((tmin, tmax)) => {
                         let line = Line::within(ray, tmin, tmax);
                         let at = self.cell_of(&line);
+                        if let Some((s, items, _)) = &at {
+                            // The cell's first entries, read by the next pass: a ray's first
+                            // read of its cell waited for memory (a tenth of the walk).
+                            if let Some(side) = &self.sides[*s] {
+                                crate::layout::prefetch(
+                                    side.items.as_ptr().wrapping_add(items.start),
+                                );
+                            }
+                        }
                         ready[count].write((line, first + k, at));
                         count += 1;
                     }

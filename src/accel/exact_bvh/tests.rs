@@ -826,18 +826,26 @@ fn the_fan_answers_as_one_ray_walks() {
             always += fan.always();
         }
         let set = RaySet::new(&rays);
-        let opts = |packets| CastOptions {
+        // The fan built on one thread and on three (its stages split over them).
+        let opts = |packets, threads| CastOptions {
             accel: AccelKind::ExactBvh,
             packets,
+            threads: Some(threads),
             ..Default::default()
         };
         for window in [false, true] {
             let (tmin, tmax) = window_or_all(&rays, window);
             let (r64, r32) = set.rays(&tmin, &tmax);
-            let one = Answers::of(&g.scene, &r64, &r32, &opts(Packets::Off));
+            let one = Answers::of(&g.scene, &r64, &r32, &opts(Packets::Off, 1));
             hits += one.hits();
-            let fan = Answers::of(&g.scene, &r64, &r32, &opts(Packets::Auto));
-            one.assert_same(&fan, false, &format!("origin {o:?} window {window}"));
+            for threads in [1, 3] {
+                let fan = Answers::of(&g.scene, &r64, &r32, &opts(Packets::Auto, threads));
+                one.assert_same(
+                    &fan,
+                    false,
+                    &format!("origin {o:?} window {window} threads {threads}"),
+                );
+            }
         }
     }
     // The fan was built from most origins, some of them with triangles every ray tests.
