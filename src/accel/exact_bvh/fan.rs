@@ -632,15 +632,6 @@ impl Accel<f64> for Fan<'_> {
                     Ok((tmin, tmax)) => {
                         let line = Line::within(ray, tmin, tmax);
                         let at = self.cell_of(&line);
-                        if let Some((s, items, _)) = &at {
-                            // The cell's first entries, read by the next pass: a ray's first
-                            // read of its cell waited for memory (a tenth of the walk).
-                            if let Some(side) = &self.sides[*s] {
-                                crate::layout::prefetch(
-                                    side.items.as_ptr().wrapping_add(items.start),
-                                );
-                            }
-                        }
                         ready[count].write((line, first + k, at));
                         count += 1;
                     }
