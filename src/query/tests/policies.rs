@@ -2,6 +2,7 @@
 //! counting exact crossings; the exact walk where float walks fail.
 
 use super::*;
+use crate::accel::AccelKind;
 
 /// Any hit says HIT exactly when closest hit does (the first face met is the nearest), and both
 /// agree with the exact referee on whether something lies within [0, tmax].
@@ -242,10 +243,12 @@ fn exact_walk_is_right_where_float_walks_fail() {
 }
 
 /// All hits and counts agree with the exact referee's crossings of every triangle: the distinct
-/// exact t in [tmin, tmax] (a point where several triangles meet the ray is one point), each
-/// listed once with a triangle met there and t within the referee's bound; and occlusion
-/// agrees with the first hit. On the degenerate rays of [`exact_case_rays`] (through vertices,
-/// along edges, in planes, from the surface), with and without a [tmin, tmax] window.
+/// exact t in [tmin, tmax] (a point where several triangles meet the ray is one point), each listed
+/// once, named by the smallest id of the triangles met there (the closest hit's tie rule), with t
+/// within the referee's bound; and occlusion agrees with the first hit. On the tet walk
+/// (`AllPolicy`) and the exact BVH (`Every`), each naming a shared point itself. On the degenerate
+/// rays of [`exact_case_rays`] (through vertices, along edges, in planes, from the surface), with
+/// and without a [tmin, tmax] window.
 #[test]
 fn all_hits_counts_and_occlusion_agree_with_the_referee() {
     let mut rng = Rng::xorshift(61);
@@ -255,7 +258,14 @@ fn all_hits_counts_and_occlusion_agree_with_the_referee() {
     let o: Vec<f64> = rays.iter().flat_map(|r| r.0).collect();
     let d: Vec<f64> = rays.iter().flat_map(|r| r.1).collect();
     let (mut shared, mut points) = (0, 0);
-    for window in [false, true] {
+    for (accel, window) in [AccelKind::TetWalk, AccelKind::ExactBvh]
+        .into_iter()
+        .flat_map(|a| [(a, false), (a, true)])
+    {
+        let opts = CastOptions {
+            accel,
+            ..Default::default()
+        };
         let (tmin, tmax): (Vec<f64>, Vec<f64>) = if window {
             crate::testing::windows(&rays, 0.25)
         } else {
@@ -269,9 +279,7 @@ fn all_hits_counts_and_occlusion_agree_with_the_referee() {
             leaving: None,
         };
         let mut listed = vec![crate::query::Listed::default(); n];
-        g.scene
-            .intersections(&r, &mut listed, &CastOptions::default())
-            .unwrap();
+        g.scene.intersections(&r, &mut listed, &opts).unwrap();
         let mut occluded = vec![0u8; n];
         g.scene
             .occluded(
@@ -279,7 +287,7 @@ fn all_hits_counts_and_occlusion_agree_with_the_referee() {
                 LayoutKind::DEFAULT,
                 &r,
                 &mut occluded,
-                &CastOptions::default(),
+                &opts,
             )
             .unwrap();
         for i in 0..n {
@@ -308,7 +316,7 @@ fn all_hits_counts_and_occlusion_agree_with_the_referee() {
             assert_eq!(
                 got.meets.len(),
                 groups.len(),
-                "ray {i} (window {window}): o {:?} d {:?}: {} points listed, referee {} ({:?})",
+                "ray {i} ({accel:?}, window {window}): o {:?} d {:?}: {} points listed, referee {} ({:?})",
                 ray.o,
                 ray.d,
                 got.meets.len(),
@@ -320,19 +328,19 @@ fn all_hits_counts_and_occlusion_agree_with_the_referee() {
             );
             assert_eq!(got.status, if groups.is_empty() { MISS } else { HIT });
             assert_eq!(occluded[i], got.status, "ray {i}: occluded");
-            // Each listed point is a distinct referee point with a triangle met there and t
-            // within an ulp of its exact t (two points whose exact t round to one float64 may
-            // come in either order).
+            // Each listed point is a distinct referee point, named by the smallest id met
+            // there, with t within an ulp of its exact t (two points whose exact t round to
+            // one float64 may come in either order).
             let mut used = vec![false; groups.len()];
             for m in &got.meets {
                 let found = groups.iter().enumerate().position(|(k, grp)| {
                     !used[k]
-                        && grp.iter().any(|c| c.1 == m.triangle as usize)
+                        && grp.iter().map(|c| c.1).min() == Some(m.triangle as usize)
                         && grp[0].0.within_ulp(m.t, referee::Precision::F64)
                 });
                 let Some(k) = found else {
                     panic!(
-                        "ray {i}: triangle {} at t {} is no referee point: listed {:?}, referee {:?}",
+                        "ray {i} ({accel:?}): triangle {} at t {} is no referee point named so: listed {:?}, referee {:?}",
                         m.triangle,
                         m.t,
                         got.meets.iter().map(|m| (m.t, m.triangle)).collect::<Vec<_>>(),
@@ -346,7 +354,7 @@ fn all_hits_counts_and_occlusion_agree_with_the_referee() {
             }
         }
     }
-    eprintln!("all hits: {n} rays x 2 windows, {points} points, {shared} met by several triangles");
+    eprintln!("all hits: {n} rays x 2 windows x 2 accels, {points} points, {shared} shared");
     assert!(
         shared > 1000 && points > 5000,
         "{shared} shared points of {points}"
