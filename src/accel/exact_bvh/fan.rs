@@ -442,7 +442,8 @@ impl<'a> Fan<'a> {
             // the rest of the build).
             placed.par_sort_unstable_by(|x, y| x.2.total_cmp(&y.2).then(x.3.cmp(&y.3)));
             // Bands of rows, several a thread: each counts, then fills, its own cells (a band's
-            // lists fit a core's cache as they are written, in the triangles' order).
+            // lists are a part of the side's, so its writes, scattered in the triangles' order,
+            // fall in fewer cache lines).
             let rows = n[1].div_ceil(4 * rayon::current_num_threads());
             let bands = n[1].div_ceil(rows);
             let band = |b: usize| {
