@@ -159,31 +159,6 @@ pub(crate) fn locate_uniform(scene: &Scene, points_slack: f32) -> Option<Shared>
     })
 }
 
-/// Whether every origin in `origins` (x, y, z per ray) is `o`, bit for bit. A camera's millions
-/// of origins are read on every thread of the cast (one thread read 2.8 million in 5.5 ms on
-/// the H200's host, a tenth of the whole cast); rays with their own origins usually differ at
-/// the second, which the first piece finds before any thread is woken.
-fn all_at(origins: &[f32], o: [f32; 3], threads: Option<usize>) -> bool {
-    use rayon::prelude::*;
-    const PIECE: usize = 3 * 16_384;
-    let bits = o.map(f32::to_bits);
-    let same = |c: &[f32]| {
-        c.chunks_exact(3)
-            .all(|p| [p[0].to_bits(), p[1].to_bits(), p[2].to_bits()] == bits)
-    };
-    let (first, rest) = origins.split_at(origins.len().min(PIECE));
-    if !same(first) {
-        return false;
-    }
-    if rest.is_empty() {
-        return true;
-    }
-    match crate::threads::pool(threads) {
-        Ok(pool) => pool.install(|| rest.par_chunks(PIECE).all(same)),
-        Err(_) => same(rest),
-    }
-}
-
 /// The uniform of a batch whose rays all leave one origin, or None when the batch is not one
 /// the shared-origin kernel takes (see the module docs). `points_slack`: the device points'
 /// rounding (`LayoutBuffers::points_slack`). The entry grid's sides are left for the caller,
@@ -195,14 +170,7 @@ pub(crate) fn shared_origin(
     points_slack: f32,
     threads: Option<usize>,
 ) -> Option<Shared> {
-    let n = rays.len();
-    if n == 0 || rays.leaving.is_some() {
-        return None;
-    }
-    let o32: [f32; 3] = rays.origins[..3].try_into().ok()?;
-    if !o32.iter().all(|x| x.is_finite()) || !all_at(rays.origins, o32, threads) {
-        return None;
-    }
+    let o32 = crate::scene::cast::shared_origin(rays, threads)?;
     // The origin is located as for any range: the walk starts there whatever tmin is.
     shared_at(scene, o32.map(f64::from), query, points_slack)
 }
@@ -332,7 +300,7 @@ pub(crate) fn finished_hit(o: &super::structs::RayOut) -> crate::query::RayHit {
 
 #[cfg(test)]
 mod tests {
-    use super::all_at;
+    use crate::scene::cast::all_at;
 
     /// The parallel scan answers as a scan of every origin, wherever the one that differs
     /// lies (the first piece, a later piece, the last coordinate), for a -0 against 0 too.
