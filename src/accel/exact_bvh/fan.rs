@@ -216,29 +216,42 @@ pub struct Fan<'a> {
     sides: [Option<Side>; 6],
     /// Per triangle (by leaf order), its edges' terms that depend on the origin alone
     /// ([`edge_terms`]).
-    edges: Vec<[[f64; 6]; 3]>,
+    edges: Vec<Edges>,
     /// Triangle entries over all cells (a measure of the build).
     pub entries: usize,
 }
 
-/// Of triangle `tri` seen from `o`, per edge k (corners b = k, c = k + 1 less the origin): the
-/// three 2×2 minors of `det_perm(d, b, c)` and the three sums of their products' magnitudes,
-/// `[m0, m1, m2, s0, s1, s2]`, formed as `geom::exact::det_perm` forms them (the leaf filter's
-/// `leaf_edges_avx2!`): the rays of a fan share the origin, so each ray takes only their
-/// products with its direction ([`edge_signs`]).
-fn edge_terms(o: [f64; 3], tri: &[[f64; 3]; 3]) -> [[f64; 6]; 3] {
+/// Of a triangle seen from the fan's origin, per edge k (corners b = k, c = k + 1 less the
+/// origin): the three 2×2 minors of `det_perm(d, b, c)` and the three sums of their products'
+/// magnitudes, row by row (`[m0, m1, m2, s0, s1, s2]`, each over the edges k = 0, 1, 2 and a
+/// fourth lane of zeros), so that [`edge_signs`] takes the three edges side by side in vector
+/// registers (read edge by edge, its scalar code cost 82 instructions a triangle on bunny's
+/// camera). Aligned so that a row is one aligned load.
+#[derive(Clone, Copy)]
+#[repr(C, align(32))]
+struct Edges([[f64; 4]; 6]);
+
+/// Triangle `tri`'s [`Edges`] from `o`, formed as `geom::exact::det_perm` forms them (the leaf
+/// filter's `leaf_edges_avx2!`): the rays of a fan share the origin, so each ray takes only
+/// their products with its direction.
+fn edge_terms(o: [f64; 3], tri: &[[f64; 3]; 3]) -> Edges {
     let p = tri.map(|v| [v[0] - o[0], v[1] - o[1], v[2] - o[2]]);
-    [0, 1, 2].map(|k| {
+    let mut rows = [[0.0; 4]; 6];
+    for k in 0..3 {
         let (b, c) = (p[k], p[(k + 1) % 3]);
-        [
+        let terms = [
             b[1] * c[2] - b[2] * c[1],
             b[0] * c[2] - b[2] * c[0],
             b[0] * c[1] - b[1] * c[0],
             (b[1] * c[2]).abs() + (b[2] * c[1]).abs(),
             (b[0] * c[2]).abs() + (b[2] * c[0]).abs(),
             (b[0] * c[1]).abs() + (b[1] * c[0]).abs(),
-        ]
-    })
+        ];
+        for (row, x) in rows.iter_mut().zip(terms) {
+            row[k] = x;
+        }
+    }
+    Edges(rows)
 }
 
 /// The signs of the three side products of the line with direction `dir` (the line's scaled
@@ -246,21 +259,83 @@ fn edge_terms(o: [f64; 3], tri: &[[f64; 3]; 3]) -> [[f64; 6]; 3] {
 /// certified as `geom::exact::triangle_sides` certifies them (the same products and sums in the
 /// same order, `|det| > DET_BOUND · perm` with the permanent finite and above TINY): whether
 /// the line may meet the triangle (no two of certain opposite signs), and whether all three
-/// are certain and of one sign (then it meets the closed triangle at one point).
+/// are certain and of one sign (then it meets the closed triangle at one point). Lane by lane,
+/// without branches, so that it compiles to vector operations (the fourth lane's permanent is
+/// 0: never certain, never counted); vectors round each operation as scalars do.
 #[inline(always)]
-fn edge_signs(dir: [f64; 3], e: &[[f64; 6]; 3]) -> (bool, bool) {
+fn edge_signs(dir: [f64; 3], e: &Edges) -> (bool, bool) {
     use crate::geom::exact::{DET_BOUND, TINY};
     let a = dir.map(f64::abs);
-    let (mut pos, mut neg) = (0u32, 0u32);
-    for [m0, m1, m2, s0, s1, s2] in *e {
-        let det = dir[0] * m0 - dir[1] * m1 + dir[2] * m2;
-        let perm = a[0] * s0 + a[1] * s1 + a[2] * s2;
+    let [m0, m1, m2, s0, s1, s2] = &e.0;
+    let (mut pos, mut neg) = ([0u32; 4], [0u32; 4]);
+    for l in 0..4 {
+        let det = dir[0] * m0[l] - dir[1] * m1[l] + dir[2] * m2[l];
+        let perm = a[0] * s0[l] + a[1] * s1[l] + a[2] * s2[l];
         let bound = DET_BOUND * perm;
-        let ok = perm.is_finite() && perm > TINY;
-        pos += (ok && det > bound) as u32;
-        neg += (ok && -det > bound) as u32;
+        let ok = (perm < f64::INFINITY) & (perm > TINY);
+        pos[l] = (ok & (det > bound)) as u32;
+        neg[l] = (ok & (-det > bound)) as u32;
     }
+    let (pos, neg) = (pos.iter().sum::<u32>(), neg.iter().sum::<u32>());
     (pos == 0 || neg == 0, pos == 3 || neg == 3)
+}
+
+/// [`edge_signs`] in AVX2 (LLVM left the portable one mostly scalar: 72 instructions a
+/// triangle): the same operations in the same order, a lane per edge.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+unsafe fn edge_signs_avx2(dir: [f64; 3], e: &Edges) -> (bool, bool) {
+    use crate::geom::exact::{DET_BOUND, TINY};
+    use std::arch::x86_64::*;
+    let r = &e.0;
+    let (m0, m1, m2) = (
+        _mm256_load_pd(r[0].as_ptr()),
+        _mm256_load_pd(r[1].as_ptr()),
+        _mm256_load_pd(r[2].as_ptr()),
+    );
+    let (s0, s1, s2) = (
+        _mm256_load_pd(r[3].as_ptr()),
+        _mm256_load_pd(r[4].as_ptr()),
+        _mm256_load_pd(r[5].as_ptr()),
+    );
+    let d = [_mm256_set1_pd(dir[0]), _mm256_set1_pd(dir[1]), _mm256_set1_pd(dir[2])];
+    let sign = _mm256_set1_pd(-0.0);
+    let a = [
+        _mm256_andnot_pd(sign, d[0]),
+        _mm256_andnot_pd(sign, d[1]),
+        _mm256_andnot_pd(sign, d[2]),
+    ];
+    let det = _mm256_add_pd(
+        _mm256_sub_pd(_mm256_mul_pd(d[0], m0), _mm256_mul_pd(d[1], m1)),
+        _mm256_mul_pd(d[2], m2),
+    );
+    let perm = _mm256_add_pd(
+        _mm256_add_pd(_mm256_mul_pd(a[0], s0), _mm256_mul_pd(a[1], s1)),
+        _mm256_mul_pd(a[2], s2),
+    );
+    let bound = _mm256_mul_pd(_mm256_set1_pd(DET_BOUND), perm);
+    let ok = _mm256_and_pd(
+        _mm256_cmp_pd::<_CMP_GT_OQ>(perm, _mm256_set1_pd(TINY)),
+        _mm256_cmp_pd::<_CMP_LT_OQ>(perm, _mm256_set1_pd(f64::INFINITY)),
+    );
+    let pos = _mm256_movemask_pd(_mm256_and_pd(ok, _mm256_cmp_pd::<_CMP_GT_OQ>(det, bound)));
+    let neg_det = _mm256_xor_pd(det, sign);
+    let neg = _mm256_movemask_pd(_mm256_and_pd(ok, _mm256_cmp_pd::<_CMP_GT_OQ>(neg_det, bound)));
+    (pos == 0 || neg == 0, pos == 0b111 || neg == 0b111)
+}
+
+/// [`edge_signs`], in AVX2 where the cast runs compiled for it (`AVX2`: only
+/// [`Fan::trace_chunk_avx2`] sets it).
+#[inline(always)]
+fn filter<const AVX2: bool>(dir: [f64; 3], e: &Edges) -> (bool, bool) {
+    #[cfg(target_arch = "x86_64")]
+    if AVX2 {
+        // SAFETY: set only inside a function compiled for AVX2 and FMA, which runs only where
+        // the CPU has them.
+        return unsafe { edge_signs_avx2(dir, e) };
+    }
+    edge_signs(dir, e)
 }
 
 impl<'a> Fan<'a> {
@@ -512,56 +587,37 @@ impl<'a> Fan<'a> {
         }
     }
 
-    /// Where the fan holds a ray of line `line`: its side's items (the cell's range) and
-    /// |d_a|; None where it does not (another origin, a side not built: the tree walks it).
+    /// Where the fan holds `ray`: its side's items (the cell's range) and |d_a|; None where
+    /// it does not (another origin, a side not built: the tree walks it).
     #[inline(always)]
-    fn cell_of(&self, line: &Line) -> Option<(usize, std::ops::Range<usize>, f64)> {
-        if line.o != self.o {
+    fn cell_of(&self, ray: &Ray) -> Option<(usize, std::ops::Range<usize>, f64)> {
+        if ray.o != self.o {
             return None;
         }
-        let (s, u, v) = project(line.d)?;
+        let (s, u, v) = project(ray.d)?;
         let side = self.sides[s].as_ref()?;
         let c = cell(v, side.lo[1], side.k[1], side.n[1]) * side.n[0]
             + cell(u, side.lo[0], side.k[0], side.n[0]);
         let items = side.start[c] as usize..side.start[c + 1] as usize;
-        Some((s, items, line.d[side.axes[0]].abs()))
+        Some((s, items, ray.d[side.axes[0]].abs()))
     }
 
     /// Offers `gather` the triangles side `s` tests for every ray, then its `items`, nearest
     /// bound first, until the bound passes the reach; the triangles tested.
     #[inline(always)]
-    fn offer<G: Gather>(
+    fn offer<G: Gather, const AVX2: bool>(
         &self,
         line: &Line,
         gather: &mut G,
         (s, items, da): (usize, std::ops::Range<usize>, f64),
     ) -> u32 {
-        let bvh = self.bvh;
         let Some(side) = self.sides[s].as_ref() else {
             return 0;
-        };
-        let test = |j: u32, gather: &mut G| {
-            let j = j as usize;
-            let tri = &bvh.triangles[j];
-            // The filter first, as a leaf of the tree filters (`offer_leaf`).
-            let (may, sure) = edge_signs(line.dir, &self.edges[j]);
-            if !may {
-                return false;
-            }
-            let met = if sure {
-                line.crosses_at(tri)
-            } else {
-                line.meets_at(tri)
-            };
-            match met {
-                Some(at) => gather.offer_at(bvh.order[j], tri, at),
-                None => G::IN_PLANE && gather.in_plane(bvh.order[j]),
-            }
         };
         let mut tested = 0u32;
         for &j in &side.always {
             tested += 1;
-            if test(j, gather) {
+            if self.test::<G, AVX2>(line, gather, j as usize) {
                 return tested;
             }
         }
@@ -572,12 +628,35 @@ impl<'a> Fan<'a> {
                 break;
             }
             tested += 1;
-            if test(j, gather) {
+            if self.test::<G, AVX2>(line, gather, j as usize) {
                 break;
             }
             limit = gather.reach() * da * STOP_GROW;
         }
         tested
+    }
+
+    /// Offers `gather` triangle `j` (leaf order) if the ray meets it; true: settled. Inlined
+    /// into both of [`Fan::offer`]'s loops: as a call, its prologue and epilogue (registers
+    /// saved and restored) cost about 16 instructions a triangle.
+    #[inline(always)]
+    fn test<G: Gather, const AVX2: bool>(&self, line: &Line, gather: &mut G, j: usize) -> bool {
+        let bvh = self.bvh;
+        let tri = &bvh.triangles[j];
+        // The filter first, as a leaf of the tree filters (`offer_leaf`).
+        let (may, sure) = filter::<AVX2>(line.dir, &self.edges[j]);
+        if !may {
+            return false;
+        }
+        let met = if sure {
+            line.crosses_at(tri)
+        } else {
+            line.meets_at(tri)
+        };
+        match met {
+            Some(at) => gather.offer_at(bvh.order[j], tri, at),
+            None => G::IN_PLANE && gather.in_plane(bvh.order[j]),
+        }
     }
 }
 
@@ -598,15 +677,11 @@ impl Accel<f64> for Fan<'_> {
             Ok(range) => range,
             Err(status) => return query.skipped(status),
         };
-        let line = Line::within(ray, tmin, tmax);
-        let at = self.cell_of(&line);
-        self.answer(query, &line, at, st)
+        let at = self.cell_of(ray);
+        self.answer::<K, false>(query, &Line::within(ray, tmin, tmax), at, st)
     }
 
-    /// In passes over [`AHEAD`] rays at a time, each writing what the next reads (the rays,
-    /// then their lines and cells, then the tests): made one ray at a time, each ray's parts
-    /// were stored in pieces and read back whole at once, and the reads waited for the
-    /// stores to retire (as the exact BVH's `make_ready` found).
+    /// Through [`Fan::trace_chunk_with`], compiled for the cast's SIMD level.
     fn trace_chunk<K: QueryKind, S: Sink<K::Answer>>(
         &self,
         query: &K,
@@ -614,7 +689,47 @@ impl Accel<f64> for Fan<'_> {
         out: &mut S,
         st: &mut State,
     ) {
-        type Ready = (Line, usize, Option<(usize, std::ops::Range<usize>, f64)>);
+        #[cfg(target_arch = "x86_64")]
+        if self.simd == crate::simd::Simd::Avx2 {
+            // SAFETY: Simd::Avx2 is only chosen where the CPU has AVX2 and FMA
+            // (`Simd::supported`).
+            return unsafe { self.trace_chunk_avx2(query, ray_at, out, st) };
+        }
+        self.trace_chunk_with::<K, S, false>(query, ray_at, out, st)
+    }
+}
+
+impl Fan<'_> {
+    /// [`Fan::trace_chunk_with`] compiled for AVX2 and FMA, so that [`edge_signs`] takes a
+    /// triangle's three edges in one vector register each. Rust never fuses `a * b + c` on
+    /// its own, so everything rounds as the portable code does.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn trace_chunk_avx2<K: QueryKind, S: Sink<K::Answer>>(
+        &self,
+        query: &K,
+        ray_at: impl Fn(usize) -> Ray,
+        out: &mut S,
+        st: &mut State,
+    ) {
+        self.trace_chunk_with::<K, S, true>(query, ray_at, out, st)
+    }
+
+    /// In passes over [`AHEAD`] rays at a time, each writing what the next reads (the rays,
+    /// then their ranges and cells, then the tests): made one ray at a time, each ray's parts
+    /// were stored in pieces and read back whole at once, and the reads waited for the
+    /// stores to retire (as the exact BVH's `make_ready` found). The last pass makes each
+    /// ray's `Line` where it is used: carried from the second pass, it was copied (a library
+    /// call) into the pass's buffer.
+    #[inline(always)]
+    fn trace_chunk_with<K: QueryKind, S: Sink<K::Answer>, const AVX2: bool>(
+        &self,
+        query: &K,
+        ray_at: impl Fn(usize) -> Ray,
+        out: &mut S,
+        st: &mut State,
+    ) {
+        type Ready = (usize, f64, f64, Option<(usize, std::ops::Range<usize>, f64)>);
         let mut next = 0;
         while next < out.len() {
             let first = next;
@@ -631,19 +746,19 @@ impl Accel<f64> for Fan<'_> {
                 let ray = unsafe { ray.assume_init_ref() };
                 match checked_range(ray) {
                     Ok((tmin, tmax)) => {
-                        let line = Line::within(ray, tmin, tmax);
-                        let at = self.cell_of(&line);
-                        ready[count].write((line, first + k, at));
+                        ready[count].write((k, tmin, tmax, self.cell_of(ray)));
                         count += 1;
                     }
                     Err(status) => out.put(first + k, query.skipped(status)),
                 }
             }
             for entry in &ready[..count] {
-                // SAFETY: the second pass wrote entries 0..count. Read where it lies: copied
-                // out whole (a library call), its first reads waited for that copy's stores.
-                let (line, j, at) = unsafe { entry.assume_init_ref() };
-                out.put(*j, self.answer(query, line, at.clone(), st));
+                // SAFETY: the second pass wrote entries 0..count, each naming a ray the first
+                // pass wrote.
+                let (k, tmin, tmax, at) = unsafe { entry.assume_init_ref() };
+                let ray = unsafe { rays[*k].assume_init_ref() };
+                let line = Line::within(ray, *tmin, *tmax);
+                out.put(first + k, self.answer::<K, AVX2>(query, &line, at.clone(), st));
             }
         }
     }
@@ -652,7 +767,7 @@ impl Accel<f64> for Fan<'_> {
 impl Fan<'_> {
     /// The answer for a ray of line `line` held by the fan at `at`, else walked by the tree.
     #[inline(always)]
-    fn answer<K: QueryKind>(
+    fn answer<K: QueryKind, const AVX2: bool>(
         &self,
         query: &K,
         line: &Line,
@@ -661,7 +776,7 @@ impl Fan<'_> {
     ) -> K::Answer {
         let mut gather = query.gather(line);
         let visited = match at {
-            Some(at) => self.offer(line, &mut gather, at),
+            Some(at) => self.offer::<_, AVX2>(line, &mut gather, at),
             None => self.bvh.walk(line, &mut gather, st.simd, &mut st.stack),
         };
         query.gathered(&mut gather, visited)

@@ -826,24 +826,29 @@ fn the_fan_answers_as_one_ray_walks() {
             always += fan.always();
         }
         let set = RaySet::new(&rays);
-        // The fan built on one thread and on three (its stages split over them).
-        let opts = |packets, threads| CastOptions {
+        // The fan built on one thread and on three (its stages split over them), and cast at
+        // every SIMD level (its edge filter has an AVX2 twin).
+        let opts = |packets, threads, simd| CastOptions {
             accel: AccelKind::ExactBvh,
             packets,
             threads: Some(threads),
+            simd: Some(simd),
             ..Default::default()
         };
         for window in [false, true] {
             let (tmin, tmax) = window_or_all(&rays, window);
             let (r64, r32) = set.rays(&tmin, &tmax);
-            let one = Answers::of(&g.scene, &r64, &r32, &opts(Packets::Off, 1));
+            let one = Answers::of(&g.scene, &r64, &r32, &opts(Packets::Off, 1, Simd::Scalar));
             hits += one.hits();
-            for threads in [1, 3] {
-                let fan = Answers::of(&g.scene, &r64, &r32, &opts(Packets::Auto, threads));
+            for (threads, simd) in [1, 3]
+                .into_iter()
+                .flat_map(|t| Simd::supported_levels().into_iter().map(move |s| (t, s)))
+            {
+                let fan = Answers::of(&g.scene, &r64, &r32, &opts(Packets::Auto, threads, simd));
                 one.assert_same(
                     &fan,
                     false,
-                    &format!("origin {o:?} window {window} threads {threads}"),
+                    &format!("origin {o:?} window {window} threads {threads} {simd:?}"),
                 );
             }
         }
