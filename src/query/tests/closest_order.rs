@@ -159,4 +159,29 @@ fn a_neighbour_met_out_of_order_wins_over_a_later_crossing() {
              before the far wall (t = {t_far})"
         );
     }
+
+    // All hits find the wall the same way (`AllPolicy::touched`'s `around`, at a touch that
+    // is not the origin): both walls, in order, each named and placed as the referee finds it.
+    let opts = CastOptions {
+        threads: Some(1),
+        accel: AccelKind::TetWalk,
+        ..CastOptions::default()
+    };
+    let mut listed = vec![crate::query::Listed::default(); 1];
+    scene.intersections(&rays, &mut listed, &opts).unwrap();
+    let got: Vec<(u32, f64)> = listed[0].meets.iter().map(|m| (m.triangle, m.t)).collect();
+    assert_eq!(listed[0].status, HIT, "all hits: {got:?}");
+    assert_eq!(
+        got.iter().map(|m| m.0).collect::<Vec<_>>(),
+        vec![1, 2],
+        "all hits: {got:?}"
+    );
+    for (k, m) in got {
+        let c = referee::crossing(o, d, &tris[k as usize]).expect("the referee meets it");
+        assert!(
+            c.within_ulp(m, referee::Precision::F64),
+            "all hits: triangle {k} at t {m}, the referee's t {}",
+            c.t()
+        );
+    }
 }
