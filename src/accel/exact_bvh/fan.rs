@@ -718,9 +718,10 @@ impl Fan<'_> {
     /// In passes over [`AHEAD`] rays at a time, each writing what the next reads (the rays,
     /// then their ranges and cells, then the tests): made one ray at a time, each ray's parts
     /// were stored in pieces and read back whole at once, and the reads waited for the
-    /// stores to retire (as the exact BVH's `make_ready` found). The last pass makes each
-    /// ray's `Line` where it is used: carried from the second pass, it was copied (a library
-    /// call) into the pass's buffer.
+    /// stores to retire (as the exact BVH's `make_ready` found). The second pass writes each
+    /// ray's `Line` field by field ([`Line::write_within`]): put in the pass's buffer whole, it
+    /// was copied by a library call; made in the last pass, it was moved by wide reads of its
+    /// pieces just stored.
     #[inline(always)]
     fn trace_chunk_with<K: QueryKind, S: Sink<K::Answer>, const AVX2: bool>(
         &self,
@@ -729,7 +730,7 @@ impl Fan<'_> {
         out: &mut S,
         st: &mut State,
     ) {
-        type Ready = (usize, f64, f64, Option<(usize, std::ops::Range<usize>, f64)>);
+        type Ready = (usize, Option<(usize, std::ops::Range<usize>, f64)>);
         let mut next = 0;
         while next < out.len() {
             let first = next;
@@ -739,6 +740,7 @@ impl Fan<'_> {
             for (k, ray) in rays[..read].iter_mut().enumerate() {
                 ray.write(ray_at(first + k));
             }
+            let mut lines = [const { MaybeUninit::<Line>::uninit() }; AHEAD];
             let mut ready = [const { MaybeUninit::<Ready>::uninit() }; AHEAD];
             let mut count = 0;
             for (k, ray) in rays[..read].iter().enumerate() {
@@ -746,19 +748,17 @@ impl Fan<'_> {
                 let ray = unsafe { ray.assume_init_ref() };
                 match checked_range(ray) {
                     Ok((tmin, tmax)) => {
-                        ready[count].write((k, tmin, tmax, self.cell_of(ray)));
+                        Line::write_within(&mut lines[count], ray, tmin, tmax);
+                        ready[count].write((first + k, self.cell_of(ray)));
                         count += 1;
                     }
                     Err(status) => out.put(first + k, query.skipped(status)),
                 }
             }
-            for entry in &ready[..count] {
-                // SAFETY: the second pass wrote entries 0..count, each naming a ray the first
-                // pass wrote.
-                let (k, tmin, tmax, at) = unsafe { entry.assume_init_ref() };
-                let ray = unsafe { rays[*k].assume_init_ref() };
-                let line = Line::within(ray, *tmin, *tmax);
-                out.put(first + k, self.answer::<K, AVX2>(query, &line, at.clone(), st));
+            for (line, entry) in lines[..count].iter().zip(&ready[..count]) {
+                // SAFETY: the second pass wrote entries 0..count of both.
+                let (line, (j, at)) = unsafe { (line.assume_init_ref(), entry.assume_init_ref()) };
+                out.put(*j, self.answer::<K, AVX2>(query, line, at.clone(), st));
             }
         }
     }
