@@ -299,7 +299,11 @@ unsafe fn edge_signs_avx2(dir: [f64; 3], e: &Edges) -> (bool, bool) {
         _mm256_load_pd(r[4].as_ptr()),
         _mm256_load_pd(r[5].as_ptr()),
     );
-    let d = [_mm256_set1_pd(dir[0]), _mm256_set1_pd(dir[1]), _mm256_set1_pd(dir[2])];
+    let d = [
+        _mm256_set1_pd(dir[0]),
+        _mm256_set1_pd(dir[1]),
+        _mm256_set1_pd(dir[2]),
+    ];
     let sign = _mm256_set1_pd(-0.0);
     let a = [
         _mm256_andnot_pd(sign, d[0]),
@@ -321,7 +325,10 @@ unsafe fn edge_signs_avx2(dir: [f64; 3], e: &Edges) -> (bool, bool) {
     );
     let pos = _mm256_movemask_pd(_mm256_and_pd(ok, _mm256_cmp_pd::<_CMP_GT_OQ>(det, bound)));
     let neg_det = _mm256_xor_pd(det, sign);
-    let neg = _mm256_movemask_pd(_mm256_and_pd(ok, _mm256_cmp_pd::<_CMP_GT_OQ>(neg_det, bound)));
+    let neg = _mm256_movemask_pd(_mm256_and_pd(
+        ok,
+        _mm256_cmp_pd::<_CMP_GT_OQ>(neg_det, bound),
+    ));
     (pos == 0 || neg == 0, pos == 0b111 || neg == 0b111)
 }
 
