@@ -438,44 +438,55 @@ macro_rules! leaf_edges_avx2 {
     }};
 }
 
-/// The signs of a block's three side products along the direction `(dv, da)`
-/// ([`direction_avx2!`]) from its [`leaf_edges_avx2!`] terms, each certified as
+/// Per lane, the sign of one side product along the direction `(dv, da)` ([`direction_avx2!`])
+/// from its terms `[m0, m1, m2, s0, s1, s2]` ([`leaf_edges_avx2!`]), certified as
 /// `triangle_sides` certifies it (`|det| > DET_BOUND · perm`, the permanent finite and above
-/// TINY): four bits of triangles with two of certain opposite signs (surely missed), and four
-/// of those whose three it certified of one sign.
+/// TINY): the masks of lanes certified positive and certified negative. The one place these
+/// operations are written for AVX2: the leaf filter takes a lane per triangle, the fan's
+/// filter a lane per edge.
+#[cfg(target_arch = "x86_64")]
+macro_rules! certified_sign_avx2 {
+    ($dv:expr, $da:expr, $terms:expr) => {{
+        use crate::geom::exact::{DET_BOUND, TINY};
+        use std::arch::x86_64::*;
+        let (dv, da): (&[__m256d; 3], &[__m256d; 3]) = ($dv, $da);
+        let [m0, m1, m2, s0, s1, s2]: [__m256d; 6] = $terms;
+        let det = _mm256_add_pd(
+            _mm256_sub_pd(_mm256_mul_pd(dv[0], m0), _mm256_mul_pd(dv[1], m1)),
+            _mm256_mul_pd(dv[2], m2),
+        );
+        let perm = _mm256_add_pd(
+            _mm256_add_pd(_mm256_mul_pd(da[0], s0), _mm256_mul_pd(da[1], s1)),
+            _mm256_mul_pd(da[2], s2),
+        );
+        let bound = _mm256_mul_pd(_mm256_set1_pd(DET_BOUND), perm);
+        let ok = _mm256_and_pd(
+            _mm256_cmp_pd::<_CMP_GT_OQ>(perm, _mm256_set1_pd(TINY)),
+            _mm256_cmp_pd::<_CMP_LT_OQ>(perm, _mm256_set1_pd(f64::INFINITY)),
+        );
+        let neg_det = _mm256_xor_pd(det, _mm256_set1_pd(-0.0));
+        (
+            _mm256_and_pd(ok, _mm256_cmp_pd::<_CMP_GT_OQ>(det, bound)),
+            _mm256_and_pd(ok, _mm256_cmp_pd::<_CMP_GT_OQ>(neg_det, bound)),
+        )
+    }};
+}
+
+/// The signs of a block's three side products along the direction `(dv, da)`
+/// ([`direction_avx2!`]) from its [`leaf_edges_avx2!`] terms ([`certified_sign_avx2!`]): four
+/// bits of triangles with two of certain opposite signs (surely missed), and four of those
+/// whose three it certified of one sign.
 #[cfg(target_arch = "x86_64")]
 macro_rules! edge_signs_avx2 {
     ($dv:expr, $da:expr, $edges:expr) => {{
-        use crate::geom::exact::{DET_BOUND, TINY};
         use std::arch::x86_64::*;
         let (dv, da, edges): (&[__m256d; 3], &[__m256d; 3], &[[__m256d; 6]; 3]) =
             ($dv, $da, $edges);
-        let sign = _mm256_set1_pd(-0.0);
-        let (bound_k, tiny, inf) = (
-            _mm256_set1_pd(DET_BOUND),
-            _mm256_set1_pd(TINY),
-            _mm256_set1_pd(f64::INFINITY),
-        );
         let all = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
         let (mut pos, mut neg) = (_mm256_setzero_pd(), _mm256_setzero_pd());
         let (mut pos_all, mut neg_all) = (all, all);
-        for [m0, m1, m2, s0, s1, s2] in *edges {
-            let det = _mm256_add_pd(
-                _mm256_sub_pd(_mm256_mul_pd(dv[0], m0), _mm256_mul_pd(dv[1], m1)),
-                _mm256_mul_pd(dv[2], m2),
-            );
-            let perm = _mm256_add_pd(
-                _mm256_add_pd(_mm256_mul_pd(da[0], s0), _mm256_mul_pd(da[1], s1)),
-                _mm256_mul_pd(da[2], s2),
-            );
-            let bound = _mm256_mul_pd(bound_k, perm);
-            let ok = _mm256_and_pd(
-                _mm256_cmp_pd::<_CMP_GT_OQ>(perm, tiny),
-                _mm256_cmp_pd::<_CMP_LT_OQ>(perm, inf),
-            );
-            let neg_det = _mm256_xor_pd(det, sign);
-            let p = _mm256_and_pd(ok, _mm256_cmp_pd::<_CMP_GT_OQ>(det, bound));
-            let n = _mm256_and_pd(ok, _mm256_cmp_pd::<_CMP_GT_OQ>(neg_det, bound));
+        for terms in *edges {
+            let (p, n) = certified_sign_avx2!(dv, da, terms);
             (pos, neg) = (_mm256_or_pd(pos, p), _mm256_or_pd(neg, n));
             (pos_all, neg_all) = (_mm256_and_pd(pos_all, p), _mm256_and_pd(neg_all, n));
         }

@@ -60,18 +60,10 @@ impl Line {
     /// The line of `ray` over the range [`checked_range`] gave it.
     #[inline(always)]
     pub fn within(ray: &Ray, tmin: f64, tmax: f64) -> Line {
-        let (dir, scale) = unit_direction(ray.d);
-        Line {
-            span: Span {
-                o: ray.o,
-                d: ray.d,
-                dir,
-                scale,
-                tmin,
-                tmax,
-            },
-            leaving: ray.leaving.map(|l| l.corners),
-        }
+        let mut line = std::mem::MaybeUninit::uninit();
+        Line::write_within(&mut line, ray, tmin, tmax);
+        // SAFETY: `write_within` wrote every field.
+        unsafe { line.assume_init() }
     }
 
     /// [`Line::within`] written into `out` field by field, each from the ray's own numbers:

@@ -224,9 +224,9 @@ pub struct Fan<'a> {
 /// Of a triangle seen from the fan's origin, per edge k (corners b = k, c = k + 1 less the
 /// origin): the three 2×2 minors of `det_perm(d, b, c)` and the three sums of their products'
 /// magnitudes, row by row (`[m0, m1, m2, s0, s1, s2]`, each over the edges k = 0, 1, 2 and a
-/// fourth lane of zeros), so that [`edge_signs`] takes the three edges side by side in vector
-/// registers (read edge by edge, its scalar code cost 82 instructions a triangle on bunny's
-/// camera). Aligned so that a row is one aligned load.
+/// fourth lane of zeros, never certain), so that [`edge_signs_avx2`] takes the three edges side
+/// by side in vector registers (read edge by edge, its scalar code cost 82 instructions a
+/// triangle on bunny's camera). Aligned so that a row is one aligned load.
 #[derive(Clone, Copy)]
 #[repr(C, align(32))]
 struct Edges([[f64; 4]; 6]);
@@ -259,90 +259,58 @@ fn edge_terms(o: [f64; 3], tri: &[[f64; 3]; 3]) -> Edges {
 /// certified as `geom::exact::triangle_sides` certifies them (the same products and sums in the
 /// same order, `|det| > DET_BOUND · perm` with the permanent finite and above TINY): whether
 /// the line may meet the triangle (no two of certain opposite signs), and whether all three
-/// are certain and of one sign (then it meets the closed triangle at one point). Lane by lane,
-/// without branches, so that it compiles to vector operations (the fourth lane's permanent is
-/// 0: never certain, never counted); vectors round each operation as scalars do.
+/// are certain and of one sign (then it meets the closed triangle at one point). The portable
+/// twin of [`edge_signs_avx2`], edge by edge.
 #[inline(always)]
 fn edge_signs(dir: [f64; 3], e: &Edges) -> (bool, bool) {
     use crate::geom::exact::{DET_BOUND, TINY};
     let a = dir.map(f64::abs);
     let [m0, m1, m2, s0, s1, s2] = &e.0;
-    let (mut pos, mut neg) = ([0u32; 4], [0u32; 4]);
-    for l in 0..4 {
-        let det = dir[0] * m0[l] - dir[1] * m1[l] + dir[2] * m2[l];
-        let perm = a[0] * s0[l] + a[1] * s1[l] + a[2] * s2[l];
+    let (mut pos, mut neg) = (0u32, 0u32);
+    for k in 0..3 {
+        let det = dir[0] * m0[k] - dir[1] * m1[k] + dir[2] * m2[k];
+        let perm = a[0] * s0[k] + a[1] * s1[k] + a[2] * s2[k];
         let bound = DET_BOUND * perm;
-        let ok = (perm < f64::INFINITY) & (perm > TINY);
-        pos[l] = (ok & (det > bound)) as u32;
-        neg[l] = (ok & (-det > bound)) as u32;
+        let ok = perm.is_finite() && perm > TINY;
+        pos += (ok && det > bound) as u32;
+        neg += (ok && -det > bound) as u32;
     }
-    let (pos, neg) = (pos.iter().sum::<u32>(), neg.iter().sum::<u32>());
     (pos == 0 || neg == 0, pos == 3 || neg == 3)
 }
 
-/// [`edge_signs`] in AVX2 (LLVM left the portable one mostly scalar: 72 instructions a
-/// triangle): the same operations in the same order, a lane per edge.
+/// [`edge_signs`] in AVX2, a lane per edge ([`certified_sign_avx2!`], the leaf filter's own
+/// operations; the portable code, left scalar by LLVM, cost 72 instructions a triangle).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 #[inline]
-unsafe fn edge_signs_avx2(dir: [f64; 3], e: &Edges) -> (bool, bool) {
-    use crate::geom::exact::{DET_BOUND, TINY};
+unsafe fn edge_signs_avx2(line: &Line, e: &Edges) -> (bool, bool) {
     use std::arch::x86_64::*;
     let r = &e.0;
-    let (m0, m1, m2) = (
+    let terms = [
         _mm256_load_pd(r[0].as_ptr()),
         _mm256_load_pd(r[1].as_ptr()),
         _mm256_load_pd(r[2].as_ptr()),
-    );
-    let (s0, s1, s2) = (
         _mm256_load_pd(r[3].as_ptr()),
         _mm256_load_pd(r[4].as_ptr()),
         _mm256_load_pd(r[5].as_ptr()),
-    );
-    let d = [
-        _mm256_set1_pd(dir[0]),
-        _mm256_set1_pd(dir[1]),
-        _mm256_set1_pd(dir[2]),
     ];
-    let sign = _mm256_set1_pd(-0.0);
-    let a = [
-        _mm256_andnot_pd(sign, d[0]),
-        _mm256_andnot_pd(sign, d[1]),
-        _mm256_andnot_pd(sign, d[2]),
-    ];
-    let det = _mm256_add_pd(
-        _mm256_sub_pd(_mm256_mul_pd(d[0], m0), _mm256_mul_pd(d[1], m1)),
-        _mm256_mul_pd(d[2], m2),
-    );
-    let perm = _mm256_add_pd(
-        _mm256_add_pd(_mm256_mul_pd(a[0], s0), _mm256_mul_pd(a[1], s1)),
-        _mm256_mul_pd(a[2], s2),
-    );
-    let bound = _mm256_mul_pd(_mm256_set1_pd(DET_BOUND), perm);
-    let ok = _mm256_and_pd(
-        _mm256_cmp_pd::<_CMP_GT_OQ>(perm, _mm256_set1_pd(TINY)),
-        _mm256_cmp_pd::<_CMP_LT_OQ>(perm, _mm256_set1_pd(f64::INFINITY)),
-    );
-    let pos = _mm256_movemask_pd(_mm256_and_pd(ok, _mm256_cmp_pd::<_CMP_GT_OQ>(det, bound)));
-    let neg_det = _mm256_xor_pd(det, sign);
-    let neg = _mm256_movemask_pd(_mm256_and_pd(
-        ok,
-        _mm256_cmp_pd::<_CMP_GT_OQ>(neg_det, bound),
-    ));
+    let (dv, da) = direction_avx2!(line);
+    let (p, n) = certified_sign_avx2!(&dv, &da, terms);
+    let (pos, neg) = (_mm256_movemask_pd(p), _mm256_movemask_pd(n));
     (pos == 0 || neg == 0, pos == 0b111 || neg == 0b111)
 }
 
 /// [`edge_signs`], in AVX2 where the cast runs compiled for it (`AVX2`: only
 /// [`Fan::trace_chunk_avx2`] sets it).
 #[inline(always)]
-fn filter<const AVX2: bool>(dir: [f64; 3], e: &Edges) -> (bool, bool) {
+fn filter<const AVX2: bool>(line: &Line, e: &Edges) -> (bool, bool) {
     #[cfg(target_arch = "x86_64")]
     if AVX2 {
         // SAFETY: set only inside a function compiled for AVX2 and FMA, which runs only where
         // the CPU has them.
-        return unsafe { edge_signs_avx2(dir, e) };
+        return unsafe { edge_signs_avx2(line, e) };
     }
-    edge_signs(dir, e)
+    edge_signs(line.dir, e)
 }
 
 impl<'a> Fan<'a> {
@@ -651,7 +619,7 @@ impl<'a> Fan<'a> {
         let bvh = self.bvh;
         let tri = &bvh.triangles[j];
         // The filter first, as a leaf of the tree filters (`offer_leaf`).
-        let (may, sure) = filter::<AVX2>(line.dir, &self.edges[j]);
+        let (may, sure) = filter::<AVX2>(line, &self.edges[j]);
         if !may {
             return false;
         }
