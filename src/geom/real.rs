@@ -106,9 +106,18 @@ pub fn exponent(x: f64) -> i32 {
 }
 
 /// x · 2^e, exactly (in two steps when 2^e itself is not a normal number).
+#[inline]
 pub fn times_pow2(x: f64, e: i32) -> f64 {
     // 2^k for k in the normal range, built from its bits (powi may be a library call).
     let pow2 = |k: i32| f64::from_bits(((k.clamp(-1022, 1023) + 1023) as u64) << 52);
+    if (-1022..=1023).contains(&e) {
+        // 2^e is a normal number: one product, rounded once. Wherever x · 2^e is a float
+        // (no underflow) both ways give it exactly; where it underflows, this one rounds it
+        // once (the two steps could round twice). Every walk scales by this one function,
+        // and most scalings land here: the two steps cost a scaled t two products and two
+        // clamps per triangle tested.
+        return x * pow2(e);
+    }
     let h = e / 2;
     x * pow2(h) * pow2(e - h)
 }

@@ -76,18 +76,21 @@ const AHEAD: usize = 16;
 #[inline(always)]
 pub fn project(d: [f64; 3]) -> Option<(usize, f64, f64)> {
     let m = d.map(f64::abs);
-    let a = if m[0] >= m[1] && m[0] >= m[2] {
-        0
+    // The axis and the other two in turn, each picked whole: indexed by a computed axis, the
+    // components went through the stack (about 45 instructions a ray, twice: the build's box
+    // and the ray's cell).
+    let (a, da, db, dc) = if m[0] >= m[1] && m[0] >= m[2] {
+        (0, d[0], d[1], d[2])
     } else if m[1] >= m[2] {
-        1
+        (1, d[1], d[2], d[0])
     } else {
-        2
+        (2, d[2], d[0], d[1])
     };
-    let (b, c) = ((a + 1) % 3, (a + 2) % 3);
+    let ma = da.abs();
     // One division: two roundings from the exact quotient, within the pad (module notes).
-    let r = 1.0 / m[a];
-    let (u, v) = (d[b] * r, d[c] * r);
-    (m[a] > 0.0 && u.is_finite() && v.is_finite()).then_some((2 * a + (d[a] < 0.0) as usize, u, v))
+    let r = 1.0 / ma;
+    let (u, v) = (db * r, dc * r);
+    (ma > 0.0 && u.is_finite() && v.is_finite()).then_some((2 * a + (da < 0.0) as usize, u, v))
 }
 
 /// The cell of coordinate `x` on an axis of `n` cells from `x0`, `k` cells a unit: clamped to
@@ -97,7 +100,19 @@ fn cell(x: f64, x0: f64, k: f64, n: usize) -> usize {
     // floor, then clamped: truncation equals floor where it is kept (x ≥ 0; below, 0 either
     // way), and NaN goes to 0. No call to `floor` (baseline x86-64 has no rounding instruction).
     let x = (x - x0) * k;
-    (if x > 0.0 { x as usize } else { 0 }).min(n - 1)
+    // Clamped as a float first, so that the conversion is one truncation: `as usize` alone
+    // saturates, about ten instructions on x86-64, twice a ray (and so would `(n − 1) as
+    // f64`; n is far below 2^32: MAX_CELLS_AXIS, or a test grid's 2^20).
+    debug_assert!(n <= u32::MAX as usize);
+    if x >= (n - 1) as u32 as f64 {
+        n - 1
+    } else if x > 0.0 {
+        // SAFETY: 0 < x < n − 1, so its truncation is an integer in range (not NaN: a NaN
+        // fails both comparisons and goes to 0).
+        unsafe { x.to_int_unchecked::<u32>() as usize }
+    } else {
+        0
+    }
 }
 
 /// One side's grid: `nu` × `nv` cells over the box of its rays' (u, v), each cell's
