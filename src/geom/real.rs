@@ -105,7 +105,8 @@ pub fn exponent(x: f64) -> i32 {
     ((x.to_bits() >> 52) & 0x7ff) as i32 - 1023
 }
 
-/// x · 2^e, exactly (in two steps when 2^e itself is not a normal number).
+/// x · 2^e, exactly (in two steps when 2^e itself is not a normal number), for |e| ≤ 2046
+/// (two normal factors; beyond, each is clamped to 2^±1023, right only for x = 0).
 #[inline]
 pub fn times_pow2(x: f64, e: i32) -> f64 {
     // 2^k for k in the normal range, built from its bits (powi may be a library call).
@@ -233,5 +234,83 @@ mod tests {
             }
         }
         assert!(fast > 10_000 && slow > 10_000, "{fast} exact, {slow} not");
+    }
+
+    /// x · 2^e rounded to nearest (ties to even), from x's integer significand and exponent,
+    /// and whether it is exact (`None`: beyond float64's range).
+    fn scaled_exactly(x: f64, e: i32) -> Option<(f64, bool)> {
+        let bits = x.to_bits();
+        let (biased, frac) = (((bits >> 52) & 0x7ff) as i32, bits & ((1 << 52) - 1));
+        // x = m · 2^q exactly.
+        let (m, q) = if biased == 0 {
+            (frac, -1074)
+        } else {
+            (frac | 1 << 52, biased - 1075)
+        };
+        let sign = if x < 0.0 { -1.0 } else { 1.0 };
+        if m == 0 {
+            return Some((sign * 0.0, true));
+        }
+        let q = q + e;
+        let lead = 63 - m.leading_zeros() as i32;
+        if lead + q > 1023 {
+            return None;
+        }
+        if q >= -1074 {
+            // At most 53 significant bits on float64's grid: a float, built from its bits.
+            let top = lead + q;
+            let exact = if top >= -1022 {
+                let frac = (m << (52 - lead)) & ((1 << 52) - 1);
+                f64::from_bits(((top + 1023) as u64) << 52 | frac)
+            } else {
+                f64::from_bits(m << (q + 1074))
+            };
+            return Some((sign * exact, true));
+        }
+        // Below the subnormal grid: m · 2^q on multiples of 2^-1074, ties to even.
+        let shift = (-1074 - q) as u32;
+        let r = if shift >= 64 {
+            0
+        } else {
+            let (kept, rest) = (m >> shift, m & ((1u64 << shift) - 1));
+            let half = 1u64 << (shift - 1);
+            kept + (rest > half || (rest == half && kept & 1 == 1)) as u64
+        };
+        Some((sign * f64::from_bits(r), false))
+    }
+
+    /// `times_pow2` is exact wherever x · 2^e is a float, and where 2^e is a normal number (its
+    /// one-product path) rounds an underflowing product once, to nearest: checked against
+    /// integer arithmetic on x's significand, over every exponent of x and every e it takes.
+    #[test]
+    fn times_pow2_is_exact_or_rounded_once() {
+        let mut rng = Rng::new(29);
+        let (mut exact, mut rounded) = (0, 0);
+        for _ in 0..400_000 {
+            // Any sign, exponent (subnormals and zero included) and significand.
+            let x = f64::from_bits(rng.u64());
+            if !x.is_finite() {
+                continue;
+            }
+            let e = rng.below(4093) as i32 - 2046;
+            let got = times_pow2(x, e);
+            match scaled_exactly(x, e) {
+                None => assert!(got.is_infinite() && got.signum() == x.signum(), "{x:e} {e}"),
+                Some((want, representable)) => {
+                    if representable || (-1022..=1023).contains(&e) {
+                        assert_eq!(got.to_bits(), want.to_bits(), "{x:e} · 2^{e}");
+                        if representable {
+                            exact += 1;
+                        } else {
+                            rounded += 1;
+                        }
+                    }
+                }
+            }
+        }
+        assert!(
+            exact > 100_000 && rounded > 1_000,
+            "{exact} exact, {rounded} rounded"
+        );
     }
 }
