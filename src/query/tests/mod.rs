@@ -6,7 +6,7 @@ use super::*;
 use crate::layout::{LayoutKind, Tet32};
 use crate::referee;
 use crate::scene::{CastOptions, HitBuffers, Rays, Scene};
-use crate::status::{HIT, MISS};
+use crate::status::{HIT, INVALID, MISS};
 use crate::testing::{exact_case_rays, random_scene, Rng};
 use crate::traverse::{
     walk_with, Aman2022, ExitMethod, Method, NoObserver, Robust, WalkEnd, WalkSetup,

@@ -369,3 +369,64 @@ fn all_hits_counts_and_occlusion_agree_with_the_referee() {
         "{shared} shared points of {points}"
     );
 }
+
+/// A ray whose hits all lie beyond float64 (a direction so short, 2^-1060 of the others',
+/// that every t overflows) is INVALID in the all-hits answer, with no point listed, as a
+/// closest hit is; the same lines with their directions unscaled are listed as usual, and a
+/// line that meets nothing is a MISS at either scale. On the walk and the exact BVH.
+#[test]
+fn all_hits_whose_t_overflow_are_invalid() {
+    let mut rng = Rng::xorshift(67);
+    let g = crate::testing::grid_scene_inside(&mut rng, 4, 0.0, 0.35);
+    let n = 400;
+    // Origins inside the box, off every triangle (random float64s); directions of 8-bit
+    // components, so that 2^-1060 scales them exactly (subnormal, nothing rounded): the
+    // short rays are the same lines, each t times 2^1060, and every t of a unit ray is far
+    // above 2^-36 (the grid's faces are 1/4 apart).
+    let o: Vec<f64> = (0..3 * n).map(|_| 0.05 + 0.9 * rng.f()).collect();
+    let d: Vec<f64> = (0..3 * n)
+        .map(|_| (rng.below(511) as f64 - 255.0) / 256.0)
+        .collect();
+    let tiny: Vec<f64> = d.iter().map(|x| x * 2f64.powi(-1060)).collect();
+    assert!(d
+        .iter()
+        .zip(&tiny)
+        .all(|(x, y)| y * 2f64.powi(530) * 2f64.powi(530) == *x));
+    let (mut invalid, mut missed) = (0, 0);
+    for accel in [AccelKind::TetWalk, AccelKind::ExactBvh] {
+        let opts = CastOptions {
+            accel,
+            ..Default::default()
+        };
+        let cast = |dirs: &[f64]| {
+            let r = Rays {
+                origins: &o[..],
+                directions: dirs,
+                tmin: &[0.0],
+                tmax: &[f64::INFINITY],
+                leaving: None,
+            };
+            let mut listed = vec![crate::query::Listed::default(); n];
+            g.scene.intersections(&r, &mut listed, &opts).unwrap();
+            listed
+        };
+        let (unit, short) = (cast(&d), cast(&tiny));
+        for i in 0..n {
+            // Every t of the short ray is its unit twin's times 10^310 or more: beyond float64.
+            let (u, s) = (&unit[i], &short[i]);
+            if u.status == HIT {
+                assert!(u.meets.iter().all(|m| m.t.is_finite()), "ray {i}: {u:?}");
+                assert_eq!(s.status, INVALID, "ray {i} ({accel:?}): {s:?}");
+                assert!(s.meets.is_empty(), "ray {i} ({accel:?}): {s:?}");
+                invalid += 1;
+            } else if u.status == MISS {
+                assert_eq!(s.status, MISS, "ray {i} ({accel:?}): {s:?}");
+                missed += 1;
+            }
+        }
+    }
+    assert!(
+        invalid > 200 && missed > 20,
+        "{invalid} invalid, {missed} missed"
+    );
+}
