@@ -28,7 +28,7 @@
 use crate::layout::LayoutKind;
 use crate::scene::{AccelKind, Lanes, Packets};
 use crate::traverse::Method;
-use crate::{referee, CastOptions, HitBuffers, Rays, Scene, HIT};
+use crate::{referee, CastOptions, HitBuffers, Rays, Scene, HIT, MISS};
 
 const N: usize = 8;
 
@@ -79,8 +79,10 @@ fn cover(axis: usize, level: usize, start: [usize; 2], len: usize, upper: bool) 
     faces
 }
 
-#[test]
-fn a_neighbour_met_out_of_order_wins_over_a_later_crossing() {
+/// The scene of the module's notes: the floor T, the wall W and the far wall W2 (caller
+/// triangles 0, 1, 2) on the Kuhn grid, the Steiner point (2,3,4) an ulp above the floor's
+/// plane, and the grid points `lowered` an ulp below it.
+fn floor_and_walls(lowered: &[[usize; 3]]) -> (Scene, Vec<[[f64; 3]; 3]>) {
     let (mut pts, tets) = crate::mesh::kuhn::kuhn_grid(N, 0.0, || 0.5);
     let h = 1.0 / N as f64;
     let g = |x: f64, y: f64, z: f64| [x * h, y * h, z * h];
@@ -89,6 +91,13 @@ fn a_neighbour_met_out_of_order_wins_over_a_later_crossing() {
     assert_eq!(pts[s], g(2.0, 3.0, 4.0));
     pts[s][2] = 0.5 + f64::EPSILON / 2.0;
     assert!(pts[s][2] > 0.5);
+    // Below 0.5 the ulp is half as large.
+    for &[x, y, z] in lowered {
+        let p = &mut pts[id(x, y, z) as usize];
+        assert_eq!(*p, g(x as f64, y as f64, z as f64));
+        p[2] = 0.5 - f64::EPSILON / 4.0;
+        assert!(p[2] < 0.5 && p[2] + f64::EPSILON / 4.0 == 0.5);
+    }
     // W2's corners raised off the floor's level.
     for y in [2, 3] {
         pts[id(6, y, 4) as usize][2] = 0.5 + 1.0 / 64.0;
@@ -112,6 +121,14 @@ fn a_neighbour_met_out_of_order_wins_over_a_later_crossing() {
         }
     }
     let scene = Scene::build(pts, &tets, &faces, &face_triangle, tris.clone()).unwrap();
+    (scene, tris)
+}
+
+#[test]
+fn a_neighbour_met_out_of_order_wins_over_a_later_crossing() {
+    let h = 1.0 / N as f64;
+    let g = |x: f64, y: f64, z: f64| [x * h, y * h, z * h];
+    let (scene, tris) = floor_and_walls(&[]);
 
     let o = g(0.5, 2.6875, 4.0);
     let d = [1.0, 0.0, 0.0];
@@ -183,5 +200,89 @@ fn a_neighbour_met_out_of_order_wins_over_a_later_crossing() {
             "all hits: triangle {k} at t {m}, the referee's t {}",
             c.t()
         );
+    }
+}
+
+/// The in-plane crossing (`ClosestPolicy::crossed` and `AllPolicy::crossed` where `crossing`
+/// finds no point: the line lies in the caller's triangle's plane, yet crosses one of its
+/// faces through the face's interior). With the floor's grid point (3,4,4) an ulp below its
+/// plane beside the Steiner point (2,3,4) an ulp above, the floor's face (2,3), (2,4), (3,4)
+/// is tilted across the plane z = 4 along the segment from (2,4) to (2⅔, 3⅔) (z runs from
+/// +2^-53 to −2^-54 along the edge from (2,3) to (3,4)). A line in the floor's plane at
+/// y = 3.75 crosses that face through its interior at x = 2.5, where the caller's triangles
+/// around the face are looked at (`ExactRay::around`), and meets the wall W on its edge at
+/// x = 2, under the raised mesh edge (no touch there).
+///
+/// Along −x from (4.25, 3.75, 4), the face comes first (t = 1.75 grid units = 0.21875), W
+/// after (t = 2.25 units = 0.28125). With tmax = 0.25, W lies beyond the range: nothing is hit
+/// (the referee agrees), and a policy that kept what `around` finds outside [tmin, tmax]
+/// would answer W. Along +x from (0.5, 3.75, 4), W comes first (t = 0.1875); with tmin = 0.2
+/// nothing is hit. Without those bounds W is the hit and the only point listed.
+#[test]
+fn a_face_crossed_in_its_triangles_plane_keeps_only_meets_in_range() {
+    let h = 1.0 / N as f64;
+    let g = |x: f64, y: f64, z: f64| [x * h, y * h, z * h];
+    let (scene, tris) = floor_and_walls(&[[3, 4, 4]]);
+    let inf = f64::INFINITY;
+    let cases = [
+        (
+            g(4.25, 3.75, 4.0),
+            [-1.0, 0.0, 0.0],
+            0.0,
+            inf,
+            Some(0.28125),
+        ),
+        (g(4.25, 3.75, 4.0), [-1.0, 0.0, 0.0], 0.0, 0.25, None),
+        (g(0.5, 3.75, 4.0), [1.0, 0.0, 0.0], 0.0, inf, Some(0.1875)),
+        (g(0.5, 3.75, 4.0), [1.0, 0.0, 0.0], 0.2, inf, None),
+    ];
+    for (o, d, tmin, tmax, want) in cases {
+        let case = format!("o {o:?} d {d:?} [{tmin}, {tmax}]");
+        assert!(referee::crossing(o, d, &tris[0]).is_none());
+        assert!(referee::crossing(o, d, &tris[2]).is_none());
+        let verdict = referee::first_hit(o, d, tmin, tmax, &tris).map(|v| (v.t, v.ties));
+        assert_eq!(verdict, want.map(|t| (t, vec![1])), "the referee, {case}");
+        let rays = Rays {
+            origins: &o[..],
+            directions: &d[..],
+            tmin: &[tmin],
+            tmax: &[tmax],
+            leaving: None,
+        };
+        for (lanes, packets) in [(Lanes::Auto, Packets::Auto), (Lanes::Off, Packets::Off)] {
+            let opts = CastOptions {
+                threads: Some(1),
+                lanes,
+                packets,
+                accel: AccelKind::TetWalk,
+                ..CastOptions::default()
+            };
+            let mut out = HitBuffers::<f64>::new(1, false);
+            scene
+                .cast_with(
+                    Method::DEFAULT,
+                    LayoutKind::DEFAULT,
+                    &rays,
+                    out.out(),
+                    &opts,
+                )
+                .unwrap();
+            let got = (out.status[0], out.t[0], out.triangle[0]);
+            match want {
+                Some(t) => assert_eq!(got, (HIT, t, 1), "{case}, lanes {lanes:?}"),
+                None => assert_eq!(got.0, MISS, "{case}, lanes {lanes:?}: {got:?}"),
+            }
+        }
+        let opts = CastOptions {
+            threads: Some(1),
+            accel: AccelKind::TetWalk,
+            ..CastOptions::default()
+        };
+        let mut listed = vec![crate::query::Listed::default(); 1];
+        scene.intersections(&rays, &mut listed, &opts).unwrap();
+        let got: Vec<(u32, f64)> = listed[0].meets.iter().map(|m| (m.triangle, m.t)).collect();
+        let expected: Vec<(u32, f64)> = want.map(|t| (1, t)).into_iter().collect();
+        assert_eq!(got, expected, "all hits, {case}");
+        assert_eq!(listed[0].status, if want.is_some() { HIT } else { MISS });
     }
 }
