@@ -124,6 +124,42 @@ fn floor_and_walls(lowered: &[[usize; 3]]) -> (Scene, Vec<[[f64; 3]; 3]>) {
     (scene, tris)
 }
 
+/// The closest hit (status, t, triangle) of the one ray of `rays` on the exact walk, with
+/// lanes and packets as the cast picks them and with both off, each with its lanes setting.
+fn closest_both_ways(scene: &Scene, rays: &Rays<f64>) -> Vec<(Lanes, (u8, f64, i32))> {
+    [(Lanes::Auto, Packets::Auto), (Lanes::Off, Packets::Off)]
+        .into_iter()
+        .map(|(lanes, packets)| {
+            let opts = CastOptions {
+                threads: Some(1),
+                lanes,
+                packets,
+                accel: AccelKind::TetWalk,
+                ..CastOptions::default()
+            };
+            let mut out = HitBuffers::<f64>::new(1, false);
+            scene
+                .cast_with(Method::DEFAULT, LayoutKind::DEFAULT, rays, out.out(), &opts)
+                .unwrap();
+            (lanes, (out.status[0], out.t[0], out.triangle[0]))
+        })
+        .collect()
+}
+
+/// All hits of the one ray of `rays` on the exact walk: the status and each point's triangle
+/// and t, in order.
+fn all_hits(scene: &Scene, rays: &Rays<f64>) -> (u8, Vec<(u32, f64)>) {
+    let opts = CastOptions {
+        threads: Some(1),
+        accel: AccelKind::TetWalk,
+        ..CastOptions::default()
+    };
+    let mut listed = vec![crate::query::Listed::default(); 1];
+    scene.intersections(rays, &mut listed, &opts).unwrap();
+    let got = listed[0].meets.iter().map(|m| (m.triangle, m.t)).collect();
+    (listed[0].status, got)
+}
+
 #[test]
 fn a_neighbour_met_out_of_order_wins_over_a_later_crossing() {
     let h = 1.0 / N as f64;
@@ -151,43 +187,19 @@ fn a_neighbour_met_out_of_order_wins_over_a_later_crossing() {
         tmax: &[f64::INFINITY],
         leaving: None,
     };
-    for (lanes, packets) in [(Lanes::Auto, Packets::Auto), (Lanes::Off, Packets::Off)] {
-        let opts = CastOptions {
-            threads: Some(1),
-            lanes,
-            packets,
-            accel: AccelKind::TetWalk,
-            ..CastOptions::default()
-        };
-        let mut out = HitBuffers::<f64>::new(1, false);
-        scene
-            .cast_with(
-                Method::DEFAULT,
-                LayoutKind::DEFAULT,
-                &rays,
-                out.out(),
-                &opts,
-            )
-            .unwrap();
+    for (lanes, got) in closest_both_ways(&scene, &rays) {
         assert_eq!(
-            (out.status[0], out.t[0], out.triangle[0]),
+            got,
             (HIT, t_w, 1),
-            "lanes {lanes:?}, packets {packets:?}: the wall met at its edge (t = {t_w}) comes \
+            "lanes {lanes:?}: the wall met at its edge (t = {t_w}) comes \
              before the far wall (t = {t_far})"
         );
     }
 
     // All hits find the wall the same way (`AllPolicy::touched`'s `around`, at a touch that
     // is not the origin): both walls, in order, each named and placed as the referee finds it.
-    let opts = CastOptions {
-        threads: Some(1),
-        accel: AccelKind::TetWalk,
-        ..CastOptions::default()
-    };
-    let mut listed = vec![crate::query::Listed::default(); 1];
-    scene.intersections(&rays, &mut listed, &opts).unwrap();
-    let got: Vec<(u32, f64)> = listed[0].meets.iter().map(|m| (m.triangle, m.t)).collect();
-    assert_eq!(listed[0].status, HIT, "all hits: {got:?}");
+    let (status, got) = all_hits(&scene, &rays);
+    assert_eq!(status, HIT, "all hits: {got:?}");
     assert_eq!(
         got.iter().map(|m| m.0).collect::<Vec<_>>(),
         vec![1, 2],
@@ -249,40 +261,15 @@ fn a_face_crossed_in_its_triangles_plane_keeps_only_meets_in_range() {
             tmax: &[tmax],
             leaving: None,
         };
-        for (lanes, packets) in [(Lanes::Auto, Packets::Auto), (Lanes::Off, Packets::Off)] {
-            let opts = CastOptions {
-                threads: Some(1),
-                lanes,
-                packets,
-                accel: AccelKind::TetWalk,
-                ..CastOptions::default()
-            };
-            let mut out = HitBuffers::<f64>::new(1, false);
-            scene
-                .cast_with(
-                    Method::DEFAULT,
-                    LayoutKind::DEFAULT,
-                    &rays,
-                    out.out(),
-                    &opts,
-                )
-                .unwrap();
-            let got = (out.status[0], out.t[0], out.triangle[0]);
+        for (lanes, got) in closest_both_ways(&scene, &rays) {
             match want {
                 Some(t) => assert_eq!(got, (HIT, t, 1), "{case}, lanes {lanes:?}"),
                 None => assert_eq!(got.0, MISS, "{case}, lanes {lanes:?}: {got:?}"),
             }
         }
-        let opts = CastOptions {
-            threads: Some(1),
-            accel: AccelKind::TetWalk,
-            ..CastOptions::default()
-        };
-        let mut listed = vec![crate::query::Listed::default(); 1];
-        scene.intersections(&rays, &mut listed, &opts).unwrap();
-        let got: Vec<(u32, f64)> = listed[0].meets.iter().map(|m| (m.triangle, m.t)).collect();
+        let (status, got) = all_hits(&scene, &rays);
         let expected: Vec<(u32, f64)> = want.map(|t| (1, t)).into_iter().collect();
         assert_eq!(got, expected, "all hits, {case}");
-        assert_eq!(listed[0].status, if want.is_some() { HIT } else { MISS });
+        assert_eq!(status, if want.is_some() { HIT } else { MISS });
     }
 }
