@@ -219,6 +219,12 @@ pub fn checkpoint() -> Result<()> {
 
 /// Runs `work` on every piece (each piece once, in any order unless on one thread). With a
 /// poll installed on this thread, stops early with [`Error::Interrupted`] when it says so.
+///
+/// A run of more than one piece also polls once before its first piece (done 0): a run that
+/// ends within a poll period still reports, and a stop asked for before the start (Ctrl-C, a
+/// progress callback that raises) stops it whatever the machine's speed. That costs one poll
+/// per run of several pieces (a cast of more than one chunk of rays, `scene::cast::CHUNK`); a
+/// run of one piece is not polled at its start.
 pub fn run_pieces<T: Send>(
     pieces: Vec<T>,
     threads: Option<usize>,
@@ -227,6 +233,11 @@ pub fn run_pieces<T: Send>(
     check_threads(threads)?;
     let poll = current_poll();
     let total = pieces.len();
+    if let Some(poll) = &poll {
+        if total > 1 && !poll(Progress { done: 0, total }) {
+            return Err(Error::Interrupted);
+        }
+    }
     if threads == Some(1) {
         let mut last = Instant::now();
         for (done, p) in pieces.into_iter().enumerate() {
@@ -332,6 +343,37 @@ mod tests {
             );
             assert!(seen.iter().all(|p| p.total == 40 && p.done < 40));
             assert!(seen.windows(2).all(|w| w[0].done <= w[1].done));
+        }
+    }
+
+    /// A run of several pieces polls once before its first piece, so a poll that says stop
+    /// then runs none of them, however fast they would be; a run of one piece is not polled
+    /// at its start.
+    #[test]
+    fn poll_at_the_start_of_a_run() {
+        for threads in [Some(1), Some(2)] {
+            // Pieces run and polls seen by a run of `n` pieces under a poll that says stop.
+            let run = |n: usize| {
+                let seen = Rc::new(RefCell::new(Vec::<Progress>::new()));
+                let (log, ran) = (seen.clone(), AtomicUsize::new(0));
+                let stop = move |p| {
+                    log.borrow_mut().push(p);
+                    false
+                };
+                let out = with_poll(stop, || {
+                    run_pieces(vec![(); n], threads, |()| {
+                        ran.fetch_add(1, Ordering::Relaxed);
+                    })
+                });
+                let seen = seen.borrow().clone();
+                (out, ran.into_inner(), seen)
+            };
+            let (out, ran, seen) = run(3);
+            assert!(matches!(out, Err(Error::Interrupted)), "{threads:?}");
+            assert_eq!((ran, &seen[..]), (0, &[Progress { done: 0, total: 3 }][..]));
+            let (out, ran, seen) = run(1);
+            assert!(out.is_ok(), "{threads:?}");
+            assert_eq!((ran, seen.len()), (1, 0), "{threads:?}");
         }
     }
 

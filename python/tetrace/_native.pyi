@@ -162,7 +162,8 @@ class NativeScene:
     # when the request audits); "any" -> "status" (HIT: something lies in [tmin, tmax]);
     # "all" -> "offsets" int64 (N+1,), "t", "triangle", "u", "v", "point" (M, 3), "status":
     # every point where a ray meets the surface once, sorted by t per ray; "count" -> "count"
-    # int32 (N,), "status". progress is called as progress(chunks_done, chunks) every 50 ms.
+    # int32 (N,), "status". progress is called as progress(chunks_done, chunks): once at
+    # the start (0, chunks) of a query of several chunks, then every 50 ms.
     def query(
         self,
         kind: str,
