@@ -273,3 +273,56 @@ fn a_face_crossed_in_its_triangles_plane_keeps_only_meets_in_range() {
         assert_eq!(status, if want.is_some() { HIT } else { MISS });
     }
 }
+
+/// An origin exactly on a split caller's triangle, strictly inside a tet (`planes_at_origin`
+/// on a split mesh). The floor's face (2,2), (2,3), (3,3) has the Steiner point (2,3,4) an ulp
+/// above the floor's plane, so the point (2.25, 2.5, 4), on the floor (y ≥ x, inside its
+/// corners), lies 2^-55 below that face: strictly inside the Kuhn tet (2,2,3), (2,2,4),
+/// (2,3,4), (3,3,4) under it (its barycentric weight on (2,2,3) is 2^-52, the rest about
+/// 1/2, 1/4, 1/4), on no face. The ray starts there (tmin = 0) and goes down, away
+/// from every face the floor has: the closed floor holds its origin and its line is not in
+/// the floor's plane, so it hits the floor at t = 0 (the referee agrees). Only the caller's
+/// triangles around the start tet's vertices find it; the shortcut of an unsplit mesh (an
+/// origin strictly inside its tet lies on no triangle) would leave it a miss.
+#[test]
+fn an_origin_on_a_split_triangle_strictly_inside_its_tet_hits_it_at_zero() {
+    let h = 1.0 / N as f64;
+    let g = |x: f64, y: f64, z: f64| [x * h, y * h, z * h];
+    let (scene, tris) = floor_and_walls(&[]);
+    assert!(
+        scene.incidence.split,
+        "the mesher's Steiner point splits the floor"
+    );
+    let o = g(2.25, 2.5, 4.0);
+    // The start tet holds o strictly: every orientation against its faces is nonzero.
+    let tet = [
+        g(2.0, 2.0, 3.0),
+        g(2.0, 2.0, 4.0),
+        g(2.0, 3.0, 4.0),
+        g(3.0, 3.0, 4.0),
+    ];
+    let mut raised = tet;
+    raised[2][2] = 0.5 + f64::EPSILON / 2.0;
+    for f in [[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]] {
+        let [a, b, c] = f.map(|k| raised[k]);
+        assert_ne!(
+            crate::geom::exact::orient_sign(a, b, c, o),
+            0,
+            "o on the face {f:?}"
+        );
+    }
+    let d = [0.0, 0.0, -1.0];
+    let verdict = referee::first_hit(o, d, 0.0, f64::INFINITY, &tris).expect("the referee hits");
+    assert_eq!((verdict.t, verdict.ties.clone()), (0.0, vec![0]));
+    let rays = Rays {
+        origins: &o[..],
+        directions: &d[..],
+        tmin: &[0.0],
+        tmax: &[f64::INFINITY],
+        leaving: None,
+    };
+    for (lanes, got) in closest_both_ways(&scene, &rays) {
+        assert_eq!(got, (HIT, 0.0, 0), "lanes {lanes:?}");
+    }
+    assert_eq!(all_hits(&scene, &rays), (HIT, vec![(0, 0.0)]));
+}
