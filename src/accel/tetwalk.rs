@@ -16,12 +16,13 @@
 //! finishes alone from where its group left it, so again every answer is the one-ray walk's,
 //! bit for bit.
 
+use super::exact_bvh::{ExactBvh, ExactBvhAt};
 use super::Accel;
 use super::{trace_each, Lanes, Packets};
 use crate::geom::ray::Ray;
 use crate::geom::real::Real;
 use crate::layout::Layout;
-use crate::locate::{LocateState, Locators, Start, WalkStart};
+use crate::locate::{LocateState, Locators, Start, WalkStart, GRAZES};
 use crate::query::{Decision, Query, QueryKind, Sink};
 use crate::simd::Simd;
 use crate::traverse::{
@@ -29,6 +30,7 @@ use crate::traverse::{
     WalkSetup, WalkState,
 };
 use std::marker::PhantomData;
+use std::sync::Arc;
 
 mod packets;
 
@@ -51,6 +53,9 @@ pub struct TetWalk<'a, R, L, M, O> {
     pub packets: Packets,
     /// The level of the packets' per-ray exit kernel (`traverse::packet::exits_of`).
     pub simd: Simd,
+    /// The scene's exact BVH (built on first use), which answers the rays whose line may touch
+    /// the box without entering it (`locate::GRAZES`); None: such a ray fails.
+    pub grazing: Option<&'a (dyn Fn() -> crate::Result<Arc<ExactBvh>> + Sync)>,
     // fn() -> _: the method and observer are types only, so the walk is Sync whatever they are.
     _types: PhantomData<fn() -> (M, O)>,
 }
@@ -63,7 +68,16 @@ impl<'a, R, L, M, O> TetWalk<'a, R, L, M, O> {
             lanes: Lanes::Auto,
             packets: Packets::Auto,
             simd: Simd::Scalar,
+            grazing: None,
             _types: PhantomData,
+        }
+    }
+
+    /// The walk with `bvh` to answer the rays that graze the box (see [`TetWalk::grazing`]).
+    pub fn with_grazing(self, bvh: &'a (dyn Fn() -> crate::Result<Arc<ExactBvh>> + Sync)) -> Self {
+        TetWalk {
+            grazing: Some(bvh),
+            ..self
         }
     }
 
@@ -237,6 +251,7 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
         let points = self.setup.points;
         let (s, prepared) = match self.locators.locate_exact::<R, M>(ray, points, st) {
             Ok(x) => x,
+            Err(GRAZES) => return Err(self.answer_grazing(query, ray)),
             Err(status) => return Err(query.skipped(status)),
         };
         let mesh = self.locators.mesh;
@@ -266,6 +281,23 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
             }
         }
         self.first_exit(query, s, prepared, policy, observer)
+    }
+
+    /// The answer to a ray whose line may touch the box without entering it
+    /// (`locate::GRAZES`): the exact BVH's, which tests the caller's triangles with the walk's
+    /// exact predicates and tie rule (the two agree ray for ray, `accel::exact_bvh`'s tests), so
+    /// it is the answer the walk owes. FAILED where no BVH is at hand or it cannot be built.
+    #[cold]
+    pub(crate) fn answer_grazing<K: QueryKind>(&self, query: &K, ray: &Ray) -> K::Answer {
+        let Some(bvh) = self.grazing.and_then(|get| get().ok()) else {
+            return query.skipped(crate::status::FAILED);
+        };
+        let at = ExactBvhAt {
+            bvh: &bvh,
+            simd: self.simd,
+        };
+        let mut st = at.state(0);
+        at.trace(query, ray, &mut st)
     }
 
     #[inline(always)]

@@ -29,7 +29,7 @@ use crate::camera::CameraF32;
 use crate::error::{Error, Result};
 use crate::geom::ray::{checked_range, Ray};
 use crate::layout::Tet20;
-use crate::locate::{LocateState, Start, WalkStart};
+use crate::locate::{LocateState, Start, WalkStart, GRAZES};
 use crate::query::{Listed, QueryKind, RayHit, Sink};
 use crate::scene::CastOptions;
 use crate::scene::{check_lengths, check_ray_count, HitsOut, Rays, Scene, CHUNK};
@@ -527,7 +527,9 @@ impl DeviceScene {
         timings.locate = t0.elapsed().as_secs_f64() - uploads;
         timings.walked = n;
         let setup = exact_setup(scene, exact.max_steps)?;
-        let walk = TetWalk::<f64, Tet20, Exact, NoObserver>::new(scene.locators(), setup);
+        let bvh = || scene.exact_bvh();
+        let walk = TetWalk::<f64, Tet20, Exact, NoObserver>::new(scene.locators(), setup)
+            .with_grazing(&bvh);
         let handed = AtomicUsize::new(0);
         let finished = AtomicUsize::new(0);
         // The rays the CPU does not walk: a range it refuses (`checked_range`), and a ray from
@@ -540,7 +542,11 @@ impl DeviceScene {
                 true => locators.exact_line(ray).err(),
                 false => checked_range(ray).err(),
             };
-            status.map(|s| query.skipped(s))
+            status.map(|s| match s {
+                // A line that may touch the box without entering it: the exact BVH's answer.
+                GRAZES => walk.answer_grazing(query, ray),
+                s => query.skipped(s),
+            })
         };
         // The host's walk of a ray from its start, as the CPU's.
         let again = |ray: &Ray, st: &mut LocateState| match walk.begin_elsewhere(query, ray, st) {
@@ -805,7 +811,9 @@ fn resumed<K: EndsOnDevice, S: Sink<K::Answer>>(
     timings: &mut GpuTimings,
 ) -> Result<()> {
     let setup = exact_setup(scene, device.max_steps)?;
-    let walk = TetWalk::<f64, Tet20, Exact, NoObserver>::new(scene.locators(), setup);
+    let bvh = || scene.exact_bvh();
+    let walk =
+        TetWalk::<f64, Tet20, Exact, NoObserver>::new(scene.locators(), setup).with_grazing(&bvh);
     let points_slack = device.scene.points_slack;
     device.cast(
         out,

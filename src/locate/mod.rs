@@ -6,4 +6,4 @@ pub mod start;
 
 pub use boundary::BoundaryLocator;
 pub use grid::{GridLocator, Located};
-pub use start::{ExactOrigin, LocateState, Locators, Start, WalkStart};
+pub use start::{ExactOrigin, LocateState, Locators, Start, WalkStart, GRAZES};

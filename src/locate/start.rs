@@ -304,7 +304,9 @@ impl Locators<'_> {
             Some(found)
         });
         let Some((t, i)) = found else {
-            return Err(MISS);
+            // No face's interior is entered: the line misses the box, or touches it only on
+            // its boundary (`GRAZES`).
+            return Err(grazes_or_misses(o, start.d, mesh.bounds, start.tmax));
         };
         (start.tet, start.entry) = (t, Some(i));
         Ok((start, prepared))
@@ -330,7 +332,7 @@ impl Locators<'_> {
             return Err(MISS);
         }
         let Some(span) = clip_box(o, d, lo, hi, 0.0, tmax) else {
-            return Err(MISS);
+            return Err(grazes_or_misses(o, d, [lo, hi], tmax));
         };
         let mut p = [0, 1, 2].map(|a| (o[a] + span.t0 * d[a]).clamp(lo[a], hi[a]));
         if let Some((axis, high)) = span.side {
@@ -338,6 +340,32 @@ impl Locators<'_> {
         }
         start.point = p;
         Ok((start, ExactOrigin::Outside { side: span.side }))
+    }
+}
+
+/// What [`Locators::locate_exact`] and [`Locators::exact_line`] give (as the `Err` of a ray
+/// that does not walk) for a ray from outside the box whose line may touch the closed box
+/// without entering it: at a point of an edge or a corner, or along a side's plane. It enters
+/// no boundary face's interior, so the walk cannot start, yet a triangle with a point on the
+/// box's boundary may be met there, and the contract makes that a hit. Never an answer: the
+/// exact walk answers such a ray with the exact BVH (`TetWalk::begin_exact`), whose answers
+/// are the walk's.
+pub const GRAZES: u8 = u8::MAX;
+
+/// [`GRAZES`] where the line may meet the closed box `[lo, hi]` within [0, tmax], else MISS:
+/// the float slabs of a box grown by 2^-40 of each axis's magnitudes (the slabs' roundings
+/// are a few 2^-53 of those), with tmax grown as much, find a span. A line that touches the
+/// closed box passes through the grown one's interior, so it is never called a miss; one that
+/// passes near without touching goes to the exact BVH too, which answers it right.
+fn grazes_or_misses(o: [f64; 3], d: [f64; 3], [lo, hi]: [[f64; 3]; 2], tmax: f64) -> u8 {
+    const GROW: f64 = 1.0 / (1u64 << 40) as f64;
+    let pad = |a: usize| GROW * (lo[a].abs() + hi[a].abs() + o[a].abs()) + f64::MIN_POSITIVE;
+    let lo = [0, 1, 2].map(|a| lo[a] - pad(a));
+    let hi = [0, 1, 2].map(|a| hi[a] + pad(a));
+    let tmax = tmax + GROW * tmax.abs();
+    match clip_box(o, d, lo, hi, 0.0, tmax) {
+        Some(_) => GRAZES,
+        None => MISS,
     }
 }
 

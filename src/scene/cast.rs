@@ -379,9 +379,11 @@ impl Scene {
             sides: &self.mesh.constrained,
             max_steps: opts.max_steps_for(self.mesh.len()),
         };
+        let bvh = || self.exact_bvh();
         let walk = TetWalk::<W, L, M, O>::new(self.locators(), setup)
             .with_lanes(opts.lanes, opts.packets)
-            .with_simd(opts.simd_level()?);
+            .with_simd(opts.simd_level()?)
+            .with_grazing(&bvh);
         cast_accel(&walk, query, rays, out, opts.threads)
     }
 }

@@ -251,6 +251,12 @@ impl Scene {
         self.structures.get(&self.surface.triangles)
     }
 
+    /// The exact 8-wide BVH: the one built last, else one with the default parameters (built
+    /// now).
+    pub fn exact_bvh(&self) -> Result<Arc<ExactBvh>> {
+        self.structures.get(&self.surface.triangles)
+    }
+
     /// The BVH if one is built.
     pub fn built_bvh(&self) -> Option<Arc<ReshetovBvh>> {
         self.structures.bvh.get()

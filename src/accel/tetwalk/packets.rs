@@ -6,7 +6,7 @@ use super::{Lane, TetWalk, MIN_PACKET, PACKET};
 use crate::geom::ray::Ray;
 use crate::geom::real::Real;
 use crate::layout::Layout;
-use crate::locate::{ExactOrigin, LocateState, WalkStart};
+use crate::locate::{ExactOrigin, LocateState, WalkStart, GRAZES};
 use crate::mesh::build::OUTWARD_FACES;
 use crate::query::{QueryKind, Sink};
 use crate::traverse::packet::{seen_from, DirBox, Edge, Packet, PacketRay};
@@ -244,6 +244,8 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
         for j in rays {
             let ray = ray_at(j);
             match self.locators.exact_line(&ray) {
+                // A line that may touch the box without entering it: the exact BVH's answer.
+                Err(GRAZES) => out.put(j, self.answer_grazing(query, &ray)),
                 // Its answer whichever way it starts (location gives the same status).
                 Err(status) => out.put(j, query.skipped(status)),
                 Ok((start, origin)) => {

@@ -1075,3 +1075,42 @@ fn gpu_ray_buffers_are_kept_between_casts() {
         assert_same_answers("gpu ray buffers", &first, out);
     }
 }
+
+/// Rays whose line touches the domain box without entering it (at a point of an edge, at a
+/// corner, along a side's plane) on a grid whose interior faces reach the box: the GPU cast
+/// answers them as the CPU exact cast (which hands them to the exact BVH: `locate::GRAZES`),
+/// and the referee finds every one right. Coordinates are multiples of 1/8 and directions
+/// small integers, exact in float32.
+#[test]
+fn gpu_grazing_rays_are_the_cpu_exact_walk() {
+    let test = "gpu grazing";
+    if !device_or_skip(test) {
+        return;
+    }
+    let (scene, tris) = grid_scene(4, 1.0, 0.0, 51);
+    let (mut o, mut d) = (Vec::new(), Vec::new());
+    let mut push = |p: [f32; 3], dir: [f32; 3], t: f32| {
+        o.extend((0..3).map(|a| p[a] - t * dir[a]));
+        d.extend(dir);
+    };
+    for k in 0..=8 {
+        let x = k as f32 / 8.0;
+        for z in [0.0, 1.0] {
+            // In the sides z = 0 and z = 1, from beyond x = 0.
+            push([0.0, x, z], [1.0, 0.0, 0.0], 1.0);
+            push([0.0, x, z], [2.0, 1.0, 0.0], 1.0);
+        }
+        // Touching the edge y = 0, z = 0 at one point (outside the box on both sides).
+        for a in [-2.0, 0.0, 1.0] {
+            push([x, 0.0, 0.0], [a, 1.0, -1.0], 2.0);
+        }
+    }
+    for (c, dir) in [
+        ([1.0, 1.0, 1.0], [1.0, -1.0, -1.0]),
+        ([0.0, 0.0, 0.0], [-1.0, 1.0, 1.0]),
+        ([1.0, 0.0, 1.0], [1.0, 1.0, -2.0]),
+    ] {
+        push(c, dir, 3.0);
+    }
+    assert_gpu_is_cpu_exact(test, &scene, &tris, &o, &d, Batching::default());
+}
