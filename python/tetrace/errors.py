@@ -49,8 +49,8 @@ the scene stays usable after any of them, ``tests/test_bad_input.py`` checks eac
   half-done.
 * ``KeyboardInterrupt`` (or whatever a signal handler raises): Ctrl-C during a cast or query
   (the core polls Python's signal handlers at the start of a query and every 50 ms, and
-  stops between chunks of 4096 rays; no partial answer is returned) or during meshing (the mesher's child process is
-  killed). The mesher's forked-child signals
+  stops between chunks of 4096 rays; no partial answer is returned) or during meshing (the
+  mesher's child process is killed). The mesher's forked-child signals
 (``_TetGenFailed`` and its kin) are private to :mod:`tetrace.mesh.isolate` and never reach
 the caller: they become :class:`MeshingError`.
 """
