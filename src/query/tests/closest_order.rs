@@ -124,6 +124,17 @@ fn floor_and_walls(lowered: &[[usize; 3]]) -> (Scene, Vec<[[f64; 3]; 3]>) {
     (scene, tris)
 }
 
+/// The ray from `o` along `d` over [0, ∞), as a batch of one.
+fn one_ray<'a>(o: &'a [f64; 3], d: &'a [f64; 3]) -> Rays<'a, f64> {
+    Rays {
+        origins: o,
+        directions: d,
+        tmin: &[0.0],
+        tmax: &[f64::INFINITY],
+        leaving: None,
+    }
+}
+
 /// The closest hit (status, t, triangle) of the one ray of `rays` on the exact walk, with
 /// lanes and packets as the cast picks them and with both off, each with its lanes setting.
 fn closest_both_ways(scene: &Scene, rays: &Rays<f64>) -> Vec<(Lanes, (u8, f64, i32))> {
@@ -180,13 +191,7 @@ fn a_neighbour_met_out_of_order_wins_over_a_later_crossing() {
     );
     assert!(referee::crossing(o, d, &tris[0]).is_none());
 
-    let rays = Rays {
-        origins: &o[..],
-        directions: &d[..],
-        tmin: &[0.0],
-        tmax: &[f64::INFINITY],
-        leaving: None,
-    };
+    let rays = one_ray(&o, &d);
     for (lanes, got) in closest_both_ways(&scene, &rays) {
         assert_eq!(
             got,
@@ -314,13 +319,7 @@ fn an_origin_on_a_split_triangle_strictly_inside_its_tet_hits_it_at_zero() {
     let d = [0.0, 0.0, -1.0];
     let verdict = referee::first_hit(o, d, 0.0, f64::INFINITY, &tris).expect("the referee hits");
     assert_eq!((verdict.t, verdict.ties.clone()), (0.0, vec![0]));
-    let rays = Rays {
-        origins: &o[..],
-        directions: &d[..],
-        tmin: &[0.0],
-        tmax: &[f64::INFINITY],
-        leaving: None,
-    };
+    let rays = one_ray(&o, &d);
     for (lanes, got) in closest_both_ways(&scene, &rays) {
         assert_eq!(got, (HIT, 0.0, 0), "lanes {lanes:?}");
     }
