@@ -38,6 +38,10 @@ pub(crate) use packets::direction_key;
 #[cfg(test)]
 pub use packets::{entered_together, packet_steps};
 
+/// Where a walk gets the scene's exact BVH when it needs one (built on first use:
+/// `Scene::exact_bvh`).
+pub type BvhSource<'a> = dyn Fn() -> crate::Result<Arc<ExactBvh>> + Sync + 'a;
+
 /// Rays walked side by side in one chunk.
 pub const LANES: usize = 8;
 
@@ -55,7 +59,7 @@ pub struct TetWalk<'a, R, L, M, O> {
     pub simd: Simd,
     /// The scene's exact BVH (built on first use), which answers the rays whose line may touch
     /// the box without entering it (`locate::GRAZES`); None: such a ray fails.
-    pub grazing: Option<&'a (dyn Fn() -> crate::Result<Arc<ExactBvh>> + Sync)>,
+    pub grazing: Option<&'a BvhSource<'a>>,
     // fn() -> _: the method and observer are types only, so the walk is Sync whatever they are.
     _types: PhantomData<fn() -> (M, O)>,
 }
@@ -74,7 +78,7 @@ impl<'a, R, L, M, O> TetWalk<'a, R, L, M, O> {
     }
 
     /// The walk with `bvh` to answer the rays that graze the box (see [`TetWalk::grazing`]).
-    pub fn with_grazing(self, bvh: &'a (dyn Fn() -> crate::Result<Arc<ExactBvh>> + Sync)) -> Self {
+    pub fn with_grazing(self, bvh: &'a BvhSource<'a>) -> Self {
         TetWalk {
             grazing: Some(bvh),
             ..self
