@@ -325,3 +325,81 @@ fn an_origin_on_a_split_triangle_strictly_inside_its_tet_hits_it_at_zero() {
     }
     assert_eq!(all_hits(&scene, &rays), (HIT, vec![(0, 0.0)]));
 }
+
+/// Lines in the planes of mesh faces (the grid planes z = 4 and y = 3 of an unjittered Kuhn
+/// grid) aimed at a caller's triangle that is one grid face standing across them: (3,3,4),
+/// (3,3,5), (3,4,5) in the plane x = 3. The walk leaves tets through faces whose plane holds
+/// the line (`Contact::Coplanar`), and such a touch reports the face's vertices on the line and
+/// the edges it crosses (`ExactRay::touch`'s masks): there, at the triangle's corner (3,3,4) or
+/// on its edge (3,3,4)–(3,3,5), the triangle is met. Lines through points of x = 3 beside the
+/// triangle miss it. Each ray's answer is the referee's: closest hit with lanes and packets on
+/// and off, and all hits. A touch that reported a face's other vertices and edges would place
+/// a meet on the triangle's plane where the line does not meet it, or miss the corner.
+#[test]
+fn lines_in_face_planes_meet_a_standing_triangle_at_its_corner_and_edge() {
+    let h = 1.0 / N as f64;
+    let (pts, tets) = crate::mesh::kuhn::kuhn_grid(N, 0.0, || 0.5);
+    let face = [id(3, 3, 4), id(3, 3, 5), id(3, 4, 5)];
+    let tris = vec![face.map(|v| pts[v as usize])];
+    let scene = Scene::build(pts, &tets, &[face], &[0], tris.clone()).unwrap();
+    // Targets on x = 3 (grid units): the corner, a point of the edge along z, and points
+    // beside the triangle in each plane; directions in the target's grid plane (z = 4 or
+    // y = 3), each crossing x = 3; origins 0.5, 1 and 1.25 direction lengths back, so every
+    // number is a short dyadic and t (back · h) is exact.
+    let in_z4 = [
+        [1.0, 0.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [1.0, -1.0, 0.0],
+        [2.0, 1.0, 0.0],
+        [-1.0, 2.0, 0.0],
+    ];
+    let in_y3 = [
+        [1.0, 0.0, 1.0],
+        [1.0, 0.0, -1.0],
+        [2.0, 0.0, 1.0],
+        [-1.0, 0.0, 2.0],
+        [-1.0, 0.0, -1.0],
+    ];
+    let cases: [([f64; 3], &[[f64; 3]]); 5] = [
+        ([3.0, 3.0, 4.0], &in_z4),
+        ([3.0, 3.0, 4.0], &in_y3),
+        ([3.0, 3.0, 4.5], &in_y3),
+        ([3.0, 2.5, 4.0], &in_z4),
+        ([3.0, 3.0, 3.5], &in_y3),
+    ];
+    let (mut hits, mut misses) = (0, 0);
+    for (target, dirs) in cases {
+        for d in dirs {
+            for back in [0.5, 1.0, 1.25] {
+                let o: [f64; 3] = std::array::from_fn(|k| (target[k] - back * d[k]) * h);
+                let d: [f64; 3] = *d;
+                let t = back * h;
+                let want = referee::first_hit(o, d, 0.0, f64::INFINITY, &tris);
+                let case = format!("target {target:?}, d {d:?}, o {o:?}");
+                let rays = one_ray(&o, &d);
+                for (lanes, got) in closest_both_ways(&scene, &rays) {
+                    match &want {
+                        Some(v) => {
+                            assert_eq!(v.t, t, "{case}: the referee meets it at the target");
+                            assert_eq!(got, (HIT, t, 0), "{case}, lanes {lanes:?}");
+                        }
+                        None => assert_eq!(got.0, MISS, "{case}, lanes {lanes:?}: {got:?}"),
+                    }
+                }
+                let (status, listed) = all_hits(&scene, &rays);
+                match want {
+                    Some(_) => {
+                        hits += 1;
+                        assert_eq!((status, listed), (HIT, vec![(0, t)]), "{case}");
+                    }
+                    None => {
+                        misses += 1;
+                        assert_eq!((status, listed), (MISS, vec![]), "{case}");
+                    }
+                }
+            }
+        }
+    }
+    // The corner and the edge point are met from every direction, the points beside missed.
+    assert_eq!((hits, misses), (45, 30));
+}
