@@ -685,8 +685,8 @@ fn offer_leaf<G: Gather>(
             line.meets_at(tri)
         };
         let settled = match met {
-            Some(at) => gather.offer_at(bvh.order[j], tri, at),
-            None => G::IN_PLANE && gather.in_plane(bvh.order[j]),
+            Some(at) => gather.offer(bvh.order[j], tri, at),
+            None => gather.in_plane(bvh.order[j]),
         };
         if settled {
             return true;

@@ -585,7 +585,7 @@ impl ReshetovBvh {
                 let range = node.first as usize..(node.first + node.count) as usize;
                 for j in range {
                     let at = line.meets_at(&self.triangles[j]);
-                    if at.is_some_and(|at| gather.offer_at(self.order[j], &self.triangles[j], at)) {
+                    if at.is_some_and(|at| gather.offer(self.order[j], &self.triangles[j], at)) {
                         return visited;
                     }
                 }

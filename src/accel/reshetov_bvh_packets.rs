@@ -291,7 +291,7 @@ impl BvhPackets<'_> {
                     let settled = r
                         .line
                         .meets_at(tri)
-                        .is_some_and(|at| r.gather.offer_at(bvh.order[j], tri, at));
+                        .is_some_and(|at| r.gather.offer(bvh.order[j], tri, at));
                     if settled {
                         live &= !(1 << i);
                         active &= !(1 << i);

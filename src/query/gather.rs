@@ -97,7 +97,7 @@ impl Line {
     }
 
     /// [`Line::meets`], with the float64 crossing `plane_t` gave on the way (t and its
-    /// certified error bound: what [`Gather::offer_at`] orders by before anything exact).
+    /// certified error bound: what [`Gather::offer`] orders by before anything exact).
     #[inline]
     pub fn meets_at(&self, tri: &Tri) -> Option<(f64, f64)> {
         let s = triangle_sides(self.dir, self.o, tri);
@@ -148,13 +148,8 @@ impl Span {
         )
     }
 
-    /// An upper bound on the exact t where the ray crosses `tri`'s plane (tmax when the
-    /// float64 evaluation cannot bound it).
-    pub fn t_above(&self, tri: &Tri) -> f64 {
-        self.above(plane_t_unit(self.o, self.dir, self.scale, tri))
-    }
-
-    /// [`Line::t_above`] of a crossing `plane_t` gave.
+    /// An upper bound on the exact t of a crossing [`plane_t_unit`] gave (`at`: its float64 t
+    /// and certified error), at most tmax (tmax where the bound is not finite).
     #[inline]
     pub fn above(&self, (t, err): (f64, f64)) -> f64 {
         // Twice the certified error: the sum's own rounding is within the bound's slack.
@@ -172,24 +167,18 @@ pub trait Gather {
     /// An upper bound on the t still wanted: the accelerator may skip whatever lies beyond.
     fn reach(&self) -> f64;
     /// Takes triangle `id` (the caller's numbering), which the ray meets at one point within
-    /// [tmin, tmax] ([`Line::meets`]); true: the answer is settled, offer no more.
-    fn offer(&mut self, id: u32) -> bool;
-    /// [`Gather::offer`] with the triangle's corners (`tri`, the same numbers as the caller's
-    /// triangle `id`: an accelerator's copy, just read, so a gatherer that keeps or compares
-    /// them reads them from the cache rather than from the caller's array) and the float
-    /// crossing [`Line::meets_at`] gave (the same answer; a gatherer that orders may decide by
-    /// it where it is certain).
-    #[inline]
-    fn offer_at(&mut self, id: u32, _tri: &Tri, _at: (f64, f64)) -> bool {
-        self.offer(id)
-    }
-    /// Whether the accelerator tells [`Gather::in_plane`] of the triangles it tests and the
-    /// ray does not meet at one point (a constant, so that the gatherers that do not ask pay
-    /// nothing; only the exact BVH tells).
-    const IN_PLANE: bool = false;
+    /// [tmin, tmax] ([`Line::meets`]), with its corners (`tri`, the same numbers as the
+    /// caller's triangle `id`: an accelerator's copy, just read, so a gatherer that keeps or
+    /// compares them reads them from the cache rather than from the caller's array) and the
+    /// float crossing [`Line::meets_at`] gave (a gatherer that orders may decide by it where it
+    /// is certain); true: the answer is settled, offer no more. Every accelerator offers
+    /// through this one method (an `offer(id)` beside it was left with no caller).
+    fn offer(&mut self, id: u32, tri: &Tri, at: (f64, f64)) -> bool;
     /// Triangle `id`, tested and not met at one point (its plane may hold the line: the
-    /// query decides); true: the answer is settled, offer no more.
-    #[inline]
+    /// query decides); true: the answer is settled, offer no more. Only the exact BVH tells
+    /// (its leaves and the fan), and only the ray-parity gatherer asks; for the others this
+    /// default is inlined to `false` and costs nothing.
+    #[inline(always)]
     fn in_plane(&mut self, _id: u32) -> bool {
         false
     }
@@ -234,19 +223,13 @@ impl Gather for Nearest<'_> {
         self.reach
     }
 
-    fn offer(&mut self, id: u32) -> bool {
-        let line = &self.line;
-        let tri = &self.triangles[id as usize];
-        let at = plane_t_unit(line.o, line.dir, line.scale, tri);
-        self.offer_at(id, tri, at)
-    }
-
     #[inline]
-    fn offer_at(&mut self, id: u32, tri: &Tri, at: (f64, f64)) -> bool {
+    fn offer(&mut self, id: u32, tri: &Tri, at: (f64, f64)) -> bool {
+        // Surely beyond the best's exact t (reach bounds it from above): not better. Where
+        // err is not finite, t − err is −∞ or NaN and the exact comparison decides (a finite
+        // err bounds 4ε|t|, so t is finite wherever err is).
         let (t, err) = at;
-        let certain = t.is_finite() && err.is_finite();
-        // Surely beyond the best's exact t (reach bounds it from above): not better.
-        if self.best.is_some() && certain && t - err > self.reach {
+        if self.best.is_some() && t - err > self.reach {
             return false;
         }
         let better = match self.best {
@@ -289,7 +272,8 @@ impl Gather for Found {
         self.tmax
     }
 
-    fn offer(&mut self, _: u32) -> bool {
+    #[inline]
+    fn offer(&mut self, _: u32, _: &Tri, _: (f64, f64)) -> bool {
         self.found = true;
         true
     }
@@ -330,9 +314,8 @@ impl Gather for Every<'_> {
         self.line.tmax
     }
 
-    fn offer(&mut self, id: u32) -> bool {
+    fn offer(&mut self, id: u32, tri: &Tri, _: (f64, f64)) -> bool {
         let (line, tris) = (self.line, self.triangles);
-        let tri = &tris[id as usize];
         match self
             .ids
             .iter_mut()

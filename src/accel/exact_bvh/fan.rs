@@ -644,8 +644,8 @@ impl<'a> Fan<'a> {
             line.meets_at(tri)
         };
         match met {
-            Some(at) => gather.offer_at(bvh.order[j], tri, at),
-            None => G::IN_PLANE && gather.in_plane(bvh.order[j]),
+            Some(at) => gather.offer(bvh.order[j], tri, at),
+            None => gather.in_plane(bvh.order[j]),
         }
     }
 }

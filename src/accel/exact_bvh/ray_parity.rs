@@ -87,17 +87,15 @@ impl Crossings<'_> {
 }
 
 impl Gather for Crossings<'_> {
-    const IN_PLANE: bool = true;
-
     fn reach(&self) -> f64 {
         f64::INFINITY
     }
 
-    fn offer(&mut self, id: u32) -> bool {
+    fn offer(&mut self, id: u32, tri: &Tri, _: (f64, f64)) -> bool {
         if !self.kept(id) {
             return false;
         }
-        let (o, tri) = (self.line.o, &self.triangles[id as usize]);
+        let o = self.line.o;
         // Met at one point with t ≥ 0 and not in its plane: the origin in the plane is the
         // point met, so the origin lies on the closed triangle.
         if orient(tri[0], tri[1], tri[2], o) == 0.0 {

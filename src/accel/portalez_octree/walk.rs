@@ -259,7 +259,7 @@ impl PortalezOctree {
                 };
                 if !state.offered.contains(&id) {
                     state.offered.push(id);
-                    if gather.offer_at(id, &self.triangles[j], at) {
+                    if gather.offer(id, &self.triangles[j], at) {
                         return Walked::Done(visited);
                     }
                 }
