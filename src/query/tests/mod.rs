@@ -20,6 +20,7 @@ mod fuzz_cases;
 mod grazing;
 mod lanes;
 mod policies;
+mod reach;
 mod surface_only;
 
 /// A jittered Kuhn grid with a random third of its interior faces constrained.
