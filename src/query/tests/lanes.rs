@@ -128,19 +128,25 @@ fn lanes_answer_as_the_one_ray_walk() {
     }));
     let o: Vec<f64> = rays.iter().flat_map(|r| r.0).collect();
     let d: Vec<f64> = rays.iter().flat_map(|r| r.1).collect();
-    let lanes = |lanes| CastOptions {
-        lanes,
-        ..Default::default()
-    };
-    let (on, off) = (lanes(Lanes::On), lanes(Lanes::Off));
-    for window in [false, true] {
-        let (tmin, tmax): (Vec<f64>, Vec<f64>) = if window {
-            crate::testing::windows(&rays, 0.125)
-        } else {
-            (vec![0.0], vec![f64::INFINITY])
+    // Also under step guards short enough to stop most walks, the shortest before the lanes'
+    // first plain step (a walk begins with one step): a lane must stop where the one-ray walk
+    // stops, FAILED, never step past the guard to a hit.
+    for max_steps in [None, Some(1), Some(2), Some(5)] {
+        let lanes = |lanes| CastOptions {
+            lanes,
+            max_steps,
+            ..Default::default()
         };
-        let what = format!("lanes, window {window}");
-        same_answers(&g.scene, [&o, &d], [&tmin, &tmax], &what, [on, off]);
+        let (on, off) = (lanes(Lanes::On), lanes(Lanes::Off));
+        for window in [false, true] {
+            let (tmin, tmax): (Vec<f64>, Vec<f64>) = if window {
+                crate::testing::windows(&rays, 0.125)
+            } else {
+                (vec![0.0], vec![f64::INFINITY])
+            };
+            let what = format!("lanes, window {window}, max_steps {max_steps:?}");
+            same_answers(&g.scene, [&o, &d], [&tmin, &tmax], &what, [on, off]);
+        }
     }
 }
 
