@@ -131,18 +131,18 @@ impl Query for ClosestPolicy<'_> {
 impl<'a> QueryKind for ClosestHit<'a> {
     type Policy = ClosestPolicy<'a>;
     type Answer = RayHit;
-    type Gather = Nearest<'a>;
+    type Gather = Nearest;
 
     #[inline(always)]
-    fn gather(&self, line: &Line) -> Nearest<'a> {
-        Nearest::new(line, &self.surface.triangles)
+    fn gather(&self, line: &Line) -> Nearest {
+        Nearest::new(line)
     }
 
     // Inlined into the walk: as a call (and `HitsOut::set` another), each ray's answer went
     // through memory between the two, and both calls saved the walk's registers at every
     // ray's end. Inlined: bunny's camera rays +13%, random +5-11% (docs/performance.md).
     #[inline(always)]
-    fn gathered(&self, g: &mut Nearest<'a>, visited: u32) -> RayHit {
+    fn gathered(&self, g: &mut Nearest, visited: u32) -> RayHit {
         let mut r = RayHit {
             steps: visited,
             ..RayHit::nothing(MISS)

@@ -185,9 +185,8 @@ pub trait Gather {
 }
 
 /// Closest hit: the triangle with the smallest exact t (ties: the smallest id, as the walk).
-pub struct Nearest<'a> {
+pub struct Nearest {
     pub line: Span,
-    pub triangles: &'a [Tri],
     pub best: Option<u32>,
     /// The best's corners (meaningful when `best` is set): kept as offered, so that the
     /// comparisons with later offers and the hit's evaluation do not fetch them again from
@@ -198,12 +197,11 @@ pub struct Nearest<'a> {
     reach: f64,
 }
 
-impl<'a> Nearest<'a> {
+impl Nearest {
     #[inline(always)]
-    pub fn new(line: &Line, triangles: &'a [Tri]) -> Self {
+    pub fn new(line: &Line) -> Self {
         Nearest {
             line: line.span,
-            triangles,
             best: None,
             best_tri: [[f64::NAN; 3]; 3],
             best_at: (f64::NAN, f64::INFINITY),
@@ -217,7 +215,7 @@ impl<'a> Nearest<'a> {
     }
 }
 
-impl Gather for Nearest<'_> {
+impl Gather for Nearest {
     #[inline]
     fn reach(&self) -> f64 {
         self.reach

@@ -464,7 +464,7 @@ fn zero_components_in_an_infinite_tree_take_the_float64_test() {
     let line = Line::new(&ray).unwrap();
     assert!(RayBoxes::new(&line, true).is_none());
     for simd in Simd::supported_levels() {
-        let mut near = Nearest::new(&line, &tris);
+        let mut near = Nearest::new(&line);
         bvh.walk(&line, &mut near, simd, &mut Vec::new());
         assert_eq!(near.best, Some(0), "{simd:?}");
     }

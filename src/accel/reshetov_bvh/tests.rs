@@ -206,7 +206,7 @@ fn far_from_float32(what: &str, build: &Builds) {
                 leaving: None,
             };
             let Ok(line) = Line::new(&ray) else { continue };
-            let mut near = Nearest::new(&line, &tris);
+            let mut near = Nearest::new(&line);
             walk(&line, &mut near);
             let want = referee::first_hit(o, d, 0.0, f64::INFINITY, &tris);
             match (near.meet(), &want) {
@@ -309,7 +309,7 @@ fn bvh_tree_holds_every_triangle_once() {
         leaving: None,
     })
     .unwrap();
-    let mut near = Nearest::new(&line, &[]);
+    let mut near = Nearest::new(&line);
     assert_eq!(empty.walk(&line, &mut near, &mut Vec::new()), 0);
     assert!(near.meet().is_none());
 }

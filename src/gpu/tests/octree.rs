@@ -315,7 +315,7 @@ fn judge_twin(
                 leaving: None,
             })
             .unwrap();
-            let mut gather = Nearest::new(&line, tris);
+            let mut gather = Nearest::new(&line);
             let exact = match oct.walk(&line, &mut gather, &mut OctreeState::default()) {
                 Walked::Done(n) | Walked::Guard(n) => n,
             };

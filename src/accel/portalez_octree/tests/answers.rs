@@ -188,7 +188,7 @@ fn octree_is_exact_at_every_scale() {
                     leaving: None,
                 };
                 let Ok(line) = Line::new(&ray) else { continue };
-                let mut near = Nearest::new(&line, &tris);
+                let mut near = Nearest::new(&line);
                 assert!(matches!(
                     oct.walk(&line, &mut near, &mut st),
                     Walked::Done(_)
@@ -257,7 +257,7 @@ fn octree_walks_along_planes_and_through_corners() {
                 leaving: None,
             };
             let line = Line::new(&ray).unwrap();
-            let mut near = Nearest::new(&line, &tris);
+            let mut near = Nearest::new(&line);
             assert!(
                 matches!(oct.walk(&line, &mut near, &mut st), Walked::Done(_)),
                 "ray {i}: o {o:?} d {d:?}"
@@ -318,7 +318,7 @@ fn octree_refuses_bad_parameters_and_triangles() {
             leaving: None,
         })
         .unwrap();
-        let mut near = Nearest::new(&line, &tris);
+        let mut near = Nearest::new(&line);
         let mut st = OctreeState::default();
         assert!(matches!(
             oct.walk(&line, &mut near, &mut st),
