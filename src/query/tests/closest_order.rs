@@ -328,13 +328,13 @@ fn an_origin_on_a_split_triangle_strictly_inside_its_tet_hits_it_at_zero() {
 
 /// Lines in the planes of mesh faces (the grid planes z = 4 and y = 3 of an unjittered Kuhn
 /// grid) aimed at a caller's triangle that is one grid face standing across them: (3,3,4),
-/// (3,3,5), (3,4,5) in the plane x = 3. The walk leaves tets through faces whose plane holds
-/// the line (`Contact::Coplanar`), and such a touch reports the face's vertices on the line and
-/// the edges it crosses (`ExactRay::touch`'s masks): there, at the triangle's corner (3,3,4) or
-/// on its edge (3,3,4)–(3,3,5), the triangle is met. Lines through points of x = 3 beside the
-/// triangle miss it. Each ray's answer is the referee's: closest hit with lanes and packets on
-/// and off, and all hits. A touch that reported a face's other vertices and edges would place
-/// a meet on the triangle's plane where the line does not meet it, or miss the corner.
+/// (3,3,5), (3,4,5) in the plane x = 3. Each line meets the triangle only at its corner
+/// (3,3,4) or on its edge (3,3,4)–(3,3,5), through grid vertices and along grid edges, where
+/// the exact walk decides every exit by its perturbation; lines through points of x = 3
+/// beside the triangle miss it. Each ray's answer is the referee's: closest hit with lanes and
+/// packets on and off, and all hits. (Written to reach the in-plane touch,
+/// `Contact::Coplanar`; instrumented, these walks never leave a tet by a face whose plane
+/// holds the line: see docs/testing.md, shard 12's open survivors.)
 #[test]
 fn lines_in_face_planes_meet_a_standing_triangle_at_its_corner_and_edge() {
     let h = 1.0 / N as f64;

@@ -2,8 +2,8 @@
 //! crossing): an upper bound on that triangle's exact t, judged by the referee, for directions
 //! of every scale. A tiny direction makes t and its certified error large (err well above 1);
 //! there a reach of t + 2 / err (a survivor of mutation shard 14) falls short of the exact t
-//! about as often as the float t rounds low, and the walk would skip boxes and triangles that
-//! come before the true best.
+//! wherever the float t lies below it by more than 2 / err, and the walk could skip what comes
+//! before the true best.
 
 use crate::geom::exact::plane_t;
 use crate::geom::ray::Ray;
