@@ -277,8 +277,16 @@ impl TetMesh {
                     || f.iter().all(|&v| points[v as usize][a] == hi[a])
             })
         };
+        // A face on the domain's boundary has nothing beyond it: its link is BOUNDARY, or,
+        // where it is constrained, its constrained side's `beyond` is. Both kinds must lie on
+        // the box's sides (a domain wrapped only in scene triangles is no box either).
+        let on_boundary = |l: Link| {
+            l == BOUNDARY
+                || (l & CONSTRAINED_BIT != 0
+                    && constrained[(l & !CONSTRAINED_BIT) as usize].beyond == BOUNDARY)
+        };
         let domain_is_box = links.iter().zip(&oriented).all(|(l, tet)| {
-            (0..4).all(|i| l[i] != BOUNDARY || on_box_side(OUTWARD_FACES[i].map(|k| tet[k])))
+            (0..4).all(|i| !on_boundary(l[i]) || on_box_side(OUTWARD_FACES[i].map(|k| tet[k])))
         });
 
         Ok(TetMesh {
@@ -398,6 +406,33 @@ mod tests {
                     assert!((0..4).any(|j| m.neighbor(u, j) == t));
                 }
             }
+        }
+    }
+
+    /// The domain must be a box whether its boundary faces are constrained or not: a cube with
+    /// a corner pulled out along its diagonal is no box, and constraining its twelve boundary
+    /// faces (a domain wrapped in scene triangles) must not hide that. The cube itself, with
+    /// the same faces constrained, is a box.
+    #[test]
+    fn a_domain_off_the_box_is_found_when_its_boundary_is_constrained() {
+        let (p, t) = cube5();
+        let m = TetMesh::build(p.clone(), &t, &[], &[]).unwrap();
+        let boundary: Vec<[u32; 3]> = (0..m.tets.len())
+            .flat_map(|ti| (0..4).map(move |i| (ti, i)))
+            .filter(|&(ti, i)| m.links[ti][i] == BOUNDARY)
+            .map(|(ti, i)| OUTWARD_FACES[i].map(|k| m.tets[ti][k]))
+            .collect();
+        assert_eq!(boundary.len(), 12);
+        let tri = vec![0u32; boundary.len()];
+        let mut pulled = p.clone();
+        pulled[7] = [1.25, 1.25, 1.25];
+        for (points, faces, is_box) in [
+            (p.clone(), &boundary[..], true),
+            (pulled.clone(), &[][..], false),
+            (pulled, &boundary[..], false),
+        ] {
+            let m = TetMesh::build(points, &t, faces, &tri[..faces.len()]).unwrap();
+            assert_eq!(m.domain_is_box, is_box, "{} faces constrained", faces.len());
         }
     }
 
