@@ -403,3 +403,65 @@ fn lines_in_face_planes_meet_a_standing_triangle_at_its_corner_and_edge() {
     // The corner and the edge point are met from every direction, the points beside missed.
     assert_eq!((hits, misses), (45, 30));
 }
+
+/// Lines in the domain box's side planes, started on the box's edges (and half a cell and two
+/// cells back along the line, outside the box), meeting the grid planes x = 3 and y = 5, each
+/// face of which is a caller's triangle standing on the box's sides. A line in a side's plane
+/// meets those triangles only on their edges in that plane, at one point each (or not at
+/// all: it never hits the side's own triangles, there are none). The origin on the box's
+/// boundary is perturbed inwards (`robust::start_delta`), so the walk starts inside and
+/// follows the side. Each ray's closest hit, with lanes and packets on and off, is the
+/// referee's. (Written to reach the in-plane touch, `Contact::Coplanar`; instrumented, no
+/// walk here leaves a tet by a face whose plane holds the line: docs/testing.md.)
+#[test]
+fn lines_in_the_box_sides_meet_triangles_standing_on_them() {
+    let h = 1.0 / N as f64;
+    let (pts, tets) = crate::mesh::kuhn::kuhn_grid(N, 0.0, || 0.5);
+    let mut faces = Vec::new();
+    for (axis, level) in [(0, 3), (1, 5)] {
+        faces.extend(cover(axis, level, [0, 0], N, true));
+        faces.extend(cover(axis, level, [0, 0], N, false));
+    }
+    let tris: Vec<[[f64; 3]; 3]> = faces.iter().map(|f| f.map(|v| pts[v as usize])).collect();
+    let face_triangle: Vec<u32> = (0..faces.len() as u32).collect();
+    let scene = Scene::build(pts, &tets, &faces, &face_triangle, tris.clone()).unwrap();
+    let (mut rays, mut hits) = (0, 0);
+    let n = N as f64;
+    // The side a = la, the edge where it meets the side b = lb, a point c = pc along that
+    // edge; the direction leaves the edge into the side (along b) and runs along c by dc.
+    for a in 0..3 {
+        for b in (0..3).filter(|&b| b != a) {
+            let c = 3 - a - b;
+            for (la, lb, pc) in [0.0, n]
+                .into_iter()
+                .flat_map(|la| [0.0, n].map(|lb| (la, lb)))
+                .flat_map(|(la, lb)| [1.5, 3.0, 3.5, 5.0, 6.25].map(|pc| (la, lb, pc)))
+            {
+                for dc in [-2.0, -1.0, -0.5, 0.0, 0.5, 1.0, 2.0] {
+                    for back in [0.0, 0.5, 2.0] {
+                        let (mut p, mut d) = ([0.0; 3], [0.0; 3]);
+                        (p[a], p[b], p[c]) = (la, lb, pc);
+                        (d[b], d[c]) = (if lb == 0.0 { 1.0 } else { -1.0 }, dc);
+                        let o: [f64; 3] = std::array::from_fn(|k| (p[k] - back * d[k]) * h);
+                        let want = referee::first_hit(o, d, 0.0, f64::INFINITY, &tris);
+                        for (lanes, got) in closest_both_ways(&scene, &one_ray(&o, &d)) {
+                            let case = format!("o {o:?}, d {d:?}, lanes {lanes:?}: {got:?}");
+                            match &want {
+                                Some(v) => {
+                                    assert_eq!(got.0, HIT, "{case}");
+                                    assert_eq!(got.1, v.t, "{case}");
+                                    assert!(v.ties.contains(&(got.2 as usize)), "{case}");
+                                }
+                                None => assert_eq!(got.0, MISS, "{case}"),
+                            }
+                        }
+                        rays += 1;
+                        hits += usize::from(want.is_some());
+                    }
+                }
+            }
+        }
+    }
+    // Both answers occur, so neither branch of the check above is idle.
+    assert!(hits > rays / 2 && hits < rays, "{hits} of {rays}");
+}
