@@ -252,3 +252,139 @@ impl<R: Real> ExitMethod<R> for Exact {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rng(mut x: u64) -> impl FnMut() -> f64 {
+        move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
+    /// Where the origin lies in the domain box [lo, hi]³.
+    #[derive(Clone, Copy, Debug)]
+    enum Origin {
+        /// Uniform in the box.
+        Inside,
+        /// At its low corner.
+        LowCorner,
+    }
+
+    /// Over near-degenerate edges p→q (q nearly in the plane of the line and p) in the domain
+    /// box [lo, hi]³, how often the filter (`vertex`'s bounds, `certain_side`) claims a sign
+    /// that is not the exact one (`geom::exact::side` on the ray's own line), and how often it
+    /// claims one at all; the bound multiplied by `shrink`.
+    fn filter_mistakes<R: Real>(lo: f64, hi: f64, origin: Origin, shrink: f64) -> (usize, usize) {
+        let mut f = rng(0x2545_f491_4f6c_dd1d);
+        let size = hi - lo;
+        let domain = [[lo; 3], [hi; 3]];
+        let (mut wrong, mut certain) = (0, 0);
+        for k in 0..8_000 {
+            let pt = |f: &mut dyn FnMut() -> f64| [0, 1, 2].map(|_| lo + size * f());
+            let o = match origin {
+                Origin::Inside => pt(&mut f),
+                Origin::LowCorner => [lo; 3],
+            };
+            let d = [f() - 0.5, f() - 0.5, f() - 0.5];
+            let mut ray: ExactRay<R> = <Exact as ExitMethod<R>>::prepare(o, d, &domain);
+            ray.bound_scale = R::from_f64(ray.bound_scale.to_f64() * shrink);
+            let p = pt(&mut f).map(R::from_f64);
+            let (t, w) = (f(), f());
+            let e = (f() - 0.5) * 10f64.powi(-3 - (k % 13) as i32);
+            let pp = p.map(R::to_f64);
+            let l = d.iter().fold(0f64, |m, x| m.max(x.abs()));
+            let q = [0, 1, 2].map(|i| {
+                let x = o[i] + t * size * d[i] / l + w * (pp[i] - o[i]) + e * size;
+                R::from_f64(x.clamp(lo, hi))
+            });
+            if p == q {
+                continue;
+            }
+            let exact = side(d, o, pp, q.map(R::to_f64));
+            let (vp, vq) = (
+                <Exact as ExitMethod<R>>::vertex(&ray, p),
+                <Exact as ExitMethod<R>>::vertex(&ray, q),
+            );
+            if let Some(s) = certain_side(&vp, &vq) {
+                certain += 1;
+                wrong += (exact == 0 || s != (exact > 0)) as usize;
+            }
+        }
+        (wrong, certain)
+    }
+
+    /// What a family of [`filter_mistakes`] must show beside no mistake: the filter decides
+    /// most cases, and a thousandth of its scale makes mistakes (not where determinants
+    /// underflow: there the bound's absolute slack decides); or it decides none.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    enum Family {
+        Decides,
+        DecidesUnderflowing,
+        DecidesNone,
+    }
+
+    /// The exact walk's filter claims only exact signs: origins inside boxes of several sizes
+    /// and offsets, and at the low corner of boxes that straddle zero (where the reach must be
+    /// measured from the origin to the far corner); boxes so large that the bound's scale
+    /// exceeds 1 (its product with a vertex's distance then matters), and so small that the
+    /// determinants underflow (where the bound's absolute slack, the least normal number,
+    /// matters; in the smallest the filter decides nothing); in float32, origins that are not
+    /// float32 numbers (a float64 ray on the tet80 layout), whose rounding the bound must cover.
+    #[test]
+    fn the_filter_claims_only_exact_signs() {
+        use Family::*;
+        use Origin::*;
+        let f64_cases = [
+            (0.0, 1.0, Inside, Decides),
+            (-1e5, -1e5 + 1e3, Inside, Decides),
+            (-1.0, 1.0, LowCorner, Decides),
+            (-1e3, 1.0, LowCorner, Decides),
+            (0.0, 1e18, Inside, Decides),
+            (0.0, 1e-152, Inside, DecidesUnderflowing),
+            (0.0, 1e-156, Inside, DecidesNone),
+        ];
+        let f32_cases = [
+            (0.0, 1.0, Inside, Decides),
+            (-1.0, 1.0, LowCorner, Decides),
+            (-1e3, 1.0, LowCorner, Decides),
+            (0.0, 1e8, Inside, Decides),
+            (1e4, 1e4 + 1.0, Inside, Decides),
+            (0.0, 1e-18, Inside, DecidesUnderflowing),
+            (0.0, 1e-20, Inside, DecidesNone),
+        ];
+        let run = |r: &dyn Fn(f64) -> (usize, usize), case: String, family: Family| {
+            let (wrong, certain) = r(1.0);
+            assert_eq!(wrong, 0, "{case}: {wrong} of {certain} certain signs wrong");
+            if family == DecidesNone {
+                assert_eq!(
+                    certain, 0,
+                    "{case}: underflowed determinants are never certain"
+                );
+            } else {
+                assert!(
+                    certain > 2_000,
+                    "{case}: the filter decides most cases ({certain})"
+                );
+            }
+            if family == Decides {
+                assert!(
+                    r(1e-3).0 > 0,
+                    "{case}: a thousandth of the bound makes no mistake"
+                );
+            }
+        };
+        for (lo, hi, o, family) in f64_cases {
+            let case = format!("f64 [{lo:e}, {hi:e}] {o:?}");
+            run(&|s| filter_mistakes::<f64>(lo, hi, o, s), case, family);
+        }
+        for (lo, hi, o, family) in f32_cases {
+            let case = format!("f32 [{lo:e}, {hi:e}] {o:?}");
+            run(&|s| filter_mistakes::<f32>(lo, hi, o, s), case, family);
+        }
+    }
+}
