@@ -402,13 +402,10 @@ impl<R: Real> WalkObserver<R> for ExactAudit {
 mod tests {
     use super::*;
 
-    fn rng(mut x: u64) -> impl FnMut() -> f64 {
-        move || {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            (x >> 11) as f64 / (1u64 << 53) as f64
-        }
+    /// Uniforms in [0, 1) from `seed` (Marsaglia's xorshift, as the tests' seeds name it).
+    fn rng(seed: u64) -> impl FnMut() -> f64 {
+        let mut r = crate::rng::Rng::xorshift(seed);
+        move || r.f()
     }
 
     /// How often the filter claims a sign that is not the exact one, over near-degenerate
