@@ -292,7 +292,7 @@ mod tests {
             ray.bound_scale = R::from_f64(ray.bound_scale.to_f64() * shrink);
             let p = pt(&mut f).map(R::from_f64);
             let (t, w) = (f(), f());
-            let e = (f() - 0.5) * 10f64.powi(-3 - (k % 13) as i32);
+            let e = (f() - 0.5) * 10f64.powi(-3 - k % 13);
             let pp = p.map(R::to_f64);
             let l = d.iter().fold(0f64, |m, x| m.max(x.abs()));
             let q = [0, 1, 2].map(|i| {
