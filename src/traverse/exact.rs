@@ -257,12 +257,6 @@ impl<R: Real> ExitMethod<R> for Exact {
 mod tests {
     use super::*;
 
-    /// Uniforms in [0, 1) from `seed` (Marsaglia's xorshift, as the tests' seeds name it).
-    fn rng(seed: u64) -> impl FnMut() -> f64 {
-        let mut r = crate::rng::Rng::xorshift(seed);
-        move || r.f()
-    }
-
     /// Where the origin lies in the domain box [lo, hi]³.
     #[derive(Clone, Copy, Debug)]
     enum Origin {
@@ -277,7 +271,8 @@ mod tests {
     /// that is not the exact one (`geom::exact::side` on the ray's own line), and how often it
     /// claims one at all; the bound multiplied by `shrink`.
     fn filter_mistakes<R: Real>(lo: f64, hi: f64, origin: Origin, shrink: f64) -> (usize, usize) {
-        let mut f = rng(0x2545_f491_4f6c_dd1d);
+        let mut r = crate::rng::Rng::xorshift(0x2545_f491_4f6c_dd1d);
+        let mut f = || r.f();
         let size = hi - lo;
         let domain = [[lo; 3], [hi; 3]];
         let (mut wrong, mut certain) = (0, 0);

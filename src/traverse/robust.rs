@@ -402,17 +402,12 @@ impl<R: Real> WalkObserver<R> for ExactAudit {
 mod tests {
     use super::*;
 
-    /// Uniforms in [0, 1) from `seed` (Marsaglia's xorshift, as the tests' seeds name it).
-    fn rng(seed: u64) -> impl FnMut() -> f64 {
-        let mut r = crate::rng::Rng::xorshift(seed);
-        move || r.f()
-    }
-
     /// How often the filter claims a sign that is not the exact one, over near-degenerate
     /// edges (q nearly in the plane of the line and p) at several scales and offsets, with the
     /// filter's bound multiplied by `shrink`.
     fn filter_mistakes<R: Real>(shrink: f64) -> (usize, usize) {
-        let mut f = rng(0x1234_5678_9abc_def1);
+        let mut r = crate::rng::Rng::xorshift(0x1234_5678_9abc_def1);
+        let mut f = || r.f();
         let (mut wrong, mut certain) = (0, 0);
         for k in 0..40_000 {
             let (size, offset) =

@@ -432,11 +432,8 @@ fn lines_in_the_box_sides_meet_triangles_standing_on_them() {
     for a in 0..3 {
         for b in (0..3).filter(|&b| b != a) {
             let c = 3 - a - b;
-            for (la, lb, pc) in [0.0, n]
-                .into_iter()
-                .flat_map(|la| [0.0, n].map(|lb| (la, lb)))
-                .flat_map(|(la, lb)| [1.5, 3.0, 3.5, 5.0, 6.25].map(|pc| (la, lb, pc)))
-            {
+            let sides = [0.0, n].into_iter().flat_map(|la| [(la, 0.0), (la, n)]);
+            for ((la, lb), pc) in sides.flat_map(|s| [1.5, 3.0, 3.5, 5.0, 6.25].map(|pc| (s, pc))) {
                 for dc in [-2.0, -1.0, -0.5, 0.0, 0.5, 1.0, 2.0] {
                     for back in [0.0, 0.5, 2.0] {
                         let (mut p, mut d) = ([0.0; 3], [0.0; 3]);
