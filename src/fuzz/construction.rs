@@ -139,7 +139,8 @@ fn mutate(rng: &mut Rng, b: &mut BuildInput) {
         }
         14 if np > 0 => {
             // Every point scaled or shifted by a huge or tiny amount.
-            let s = rng.pick(&[1e-300, 1e300, 1e-160, 1e160, 2f64.powi(-1070)]);
+            // 2^-1070 from its bits: `2f64.powi(-1070)` is 1/inf = 0 unless LLVM folds it.
+            let s = rng.pick(&[1e-300, 1e300, 1e-160, 1e160, f64::from_bits(1 << 4)]);
             let shift = rng.chance(0.5);
             for p in &mut b.points {
                 for x in p.iter_mut() {
