@@ -1,6 +1,7 @@
 //! Python bindings: validate, release the GIL, call the core over slices, hand the result
 //! vectors to numpy without copying. Nothing else lives here: one file per concern.
 
+mod alloc;
 mod arrays;
 mod bench;
 mod camera;
@@ -12,6 +13,11 @@ mod request;
 mod scene;
 
 use pyo3::prelude::*;
+
+/// The extension's Rust allocations: the system allocator, with the large blocks that a
+/// cast's answer columns are kept for the next cast (`alloc.rs` says why).
+#[global_allocator]
+static ALLOC: alloc::KeepLarge = alloc::KeepLarge::new();
 
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
