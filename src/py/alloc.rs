@@ -116,6 +116,7 @@ impl KeepLarge {
     }
 
     /// How many blocks and bytes are kept now.
+    #[cfg(test)]
     pub fn kept(&self) -> (usize, usize) {
         let k = self.lock();
         (k.len, k.bytes)

@@ -395,11 +395,12 @@ pub fn take_rows<T: Copy + Send + Sync>(
     // Checked as it goes: one read of the indices, not two.
     let fill = |(o, ix): (&mut [[T; 3]], &[i32])| {
         for (o, &i) in o.iter_mut().zip(ix) {
-            *o = match i {
-                -1 => rows[last],
-                i if i >= 0 && (i as usize) < last => rows[i as usize],
-                i => return Err(i),
-            };
+            // A miss (-1) takes the last row, chosen without a branch: hits and misses mix
+            // (a random ray misses two times in three), and a branch on it mispredicted.
+            if !(i == -1 || (i as u32 as usize) < last) {
+                return Err(i);
+            }
+            *o = rows[if i < 0 { last } else { i as usize }];
         }
         Ok(())
     };
