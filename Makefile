@@ -158,7 +158,7 @@ bench-gpu-smoke:
 # changes one function at a time in the files below and runs the Rust library tests against
 # each change; a mutant no test catches is a path no test reaches (docs/testing.md).
 # MUTANTS_SHARD=k/n runs the k-th of n parts (a session can take one part).
-MUTANTS_FILES ?= src/query/*.rs src/traverse/exact.rs src/traverse/walk.rs src/traverse/packet.rs src/geom/*.rs src/locate/*.rs src/accel/*.rs src/accel/tetwalk/packets.rs src/accel/portalez_octree/build.rs src/accel/portalez_octree/walk.rs
+MUTANTS_FILES ?= src/query/*.rs src/traverse/exact.rs src/traverse/walk.rs src/traverse/packet.rs src/geom/*.rs src/locate/*.rs src/accel/**/*.rs
 MUTANTS_SHARD ?= 0/1
 # The fast, filtered test command each mutant runs: the CPU core alone (no wgpu to link), the
 # library's tests (src/query/tests/closest_order.rs, the Kuhn-grid order test, among them), by cargo-nextest,
@@ -167,8 +167,16 @@ MUTANTS_SHARD ?= 0/1
 # The test profile at opt-level 1: a mutant's rebuild takes 1.5 min on 2 cores, against 4 min
 # at the profile's opt-level 2, and the tests still run in about 2 minutes.
 MUTANTS_ARGS ?= --in-place --no-shuffle --test-tool nextest --no-default-features --features fuzz -C --lib --timeout 300
+# MUTANTS_REACH=1 runs each mutant against only the tests that enter a function of
+# MUTANTS_FILES (python/tetrace/dev/mutants_reach.py finds them first, in the same checkout
+# and build): a mutant in a body no other test runs cannot change their outcome, and for a
+# file few tests reach the rest of the suite is most of a survivor's time.
+MUTANTS_REACH ?= 0
 .PHONY: mutants
 mutants: toolchain
 	@$(CARGO) mutants --version >/dev/null 2>&1 || $(CARGO) install --locked cargo-mutants
 	@$(CARGO) nextest --version >/dev/null 2>&1 || $(CARGO) install --locked cargo-nextest
-	CARGO_PROFILE_TEST_OPT_LEVEL=1 $(CARGO) mutants $(MUTANTS_ARGS) $(foreach f,$(MUTANTS_FILES),--file '$(f)') --shard $(MUTANTS_SHARD)
+	export CARGO_PROFILE_TEST_OPT_LEVEL=1 && \
+	reach=$$(if [ "$(MUTANTS_REACH)" = 1 ]; then python3 python/tetrace/dev/mutants_reach.py $(foreach f,$(MUTANTS_FILES),'$(f)'); else echo 'all()'; fi) && \
+	$(CARGO) mutants $(MUTANTS_ARGS) $(foreach f,$(MUTANTS_FILES),--file '$(f)') --shard $(MUTANTS_SHARD) \
+	  --cargo-test-arg=-E --cargo-test-arg="$$reach"
