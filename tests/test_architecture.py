@@ -128,6 +128,7 @@ def test_import_tetrace_loads_only_the_library():
         "tetrace.errors",
         "tetrace.gpu",
         "tetrace.hits",
+        "tetrace.memory",
         "tetrace.names",
         "tetrace.point_queries",
         "tetrace.rays",

@@ -26,6 +26,7 @@ from .errors import (
     TooLargeError,
 )
 from .hits import FAILED, HIT, INVALID, MISS, STATUS_NAMES, Hits
+from .memory import memory_cache
 from .scene import (
     LAYOUT_BYTES,
     Deformation,
@@ -51,6 +52,7 @@ __all__ = [
     "accels",
     "layouts",
     "simd_levels",
+    "memory_cache",
     "LAYOUT_BYTES",
     "MISS",
     "HIT",

@@ -33,6 +33,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(arrays::triangle_normals, m)?)?;
     m.add_function(wrap_pyfunction!(names::layouts, m)?)?;
     m.add_function(wrap_pyfunction!(names::simd_levels, m)?)?;
+    m.add_function(wrap_pyfunction!(alloc::memory_cache, m)?)?;
     m.add_function(wrap_pyfunction!(bench::exitface_bench, m)?)?;
     m.add_function(wrap_pyfunction!(bench::referee_first_hit, m)?)?;
     m.add_function(wrap_pyfunction!(gpu::gpu_adapters, m)?)?;
