@@ -16,12 +16,15 @@ impl Lcg {
 
 /// Wherever the box test is certain, every direction in the box (its corners and random
 /// points) has that exact side, judged by `geom::exact::side`; and boxes straddling an
-/// edge's plane are found uncertain.
+/// edge's plane are found uncertain. The points lie within 2 of zero or are scaled by
+/// 2^±40 (exactly: the same geometry, its products' rounding 2^±80 times as large), where
+/// the bound must grow with the edge's norms.
 #[test]
 fn box_side_is_the_exact_side_of_every_direction_in_the_box() {
     let mut rng = Lcg(7);
     let (mut certain, mut uncertain) = (0, 0);
-    for case in 0..20000 {
+    for case in 0..30000 {
+        let scale = [1.0, 2f64.powi(40), 2f64.powi(-40)][case / 8 % 3];
         let o = [0, 1, 2].map(|_| rng.unit() * 4.0 - 2.0);
         let p = [0, 1, 2].map(|_| rng.unit() * 4.0 - 2.0);
         // Every other q on the plane through o, p and the box's centre direction, up to
@@ -33,6 +36,7 @@ fn box_side_is_the_exact_side_of_every_direction_in_the_box() {
         } else {
             [0, 1, 2].map(|_| rng.unit() * 4.0 - 2.0)
         };
+        let [o, p, q] = [o, p, q].map(|x| x.map(|c| c * scale));
         let width = [1e-1, 1e-4, 1e-12, 0.0][case / 2 % 4];
         let dirs: Vec<[f64; 3]> = (0..6)
             .map(|_| [0, 1, 2].map(|k| centre[k] + (rng.unit() - 0.5) * width))
