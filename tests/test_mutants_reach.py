@@ -38,8 +38,8 @@ def test_every_body_gets_an_abort_and_declarations_and_const_fns_none():
     assert count == len(bodies)
     assert consts == ["folded"]
     for name in bodies:
-        head = out[out.index(f"fn {name}"):]
-        assert head[head.index("{") + 1:].startswith(ABORT), name
+        head = out[out.index(f"fn {name}") :]
+        assert head[head.index("{") + 1 :].startswith(ABORT), name
     # The required method (no body) and the const fn are left alone, as is the doc comment.
     assert "fn area(&self) -> f64;" in out
     assert "const fn folded(x: u32) -> u32 { x * 2 }" in out

@@ -20,6 +20,7 @@ __all__ = [
     "triangle_normals",
     "layouts",
     "simd_levels",
+    "memory_cache",
     "exitface_bench",
     "referee_first_hit",
     "gpu_adapters",

@@ -36,8 +36,16 @@ import subprocess
 import sys
 
 FN = re.compile(r"\bfn\s+([A-Za-z_]\w*)")
-NEXTEST = ["cargo", "nextest", "run", "--no-fail-fast", "--no-default-features",
-           "--features", "fuzz", "--lib"]
+NEXTEST = [
+    "cargo",
+    "nextest",
+    "run",
+    "--no-fail-fast",
+    "--no-default-features",
+    "--features",
+    "fuzz",
+    "--lib",
+]
 
 
 def instrument(text: str) -> tuple[str, int, list[str]]:
@@ -50,7 +58,7 @@ def instrument(text: str) -> tuple[str, int, list[str]]:
     out, pos, count, consts = [], 0, 0, []
     for m in FN.finditer(text):
         line_start = text.rfind("\n", 0, m.start()) + 1
-        head = text[line_start:m.start()]
+        head = text[line_start : m.start()]
         if "//" in head:
             continue
         if "const" in head.split():
@@ -66,7 +74,7 @@ def instrument(text: str) -> tuple[str, int, list[str]]:
             elif depth == 0 and c == ";":
                 break
             elif depth == 0 and c == "{":
-                out.append(text[pos:i + 1])
+                out.append(text[pos : i + 1])
                 out.append(" std::process::abort();")
                 pos = i + 1
                 count += 1
@@ -91,8 +99,11 @@ def main(patterns: list[str]) -> int:
                 out.write(new)
             print(f"{f}: {count} function bodies", file=sys.stderr)
         if consts:
-            print(f"const fns, not instrumented (a missed mutant in them: rerun it against "
-                  f"the whole suite): {consts}", file=sys.stderr)
+            print(
+                f"const fns, not instrumented (a missed mutant in them: rerun it against "
+                f"the whole suite): {consts}",
+                file=sys.stderr,
+            )
         run = subprocess.run(NEXTEST, capture_output=True, text=True, env=dict(os.environ))
     finally:
         for f, text in saved.items():
@@ -103,14 +114,21 @@ def main(patterns: list[str]) -> int:
         print(run.stderr[-4000:], file=sys.stderr)
         print("the instrumented tests did not run", file=sys.stderr)
         return 1
-    entered = sorted(set(re.findall(
-        r"^\s*(?:FAIL|SIGABRT|ABORT|SIGSEGV|TIMEOUT)\b.*?tetrace (\S+)\s*$",
-        run.stderr, re.MULTILINE)))
+    entered = sorted(
+        set(
+            re.findall(
+                r"^\s*(?:FAIL|SIGABRT|ABORT|SIGSEGV|TIMEOUT)\b.*?tetrace (\S+)\s*$",
+                run.stderr,
+                re.MULTILINE,
+            )
+        )
+    )
     print(summary.group(0).strip(), file=sys.stderr)
     print(f"{len(entered)} tests enter a function of the files", file=sys.stderr)
     if not entered:
-        print("no test enters them: every mutant there survives; run the whole suite",
-              file=sys.stderr)
+        print(
+            "no test enters them: every mutant there survives; run the whole suite", file=sys.stderr
+        )
         print("all()")
         return 0
     print(" | ".join(f"test(={name})" for name in entered))
