@@ -14,8 +14,8 @@ mod scene;
 
 use pyo3::prelude::*;
 
-/// The extension's Rust allocations: the system allocator, with the large blocks that a
-/// cast's answer columns are kept for the next cast (`alloc.rs` says why).
+/// The extension's Rust allocations: the system allocator, except that freed large blocks (a
+/// cast's answer columns) are kept for the next cast (`alloc.rs` says why).
 #[global_allocator]
 static ALLOC: alloc::KeepLarge = alloc::KeepLarge::new();
 
