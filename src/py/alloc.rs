@@ -76,13 +76,7 @@ impl KeepLarge {
         let i = (0..k.len)
             .rev()
             .find(|&i| k.blocks[i].is_some_and(|b| b.layout == layout))?;
-        let block = k.blocks[i].take()?;
-        let len = k.len;
-        k.blocks.copy_within(i + 1..len, i);
-        k.blocks[len - 1] = None;
-        k.len -= 1;
-        k.bytes -= layout.size();
-        Some(block.ptr)
+        Some(k.remove(i).ptr)
     }
 
     /// Keeps a freed block, giving back the oldest while more than the limit's bytes or
@@ -122,23 +116,32 @@ impl KeepLarge {
     }
 }
 
+impl Default for KeepLarge {
+    fn default() -> Self {
+        KeepLarge::new()
+    }
+}
+
 impl Kept {
+    /// Takes block `i` (< len) out, the younger ones moving down to keep the order.
+    fn remove(&mut self, i: usize) -> Block {
+        let len = self.len;
+        let block = self.blocks[i].take().expect("blocks below len are kept");
+        self.blocks.copy_within(i + 1..len, i);
+        self.blocks[len - 1] = None;
+        self.len -= 1;
+        self.bytes -= block.layout.size();
+        block
+    }
+
     /// Takes out the oldest blocks until at most `bytes` and `blocks` are kept, returning
     /// them to be given back once the lock is released.
     fn evict(&mut self, bytes: usize, blocks: usize) -> [Option<Block>; SLOTS] {
         let mut evicted = [None; SLOTS];
         let mut n = 0;
         while self.len > 0 && (self.len > blocks || self.bytes > bytes) {
-            let oldest = self.blocks[0].take();
-            let len = self.len;
-            self.blocks.copy_within(1..len, 0);
-            self.blocks[len - 1] = None;
-            self.len -= 1;
-            if let Some(b) = oldest {
-                self.bytes -= b.layout.size();
-                evicted[n] = Some(b);
-                n += 1;
-            }
+            evicted[n] = Some(self.remove(0));
+            n += 1;
         }
         evicted
     }
@@ -161,12 +164,6 @@ pub(crate) fn memory_cache(limit: Option<usize>) -> (usize, usize, usize) {
         super::ALLOC.set_limit(limit);
     }
     super::ALLOC.kept()
-}
-
-impl Default for KeepLarge {
-    fn default() -> Self {
-        KeepLarge::new()
-    }
 }
 
 // SAFETY: every block handed out is either System's own or a kept block of exactly the

@@ -30,7 +30,6 @@ It prints the filterset on stdout (for ``cargo mutants --cargo-test-arg=-E
 from __future__ import annotations
 
 import glob
-import os
 import re
 import subprocess
 import sys
@@ -104,7 +103,7 @@ def main(patterns: list[str]) -> int:
                 f"the whole suite): {consts}",
                 file=sys.stderr,
             )
-        run = subprocess.run(NEXTEST, capture_output=True, text=True, env=dict(os.environ))
+        run = subprocess.run(NEXTEST, capture_output=True, text=True)
     finally:
         for f, text in saved.items():
             with open(f, "w") as out:
