@@ -1215,6 +1215,7 @@ impl ExactBvhAt<'_> {
         st: &mut State,
     ) {
         let bvh = self.bvh;
+        let root = bvh.outside_box();
         let mut next = 0;
         // The rays made ready, walked where they lie (a slot names its entry): moved into
         // slots, a ray's few hundred bytes cost two library copies each.
@@ -1237,7 +1238,15 @@ impl ExactBvhAt<'_> {
                     if taken == ready.len() && slots[1 - i].is_none() {
                         ready.clear();
                         taken = 0;
-                        self.make_ready(query, &ray_at, out, alone, &mut next, &mut ready);
+                        self.make_ready(
+                            query,
+                            &ray_at,
+                            out,
+                            alone,
+                            &mut next,
+                            &mut ready,
+                            root.as_ref(),
+                        );
                     }
                     if taken < ready.len() {
                         stacks[i].clear();
@@ -1274,8 +1283,9 @@ impl ExactBvhAt<'_> {
 
     /// Makes up to [`READY`] of the chunk's rays, from ray `next` on, ready to be walked in
     /// turn (their lines, float32 box constants, gatherers and cursors), and answers the rays
-    /// met on the way that are not: those no query traces at once, and those the float32 box
-    /// test does not take by a walk alone on `alone`.
+    /// met on the way that are not: those no query traces at once, those whose walk would
+    /// enter no box of `root` ([`outside_avx2`]), and those the float32 box test does not
+    /// take by a walk alone on `alone`.
     ///
     /// In three passes over the batch, each writing what the next reads: made one ray at a
     /// time as each walk began, each ray's parts were stored in pieces and read back whole
@@ -1292,6 +1302,7 @@ impl ExactBvhAt<'_> {
         alone: &mut Vec<(u32, f32)>,
         next: &mut usize,
         ready: &mut Vec<ManuallyDrop<Slot<K::Gather>>>,
+        root: Option<&Outside>,
     ) {
         // Until some ray is ready or none is left (a batch may hold only rays answered on
         // the way).
@@ -1304,12 +1315,30 @@ impl ExactBvhAt<'_> {
                 ray.write(ray_at(first + k));
             }
             *next += read;
+            // The rays whose walk would enter no box, answered without one ([`outside_avx2`]).
+            // Each pass visits the set bits of its mask: no branch per ray on which kind it is.
+            let mut outside = 0u32;
+            if let Some(b) = root {
+                for (k, ray) in rays[..read].iter().enumerate() {
+                    // SAFETY: the first pass wrote rays 0..read.
+                    outside |= (outside_avx2(b, &*ray.as_ptr()) as u32) << k;
+                }
+                let mut m = outside;
+                while m != 0 {
+                    let k = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    out.put(first + k, query.outside());
+                }
+            }
             // Second pass: the lines of those that are traced.
             let mut lines = [const { MaybeUninit::<(Line, usize)>::uninit() }; READY];
             let mut count = 0;
-            for (k, ray) in rays[..read].iter().enumerate() {
+            let mut rest = (u32::MAX >> (32 - read)) & !outside;
+            while rest != 0 {
+                let k = rest.trailing_zeros() as usize;
+                rest &= rest - 1;
                 // SAFETY: the first pass wrote rays 0..read.
-                let ray = &*ray.as_ptr();
+                let ray = &*rays[k].as_ptr();
                 match checked_range(ray) {
                     Ok((tmin, tmax)) => {
                         lines[count].write((Line::within(ray, tmin, tmax), first + k));
@@ -1349,6 +1378,129 @@ impl ExactBvhAt<'_> {
             }
         }
     }
+}
+
+/// The box of the root's children in float64 (lane 3: all of space, which no ray leaves), and
+/// per axis the larger magnitude of its bounds (lane 3: 0): what [`outside_avx2`] tests a ray
+/// against before making it ready for a walk.
+#[derive(Clone, Copy, Debug)]
+struct Outside {
+    lo: [f64; 4],
+    hi: [f64; 4],
+    bmax: [f64; 4],
+}
+
+/// The magnitudes [`outside_avx2`] takes: origins and bounds up to 2^60, direction components
+/// from 2^-60 to 2^60. Within them every number of the ray's float32 box test ([`RayBoxes`])
+/// is a finite normal float32 (1/d ≤ 2^60, o·(1/d) ≤ 2^120, planes times 1/d ≤ 2^120), so
+/// the walk takes every such ray with that test, and its bound below holds.
+const OUTSIDE_BIG: f64 = (1u64 << 60) as f64;
+const OUTSIDE_SMALL: f64 = 1.0 / OUTSIDE_BIG;
+/// The pre-pass answers a ray only when the gap between its entry and exit of the root's box
+/// exceeds `OUTSIDE_GAP · S + OUTSIDE_ABS` (see [`outside_avx2`]).
+const OUTSIDE_GAP: f64 = 1.0 / (1u64 << 15) as f64;
+const OUTSIDE_ABS: f64 = 1e-30;
+
+impl ExactBvh {
+    /// The root's box for the pre-pass, or None where it does not apply: an empty tree, a
+    /// tree with an infinite bound (its rays may take the float64 test), or bounds past
+    /// [`OUTSIDE_BIG`]. Read from the nodes at each chunk, so it follows a refit.
+    fn outside_box(&self) -> Option<Outside> {
+        if self.infinite {
+            return None;
+        }
+        let root = &self.nodes[0];
+        let (mut lo, mut hi) = ([f64::NEG_INFINITY; 4], [f64::INFINITY; 4]);
+        (lo[..3].fill(f64::INFINITY), hi[..3].fill(f64::NEG_INFINITY));
+        let mut any = false;
+        for s in (0..WIDTH).filter(|&s| root.child[s] != EMPTY) {
+            any = true;
+            for k in 0..3 {
+                lo[k] = lo[k].min(root.bounds[k][s] as f64);
+                hi[k] = hi[k].max(root.bounds[3 + k][s] as f64);
+            }
+        }
+        let bmax = [0, 1, 2, 3].map(|k| {
+            if k < 3 {
+                lo[k].abs().max(hi[k].abs())
+            } else {
+                0.0
+            }
+        });
+        if !any || bmax.iter().any(|&b| !(b <= OUTSIDE_BIG)) {
+            return None;
+        }
+        Some(Outside { lo, hi, bmax })
+    }
+}
+
+/// True only when the walk of `ray` would enter none of the root's children: the float32 box
+/// test ([`RayBoxes`], [`avx2_box_test!`]) misses each of them over the widest range, [0, ∞).
+/// Then the walk offers nothing and its answer is [`QueryKind::outside`] (`steps` 0), which
+/// `make_ready` gives without making the ray ready: random rays miss the whole scene half the
+/// time, and making one ready (its line, box constants, gatherer) cost more than its walk.
+///
+/// Why the float32 test misses. Write t_k = (b − o_k)/d_k for an exact slab distance, and
+/// S = max_k (bmax_k + |o_k|)/|d_k|, which bounds every |t_k| of the root's children. Per
+/// [`RayBoxes`], the test's entry at plane b is fl32(b·inv − c_near), with inv = 1/d (1 + η),
+/// |η| ≤ 2^-23, and c_near within 2^-20·|o|·|inv| + 2^-148 of o32·inv; so it is within
+/// 2^-19·S + 2^-148 of t_k before its rounding and within 2^-18·S + 2^-147 after (the exit
+/// alike). The entry's max with t0 ≥ 0, scaled by (1 − PAD), and the exit's min, raised by
+/// PAD·|exit| + TINY, move each by at most 2^-20·S + 2^-125 more. So a child the test keeps has
+/// exact entry max(0, max_k t_near) and exit min_k t_far within 2^-16·S + 2^-124 of each
+/// other. A child lies in the root's box, so its entry is at least the box's and its exit at
+/// most the box's: a ray whose exact entry into the box exceeds its exit by more than
+/// 2^-16·S + 2^-124 is kept by no child.
+///
+/// Here that gap is computed in float64 (each t_k within 2^-50·S of exact, the gap within
+/// 2^-49·S) and compared with 2^-15·S + 10^-30 ([`OUTSIDE_GAP`], [`OUTSIDE_ABS`]), so a ray
+/// answered here has an exact gap above 2^-16·S + 2^-124. Rays outside the magnitudes of
+/// [`OUTSIDE_BIG`] (a zero direction component among them) and NaN ranges go on to the walk,
+/// as do rays the margin leaves in doubt; the answer is the same either way, `steps` included.
+/// `exact_bvh::tests::outside_rays_miss_every_root_box_in_the_float32_test` checks the
+/// implication on rays that pass the box closer than the test's padding.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn outside_avx2(b: &Outside, ray: &Ray) -> bool {
+    use std::arch::x86_64::*;
+    // Lane 3: o = 0, d = 1 against all of space (entry −∞, exit +∞, S term 0).
+    let o = _mm256_set_pd(0.0, ray.o[2], ray.o[1], ray.o[0]);
+    let d = _mm256_set_pd(1.0, ray.d[2], ray.d[1], ray.d[0]);
+    let sign = _mm256_set1_pd(-0.0);
+    let (ao, ad) = (_mm256_andnot_pd(sign, o), _mm256_andnot_pd(sign, d));
+    let big = _mm256_set1_pd(OUTSIDE_BIG);
+    // NaN fails every compare.
+    let ok = _mm256_and_pd(
+        _mm256_and_pd(
+            _mm256_cmp_pd::<_CMP_GE_OQ>(ad, _mm256_set1_pd(OUTSIDE_SMALL)),
+            _mm256_cmp_pd::<_CMP_LE_OQ>(ad, big),
+        ),
+        _mm256_cmp_pd::<_CMP_LE_OQ>(ao, big),
+    );
+    let r = _mm256_div_pd(_mm256_set1_pd(1.0), d);
+    let lo = _mm256_mul_pd(_mm256_sub_pd(_mm256_loadu_pd(b.lo.as_ptr()), o), r);
+    let hi = _mm256_mul_pd(_mm256_sub_pd(_mm256_loadu_pd(b.hi.as_ptr()), o), r);
+    let (entry, exit) = (_mm256_min_pd(lo, hi), _mm256_max_pd(lo, hi));
+    let s = _mm256_mul_pd(
+        _mm256_add_pd(_mm256_loadu_pd(b.bmax.as_ptr()), ao),
+        _mm256_andnot_pd(sign, r),
+    );
+    let halves = |v: __m256d| (_mm256_castpd256_pd128(v), _mm256_extractf128_pd::<1>(v));
+    let hmax = |v: __m256d| {
+        let (a, b) = halves(v);
+        let m = _mm_max_pd(a, b);
+        _mm_cvtsd_f64(_mm_max_sd(m, _mm_unpackhi_pd(m, m)))
+    };
+    let (a, c) = halves(exit);
+    let m = _mm_min_pd(a, c);
+    let exit = _mm_cvtsd_f64(_mm_min_sd(m, _mm_unpackhi_pd(m, m)));
+    let entry = hmax(entry).max(0.0);
+    let margin = hmax(s) * OUTSIDE_GAP + OUTSIDE_ABS;
+    // Without branches: which rays miss is as unpredictable as a coin.
+    (_mm256_movemask_pd(ok) == 0b1111)
+        & !(ray.tmin.is_nan() | ray.tmax.is_nan())
+        & (entry - exit > margin)
 }
 
 mod fan;

@@ -57,6 +57,10 @@ pub trait QueryKind: Sync {
     /// By reference: an accelerator's gatherer can be a few hundred bytes, and taken by value
     /// it was copied (a library call) for every ray.
     fn gathered(&self, gathered: &mut Self::Gather, visited: u32) -> Self::Answer;
+    /// What [`QueryKind::gathered`] answers for a ray offered nothing that entered no box
+    /// (`visited` 0), whatever the ray: an accelerator that finds a ray enters none of its
+    /// boxes answers it so without making it ready for a walk.
+    fn outside(&self) -> Self::Answer;
 }
 
 /// Where a cast writes answers of type A: split into chunks that threads fill independently.

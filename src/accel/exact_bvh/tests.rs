@@ -1055,3 +1055,262 @@ impl Answers {
         assert!(self.all == other.all, "{what}: all hits");
     }
 }
+
+/// The four faces of the tetrahedron on alternate corners of [0, 1]³, scaled by `scale` (a
+/// power of two) and moved by `shift`: one leaf, so the root's one child has the box the
+/// pre-pass ([`outside_avx2`]) tests, every face of it touched.
+fn cube_tetrahedron(scale: f64, shift: [f64; 3]) -> Vec<Tri> {
+    let c = [
+        [0.0, 0.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [1.0, 0.0, 1.0],
+        [0.0, 1.0, 1.0],
+    ]
+    .map(|p: [f64; 3]| [0, 1, 2].map(|k| p[k] * scale + shift[k]));
+    vec![
+        [c[0], c[1], c[2]],
+        [c[0], c[1], c[3]],
+        [c[0], c[2], c[3]],
+        [c[1], c[2], c[3]],
+    ]
+}
+
+/// Rays around the box [lo, hi]: lines that pass outside each of its twelve edges at gaps
+/// from a sixteenth of its size down to 2^-46 of it (closer than the float32 box test's
+/// padding, which keeps a box it passes that close), from near and far, with directions
+/// scaled by 2^-20 to 2^20; and rays from anywhere in and around the box in any direction.
+fn rays_around(rng: &mut Rng, lo: [f64; 3], hi: [f64; 3]) -> Vec<([f64; 3], [f64; 3])> {
+    let w = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
+    let mut rays = Vec::new();
+    for a in 0..3 {
+        let (b, c) = ((a + 1) % 3, (a + 2) % 3);
+        for (sa, sb) in [(1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0)] {
+            for k in (4..=46).step_by(3) {
+                let h = w * 2f64.powi(-k);
+                // A point of the edge (sa, sb), moved off it by h along (sa, sb): the line
+                // through it across that diagonal stays h·√2 outside the box.
+                let mut q = [0.0; 3];
+                q[a] = if sa > 0.0 { hi[a] } else { lo[a] } + sa * h;
+                q[b] = if sb > 0.0 { hi[b] } else { lo[b] } + sb * h;
+                q[c] = lo[c] + rng.f() * (hi[c] - lo[c]);
+                let scale = rng.pick(&[2f64.powi(-20), 1.0, 2f64.powi(20)]);
+                let mut d = [0.0; 3];
+                (d[a], d[b], d[c]) = (sb * scale, -sa * scale, (2.0 * rng.f() - 1.0) * scale);
+                let back = rng.pick(&[0.5, 2.0, 100.0]) * w / scale;
+                rays.push(([0, 1, 2].map(|m| q[m] - back * d[m]), d));
+            }
+        }
+    }
+    for _ in 0..2000 {
+        let o = [0, 1, 2].map(|k| lo[k] + (3.0 * rng.f() - 1.0) * (hi[k] - lo[k]));
+        let d = [0, 1, 2].map(|_| 2.0 * rng.f() - 1.0);
+        rays.push((o, d));
+    }
+    rays
+}
+
+/// The gap between where the line of `(o, d)` enters the box [lo, hi] (at t ≥ 0) and where
+/// it leaves, over S = max_k (max(|lo_k|, |hi_k|) + |o_k|) / |d_k| (the scale of
+/// [`outside_avx2`]'s margin), in float64: within 2^-49 of the exact ratio.
+fn gap_over_scale(o: [f64; 3], d: [f64; 3], lo: [f64; 3], hi: [f64; 3]) -> f64 {
+    let (mut entry, mut exit, mut s) = (0.0f64, f64::INFINITY, 0.0f64);
+    for k in 0..3 {
+        let (a, b) = ((lo[k] - o[k]) / d[k], (hi[k] - o[k]) / d[k]);
+        (entry, exit) = (entry.max(a.min(b)), exit.min(a.max(b)));
+        s = s.max((lo[k].abs().max(hi[k].abs()) + o[k].abs()) / d[k].abs());
+    }
+    (entry - exit) / s
+}
+
+/// A ray the pre-pass answers would enter none of the root's boxes: the float32 box test
+/// (portable and AVX2) keeps none of the root's children over [0, ∞), so the walk's answer is
+/// the pre-pass's, `steps` 0 included. On rays that pass the box closer than that test's
+/// padding: some of them the test keeps although they miss the box, which a pre-pass without
+/// its margin would answer wrongly. Trees of one leaf (the box itself) scaled by 2^-40 to
+/// 2^40 and moved where float32 cannot hold the origins, and a tree of many triangles.
+#[test]
+#[cfg(target_arch = "x86_64")]
+fn outside_rays_miss_every_root_box_in_the_float32_test() {
+    if !Simd::Avx2.supported() {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "CI must run the AVX2 pre-pass"
+        );
+        return;
+    }
+    let mut rng = Rng::xorshift(61);
+    let mut trees = Vec::new();
+    for (scale, shift) in [
+        (1.0, [0.0; 3]),
+        (2f64.powi(-40), [0.3, -1e-9, 7.0]),
+        (2f64.powi(40), [-3e15, 1.0 / 3.0, 2e12]),
+        (1.0, [1e6 + 1.0 / 3.0, -2e5, 0.1]),
+    ] {
+        trees.push(cube_tetrahedron(scale, shift));
+    }
+    trees.push(triangle_soup(&mut rng));
+    let (mut answered, mut close, mut kept_outside) = (0usize, 0usize, 0usize);
+    for tris in &trees {
+        let bvh = ExactBvh::build(tris, ExactBvhParams::default()).unwrap();
+        let root = bvh
+            .outside_box()
+            .expect("a finite tree has the pre-pass's box");
+        let (lo, hi) = ([0, 1, 2].map(|k| root.lo[k]), [0, 1, 2].map(|k| root.hi[k]));
+        let one_leaf = tris.len() == 4;
+        for (o, d) in rays_around(&mut rng, lo, hi) {
+            let ray = Ray::new(o, d, 0.0, f64::INFINITY);
+            let line = Line::new(&ray).unwrap();
+            // SAFETY: the CPU has AVX2 (checked above).
+            let outside = unsafe { outside_avx2(&root, &ray) };
+            let r = RayBoxes::new(&line, bvh.infinite);
+            let kept = |r: &RayBoxes| {
+                let portable = r.test(&bvh.nodes[0], line.tmin, line.tmax).0;
+                // SAFETY: as above (FMA comes with AVX2 in `Simd::supported`).
+                let avx2 = unsafe { avx2_test(r, &bvh.nodes[0], line.tmin, line.tmax) }.0;
+                assert_eq!(portable, avx2, "ray {o:?} {d:?}: the two float32 tests");
+                portable
+            };
+            if outside {
+                answered += 1;
+                let r = r.expect("the pre-pass answers only rays the float32 test takes");
+                assert_eq!(
+                    kept(&r),
+                    0,
+                    "ray {o:?} {d:?}: answered, but a root box is kept"
+                );
+                let gap = gap_over_scale(o, d, lo, hi);
+                assert!(gap > 2f64.powi(-16), "ray {o:?} {d:?}: gap {gap:e}");
+                close += (gap < 2f64.powi(-12)) as usize;
+            } else if one_leaf {
+                // Outside the box by more than float64 can mistake, kept by the test.
+                let gap = gap_over_scale(o, d, lo, hi);
+                if gap > 2f64.powi(-44) && r.is_some_and(|r| kept(&r) != 0) {
+                    kept_outside += 1;
+                }
+            }
+        }
+    }
+    assert!(answered > 2000, "{answered} rays answered by the pre-pass");
+    assert!(
+        close > 20,
+        "{close} answered rays within 2^-12 of the margin's scale"
+    );
+    assert!(
+        kept_outside > 20,
+        "{kept_outside} rays outside that the test keeps"
+    );
+}
+
+/// Casts whose rays the pre-pass answers give the answers of the portable level, which has
+/// none, bit for bit, `steps` included: closest hits of float64 and float32 rays, any hits and
+/// all hits, with and without windows (a window that ends before it starts: MISS either way),
+/// rays with NaN bounds or zero and tiny direction components among them.
+#[test]
+fn rays_the_pre_pass_answers_answer_as_the_portable_walk() {
+    let mut rng = Rng::xorshift(62);
+    let mut tris = cube_tetrahedron(1.0, [0.0; 3]);
+    // A second part away from the first: the root's box holds empty space between them.
+    tris.extend(cube_tetrahedron(0.25, [3.0, 0.5, -1.0]));
+    let scene = crate::Scene::surface_only(tris, [-1.0, -1.0, -2.0], [4.5, 2.0, 2.0]).unwrap();
+    let [lo, hi] = [[0.0, 0.0, -1.0], [3.25, 1.0, 1.0]];
+    let mut rays = rays_around(&mut rng, lo, hi);
+    // Rays aimed at points of the triangles, from around the box: hits.
+    for _ in 0..500 {
+        let t = rng.pick(&scene.surface.triangles);
+        let (a, b) = (rng.f(), rng.f());
+        let (a, b) = if a + b > 1.0 {
+            (1.0 - a, 1.0 - b)
+        } else {
+            (a, b)
+        };
+        let p = [0, 1, 2].map(|k| t[0][k] + a * (t[1][k] - t[0][k]) + b * (t[2][k] - t[0][k]));
+        let o = [0, 1, 2].map(|k| lo[k] + (3.0 * rng.f() - 1.0) * (hi[k] - lo[k]));
+        rays.push((o, [0, 1, 2].map(|k| p[k] - o[k])));
+    }
+    let o = [0.5, 0.5, 5.0];
+    rays.extend([
+        (o, [0.0, 0.0, 1.0]),
+        (o, [1e-300, 0.0, 1.0]),
+        (o, [0.0; 3]),
+        ([f64::NAN, 0.0, 0.0], [1.0, 0.0, 0.0]),
+    ]);
+    let set = RaySet::new(&rays);
+    let n = rays.len();
+    let opts = |simd| CastOptions {
+        accel: AccelKind::ExactBvh,
+        simd: Some(simd),
+        packets: Packets::Off,
+        ..Default::default()
+    };
+    for window in [false, true] {
+        let (tmin, tmax): (Vec<f64>, Vec<f64>) = (0..n)
+            .map(|j| match (window, j % 7) {
+                (false, _) => (0.0, f64::INFINITY),
+                (true, 0) => (2.0, 1.0),
+                (true, 1) => (f64::NAN, 1.0),
+                (true, k) => (0.1 * k as f64, 10.0 * k as f64),
+            })
+            .unzip();
+        let (r64, r32) = set.rays(&tmin, &tmax);
+        #[cfg(target_arch = "x86_64")]
+        if Simd::Avx2.supported() {
+            let root = scene.exact_bvh().unwrap().outside_box().unwrap();
+            // SAFETY: the CPU has AVX2.
+            let answered = (0..n).filter(|&j| unsafe { outside_avx2(&root, &r64.ray(j)) });
+            let answered = answered.count();
+            assert!(
+                answered > n / 4,
+                "window {window}: {answered} answered by the pre-pass"
+            );
+        }
+        let one = Answers::of(&scene, &r64, &r32, &opts(Simd::Scalar));
+        assert!(one.hits() > n / 20, "window {window}: {} hits", one.hits());
+        for simd in Simd::supported_levels() {
+            let other = Answers::of(&scene, &r64, &r32, &opts(simd));
+            one.assert_same(&other, true, &format!("{simd:?} window {window}"));
+        }
+    }
+}
+
+/// What a query answers for a ray that entered no box and was offered nothing (a fresh
+/// gatherer, `visited` 0) is its `outside` answer, whatever the ray: closest hits (with and
+/// without the float32 hit's rounding), any hits and all hits.
+#[test]
+fn the_outside_answer_is_what_a_walk_that_met_nothing_answers() {
+    use crate::query::{AllHits, AnyHit, QueryKind};
+    let scene =
+        crate::Scene::surface_only(cube_tetrahedron(1.0, [0.0; 3]), [-1.0; 3], [2.0; 3]).unwrap();
+    let mut rng = Rng::xorshift(63);
+    let hit_bits = |h: &crate::query::RayHit| {
+        let f = [h.t, h.u, h.v, h.point[0], h.point[1], h.point[2]].map(f64::to_bits);
+        (h.status, f, h.triangle, h.tet, h.steps, h.audit)
+    };
+    let mut checked = 0;
+    for (o, d) in rays_around(&mut rng, [0.0; 3], [1.0; 3])
+        .into_iter()
+        .step_by(7)
+    {
+        for (tmin, tmax) in [(0.0, f64::INFINITY), (0.5, 0.75)] {
+            let line = Line::new(&Ray::new(o, d, tmin, tmax)).unwrap();
+            for narrow in [None, Some(Simd::Scalar)] {
+                let closest = crate::query::ClosestHit {
+                    narrow,
+                    ..scene.closest()
+                };
+                let got = closest.gathered(&mut closest.gather(&line), 0);
+                assert_eq!(
+                    hit_bits(&got),
+                    hit_bits(&closest.outside()),
+                    "closest {o:?} {d:?}"
+                );
+                let any = AnyHit(closest);
+                assert_eq!(any.gathered(&mut any.gather(&line), 0), any.outside());
+                let all = AllHits(closest);
+                let (got, want) = (all.gathered(&mut all.gather(&line), 0), all.outside());
+                assert!(got.status == want.status && got.meets.is_empty() && want.meets.is_empty());
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked > 100, "{checked} lines");
+}
