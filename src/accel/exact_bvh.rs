@@ -1144,6 +1144,13 @@ pub struct State {
 /// overlap, few enough that they stay in the first-level cache (a few hundred bytes each).
 const READY: usize = 16;
 
+/// Where `make_ready` stands in a chunk: the next ray to read, and the root's box for the
+/// pre-pass ([`outside_avx2`]; None: every ray is made ready).
+struct Feed {
+    next: usize,
+    root: Option<Outside>,
+}
+
 /// A ray being walked beside another ([`ExactBvhAt::trace_two_avx2`]).
 struct Slot<G> {
     line: Line,
@@ -1215,8 +1222,10 @@ impl ExactBvhAt<'_> {
         st: &mut State,
     ) {
         let bvh = self.bvh;
-        let root = bvh.outside_box();
-        let mut next = 0;
+        let mut feed = Feed {
+            next: 0,
+            root: bvh.outside_box(),
+        };
         // The rays made ready, walked where they lie (a slot names its entry): moved into
         // slots, a ray's few hundred bytes cost two library copies each.
         let mut ready: Vec<ManuallyDrop<Slot<K::Gather>>> = Vec::with_capacity(READY);
@@ -1238,15 +1247,7 @@ impl ExactBvhAt<'_> {
                     if taken == ready.len() && slots[1 - i].is_none() {
                         ready.clear();
                         taken = 0;
-                        self.make_ready(
-                            query,
-                            &ray_at,
-                            out,
-                            alone,
-                            &mut next,
-                            &mut ready,
-                            root.as_ref(),
-                        );
+                        self.make_ready(query, &ray_at, out, alone, &mut feed, &mut ready);
                     }
                     if taken < ready.len() {
                         stacks[i].clear();
@@ -1281,10 +1282,10 @@ impl ExactBvhAt<'_> {
         }
     }
 
-    /// Makes up to [`READY`] of the chunk's rays, from ray `next` on, ready to be walked in
+    /// Makes up to [`READY`] of the chunk's rays, from ray `feed.next` on, ready to be walked in
     /// turn (their lines, float32 box constants, gatherers and cursors), and answers the rays
     /// met on the way that are not: those no query traces at once, those whose walk would
-    /// enter no box of `root` ([`outside_avx2`]), and those the float32 box test does not
+    /// enter no box of `feed.root` ([`outside_avx2`]), and those the float32 box test does not
     /// take by a walk alone on `alone`.
     ///
     /// In three passes over the batch, each writing what the next reads: made one ray at a
@@ -1300,25 +1301,24 @@ impl ExactBvhAt<'_> {
         ray_at: &impl Fn(usize) -> Ray,
         out: &mut S,
         alone: &mut Vec<(u32, f32)>,
-        next: &mut usize,
+        feed: &mut Feed,
         ready: &mut Vec<ManuallyDrop<Slot<K::Gather>>>,
-        root: Option<&Outside>,
     ) {
         // Until some ray is ready or none is left (a batch may hold only rays answered on
         // the way).
-        while ready.is_empty() && *next < out.len() {
+        while ready.is_empty() && feed.next < out.len() {
             // First pass: the next READY rays (`ray_at`, inlined by the cast, builds each in place).
             let mut rays = [const { MaybeUninit::<Ray>::uninit() }; READY];
-            let first = *next;
+            let first = feed.next;
             let read = READY.min(out.len() - first);
             for (k, ray) in rays[..read].iter_mut().enumerate() {
                 ray.write(ray_at(first + k));
             }
-            *next += read;
+            feed.next += read;
             // The rays whose walk would enter no box, answered without one ([`outside_avx2`]).
             // Each pass visits the set bits of its mask: no branch per ray on which kind it is.
             let mut outside = 0u32;
-            if let Some(b) = root {
+            if let Some(b) = &feed.root {
                 for (k, ray) in rays[..read].iter().enumerate() {
                     // SAFETY: the first pass wrote rays 0..read.
                     outside |= (outside_avx2(b, &*ray.as_ptr()) as u32) << k;
@@ -1411,7 +1411,8 @@ impl ExactBvh {
         }
         let root = &self.nodes[0];
         let (mut lo, mut hi) = ([f64::NEG_INFINITY; 4], [f64::INFINITY; 4]);
-        (lo[..3].fill(f64::INFINITY), hi[..3].fill(f64::NEG_INFINITY));
+        lo[..3].fill(f64::INFINITY);
+        hi[..3].fill(f64::NEG_INFINITY);
         let mut any = false;
         for s in (0..WIDTH).filter(|&s| root.child[s] != EMPTY) {
             any = true;
@@ -1427,7 +1428,8 @@ impl ExactBvh {
                 0.0
             }
         });
-        if !any || bmax.iter().any(|&b| !(b <= OUTSIDE_BIG)) {
+        // NaN is not below the bound either.
+        if !any || !bmax.iter().all(|&b| b <= OUTSIDE_BIG) {
             return None;
         }
         Some(Outside { lo, hi, bmax })
