@@ -703,11 +703,15 @@ fn push_sorted(stack: &mut Vec<(u32, f32)>, node: &Node8, mask: u32, nears: &[f3
 }
 
 /// Pushes `item(slot)` for each slot in `mask` (one bit per child) in decreasing order of
-/// `entry` (insertion among the entries pushed here), so that the nearest is popped first; of
-/// equal entries the later slot is popped first. One ray's walk and the packets' push through
-/// it. Room for a node's children is reserved once and the insertion writes in place: `Vec`'s
-/// push and indexing cost a capacity check and a bounds check per child and per move, about
-/// 200 instructions a camera ray.
+/// `entry`, so that the nearest is popped first; of equal entries the later slot is popped
+/// first. Entries are ordered as `f32::total_cmp` orders them (−0 below +0, NaN at the ends),
+/// so the places are a permutation whatever they hold. One ray's walk and the packets' push
+/// through it.
+///
+/// Each item's place is counted, not found by insertion: the insertion's compares branched on
+/// the entries, which random rays make unpredictable (rays that enter a box walked 4% faster
+/// counted, docs/bvh.md). Room for a node's children is reserved once and the items are written
+/// in place: `Vec`'s push and indexing cost a capacity check and a bounds check per child.
 #[inline(always)]
 fn push_by_entry<T: Copy>(
     stack: &mut Vec<T>,
@@ -718,27 +722,33 @@ fn push_by_entry<T: Copy>(
     stack.reserve(WIDTH);
     let base = stack.len();
     let p = stack.as_mut_ptr();
-    let mut top = base;
+    // The items, and their entries as integers in `total_cmp`'s order.
+    let mut keys = [0i32; WIDTH];
+    let mut items = [const { MaybeUninit::<T>::uninit() }; WIDTH];
     let mut m = mask & ((1 << WIDTH) - 1);
+    let mut count = 0;
     while m != 0 {
         let slot = m.trailing_zeros() as usize;
         m &= m - 1;
-        let item = item(slot);
-        // SAFETY: at most WIDTH items are written (one per bit of m), so every index here is
-        // below base + WIDTH, within the capacity reserved; those below `top` were written in
-        // this loop.
-        unsafe {
-            let mut i = top;
-            while i > base && entry(&*p.add(i - 1)) < entry(&item) {
-                p.add(i).write(*p.add(i - 1));
-                i -= 1;
-            }
-            p.add(i).write(item);
-        }
-        top += 1;
+        let it = item(slot);
+        let bits = entry(&it).to_bits() as i32;
+        keys[count] = bits ^ ((((bits >> 31) as u32) >> 1) as i32);
+        items[count].write(it);
+        count += 1;
     }
-    // SAFETY: base..top were written above, within the capacity.
-    unsafe { stack.set_len(top) };
+    for i in 0..count {
+        // Below item i: the farther entries, and the equal ones of earlier slots.
+        let mut place = 0;
+        for j in 0..count {
+            place += ((keys[j] > keys[i]) | ((keys[j] == keys[i]) & (j < i))) as usize;
+        }
+        // SAFETY: the places of items 0..count (written above) are a permutation of 0..count
+        // (the keys are totally ordered, ties broken by slot), count ≤ WIDTH, within the
+        // capacity reserved.
+        unsafe { p.add(base + place).write(items[i].assume_init()) };
+    }
+    // SAFETY: base..base + count were written above.
+    unsafe { stack.set_len(base + count) };
 }
 
 /// Of a leaf's triangles (at most [`MAX_LEAF`]), those the ray may meet (bit j for `tris[j]`): a triangle is left out

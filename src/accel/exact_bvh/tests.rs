@@ -1314,3 +1314,33 @@ fn the_outside_answer_is_what_a_walk_that_met_nothing_answers() {
     }
     assert!(checked > 100, "{checked} lines");
 }
+
+/// The children a node pushes are popped nearest first, and of equal entries the later slot
+/// first, as a sort by `total_cmp` orders them (−0 below +0): every mask of eight slots, on
+/// entries drawn from a few values so that ties are common, above items already on the stack.
+#[test]
+fn pushed_children_pop_nearest_first_and_later_slots_first_among_equals() {
+    let mut rng = Rng::xorshift(64);
+    let values = [0.0f32, -0.0, 1.0, 1.5, 2.0, f32::MIN_POSITIVE, 1e30];
+    for mask in 0..256u32 {
+        for _ in 0..4 {
+            let entries: [f32; WIDTH] = std::array::from_fn(|_| rng.pick(&values));
+            let mut stack = vec![(99u32, -1.0f32); rng.below(3)];
+            let below = stack.len();
+            push_by_entry(&mut stack, mask, |s| (s as u32, entries[s]), |e| e.1);
+            let mut want: Vec<(u32, f32)> = (0..WIDTH as u32)
+                .filter(|&s| mask >> s & 1 == 1)
+                .map(|s| (s, entries[s as usize]))
+                .collect();
+            // Bottom to top: farthest first; of equal entries, the earlier slot lower.
+            want.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+            let got: Vec<(u32, u32)> = stack[below..]
+                .iter()
+                .map(|e| (e.0, e.1.to_bits()))
+                .collect();
+            let want: Vec<(u32, u32)> = want.iter().map(|e| (e.0, e.1.to_bits())).collect();
+            assert_eq!(got, want, "mask {mask:08b} entries {entries:?}");
+            assert!(stack[..below].iter().all(|e| e.0 == 99));
+        }
+    }
+}
