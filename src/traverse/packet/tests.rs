@@ -18,13 +18,16 @@ impl Lcg {
 /// points) has that exact side, judged by `geom::exact::side`; and boxes straddling an
 /// edge's plane are found uncertain. The points lie within 2 of zero or are scaled by
 /// 2^±40 (exactly: the same geometry, its products' rounding 2^±80 times as large), where
-/// the bound must grow with the edge's norms.
+/// the bound must grow with the edge's norms; the directions are scaled by 2^±40 too (their
+/// sides unchanged, exactly), where it must grow with the box's reach. A direction's side
+/// within the box's bound is certain most of the time.
 #[test]
 fn box_side_is_the_exact_side_of_every_direction_in_the_box() {
     let mut rng = Lcg(7);
-    let (mut certain, mut uncertain) = (0, 0);
+    let (mut certain, mut uncertain, mut within_certain) = (0, 0, 0);
     for case in 0..30000 {
         let scale = [1.0, 2f64.powi(40), 2f64.powi(-40)][case / 8 % 3];
+        let dscale = [1.0, 2f64.powi(40), 2f64.powi(-40)][case / 24 % 3];
         let o = [0, 1, 2].map(|_| rng.unit() * 4.0 - 2.0);
         let p = [0, 1, 2].map(|_| rng.unit() * 4.0 - 2.0);
         // Every other q on the plane through o, p and the box's centre direction, up to
@@ -39,7 +42,7 @@ fn box_side_is_the_exact_side_of_every_direction_in_the_box() {
         let [o, p, q] = [o, p, q].map(|x| x.map(|c| c * scale));
         let width = [1e-1, 1e-4, 1e-12, 0.0][case / 2 % 4];
         let dirs: Vec<[f64; 3]> = (0..6)
-            .map(|_| [0, 1, 2].map(|k| centre[k] + (rng.unit() - 0.5) * width))
+            .map(|_| [0, 1, 2].map(|k| (centre[k] + (rng.unit() - 0.5) * width) * dscale))
             .collect();
         let b = DirBox::of(dirs.iter());
         let rel = |x: [f64; 3]| [0, 1, 2].map(|k| x[k] - o[k]);
@@ -51,6 +54,7 @@ fn box_side_is_the_exact_side_of_every_direction_in_the_box() {
             let one = edge.side_of(v);
             assert!(one == 0 || one == side(*v, o, p, q), "case {case}: one ray");
             let within = edge.side_within(v, edge.bound(&b));
+            within_certain += (within != 0) as usize;
             assert!(
                 within == 0 || within == side(*v, o, p, q),
                 "case {case}: in the box"
@@ -81,6 +85,10 @@ fn box_side_is_the_exact_side_of_every_direction_in_the_box() {
     assert!(
         certain > 1000 && uncertain > 1000,
         "{certain} certain, {uncertain} uncertain"
+    );
+    assert!(
+        within_certain > 30000,
+        "{within_certain} directions certain in their box"
     );
 }
 
