@@ -1420,26 +1420,23 @@ impl ExactBvh {
             return None;
         }
         let root = &self.nodes[0];
-        let (mut lo, mut hi) = ([f64::NEG_INFINITY; 4], [f64::INFINITY; 4]);
-        lo[..3].fill(f64::INFINITY);
-        hi[..3].fill(f64::NEG_INFINITY);
-        let mut any = false;
-        for s in (0..WIDTH).filter(|&s| root.child[s] != EMPTY) {
-            any = true;
-            for k in 0..3 {
-                lo[k] = lo[k].min(root.bounds[k][s] as f64);
-                hi[k] = hi[k].max(root.bounds[3 + k][s] as f64);
-            }
-        }
-        let bmax = [0, 1, 2, 3].map(|k| {
-            if k < 3 {
-                lo[k].abs().max(hi[k].abs())
-            } else {
-                0.0
-            }
+        let slots = (0..WIDTH).filter(|&s| root.child[s] != EMPTY);
+        let bound = |row: usize| slots.clone().map(move |s| root.bounds[row][s] as f64);
+        // Lane 3 is all of space, with no magnitude.
+        let lo = [0, 1, 2, 3].map(|k| match k {
+            3 => f64::NEG_INFINITY,
+            _ => bound(k).fold(f64::INFINITY, f64::min),
         });
-        // NaN is not below the bound either.
-        if !any || !bmax.iter().all(|&b| b <= OUTSIDE_BIG) {
+        let hi = [0, 1, 2, 3].map(|k| match k {
+            3 => f64::INFINITY,
+            _ => bound(3 + k).fold(f64::NEG_INFINITY, f64::max),
+        });
+        let bmax = [0, 1, 2, 3].map(|k| match k {
+            3 => 0.0,
+            _ => lo[k].abs().max(hi[k].abs()),
+        });
+        // No children (the bounds stay infinite) or bounds too large; NaN fails too.
+        if !bmax.iter().all(|&b| b <= OUTSIDE_BIG) {
             return None;
         }
         Some(Outside { lo, hi, bmax })
@@ -1498,16 +1495,16 @@ unsafe fn outside_avx2(b: &Outside, ray: &Ray) -> bool {
         _mm256_add_pd(_mm256_loadu_pd(b.bmax.as_ptr()), ao),
         _mm256_andnot_pd(sign, r),
     );
-    let halves = |v: __m256d| (_mm256_castpd256_pd128(v), _mm256_extractf128_pd::<1>(v));
+    // The largest and smallest of four lanes.
     let hmax = |v: __m256d| {
-        let (a, b) = halves(v);
-        let m = _mm_max_pd(a, b);
+        let m = _mm_max_pd(_mm256_castpd256_pd128(v), _mm256_extractf128_pd::<1>(v));
         _mm_cvtsd_f64(_mm_max_sd(m, _mm_unpackhi_pd(m, m)))
     };
-    let (a, c) = halves(exit);
-    let m = _mm_min_pd(a, c);
-    let exit = _mm_cvtsd_f64(_mm_min_sd(m, _mm_unpackhi_pd(m, m)));
-    let entry = hmax(entry).max(0.0);
+    let hmin = |v: __m256d| {
+        let m = _mm_min_pd(_mm256_castpd256_pd128(v), _mm256_extractf128_pd::<1>(v));
+        _mm_cvtsd_f64(_mm_min_sd(m, _mm_unpackhi_pd(m, m)))
+    };
+    let (entry, exit) = (hmax(entry).max(0.0), hmin(exit));
     let margin = hmax(s) * OUTSIDE_GAP + OUTSIDE_ABS;
     // Without branches: which rays miss is as unpredictable as a coin.
     (_mm256_movemask_pd(ok) == 0b1111)

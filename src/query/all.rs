@@ -134,11 +134,6 @@ impl<'a> QueryKind for AllHits<'a> {
         self.0.origin_may_touch(s)
     }
 
-    #[inline(always)]
-    fn outside(&self) -> Listed {
-        self.skipped(MISS)
-    }
-
     fn skipped(&self, status: u8) -> Listed {
         Listed {
             status,

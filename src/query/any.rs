@@ -41,11 +41,6 @@ impl<'a> QueryKind for AnyHit<'a> {
         self.0.origin_may_touch(s)
     }
 
-    #[inline(always)]
-    fn outside(&self) -> u8 {
-        self.skipped(MISS)
-    }
-
     #[inline]
     fn skipped(&self, status: u8) -> u8 {
         status

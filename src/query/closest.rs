@@ -183,11 +183,6 @@ impl<'a> QueryKind for ClosestHit<'a> {
         ExactRay::new(self.mesh, self.incidence, self.surface, s).origin_on_a_plane(s.tet)
     }
 
-    #[inline(always)]
-    fn outside(&self) -> RayHit {
-        self.skipped(MISS)
-    }
-
     #[inline]
     fn skipped(&self, status: u8) -> RayHit {
         RayHit::nothing(status)

@@ -59,8 +59,14 @@ pub trait QueryKind: Sync {
     fn gathered(&self, gathered: &mut Self::Gather, visited: u32) -> Self::Answer;
     /// What [`QueryKind::gathered`] answers for a ray offered nothing that entered no box
     /// (`visited` 0), whatever the ray: an accelerator that finds a ray enters none of its
-    /// boxes answers it so without making it ready for a walk.
-    fn outside(&self) -> Self::Answer;
+    /// boxes answers it so without making it ready for a walk. A miss, as a skipped ray's, for
+    /// every kind so far (checked by `exact_bvh`'s test
+    /// `the_outside_answer_is_what_a_walk_that_met_nothing_answers`); a kind whose empty
+    /// gatherer answers otherwise overrides it.
+    #[inline(always)]
+    fn outside(&self) -> Self::Answer {
+        self.skipped(crate::status::MISS)
+    }
 }
 
 /// Where a cast writes answers of type A: split into chunks that threads fill independently.
