@@ -1236,58 +1236,68 @@ impl ExactBvhAt<'_> {
             next: 0,
             root: bvh.outside_box(),
         };
-        // The rays made ready, walked where they lie (a slot names its entry): moved into
-        // slots, a ray's few hundred bytes cost two library copies each.
+        // The rays made ready, walked where they lie: moved into slots, a ray's few hundred
+        // bytes cost two library copies each.
         let mut ready: Vec<ManuallyDrop<Slot<K::Gather>>> = Vec::with_capacity(READY);
-        let mut taken = 0;
-        let mut slots: [Option<usize>; 2] = [None, None];
         let State {
             stack,
             second,
             alone,
             ..
         } = st;
-        let stacks = [stack, second];
+        let (stack, second): (*mut Vec<(u32, f32)>, *mut Vec<(u32, f32)>) = (stack, second);
         loop {
-            let mut live = false;
-            for i in 0..2 {
-                if slots[i].is_none() {
-                    // Every entry handed out and the other slot's finished too: the entries'
-                    // gatherers have all been read out, so they are cleared without drops.
-                    if taken == ready.len() && slots[1 - i].is_none() {
-                        ready.clear();
-                        taken = 0;
-                        self.make_ready(query, &ray_at, out, alone, &mut feed, &mut ready);
-                    }
-                    if taken < ready.len() {
-                        stacks[i].clear();
-                        slots[i] = Some(taken);
-                        taken += 1;
-                    }
-                }
-                let Some(k) = slots[i] else { continue };
-                live = true;
-                let s: &mut Slot<K::Gather> = &mut ready[k];
+            // Every entry of the last batch has been read out: its gatherers were dropped
+            // one by one, so the entries are cleared without drops.
+            ready.clear();
+            self.make_ready(query, &ray_at, out, alone, &mut feed, &mut ready);
+            let n = ready.len();
+            if n == 0 {
+                break;
+            }
+            // The entry walked now and the one walked next, with their stacks, swapped after
+            // each step (pointers: an index into `ready` and an `Option` per slot were a
+            // bounds check, a multiply and two tests a step). When no entry is left to start,
+            // both name the last ray walking, which then walks alone.
+            let base = ready.as_mut_ptr().cast::<Slot<K::Gather>>();
+            (*stack).clear();
+            (*second).clear();
+            let mut cur = (base, stack);
+            let mut other = if n > 1 { (base.add(1), second) } else { cur };
+            let (mut taken, mut live) = (n.min(2), n.min(2));
+            loop {
+                // SAFETY: `cur` names an entry below n (written by make_ready, its gatherer
+                // not yet dropped) and one of the two stacks; the other slot names another
+                // entry and the other stack, or the same ones.
+                let (s, walk_stack) = (&mut *cur.0, &mut *cur.1);
                 let (r, line) = (&s.boxes, &s.line);
                 let going = walk_step!(
                     bvh,
                     line,
                     &mut s.gather,
-                    &mut *stacks[i],
+                    walk_stack,
                     &mut s.cursor,
                     |node, _tmin, _reach, t0, t1| avx2_box_test!(r, node, t0, t1),
                     |tris| may_meet_avx2!(line, tris)
                 );
                 if !going {
-                    slots[i] = None;
                     out.put(s.index, query.gathered(&mut s.gather, s.cursor.visited));
-                    // SAFETY: entry k is walked no more, and `ready` is cleared without drops
-                    // before it is made again: its gatherer is dropped here, once.
+                    // SAFETY: the entry is walked no more, and `ready` is cleared without
+                    // drops: its gatherer is dropped here, once.
                     std::ptr::drop_in_place(&mut s.gather);
+                    if taken < n {
+                        cur.0 = base.add(taken);
+                        taken += 1;
+                        walk_stack.clear();
+                    } else {
+                        live -= 1;
+                        if live == 0 {
+                            break;
+                        }
+                        cur = other;
+                    }
                 }
-            }
-            if !live {
-                break;
+                std::mem::swap(&mut cur, &mut other);
             }
         }
     }

@@ -674,7 +674,8 @@ fn ray_boxes_are_the_same_at_every_simd_level() {
 /// grid vertices and along edges, mixed with rays that are never walked (a NaN, a zero
 /// direction, tmax below tmin) and rays the float32 box test does not take (a direction
 /// component of 1e-40, a tiny or huge direction), so that a slot is refilled past them; with
-/// and without windows; closest hits in both precisions, any hits and all hits.
+/// and without windows; closest hits in both precisions, any hits and all hits. Then casts of
+/// one, two, three and `READY + 1` rays that hit.
 #[test]
 fn two_rays_walked_in_turn_answer_as_one_ray_walks() {
     use crate::testing::grid_scene_inside;
@@ -758,6 +759,27 @@ fn two_rays_walked_in_turn_answer_as_one_ray_walks() {
         }
     }
     assert!(hits > n / 3, "{hits} hits of {} rays", 2 * n);
+    // Casts of a few rays that all hit: a batch that makes one ray ready (it walks alone from
+    // its start), two, three (the third starts in the slot the first leaves), and one past a
+    // whole batch.
+    let (tmin, tmax) = (vec![0.0; n], vec![f64::INFINITY; n]);
+    let (r64, r32) = set.rays(&tmin, &tmax);
+    let one = Answers::of(&g.scene, &r64, &r32, &opts(Simd::Scalar));
+    let hitting: Vec<_> = (0..n)
+        .filter(|&j| one.closest.0[j] == crate::status::HIT)
+        .map(|j| rays[j])
+        .collect();
+    for len in [1, 2, 3, super::READY + 1] {
+        let few = RaySet::new(&hitting[..len]);
+        let (tmin, tmax) = (vec![0.0; len], vec![f64::INFINITY; len]);
+        let (r64, r32) = few.rays(&tmin, &tmax);
+        let one = Answers::of(&g.scene, &r64, &r32, &opts(Simd::Scalar));
+        assert_eq!(one.hits(), len, "{len} rays that hit");
+        for simd in Simd::supported_levels() {
+            let two = Answers::of(&g.scene, &r64, &r32, &opts(simd));
+            one.assert_same(&two, true, &format!("{simd:?}, {len} rays"));
+        }
+    }
 }
 
 /// The fan (a batch from one origin answered through a grid over its directions,
