@@ -1245,7 +1245,7 @@ impl ExactBvhAt<'_> {
             alone,
             ..
         } = st;
-        let (stack, second): (*mut Vec<(u32, f32)>, *mut Vec<(u32, f32)>) = (stack, second);
+        let (stack, second) = (stack as *mut Vec<_>, second as *mut Vec<_>);
         loop {
             // Every entry of the last batch has been read out: its gatherers were dropped
             // one by one, so the entries are cleared without drops.
