@@ -133,7 +133,16 @@ fn per_ray_exits_agree_at_every_simd_level_and_with_exact_sides() {
         let mut first: Option<(Vec<u8>, [usize; 4])> = None;
         for &level in &levels {
             let (mut exits, mut counts) = (vec![9u8; n], [0usize; 4]);
+            let kernel = super::avx2_rays();
             Packet::exits_of(&edges, &bounds, &rays, &mut exits, &mut counts, level);
+            // Each level runs its own code: the AVX2 kernel takes the whole groups of four
+            // at that level and no ray at the portable one.
+            let want = if level == Simd::Avx2 { n / 4 * 4 } else { 0 };
+            assert_eq!(
+                super::avx2_rays() - kernel,
+                want as u64,
+                "case {case}: rays the AVX2 kernel decided at {level:?}"
+            );
             for (r, &e) in rays.iter().zip(&exits) {
                 assert_eq!(e, Packet::exit_of(&edges, &bounds, &r.dir), "case {case}");
                 if e == 3 {
