@@ -331,9 +331,10 @@ macro_rules! avx2_box_test {
         let (r, b): (&RayBoxes, &[[f32; WIDTH]; 6]) = ($r, &$node.bounds);
         let (t0, t1): (f32, f32) = ($t0, $t1);
         // Rows are 32-byte aligned (Node8 is, and each row is 32 bytes). SAFETY: `near` and
-        // `far` hold rows k and k + 3 (k < 3) only, as `RayBoxes` builds them: within the six
-        // (unchecked: a bounds check per row was a compare and a branch at every node).
-        let row = |i: usize| _mm256_load_ps(b.as_ptr().cast::<f32>().add(i * WIDTH));
+        // `far` hold the offsets of rows k and k + 3 (k < 3) only, as `RayBoxes` builds them:
+        // within the six (unchecked: a bounds check per row was a compare and a branch at
+        // every node).
+        let row = |i: usize| _mm256_load_ps(b.as_ptr().cast::<f32>().add(i));
         let [n0, n1, n2] = r.near.map(|i| row(i));
         let [f0, f1, f2] = r.far.map(|i| row(i));
         let [i0, i1, i2] = r.inv.map(|x| _mm256_set1_ps(x));
@@ -882,7 +883,9 @@ const TINY: f32 = f32::MIN_POSITIVE;
 /// and instead asks lo ≤ o ≤ hi, with o rounded down and up to float32.
 #[derive(Clone, Copy, Debug)]
 pub struct RayBoxes {
-    /// Per axis, the bound row of the plane it enters by and of the one it leaves by.
+    /// Per axis, where the bound row of the plane it enters by and of the one it leaves by
+    /// start among the node's bounds (row × [`WIDTH`] floats: the box test adds it to the
+    /// node's address as it is, where a row index cost a shift per row and node).
     near: [usize; 3],
     far: [usize; 3],
     inv: [f32; 3],
@@ -947,8 +950,8 @@ impl RayBoxes {
     #[inline]
     pub fn new(line: &Line, infinite: bool) -> Option<RayBoxes> {
         let mut r = RayBoxes {
-            near: [0, 1, 2],
-            far: [3, 4, 5],
+            near: [0, WIDTH, 2 * WIDTH],
+            far: [3 * WIDTH, 4 * WIDTH, 5 * WIDTH],
             inv: [0.0; 3],
             neg_c_near: [f32::NEG_INFINITY; 3],
             neg_c_far: [f32::INFINITY; 3],
@@ -984,8 +987,8 @@ impl RayBoxes {
             r.neg_c_far[k] = -cf;
             // The plane entered by: the lower where 1/d > 0, else the upper.
             let neg = (inv < 0.0) as usize;
-            r.near[k] = k + 3 * neg;
-            r.far[k] = k + 3 * (1 - neg);
+            r.near[k] = (k + 3 * neg) * WIDTH;
+            r.far[k] = (k + 3 * (1 - neg)) * WIDTH;
         }
         fine.then_some(r)
     }
@@ -1064,8 +1067,8 @@ impl RayBoxes {
         let [inv, cn, cf] = lanes;
         let neg = |k: usize| (inv[k] < 0.0) as usize;
         dst.write(RayBoxes {
-            near: [0, 1, 2].map(|k| k + 3 * neg(k)),
-            far: [0, 1, 2].map(|k| k + 3 * (1 - neg(k))),
+            near: [0, 1, 2].map(|k| (k + 3 * neg(k)) * WIDTH),
+            far: [0, 1, 2].map(|k| (k + 3 * (1 - neg(k))) * WIDTH),
             inv: [inv[0], inv[1], inv[2]],
             neg_c_near: [-cn[0], -cn[1], -cn[2]],
             neg_c_far: [-cf[0], -cf[1], -cf[2]],
@@ -1087,12 +1090,12 @@ impl BoxTest for RayBoxes {
     #[inline(always)]
     fn test(&self, node: &Node8, tmin: f64, reach: f64) -> (u32, [f32; WIDTH]) {
         let (t0, t1) = RayBoxes::range(tmin, reach);
-        let b = &node.bounds;
+        let (b, flat) = (&node.bounds, node.bounds.as_flattened());
         let mut mask = 0;
         let mut nears = [0.0; WIDTH];
         for s in 0..WIDTH {
-            let tn = |k: usize| b[self.near[k]][s].mul_add(self.inv[k], self.neg_c_near[k]);
-            let tf = |k: usize| b[self.far[k]][s].mul_add(self.inv[k], self.neg_c_far[k]);
+            let tn = |k: usize| flat[self.near[k] + s].mul_add(self.inv[k], self.neg_c_near[k]);
+            let tf = |k: usize| flat[self.far[k] + s].mul_add(self.inv[k], self.neg_c_far[k]);
             let near = max32(max32(tn(0), tn(1)), max32(tn(2), t0));
             let far = min32(min32(tf(0), tf(1)), min32(tf(2), t1));
             let near = near * (1.0 - PAD);

@@ -74,9 +74,14 @@ impl<R: Real> Rays<'_, R> {
     #[inline(always)]
     pub fn ray(&self, i: usize) -> Ray {
         let at = |b: &[f64]| b[if b.len() == 1 { 0 } else { i }];
+        // Each point sliced once: one bounds check for its three components, not three.
+        let three = |b: &[R]| -> [f64; 3] {
+            let p: &[R; 3] = b[3 * i..3 * i + 3].try_into().unwrap();
+            p.map(|x| x.to_f64())
+        };
         Ray {
-            o: [0, 1, 2].map(|a| self.origins[3 * i + a].to_f64()),
-            d: [0, 1, 2].map(|a| self.directions[3 * i + a].to_f64()),
+            o: three(self.origins),
+            d: three(self.directions),
             tmin: at(self.tmin),
             tmax: at(self.tmax),
             leaving: self.leaving.as_ref().and_then(|l| l.of(i)),
