@@ -15,6 +15,11 @@ SITE wheel``). ``away`` casts the camera's rays with their directions negated, s
 every ray misses the scene's box: the per-ray setup and answer alone. Prints the best and
 median Mrays/s of one-thread casts of bunny (``TETRACE_SCENES`` or ``../shared/scenes``),
 after checking that every build gives the same ``t`` bits.
+
+Run each comparison in both orders (``A B``, then ``B A``) and compare the means: the same
+build under two names came out 1-2% faster in the median when listed first (its scene is
+built first; built in the other order, the gap mostly went), which is as much as many
+changes under test (docs/bvh.md, stop 66).
 """
 
 from __future__ import annotations
@@ -69,10 +74,12 @@ def main(argv: list[str]) -> None:
             if not np.array_equal(t.view(np.uint32), first.view(np.uint32)):
                 raise SystemExit(f"{site} gives other t than {sites[0]}")
         times: list[list[float]] = [[] for _ in sites]
-        for _ in range(rounds):
-            for k, scene in enumerate(scenes):
+        for r in range(rounds):
+            # Every other round in reverse, so that neither build always follows the other.
+            order = range(len(scenes)) if r % 2 == 0 else reversed(range(len(scenes)))
+            for k in order:
                 start = time.perf_counter()
-                scene.cast(o, d, threads=1)
+                scenes[k].cast(o, d, threads=1)
                 times[k].append(time.perf_counter() - start)
         for site, ts in zip(sites, times):
             best, median = len(o) / min(ts) / 1e6, len(o) / float(np.median(ts)) / 1e6
