@@ -3,8 +3,9 @@
 
 /// Exact orientation with the sign convention used everywhere in tetrace:
 /// positive when d lies on the side of plane (a,b,c) that det(b-a, c-a, d-a) > 0 points to.
-/// The sign is exact for all finite inputs; the magnitude is Shewchuk's adaptive evaluation's
-/// where that is exact, else ±1.
+/// The sign is exact for all finite inputs, and it is all that callers may read: the magnitude
+/// is Shewchuk's adaptive estimate where its expansions are exact, else ±1 from exact dyadic
+/// arithmetic (either path gives the same sign; the second is much slower).
 #[inline]
 pub fn orient(a: [f64; 3], b: [f64; 3], c: [f64; 3], d: [f64; 3]) -> f64 {
     let v = [a, b, c, d];
