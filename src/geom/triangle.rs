@@ -38,3 +38,44 @@ pub fn intersect_triangle(
         point: (o + t * d).to_array(),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A hit on the closed triangle's edges and vertices (u = 0, v = 0 or u + v = 1 exactly)
+    /// is on it, and so is one a rounding's width outside an edge (1e-12); one well outside
+    /// (1e-6), or at a t that is not finite, is not.
+    #[test]
+    fn hits_on_edges_and_vertices_are_on_the_triangle() {
+        let hit = |t: f64, u: f64, v: f64| RoundedHit {
+            t,
+            t_err: 0.0,
+            u,
+            v,
+            point: [0.0; 3],
+        };
+        let (e, far) = (1e-12, 1e-6);
+        let on = [
+            (0.0, 0.5),
+            (0.5, 0.0),
+            (0.0, 0.0),
+            (1.0, 0.0),
+            (0.0, 1.0),
+            (0.5, 0.5),
+            (0.25, 0.25),
+            (-e, 0.3),
+            (0.3, -e),
+            (0.6, 0.4 + e),
+        ];
+        for (u, v) in on {
+            assert!(on_triangle(&hit(2.0, u, v)), "({u}, {v}) is on the triangle");
+            for t in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+                assert!(!on_triangle(&hit(t, u, v)), "({u}, {v}) at t = {t}");
+            }
+        }
+        for (u, v) in [(-far, 0.3), (0.3, -far), (0.6, 0.4 + far), (-far, -far)] {
+            assert!(!on_triangle(&hit(2.0, u, v)), "({u}, {v}) is off the triangle");
+        }
+    }
+}
