@@ -69,13 +69,38 @@ mod tests {
             (0.6, 0.4 + e),
         ];
         for (u, v) in on {
-            assert!(on_triangle(&hit(2.0, u, v)), "({u}, {v}) is on the triangle");
+            assert!(
+                on_triangle(&hit(2.0, u, v)),
+                "({u}, {v}) is on the triangle"
+            );
             for t in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
                 assert!(!on_triangle(&hit(t, u, v)), "({u}, {v}) at t = {t}");
             }
         }
         for (u, v) in [(-far, 0.3), (0.3, -far), (0.6, 0.4 + far), (-far, -far)] {
-            assert!(!on_triangle(&hit(2.0, u, v)), "({u}, {v}) is off the triangle");
+            assert!(
+                !on_triangle(&hit(2.0, u, v)),
+                "({u}, {v}) is off the triangle"
+            );
+        }
+    }
+
+    /// A line in the triangle's plane has no crossing: a float walk that crossed a face there
+    /// gets the point of the line nearest the face's centroid (t = (c − o)·d / |d|², exact on
+    /// these numbers), weights 1/3 and an unbounded error.
+    #[test]
+    fn a_line_in_the_plane_takes_the_face_centroid() {
+        let tri = [[0.0, 0.0, 0.0], [8.0, 0.0, 0.0], [0.0, 8.0, 0.0]];
+        let face = [[3.0, 1.0, 0.0], [6.0, 4.0, 0.0], [6.0, -2.0, 0.0]];
+        for (d, t) in [
+            ([1.0, 0.0, 0.0], 5.0),
+            ([2.0, 0.0, 0.0], 2.5),
+            ([0.5, 0.0, 0.0], 10.0),
+        ] {
+            let h = intersect_triangle([0.0, 1.0, 0.0], d, &tri, || face);
+            assert_eq!((h.t, h.u, h.v), (t, 1.0 / 3.0, 1.0 / 3.0), "d = {d:?}");
+            assert_eq!(h.point, [5.0, 1.0, 0.0], "d = {d:?}");
+            assert_eq!(h.t_err, f64::INFINITY);
         }
     }
 }
