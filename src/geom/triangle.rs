@@ -87,17 +87,18 @@ mod tests {
 
     /// A line in the triangle's plane has no crossing: a float walk that crossed a face there
     /// gets the point of the line nearest the face's centroid (t = (c − o)·d / |d|², exact on
-    /// these numbers), weights 1/3 and an unbounded error.
+    /// these numbers; the origin lies off the centroid along d, so that c − o and c + o
+    /// differ there), weights 1/3 and an unbounded error.
     #[test]
     fn a_line_in_the_plane_takes_the_face_centroid() {
         let tri = [[0.0, 0.0, 0.0], [8.0, 0.0, 0.0], [0.0, 8.0, 0.0]];
         let face = [[3.0, 1.0, 0.0], [6.0, 4.0, 0.0], [6.0, -2.0, 0.0]];
         for (d, t) in [
-            ([1.0, 0.0, 0.0], 5.0),
-            ([2.0, 0.0, 0.0], 2.5),
-            ([0.5, 0.0, 0.0], 10.0),
+            ([1.0, 0.0, 0.0], 4.0),
+            ([2.0, 0.0, 0.0], 2.0),
+            ([0.5, 0.0, 0.0], 8.0),
         ] {
-            let h = intersect_triangle([0.0, 1.0, 0.0], d, &tri, || face);
+            let h = intersect_triangle([1.0, 1.0, 0.0], d, &tri, || face);
             assert_eq!((h.t, h.u, h.v), (t, 1.0 / 3.0, 1.0 / 3.0), "d = {d:?}");
             assert_eq!(h.point, [5.0, 1.0, 0.0], "d = {d:?}");
             assert_eq!(h.t_err, f64::INFINITY);
