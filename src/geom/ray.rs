@@ -58,6 +58,13 @@ pub fn checked_range(ray: &Ray) -> Result<(f64, f64), u8> {
     if !finite || d == [0.0; 3] || !scalable || tmin.is_nan() || tmax.is_nan() {
         return Err(crate::status::INVALID);
     }
+    valid_range(tmin, tmax)
+}
+
+/// [`checked_range`] of a ray that passes its INVALID checks (finite numbers, a direction
+/// that scales exactly, bounds that are not NaN): for a caller that has shown those in bulk.
+#[inline(always)]
+pub fn valid_range(tmin: f64, tmax: f64) -> Result<(f64, f64), u8> {
     let tmin = tmin.max(0.0);
     if tmax < tmin {
         return Err(crate::status::MISS);

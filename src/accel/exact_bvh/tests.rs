@@ -1183,7 +1183,7 @@ fn outside_rays_miss_every_root_box_in_the_float32_test() {
             let ray = Ray::new(o, d, 0.0, f64::INFINITY);
             let line = Line::new(&ray).unwrap();
             // SAFETY: the CPU has AVX2 (checked above).
-            let outside = unsafe { outside_avx2(&root, &ray) };
+            let outside = unsafe { outside_avx2(&root, &ray) }.1;
             let r = RayBoxes::new(&line, bvh.infinite);
             let kept = |r: &RayBoxes| {
                 let portable = r.test(&bvh.nodes[0], line.tmin, line.tmax).0;
@@ -1278,7 +1278,7 @@ fn rays_the_pre_pass_answers_answer_as_the_portable_walk() {
         if Simd::Avx2.supported() {
             let root = scene.exact_bvh().unwrap().outside_box().unwrap();
             // SAFETY: the CPU has AVX2.
-            let answered = (0..n).filter(|&j| unsafe { outside_avx2(&root, &r64.ray(j)) });
+            let answered = (0..n).filter(|&j| unsafe { outside_avx2(&root, &r64.ray(j)) }.1);
             let answered = answered.count();
             assert!(
                 answered > n / 4,
