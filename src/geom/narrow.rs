@@ -248,3 +248,27 @@ unsafe fn triangle_hit32_avx2(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3]) -> Opt
         point: [p[0], p[1], p[2]],
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `settled` widens the interval by [`SLACK`] (2^-50 of |x|, four to eight float64 ulps)
+    /// before it asks whether both ends round alike: the faithful value and the bound's own
+    /// roundings may lie that far out. Around the float32 midpoint m = 1 + 2^-24 (float64 ulp
+    /// u = 2^-52 there), with r = 3u: x = m + 6u has m within r + SLACK·x (7u and a little)
+    /// and is declined, though m lies outside x ± r; x = m + 8u is not within reach of m and
+    /// settles to 1 + 2^-23. The same below m, where the answer is 1.
+    #[test]
+    fn settled_reaches_its_slack_beyond_the_bound() {
+        let u = 2f64.powi(-52);
+        let m = 1.0 + 2f64.powi(-24);
+        assert_eq!(settled(m + 6.0 * u, 3.0 * u), None);
+        assert_eq!(settled(m + 8.0 * u, 3.0 * u), Some(1.0 + 2f32.powi(-23)));
+        assert_eq!(settled(m - 6.0 * u, 3.0 * u), None);
+        assert_eq!(settled(m - 8.0 * u, 3.0 * u), Some(1.0));
+        // Without a bound, the slack alone: within four ulps of m, declined.
+        assert_eq!(settled(m + 3.0 * u, 0.0), None);
+        assert_eq!(settled(m + 5.0 * u, 0.0), Some(1.0 + 2f32.powi(-23)));
+    }
+}
