@@ -167,10 +167,17 @@ fn hit32_at_every_level(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3], what: &str) 
     };
     let portable = triangle_hit32(o, d, tri);
     for simd in Simd::supported_levels() {
+        let kernel = crate::geom::narrow::avx2_hits();
         assert_eq!(
             bits(triangle_hit32_at(simd, o, d, tri)),
             bits(portable),
             "{what}: {simd:?} differs from the portable code"
+        );
+        // Each level runs its own code (the answers alone could not tell them apart).
+        assert_eq!(
+            crate::geom::narrow::avx2_hits() - kernel,
+            (simd == Simd::Avx2) as u64,
+            "{what}: AVX2 kernel runs at {simd:?}"
         );
     }
     portable
