@@ -5,6 +5,28 @@
 //! method × `layout`) with a `query` policy deciding at constrained faces → the answer, written
 //! to `scene::buffers`. docs/architecture.md has the map.
 
+/// A count of some work done on this thread, kept in test builds only: tests read it to learn
+/// that a piece of code ran, or which SIMD level's kernel did (answers alike by design cannot
+/// tell). `test_count!(NAME, reader)` declares the thread-local and its reader; the counted code
+/// adds with `test_count!(NAME += n)`, which compiles to nothing outside tests.
+macro_rules! test_count {
+    ($(#[$doc:meta])* $name:ident, $reader:ident) => {
+        #[cfg(test)]
+        thread_local! {
+            static $name: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
+        }
+        $(#[$doc])*
+        #[cfg(test)]
+        pub fn $reader() -> u64 {
+            $name.with(|c| c.get())
+        }
+    };
+    ($($name:ident)::+ += $n:expr) => {
+        #[cfg(test)]
+        $($name)::+.with(|c| c.set(c.get() + $n as u64));
+    };
+}
+
 pub mod accel;
 pub mod bench;
 pub mod camera;

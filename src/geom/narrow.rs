@@ -127,8 +127,7 @@ pub fn triangle_hit32_at(
 #[target_feature(enable = "avx2")]
 unsafe fn triangle_hit32_avx2(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3]) -> Option<Hit32> {
     use std::arch::x86_64::*;
-    #[cfg(test)]
-    AVX2_HITS.with(|c| c.set(c.get() + 1));
+    test_count!(AVX2_HITS += 1);
     let [a, b, c] = *tri;
     // w, e1 and e2 in one subtraction each (the same differences), each stored whole: built
     // one component at a time, they were spilled in pieces and reloaded wider, and each
@@ -251,16 +250,11 @@ unsafe fn triangle_hit32_avx2(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3]) -> Opt
     })
 }
 
-#[cfg(test)]
-thread_local! {
-    static AVX2_HITS: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
-}
-
-/// Hits the AVX2 kernel evaluated on this thread (tests: which level's code ran).
-#[cfg(test)]
-pub fn avx2_hits() -> u64 {
-    AVX2_HITS.with(|c| c.get())
-}
+test_count!(
+    /// Hits the AVX2 kernel evaluated on this thread (tests: which level's code ran).
+    AVX2_HITS,
+    avx2_hits
+);
 
 #[cfg(test)]
 mod tests {

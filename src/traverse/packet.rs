@@ -460,22 +460,16 @@ mod avx2 {
                 counts[exit as usize] += 1;
             }
         }
-        #[cfg(test)]
-        super::AVX2_RAYS.with(|c| c.set(c.get() + full as u64));
+        test_count!(super::AVX2_RAYS += full);
         full
     }
 }
 
-#[cfg(test)]
-thread_local! {
-    static AVX2_RAYS: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
-}
-
-/// Rays whose exits the AVX2 kernel decided on this thread (tests: that it ran).
-#[cfg(test)]
-pub fn avx2_rays() -> u64 {
-    AVX2_RAYS.with(|c| c.get())
-}
+test_count!(
+    /// Rays whose exits the AVX2 kernel decided on this thread (tests: that it ran).
+    AVX2_RAYS,
+    avx2_rays
+);
 
 #[cfg(test)]
 mod tests;

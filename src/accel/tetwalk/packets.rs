@@ -12,34 +12,22 @@ use crate::query::{QueryKind, Sink};
 use crate::traverse::packet::{seen_from, DirBox, Edge, Packet, PacketRay};
 use crate::traverse::{entry_face, ExitMethod, WalkObserver, WalkState};
 
-#[cfg(test)]
-thread_local! {
-    /// Packet steps taken on this thread (tests check that packets walked at all).
-    static PACKET_STEPS: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
-}
+test_count!(
+    /// Packet steps taken so far on this thread (tests check that packets walked at all).
+    PACKET_STEPS,
+    packet_steps
+);
 
-#[cfg(test)]
-thread_local! {
-    /// Rays started together by their run's entry face on this thread (tests check it ran).
-    static ENTERED_TOGETHER: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
-}
-
-/// Rays started together by their run's entry face so far on this thread.
-#[cfg(test)]
-pub fn entered_together() -> u64 {
-    ENTERED_TOGETHER.with(|c| c.get())
-}
-
-/// Packet steps taken so far on this thread.
-#[cfg(test)]
-pub fn packet_steps() -> u64 {
-    PACKET_STEPS.with(|c| c.get())
-}
+test_count!(
+    /// Rays started together by their run's entry face so far on this thread (tests check
+    /// it ran).
+    ENTERED_TOGETHER,
+    entered_together
+);
 
 #[inline(always)]
 fn count_packet_step() {
-    #[cfg(test)]
-    PACKET_STEPS.with(|c| c.set(c.get() + 1));
+    test_count!(PACKET_STEPS += 1);
 }
 
 /// A packet's rays and the room to regroup them (kept from packet to packet).
@@ -274,8 +262,7 @@ impl<R: Real, L: Layout, M: ExitMethod<R>, O: WalkObserver<R>> TetWalk<'_, R, L,
         };
         if together.is_some() {
             run.prepared = Some(M::prepare(first.o, first.dir, &self.locators.mesh.bounds));
-            #[cfg(test)]
-            ENTERED_TOGETHER.with(|c| c.set(c.get() + run.entering.len() as u64));
+            test_count!(ENTERED_TOGETHER += run.entering.len());
             return together;
         }
         let entering = std::mem::take(&mut run.entering);
