@@ -1471,9 +1471,10 @@ impl ExactBvh {
 /// Whether `ray` lies within the magnitudes below with bounds that are not NaN (`fits`; the
 /// pre-pass decides only those), and true in the second only when the walk of `ray` would
 /// enter none of the root's children: the float32 box test ([`RayBoxes`], [`avx2_box_test!`])
-/// misses each of them over the widest range, [0, ∞). Then the walk offers nothing and its answer is [`QueryKind::outside`] (`steps` 0), which
-/// `make_ready` gives without making the ray ready: random rays miss the whole scene half the
-/// time, and making one ready (its line, box constants, gatherer) cost more than its walk.
+/// misses each of them over the widest range, [0, ∞). Then the walk offers nothing and its
+/// answer is [`QueryKind::outside`] (`steps` 0), which `make_ready` gives without making the
+/// ray ready: random rays miss the whole scene half the time, and making one ready (its line,
+/// box constants, gatherer) cost more than its walk.
 ///
 /// Why the float32 test misses. Write t_k = (b − o_k)/d_k for an exact slab distance, and
 /// S = max_k (bmax_k + |o_k|)/|d_k|, which bounds every |t_k| of the root's children. Per
