@@ -26,7 +26,6 @@ pub trait Real:
     const MIN_NORMAL: Self;
     const NAME: &'static str;
     fn from_f64(x: f64) -> Self;
-    fn from_f32(x: f32) -> Self;
     fn to_f64(self) -> f64;
     /// Of a point array kept in both precisions, the one in this precision.
     fn pick<'a>(f32s: &'a [[f32; 3]], f64s: &'a [[f64; 3]]) -> &'a [[Self; 3]];
@@ -40,10 +39,6 @@ impl Real for f32 {
     #[inline(always)]
     fn from_f64(x: f64) -> Self {
         x as f32
-    }
-    #[inline(always)]
-    fn from_f32(x: f32) -> Self {
-        x
     }
     #[inline(always)]
     fn to_f64(self) -> f64 {
@@ -62,10 +57,6 @@ impl Real for f64 {
     #[inline(always)]
     fn from_f64(x: f64) -> Self {
         x
-    }
-    #[inline(always)]
-    fn from_f32(x: f32) -> Self {
-        x as f64
     }
     #[inline(always)]
     fn to_f64(self) -> f64 {

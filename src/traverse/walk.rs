@@ -202,11 +202,20 @@ pub fn walk_with<R: Real, L: Layout, M: ExitMethod<R>, Q: Query, O: WalkObserver
     }
 }
 
+/// A record's float32 coordinate in the walk's precision. INLINE layouts serve float32 walks
+/// only (`scene::cast` refuses float64 ones), so this is the identity where it runs (the
+/// compiler folds the widening and narrowing, both exact); through float64 it needs no
+/// conversion of its own in `Real`, which no cast could reach for float64.
+#[inline(always)]
+fn widen<R: Real>(x: f32) -> R {
+    R::from_f64(f64::from(x))
+}
+
 /// A vertex's position: from the points, or for INLINE layouts from the record of tet t.
 #[inline(always)]
 fn position<R: Real, L: Layout>(layout: &L, points: &[[R; 3]], t: u32, v: u32) -> V3<R> {
     if L::INLINE {
-        layout.inline_vertices(t)[v as usize].map(R::from_f32)
+        layout.inline_vertices(t)[v as usize].map(widen)
     } else {
         debug_assert!((v as usize) < points.len());
         // SAFETY: v is a vertex id of a validated tet (ids, and xors of ids, were checked
@@ -458,9 +467,9 @@ pub fn walk_resume<R: Real, L: Layout, M: ExitMethod<R>, Q: Query, O: WalkObserv
             (a, b, c) = (f[0] as u32, f[2] as u32, f[1] as u32);
             let v = layout.inline_vertices(t);
             (pa, pb, pc) = (
-                M::vertex(ray, v[f[0]].map(R::from_f32)),
-                M::vertex(ray, v[f[2]].map(R::from_f32)),
-                M::vertex(ray, v[f[1]].map(R::from_f32)),
+                M::vertex(ray, v[f[0]].map(widen)),
+                M::vertex(ray, v[f[2]].map(widen)),
+                M::vertex(ray, v[f[1]].map(widen)),
             );
             entry_face as u32
         } else {
