@@ -115,6 +115,54 @@ def test_normal_is_the_unit_normal_of_the_callers_winding(sphere):
     assert np.isnan(miss.normal).all() and miss.geometry.tolist() == [-1]
 
 
+def _unit_normals(v, f):
+    """The documented normal: np.cross of the triangle's edges over np.linalg.norm (nan
+    where the area is zero)."""
+    n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return n / np.linalg.norm(n, axis=1)[:, None]
+
+
+@pytest.mark.parametrize("precision", ["f32", "f64"])
+def test_normals_are_the_hit_triangles_rows_and_follow_moved_vertices(precision):
+    """Every cast's ``normal`` is its hit triangle's unit normal as numpy computes it, bit for
+    bit (rounded to float32 for float32 rays), and nan for a miss: on every CPU accelerator,
+    in one cast of many chunks, and after
+    ``update_vertices`` moves the triangles, in place or by meshing again (the rows are made
+    again). A zero-area triangle
+    (three vertices on a line) is in the scene."""
+    m = trimesh.creation.icosphere(2)
+    v = np.vstack([m.vertices, [[0.1, 0.1, 0.1], [0.2, 0.2, 0.2], [0.3, 0.3, 0.3]]])
+    f = np.vstack([m.faces, [[len(m.vertices), len(m.vertices) + 1, len(m.vertices) + 2]]])
+    scene = tetrace.Scene.from_mesh((v, f))
+    rng = np.random.default_rng(5)
+    n = 9000
+    o = rng.uniform(-0.2, 0.2, (n, 3))
+    d = rng.standard_normal((n, 3))
+    d[: n // 3] *= -1.0
+    o[: n // 3] += 3.0 * d[: n // 3] / np.linalg.norm(d[: n // 3], axis=1)[:, None]  # many miss
+    dt = np.float32 if precision == "f32" else np.float64
+    o, d = o.astype(dt), d.astype(dt)
+    # The first move keeps the tetrahedralization (its points move in place), the second
+    # inverts tets and meshes again; the first cast meshes (accel="tetwalk").
+    for move, action in ((None, None), ([1.05, 0.97, 1.0], "moved"), ([1.5, 0.75, 1.0], "rebuilt")):
+        if move is not None:
+            assert scene.update_vertices(v * np.array(move)).action == action
+        moved = move is not None
+        want = _unit_normals(scene.vertices, f).astype(dt)
+        for accel in ("exact_bvh", "reshetov_bvh", "tetwalk"):
+            h = scene.cast(o, d, accel=accel, precision=precision)
+            hit = h.status == tetrace.HIT
+            assert 1000 < hit.sum() < n - 1000, accel
+            assert h.normal.dtype == dt
+            np.testing.assert_array_equal(
+                h.normal[hit].view(np.uint32 if dt == np.float32 else np.uint64),
+                want[h.triangle[hit]].view(np.uint32 if dt == np.float32 else np.uint64),
+                err_msg=f"{accel}, moved {moved}",
+            )
+            assert np.isnan(h.normal[~hit]).all(), accel
+
+
 def test_normals_are_gathered_as_numpy_takes_them():
     """The core's parallel gather of the hits' normals (``_native.take_rows``) is
     ``np.take`` with -1 taking the last (NaN) row, in both precisions and past one piece;
