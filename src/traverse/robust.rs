@@ -192,7 +192,11 @@ pub(crate) fn perturbed_sign(
     }
     // Only an edge parallel to DELTA gets here: fall back to an order of the endpoints, which is
     // still antisymmetric.
-    p.iter().zip(&q).map(|(x, y)| x.cmp(y)).find(|o| o.is_ne()) == Some(std::cmp::Ordering::Less)
+    p.iter()
+        .zip(&q)
+        .map(|(x, y)| x.cmp_exact(y))
+        .find(|o| o.is_ne())
+        == Some(std::cmp::Ordering::Less)
 }
 
 /// The sign of orient(x, y, z, s + εδ) as ε → 0⁺ (tetrace's orientation convention): the
