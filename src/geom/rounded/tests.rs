@@ -412,6 +412,21 @@ fn dyadic_quotients_round_to_nearest() {
     assert_eq!(Dyadic::quotient(&sub, &Dyadic::from_f64(1.5)), 5e-324);
     assert_eq!(Dyadic::quotient(&one, &sub), f64::INFINITY);
     assert_eq!(Dyadic::quotient(&-&one, &Dyadic::from_f64(3.0)), -1.0 / 3.0);
+    // The largest binades: quotients from 2^1022 up to f64::MAX are finite (the overflow
+    // test is on the exponent of the quotient's leading bit, 1023 at most), and the first
+    // past f64::MAX by more than half an ulp is infinite.
+    let max = Dyadic::from_f64(f64::MAX);
+    for (num, den, want) in [
+        (2f64.powi(1023), 1.0, 2f64.powi(1023)),
+        (2f64.powi(1022), 1.0, 2f64.powi(1022)),
+        (f64::MAX, 1.0, f64::MAX),
+        (f64::MAX, 2.0, f64::MAX / 2.0),
+        (-3.0 * 2f64.powi(1021), 1.0, -3.0 * 2f64.powi(1021)),
+    ] {
+        let (n, d) = (Dyadic::from_f64(num), Dyadic::from_f64(den));
+        assert_eq!(Dyadic::quotient(&n, &d), want, "{num} / {den}");
+    }
+    assert_eq!(Dyadic::quotient(&(&max + &max), &one), f64::INFINITY);
 }
 
 /// Rays of every family above through a float32 output: `triangle_hit32` answers most hits
