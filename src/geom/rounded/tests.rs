@@ -427,6 +427,13 @@ fn dyadic_quotients_round_to_nearest() {
         assert_eq!(Dyadic::quotient(&n, &d), want, "{num} / {den}");
     }
     assert_eq!(Dyadic::quotient(&(&max + &max), &one), f64::INFINITY);
+    // A subnormal quotient whose bits past float64's 53 decide it: 2^-1075 (1 + 2^-60) lies
+    // just above the tie between 0 and 2^-1074. Rounded to 53 bits first, it would be the
+    // tie itself, and then rounded to even: 0.
+    let num = &Dyadic::from_f64(2f64.powi(-1014)) + &sub;
+    let den = Dyadic::from_f64(2f64.powi(61));
+    assert_eq!(Dyadic::quotient(&num, &den), 5e-324);
+    assert_eq!(Dyadic::quotient(&-&num, &den), -5e-324);
 }
 
 /// Rays of every family above through a float32 output: `triangle_hit32` answers most hits
