@@ -127,10 +127,8 @@ def _unit_normals(v, f):
 def test_normals_are_the_hit_triangles_rows_and_follow_moved_vertices(precision):
     """Every cast's ``normal`` is its hit triangle's unit normal as numpy computes it, bit for
     bit (rounded to float32 for float32 rays), and nan for a miss: on every CPU accelerator,
-    in one cast of many chunks, and after
-    ``update_vertices`` moves the triangles, in place or by meshing again (the rows are made
-    again). A zero-area triangle
-    (three vertices on a line) is in the scene."""
+    in one cast of many chunks, and after ``update_vertices`` moves the triangles, in place or
+    by meshing again. A zero-area triangle (three vertices on a line) is in the scene."""
     m = trimesh.creation.icosphere(2)
     v = np.vstack([m.vertices, [[0.1, 0.1, 0.1], [0.2, 0.2, 0.2], [0.3, 0.3, 0.3]]])
     f = np.vstack([m.faces, [[len(m.vertices), len(m.vertices) + 1, len(m.vertices) + 2]]])
@@ -143,8 +141,8 @@ def test_normals_are_the_hit_triangles_rows_and_follow_moved_vertices(precision)
     o[: n // 3] += 3.0 * d[: n // 3] / np.linalg.norm(d[: n // 3], axis=1)[:, None]  # many miss
     dt = np.float32 if precision == "f32" else np.float64
     o, d = o.astype(dt), d.astype(dt)
-    # The first move keeps the tetrahedralization (its points move in place), the second
-    # inverts tets and meshes again; the first cast meshes (accel="tetwalk").
+    # The first pass's "tetwalk" cast meshes; the first move then keeps the
+    # tetrahedralization (its points move in place), the second inverts tets and meshes again.
     for move, action in ((None, None), ([1.05, 0.97, 1.0], "moved"), ([1.5, 0.75, 1.0], "rebuilt")):
         if move is not None:
             assert scene.update_vertices(v * np.array(move)).action == action

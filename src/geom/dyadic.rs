@@ -52,6 +52,12 @@ impl Dyadic {
         }
     }
 
+    /// The order of the exact values. (No `Ord`: the predicates compare by this alone, and
+    /// `==` and `<` on dyadics had no reader outside a test.)
+    pub fn cmp_exact(&self, other: &Dyadic) -> Ordering {
+        (self - other).signum().cmp(&0)
+    }
+
     /// Both mantissas on the smaller exponent.
     fn aligned(&self, other: &Dyadic) -> (BigInt, BigInt, i64) {
         let e = self.e.min(other.e);
@@ -142,14 +148,6 @@ impl Neg for Dyadic {
     type Output = Dyadic;
     fn neg(self) -> Dyadic {
         -&self
-    }
-}
-
-impl Dyadic {
-    /// The order of the exact values. (No `Ord`: the predicates compare by this alone, and
-    /// `==` and `<` on dyadics had no reader outside a test.)
-    pub fn cmp_exact(&self, other: &Dyadic) -> Ordering {
-        (self - other).signum().cmp(&0)
     }
 }
 

@@ -203,9 +203,9 @@ pub fn walk_with<R: Real, L: Layout, M: ExitMethod<R>, Q: Query, O: WalkObserver
 }
 
 /// A record's float32 coordinate in the walk's precision. INLINE layouts serve float32 walks
-/// only (`scene::cast` refuses float64 ones), so this is the identity where it runs (the
-/// compiler folds the widening and narrowing, both exact); through float64 it needs no
-/// conversion of its own in `Real`, which no cast could reach for float64.
+/// only (`scene::cast` refuses float64 ones), so where it runs this is the identity (both
+/// conversions are exact and the compiler folds them), and `Real` needs no float32
+/// conversion that only a refused cast would call.
 #[inline(always)]
 fn widen<R: Real>(x: f32) -> R {
     R::from_f64(f64::from(x))
