@@ -81,8 +81,11 @@ fn cover(axis: usize, level: usize, start: [usize; 2], len: usize, upper: bool) 
 
 /// The scene of the module's notes: the floor T, the wall W and the far wall W2 (caller
 /// triangles 0, 1, 2) on the Kuhn grid, the Steiner point (2,3,4) an ulp above the floor's
-/// plane, and the grid points `lowered` an ulp below it.
-fn floor_and_walls(lowered: &[[usize; 3]]) -> (Scene, Vec<[[f64; 3]; 3]>) {
+/// plane, and the grid points `lowered` an ulp below it. With `under`, also the wall U in W's
+/// plane below the floor, with corners (2,2,1), (2,2,4), (2,5,4): it shares the floor's edge
+/// x = 2 with W, and comes first among the caller's triangles (U, T, W, W2: 0 to 3), its
+/// faces last among the constrained faces.
+fn floor_and_walls(lowered: &[[usize; 3]], under: bool) -> (Scene, Vec<[[f64; 3]; 3]>) {
     let (mut pts, tets) = crate::mesh::kuhn::kuhn_grid(N, 0.0, || 0.5);
     let h = 1.0 / N as f64;
     let g = |x: f64, y: f64, z: f64| [x * h, y * h, z * h];
@@ -106,18 +109,30 @@ fn floor_and_walls(lowered: &[[usize; 3]]) -> (Scene, Vec<[[f64; 3]; 3]>) {
     let floor = [g(2.0, 2.0, 4.0), g(2.0, 5.0, 4.0), g(5.0, 5.0, 4.0)];
     let wall = [g(2.0, 2.0, 4.0), g(2.0, 5.0, 4.0), g(2.0, 5.0, 7.0)];
     let far = [id(6, 2, 3), id(6, 2, 4), id(6, 3, 4)];
-    let tris = vec![floor, wall, far.map(|v| pts[v as usize])];
+    let mut tris = vec![floor, wall, far.map(|v| pts[v as usize])];
     // T: cells x in [2,5], y in [2,5] of the plane z = 4, the half with y ≥ x (above the
     // diagonal). W: cells y in [2,5], z in [4,7] of the plane x = 2, the half with z − 4 ≤ y − 2.
     let t_faces = cover(2, 4, [2, 2], 3, true);
     let w_faces = cover(0, 2, [2, 4], 3, false);
     assert_eq!((t_faces.len(), w_faces.len()), (9, 9));
+    let mut covers = vec![t_faces, w_faces, vec![far]];
+    if under {
+        tris.insert(0, [g(2.0, 2.0, 1.0), g(2.0, 2.0, 4.0), g(2.0, 5.0, 4.0)]);
+        // Cells y in [2,5], z in [1,4] of the plane x = 2, the half with z − 1 ≥ y − 2.
+        covers.push(cover(0, 2, [2, 1], 3, true));
+    }
     let mut faces = Vec::new();
     let mut face_triangle = Vec::new();
-    for (k, fs) in [t_faces, w_faces, vec![far]].into_iter().enumerate() {
+    for (k, fs) in covers.into_iter().enumerate() {
+        // With U first among the triangles, the others move up by one.
+        let triangle = match (under, k) {
+            (true, 3) => 0,
+            (true, k) => k + 1,
+            (false, k) => k,
+        };
         for f in fs {
             faces.push(f);
-            face_triangle.push(k as u32);
+            face_triangle.push(triangle as u32);
         }
     }
     let scene = Scene::build(pts, &tets, &faces, &face_triangle, tris.clone()).unwrap();
@@ -175,7 +190,7 @@ fn all_hits(scene: &Scene, rays: &Rays<f64>) -> (u8, Vec<(u32, f64)>) {
 fn a_neighbour_met_out_of_order_wins_over_a_later_crossing() {
     let h = 1.0 / N as f64;
     let g = |x: f64, y: f64, z: f64| [x * h, y * h, z * h];
-    let (scene, tris) = floor_and_walls(&[]);
+    let (scene, tris) = floor_and_walls(&[], false);
 
     let o = g(0.5, 2.6875, 4.0);
     let d = [1.0, 0.0, 0.0];
@@ -220,6 +235,29 @@ fn a_neighbour_met_out_of_order_wins_over_a_later_crossing() {
     }
 }
 
+/// A tie found after the meet it ties with (`ExactRay::earlier`, the same point: the smaller
+/// triangle id; issue 37's `contact.rs` survivor, `earlier` keeping the meet recorded first).
+/// The module's ray, with the wall U under the floor in W's plane: the line meets W and U at
+/// the same point of their shared edge, (2, 2.6875, 4), t = 1.5 grid units. The caller's
+/// triangles around the walk's touches find W first (around a grid point of W above the
+/// floor) and U after it (around the Steiner point on the shared edge), and the tie goes to
+/// U, the smaller id (0). By hand and by the referee: U at t = 0.1875, tied with W.
+#[test]
+fn a_tie_found_after_the_meet_it_ties_goes_to_the_smaller_id() {
+    let h = 1.0 / N as f64;
+    let g = |x: f64, y: f64, z: f64| [x * h, y * h, z * h];
+    let (scene, tris) = floor_and_walls(&[], true);
+    let o = g(0.5, 2.6875, 4.0);
+    let d = [1.0, 0.0, 0.0];
+    let t_w = 0.1875;
+    let verdict = referee::first_hit(o, d, 0.0, f64::INFINITY, &tris).expect("the referee hits");
+    assert_eq!((verdict.t, verdict.ties.clone()), (t_w, vec![0, 2]));
+    let rays = one_ray(&o, &d);
+    for (lanes, got) in closest_both_ways(&scene, &rays) {
+        assert_eq!(got, (HIT, t_w, 0), "lanes {lanes:?}: U and W tie, U's id is smaller");
+    }
+}
+
 /// The in-plane crossing (`ClosestPolicy::crossed` and `AllPolicy::crossed` where `crossing`
 /// finds no point: the line lies in the caller's triangle's plane, yet crosses one of its
 /// faces through the face's interior). With the floor's grid point (3,4,4) an ulp below its
@@ -239,7 +277,7 @@ fn a_neighbour_met_out_of_order_wins_over_a_later_crossing() {
 fn a_face_crossed_in_its_triangles_plane_keeps_only_meets_in_range() {
     let h = 1.0 / N as f64;
     let g = |x: f64, y: f64, z: f64| [x * h, y * h, z * h];
-    let (scene, tris) = floor_and_walls(&[[3, 4, 4]]);
+    let (scene, tris) = floor_and_walls(&[[3, 4, 4]], false);
     let inf = f64::INFINITY;
     let cases = [
         (
@@ -293,7 +331,7 @@ fn a_face_crossed_in_its_triangles_plane_keeps_only_meets_in_range() {
 fn an_origin_on_a_split_triangle_strictly_inside_its_tet_hits_it_at_zero() {
     let h = 1.0 / N as f64;
     let g = |x: f64, y: f64, z: f64| [x * h, y * h, z * h];
-    let (scene, tris) = floor_and_walls(&[]);
+    let (scene, tris) = floor_and_walls(&[], false);
     assert!(
         scene.incidence.split,
         "the mesher's Steiner point splits the floor"
