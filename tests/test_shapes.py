@@ -128,7 +128,11 @@ def test_normals_are_the_hit_triangles_rows_and_follow_moved_vertices(precision)
     """Every cast's ``normal`` is its hit triangle's unit normal as numpy computes it, bit for
     bit (rounded to float32 for float32 rays), and nan for a miss: on every CPU accelerator,
     in one cast of many chunks, and after ``update_vertices`` moves the triangles, in place or
-    by meshing again. A zero-area triangle (three vertices on a line) is in the scene."""
+    by meshing again. A zero-area triangle (three vertices on a line) is in the scene.
+
+    The normals are gathered when first read: hits cast before a move, and a selection and a
+    reshape of them made before it, read after it, are the normals of the triangles as they
+    were at the cast."""
     m = trimesh.creation.icosphere(2)
     v = np.vstack([m.vertices, [[0.1, 0.1, 0.1], [0.2, 0.2, 0.2], [0.3, 0.3, 0.3]]])
     f = np.vstack([m.faces, [[len(m.vertices), len(m.vertices) + 1, len(m.vertices) + 2]]])
@@ -143,6 +147,8 @@ def test_normals_are_the_hit_triangles_rows_and_follow_moved_vertices(precision)
     o, d = o.astype(dt), d.astype(dt)
     # The first pass's "tetwalk" cast meshes; the first move then keeps the
     # tetrahedralization (its points move in place), the second inverts tets and meshes again.
+    bits = np.uint32 if dt == np.float32 else np.uint64
+    pending = None
     for move, action in ((None, None), ([1.05, 0.97, 1.0], "moved"), ([1.5, 0.75, 1.0], "rebuilt")):
         if move is not None:
             assert scene.update_vertices(v * np.array(move)).action == action
@@ -154,11 +160,24 @@ def test_normals_are_the_hit_triangles_rows_and_follow_moved_vertices(precision)
             assert 1000 < hit.sum() < n - 1000, accel
             assert h.normal.dtype == dt
             np.testing.assert_array_equal(
-                h.normal[hit].view(np.uint32 if dt == np.float32 else np.uint64),
-                want[h.triangle[hit]].view(np.uint32 if dt == np.float32 else np.uint64),
+                h.normal[hit].view(bits),
+                want[h.triangle[hit]].view(bits),
                 err_msg=f"{accel}, moved {moved}",
             )
             assert np.isnan(h.normal[~hit]).all(), accel
+        if pending is not None:
+            # Cast before the move, read after it (and after casts that read the moved
+            # triangles' normals).
+            h, every_other, grid, before = pending
+            hit = h.status == tetrace.HIT
+            for got, rows in ((h.normal, slice(None)), (every_other.normal, slice(None, None, 2))):
+                np.testing.assert_array_equal(
+                    got[hit[rows]].view(bits), before[h.triangle[rows][hit[rows]]].view(bits)
+                )
+            np.testing.assert_array_equal(grid.normal.reshape(-1, 3).view(bits), h.normal.view(bits))
+        h = scene.cast(o, d, precision=precision)
+        assert vars(h)["normal"] is None, "the normals wait to be read"
+        pending = (h, h[::2], h.reshape((90, -1)), want)
 
 
 def test_normals_are_gathered_as_numpy_takes_them():

@@ -6,6 +6,7 @@ This module imports only numpy, so it loads without the compiled extension.
 from __future__ import annotations
 
 import dataclasses
+import weakref
 
 import numpy as np
 
@@ -28,6 +29,45 @@ STATUS_NAMES = ("miss", "hit", "failed", "invalid")
 
 # Hits fields that casters other than tetrace's may leave out (None).
 _OPTIONAL = ("normal", "geometry", "scene_triangle")
+
+
+class _Normal:
+    """The ``normal`` field of :class:`Hits`: an array given at construction, or gathered
+    from the scene's table of triangle normals by ``scene_triangle`` when first read.
+
+    A cast's caller often never reads the normals (the bench, depth maps, visibility), and
+    gathering them was a pass over every ray after the cast (2.6 ms of about 130 for a
+    million random rays on bunny). :meth:`Hits.from_core` leaves the table and the thread
+    count in ``_WAITING`` instead, and the first read makes the array and keeps it. The table
+    is the one the scene held at the cast: a scene whose vertices move makes a new table, so
+    normals read later are still those of the triangles hit. (A dataclass field whose
+    default is a descriptor: ``__init__`` hands the value to :meth:`__set__`, reads go
+    through :meth:`__get__`; the value stays in the instance's ``__dict__`` under its own
+    name, so ``vars(hits)`` names the fields, with ``normal`` None while it waits.)
+    """
+
+    def __get__(self, obj, objtype=None):
+        if obj is None:
+            return None  # the field's default
+        normal = obj.__dict__.get("normal")
+        if normal is None:
+            source = _WAITING.pop(obj, None)
+            if source is not None:
+                from . import _native
+
+                rows, threads = source
+                index = np.ascontiguousarray(obj.scene_triangle, dtype=np.int32).reshape(-1)
+                normal = _native.take_rows(rows, index, threads).reshape(obj.t.shape + (3,))
+                obj.__dict__["normal"] = normal
+        return normal
+
+    def __set__(self, obj, value):
+        obj.__dict__["normal"] = value
+
+
+#: Hits whose normals wait to be gathered (:class:`_Normal`): the scene's table (in the
+#: rays' dtype) and the thread count, until the first read.
+_WAITING: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 @dataclasses.dataclass(frozen=True, eq=False, repr=False)
@@ -74,7 +114,9 @@ class Hits:
         ``(N, 3)``, the dtype of ``t``. Unit geometric normal of the hit triangle,
         oriented by its winding in the caller's faces: ``cross(p1 - p0, p2 - p0)``
         normalized in float64, then rounded. ``nan`` on miss. None for casters that
-        do not give it (Embree).
+        do not give it (Embree). A cast's normals are gathered when first read (a
+        cast whose caller never reads them skips that pass), from the triangles as they
+        were at the cast, also when the scene's vertices moved since.
     geometry : numpy.ndarray or None
         ``(N,)`` int32. Which mesh of the scene was hit (``0`` for a scene of one mesh),
         ``-1`` on miss. None for casters that do not give it.
@@ -103,7 +145,9 @@ class Hits:
     The class is a frozen dataclass compared by identity (``eq=False``): use
     ``numpy`` on the fields to compare two results. ``len(hits)`` counts the rays along
     the first axis and ``hits[key]`` selects rays with any numpy index of the leading
-    shape, every per-ray field alike (:meth:`__getitem__`).
+    shape, every per-ray field alike (:meth:`__getitem__`). Selections, reshapes,
+    copies and pickles keep the normals (gathering them when they must); ``vars(hits)``
+    shows ``normal`` as None until it is first read.
 
     Examples
     --------
@@ -122,7 +166,7 @@ class Hits:
     tet: np.ndarray
     steps: np.ndarray
     status: np.ndarray
-    normal: np.ndarray | None = None
+    normal: np.ndarray | None = _Normal()  # type: ignore[assignment]
     geometry: np.ndarray | None = None
     scene_triangle: np.ndarray | None = None
     timings: dict | None = None
@@ -136,7 +180,7 @@ class Hits:
         for field in dataclasses.fields(self):
             if field.name == "timings":
                 continue
-            arr = getattr(self, field.name)
+            arr = self._stored(field.name)
             if arr is None and field.name in _OPTIONAL:
                 continue
             if not isinstance(arr, np.ndarray):
@@ -146,6 +190,24 @@ class Hits:
             want = shape + (3,) if field.name in ("point", "normal") else shape
             if arr.shape != want:
                 raise ValueError(f"Hits.{field.name} has shape {arr.shape}, expected {want}")
+
+    def _stored(self, name):
+        """Field ``name`` as stored: ``normal`` is None while it waits to be gathered."""
+        return self.__dict__.get("normal") if name == "normal" else getattr(self, name)
+
+    def _derived(self, fields: dict) -> Hits:
+        """A Hits of ``fields`` (every field's selection or reshape of this one's), which
+        gathers its normals from its own ``scene_triangle`` if this one's wait too."""
+        hits = Hits(**fields)
+        source = _WAITING.get(self)
+        if source is not None and fields.get("normal") is None:
+            _WAITING[hits] = source
+        return hits
+
+    def __getstate__(self):
+        # Pickled (and copied) with its normals, not with the scene's table.
+        self.normal  # noqa: B018 (gathers them if they wait)
+        return dict(self.__dict__)
 
     @property
     def shape(self) -> tuple:
@@ -168,11 +230,11 @@ class Hits:
         shape = tuple(shape)
         fields = {}
         for field in dataclasses.fields(self):
-            arr = getattr(self, field.name)
+            arr = self._stored(field.name)
             if arr is not None and field.name != "timings":
                 arr = arr.reshape(shape + arr.shape[self.t.ndim :])
             fields[field.name] = arr
-        return Hits(**fields)
+        return self._derived(fields)
 
     @classmethod
     def from_core(cls, r, normal_rows, geometries, timings=None, threads=None) -> Hits:
@@ -180,19 +242,19 @@ class Hits:
         a GPU cast): the scene triangle split into mesh and triangle in it
         (:func:`locate`), the hit triangle's row of ``normal_rows`` (``(F + 1, 3)`` in the
         rays' dtype, the last row ``nan``: a miss's triangle -1 takes it; gathered on
-        ``threads`` threads, None: all), and a GPU cast's ``timings``."""
-        from . import _native
-
+        ``threads`` threads, None: all, when ``normal`` is first read), and a GPU cast's
+        ``timings``."""
         scene_triangle = np.asarray(r["triangle"])
         geometry, triangle = locate(geometries, scene_triangle)
-        normal = _native.take_rows(normal_rows, scene_triangle, threads)
-        return cls(
+        hits = cls(
             **dict(r, triangle=triangle),
-            normal=normal,
             geometry=geometry,
             scene_triangle=scene_triangle,
             timings=timings,
         )
+        # Gathered when first read (`_Normal`).
+        _WAITING[hits] = (normal_rows, threads)
+        return hits
 
     @classmethod
     def misses(cls, n: int, dtype=np.float64) -> Hits:
@@ -283,11 +345,11 @@ class Hits:
         for field in dataclasses.fields(self):
             if field.name == "timings":  # the whole cast's, not the selected rays'
                 continue
-            arr = getattr(self, field.name)
+            arr = self._stored(field.name)
             if arr is not None:
                 arr = arr[vectors if field.name in ("point", "normal") else rays]
             fields[field.name] = arr
-        return Hits(**fields)
+        return self._derived(fields)
 
     @property
     def hit(self) -> np.ndarray:
