@@ -174,7 +174,9 @@ def test_normals_are_the_hit_triangles_rows_and_follow_moved_vertices(precision)
                 np.testing.assert_array_equal(
                     got[hit[rows]].view(bits), before[h.triangle[rows][hit[rows]]].view(bits)
                 )
-            np.testing.assert_array_equal(grid.normal.reshape(-1, 3).view(bits), h.normal.view(bits))
+            np.testing.assert_array_equal(
+                grid.normal.reshape(-1, 3).view(bits), h.normal.view(bits)
+            )
         h = scene.cast(o, d, precision=precision)
         assert vars(h)["normal"] is None, "the normals wait to be read"
         pending = (h, h[::2], h.reshape((90, -1)), want)

@@ -254,7 +254,11 @@ fn a_tie_found_after_the_meet_it_ties_goes_to_the_smaller_id() {
     assert_eq!((verdict.t, verdict.ties.clone()), (t_w, vec![0, 2]));
     let rays = one_ray(&o, &d);
     for (lanes, got) in closest_both_ways(&scene, &rays) {
-        assert_eq!(got, (HIT, t_w, 0), "lanes {lanes:?}: U and W tie, U's id is smaller");
+        assert_eq!(
+            got,
+            (HIT, t_w, 0),
+            "lanes {lanes:?}: U and W tie, U's id is smaller"
+        );
     }
 }
 
