@@ -51,7 +51,9 @@ class _Normal:
             return None  # the field's default
         normal = obj.__dict__.get("normal")
         if normal is None:
-            source = _WAITING.pop(obj, None)
+            # Read, not popped, until the array is in place: a second thread reading at
+            # once then gathers the same normals too, rather than finding neither.
+            source = _WAITING.get(obj)
             if source is not None:
                 from . import _native
 
@@ -59,6 +61,7 @@ class _Normal:
                 index = np.ascontiguousarray(obj.scene_triangle, dtype=np.int32).reshape(-1)
                 normal = _native.take_rows(rows, index, threads).reshape(obj.t.shape + (3,))
                 obj.__dict__["normal"] = normal
+                _WAITING.pop(obj, None)
         return normal
 
     def __set__(self, obj, value):
