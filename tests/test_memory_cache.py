@@ -26,13 +26,14 @@ def test_a_casts_freed_columns_are_kept_and_limit_zero_gives_them_back(restore_l
     d = rng.normal(size=(n, 3)).astype(np.float32)
     first = scene.cast(o, d, threads=1)
     t, tri = first.t.copy(), first.triangle.copy()
+    assert first.normal.shape == (n, 3)  # normals are made when first read (hits.py)
     tetrace.memory_cache(0)
     assert tetrace.memory_cache()["bytes"] == 0
     tetrace.memory_cache(256 << 20)
     del first
     gc.collect()
     kept = tetrace.memory_cache()
-    # t, u, v, triangle, tet, steps (n * 4 bytes each), point (n * 12), the normals (n * 12).
+    # t, u, v, triangle, tet, steps (n * 4 bytes each), point (n * 12), the normals read above (n * 12).
     assert kept["blocks"] >= 8
     assert kept["bytes"] >= 6 * 4 * n + 2 * 12 * n
     again = scene.cast(o, d, threads=1)  # takes the kept blocks back
