@@ -182,6 +182,41 @@ def test_normals_are_the_hit_triangles_rows_and_follow_moved_vertices(precision)
         pending = (h, h[::2], h.reshape((90, -1)), want)
 
 
+def test_a_one_mesh_casts_geometry_is_made_when_read_and_is_zero_on_hits_only():
+    """In a scene of one mesh a cast's ``geometry`` waits until read (``vars`` shows None),
+    then is 0 where the status is HIT and -1 elsewhere, an int32 array of the rays' shape:
+    on the cast, a selection, a reshape, one ray (0-d) and a pickle, each made before the
+    cast's own was read; the triangle ids are the mesh's and ``scene_triangle``'s."""
+    import pickle
+
+    m = trimesh.creation.icosphere(2)
+    scene = tetrace.Scene.from_mesh((m.vertices, m.faces))
+    rng = np.random.default_rng(7)
+    o = rng.uniform(-1.4, 1.4, (4000, 3))
+    d = rng.standard_normal((4000, 3))
+    for precision in ("f32", "f64"):
+        h = scene.cast(o, d, precision=precision)
+        assert vars(h)["geometry"] is None, "the geometry waits to be read"
+        hit = h.status == tetrace.HIT
+        assert 500 < hit.sum() < 3500
+        want = np.where(hit, 0, -1)
+        made = (
+            h[::3],
+            h.reshape((40, 100)),
+            h[17],
+            h[h.status != tetrace.HIT],
+            pickle.loads(pickle.dumps(h)),
+        )
+        for got, rows in zip(
+            made, (want[::3], want.reshape(40, 100), want[17], want[want < 0], want)
+        ):
+            assert isinstance(got.geometry, np.ndarray) and got.geometry.dtype == np.int32
+            np.testing.assert_array_equal(got.geometry, rows)
+        np.testing.assert_array_equal(h.geometry, want)
+        np.testing.assert_array_equal(h.triangle, h.scene_triangle)
+        assert ((h.triangle >= 0) == hit).all()
+
+
 def test_normals_are_gathered_as_numpy_takes_them():
     """The core's parallel gather of the hits' normals (``_native.take_rows``) is
     ``np.take`` with -1 taking the last (NaN) row, in both precisions and past one piece;

@@ -31,45 +31,72 @@ STATUS_NAMES = ("miss", "hit", "failed", "invalid")
 _OPTIONAL = ("normal", "geometry", "scene_triangle")
 
 
-class _Normal:
-    """The ``normal`` field of :class:`Hits`: an array given at construction, or gathered
-    from the scene's table of triangle normals by ``scene_triangle`` when first read.
+class _Gathered:
+    """A field of :class:`Hits` that a cast leaves to its first read: ``normal``, and
+    ``geometry`` in a scene of one mesh. An array given at construction is kept as given.
 
-    A cast's caller often never reads the normals (the bench, depth maps, visibility), and
-    gathering them was a pass over every ray after the cast (2.6 ms of about 130 for a
-    million random rays on bunny). :meth:`Hits.from_core` leaves the table and the thread
-    count in ``_WAITING`` instead, and the first read makes the array and keeps it. The table
-    is the one the scene held at the cast: a scene whose vertices move makes a new table, so
-    normals read later are still those of the triangles hit. (A dataclass field whose
-    default is a descriptor: ``__init__`` hands the value to :meth:`__set__`, reads go
-    through :meth:`__get__`; the value stays in the instance's ``__dict__`` under its own
-    name, so ``vars(hits)`` names the fields, with ``normal`` None while it waits.)
+    A cast's caller often never reads them (the bench, depth maps, visibility), and each was
+    a pass over every ray after the cast: the normals' gather 2.6 ms of about 130 for a
+    million random rays on bunny, the geometry column 2.3 ms for a 1920×1440 camera on two
+    cores, where a GPU cast at issue 34's goal takes 5.5 ms in all. :meth:`Hits.from_core`
+    leaves a :class:`_Source` in ``_WAITING`` instead, and the first read of each field makes
+    its array from ``scene_triangle`` and keeps it. The normals' table is the one the scene
+    held at the cast: a scene whose vertices move makes a new table, so normals read later
+    are still those of the triangles hit. (A dataclass field whose default is a descriptor:
+    ``__init__`` hands the value to :meth:`__set__`, reads go through :meth:`__get__`; the
+    value stays in the instance's ``__dict__`` under the field's name, so ``vars(hits)``
+    names the fields, with a waiting one None.)
     """
+
+    def __set_name__(self, owner, name):
+        self.name = name
 
     def __get__(self, obj, objtype=None):
         if obj is None:
             return None  # the field's default
-        normal = obj.__dict__.get("normal")
-        if normal is None:
-            # Read, not popped, until the array is in place: a second thread reading at
-            # once then gathers the same normals too, rather than finding neither.
+        value = obj.__dict__.get(self.name)
+        if value is None:
+            # Read, not popped, until every waiting field is in place: a second thread
+            # reading at once then makes the same array too, rather than finding neither.
             source = _WAITING.get(obj)
             if source is not None:
-                from . import _native
-
-                rows, threads = source
-                index = np.ascontiguousarray(obj.scene_triangle, dtype=np.int32).reshape(-1)
-                normal = _native.take_rows(rows, index, threads).reshape(obj.t.shape + (3,))
-                obj.__dict__["normal"] = normal
-                _WAITING.pop(obj, None)
-        return normal
+                value = source.make(self.name, obj)
+                obj.__dict__[self.name] = value
+                if all(obj.__dict__.get(name) is not None for name in _GATHERED):
+                    _WAITING.pop(obj, None)
+        return value
 
     def __set__(self, obj, value):
-        obj.__dict__["normal"] = value
+        obj.__dict__[self.name] = value
 
 
-#: Hits whose normals wait to be gathered (:class:`_Normal`): the scene's table (in the
-#: rays' dtype) and the thread count, until the first read.
+class _Source:
+    """What a cast's waiting fields are made from: the scene's table of triangle normals
+    (``(F + 1, 3)`` in the rays' dtype, the last row ``nan`` for triangle -1) and the
+    threads that gather them."""
+
+    __slots__ = ("rows", "threads")
+
+    def __init__(self, rows, threads):
+        self.rows, self.threads = rows, threads
+
+    def make(self, name: str, hits: Hits) -> np.ndarray:
+        scene_triangle = hits.scene_triangle
+        if name == "normal":
+            from . import _native
+
+            index = np.ascontiguousarray(scene_triangle, dtype=np.int32).reshape(-1)
+            rows = _native.take_rows(self.rows, index, self.threads)
+            return rows.reshape(hits.t.shape + (3,))
+        # geometry, in a scene of one mesh (a scene of several gives it at the cast).
+        return locate(None, scene_triangle)[0]
+
+
+#: The fields :class:`_Gathered` makes when first read.
+_GATHERED = ("normal", "geometry")
+
+#: Hits whose fields wait to be made (:class:`_Gathered`): their :class:`_Source`, until
+#: every waiting field is read.
 _WAITING: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
@@ -122,7 +149,8 @@ class Hits:
         were at the cast, also when the scene's vertices moved since.
     geometry : numpy.ndarray or None
         ``(N,)`` int32. Which mesh of the scene was hit (``0`` for a scene of one mesh),
-        ``-1`` on miss. None for casters that do not give it.
+        ``-1`` on miss. None for casters that do not give it. In a scene of one mesh a
+        cast's geometry is made when first read.
     scene_triangle : numpy.ndarray or None
         ``(N,)`` int32. The hit triangle's index among all the scene's triangles (the
         meshes' faces concatenated in order; equal to ``triangle`` for one mesh), ``-1``
@@ -149,8 +177,8 @@ class Hits:
     ``numpy`` on the fields to compare two results. ``len(hits)`` counts the rays along
     the first axis and ``hits[key]`` selects rays with any numpy index of the leading
     shape, every per-ray field alike (:meth:`__getitem__`). Selections, reshapes,
-    copies and pickles keep the normals (gathering them when they must); ``vars(hits)``
-    shows ``normal`` as None until it is first read.
+    copies and pickles keep the normals and the geometry (making them when they must);
+    ``vars(hits)`` shows each as None until it is first read.
 
     Examples
     --------
@@ -169,8 +197,8 @@ class Hits:
     tet: np.ndarray
     steps: np.ndarray
     status: np.ndarray
-    normal: np.ndarray | None = _Normal()  # type: ignore[assignment]
-    geometry: np.ndarray | None = None
+    normal: np.ndarray | None = _Gathered()  # type: ignore[assignment]
+    geometry: np.ndarray | None = _Gathered()  # type: ignore[assignment]
     scene_triangle: np.ndarray | None = None
     timings: dict | None = None
 
@@ -195,21 +223,22 @@ class Hits:
                 raise ValueError(f"Hits.{field.name} has shape {arr.shape}, expected {want}")
 
     def _stored(self, name):
-        """Field ``name`` as stored: ``normal`` is None while it waits to be gathered."""
-        return self.__dict__.get("normal") if name == "normal" else getattr(self, name)
+        """Field ``name`` as stored: a :class:`_Gathered` field is None while it waits."""
+        return self.__dict__.get(name) if name in _GATHERED else getattr(self, name)
 
     def _derived(self, fields: dict) -> Hits:
         """A Hits of ``fields`` (every field's selection or reshape of this one's), which
-        gathers its normals from its own ``scene_triangle`` if this one's wait too."""
+        makes its waiting fields from its own ``scene_triangle`` where this one's wait."""
         hits = Hits(**fields)
         source = _WAITING.get(self)
-        if source is not None and fields.get("normal") is None:
+        if source is not None and any(fields.get(name) is None for name in _GATHERED):
             _WAITING[hits] = source
         return hits
 
     def __getstate__(self):
-        # Pickled (and copied) with its normals, not with the scene's table.
-        self.normal  # noqa: B018 (gathers them if they wait)
+        # Pickled (and copied) with its fields made, not with the scene's table.
+        for name in _GATHERED:
+            getattr(self, name)  # makes it if it waits
         return dict(self.__dict__)
 
     @property
@@ -243,20 +272,23 @@ class Hits:
     def from_core(cls, r, normal_rows, geometries, timings=None, threads=None) -> Hits:
         """Hits from the core's flat answer ``r`` (``NativeScene.query("closest", ...)`` or
         a GPU cast): the scene triangle split into mesh and triangle in it
-        (:func:`locate`), the hit triangle's row of ``normal_rows`` (``(F + 1, 3)`` in the
-        rays' dtype, the last row ``nan``: a miss's triangle -1 takes it; gathered on
-        ``threads`` threads, None: all, when ``normal`` is first read), and a GPU cast's
-        ``timings``."""
+        (:func:`locate`; in a scene of one mesh, ``geometry`` is made when first read), the
+        hit triangle's row of ``normal_rows`` (``(F + 1, 3)`` in the rays' dtype, the last
+        row ``nan``: a miss's triangle -1 takes it; gathered on ``threads`` threads, None:
+        all, when ``normal`` is first read), and a GPU cast's ``timings``."""
         scene_triangle = np.asarray(r["triangle"])
-        geometry, triangle = locate(geometries, scene_triangle)
+        if geometries is None:  # one mesh: the ids are the mesh's, geometry waits
+            geometry, triangle = None, scene_triangle.astype(np.int32, copy=False)
+        else:
+            geometry, triangle = locate(geometries, scene_triangle)
         hits = cls(
             **dict(r, triangle=triangle),
             geometry=geometry,
             scene_triangle=scene_triangle,
             timings=timings,
         )
-        # Gathered when first read (`_Normal`).
-        _WAITING[hits] = (normal_rows, threads)
+        # The normals, and a scene of one mesh's geometry, are made when first read.
+        _WAITING[hits] = _Source(normal_rows, threads)
         return hits
 
     @classmethod
@@ -391,8 +423,9 @@ def locate(geometries, scene_triangle):
     scene of one mesh (``geometries`` None) has geometry 0 and keeps the ids."""
     if geometries is None:
         s = np.asarray(scene_triangle).astype(np.int32, copy=False)
-        # 0 where a triangle was hit, -1 where none (triangle -1): a quarter of np.where's time.
-        return np.minimum(s, np.int32(0)), s
+        # 0 where a triangle was hit, -1 where none (triangle -1): a quarter of np.where's
+        # time. asarray: a 0-d id gives a 0-d array, not a numpy scalar.
+        return np.asarray(np.minimum(s, np.int32(0))), s
     return geometries.locate(scene_triangle)
 
 
