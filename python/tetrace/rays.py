@@ -477,8 +477,11 @@ device : {"cpu", "gpu", "auto"}
     float64 rays are rounded to float32 and ``precision="f64"`` is refused; method
     and layout must name a GPU kernel (:func:`tetrace.gpu.kernels`; by default
     ``exact`` on ``tet20``: the GPU takes the exact walk's certified steps and the
-    answers are the CPU exact cast's, bit for bit). Start location and the hit on your
-    triangle stay on the CPU. ``"auto"``: the GPU when the walk is float32, a kernel
+    answers are the CPU exact cast's, bit for bit). The exact kernels locate each start
+    on the device (one origin once, or each ray's own) and finish the hits they can
+    certify; what they cannot certify the CPU exact walk finishes from where the device
+    left it (``hits.timings`` counts both). The float kernels leave start location and
+    the hit on your triangle to the CPU. ``"auto"``: the GPU when the walk is float32, a kernel
     exists for the method and layout, and a device opens (for the ``exact`` default, a
     hardware GPU: a software driver such as lavapipe is slower than the CPU), else the
     CPU. ``occluded``, ``intersections`` and ``count_intersections`` run on the GPU

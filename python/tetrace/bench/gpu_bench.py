@@ -276,7 +276,53 @@ STRESS_COLUMNS = [
     ("handed_back", "handed back"),
     ("differ", "columns ≠ CPU exact walk"),
     ("right", "referee right"),
+    ("others", "other queries ≠ CPU"),
 ]
+
+
+def _other_queries_differ(scene, o, d, ranges, got, cpu):
+    """The GPU's other queries on a stress family's rays, each against the CPU exact walk's
+    (``accel="tetwalk"``, float32): ``occluded`` (and against ``got``'s hits, which the
+    referee judged: a ray is occluded exactly when its closest hit lies in range),
+    ``count_intersections`` and ``intersections`` (every column and the counts), mirror
+    bounces from ``got``'s hits (``start=hits``: closest hit and ``occluded``), and
+    ``contains`` of the origins where the surface is closed (parity). Returns the names of
+    those that differ."""
+    cpu_kw = dict(precision="f32", accel="tetwalk")
+    differ = []
+    occ, occ_status = scene.occluded(o, d, device="gpu", return_status=True, **ranges)
+    want = scene.occluded(o, d, return_status=True, **ranges, **cpu_kw)
+    if not (np.array_equal(occ_status, want[1]) and np.array_equal(occ, got.status == 1)):
+        differ.append("occluded")
+    lists = scene.intersections(o, d, device="gpu", **ranges)
+    want = scene.intersections(o, d, **ranges, **cpu_kw)
+    fields = ("offsets", "ray", "t", "triangle", "u", "v", "point", "status")
+    if not all(np.array_equal(getattr(lists, f), getattr(want, f), equal_nan=True) for f in fields):
+        differ.append("intersections")
+    count, status = scene.count_intersections(o, d, device="gpu", return_status=True, **ranges)
+    if not (np.array_equal(count, np.diff(want.offsets)) and np.array_equal(status, want.status)):
+        differ.append("count_intersections")
+    hit = got.status == 1
+    n = np.nan_to_num(got.normal)
+    bounce = np.where(hit[:, None], d - 2 * np.sum(d * n, axis=-1, keepdims=True) * n, 1)
+    bounce = bounce.astype(np.float32)
+    for name, query in (("start=hits cast", "cast"), ("start=hits occluded", "occluded")):
+        on_gpu = getattr(scene, query)(start=got, directions=bounce, device="gpu")
+        on_cpu = getattr(scene, query)(start=cpu, directions=bounce, **cpu_kw)
+        on_gpu, on_cpu = (
+            [getattr(h, f) for f in ("status", "triangle", "t", "u", "v", "point")]
+            if query == "cast"
+            else [h]
+            for h in (on_gpu, on_cpu)
+        )
+        if not all(np.array_equal(a, b, equal_nan=True) for a, b in zip(on_gpu, on_cpu)):
+            differ.append(name)
+    if scene.is_closed:
+        if not np.array_equal(
+            scene.contains(o, device="gpu"), scene.contains(o.astype(np.float64), mode="parity")
+        ):
+            differ.append("contains")
+    return differ
 
 
 def run_gpu_stress(n_per_family=2_000, seed=0, families=None, out=print):
@@ -326,6 +372,7 @@ def run_gpu_stress(n_per_family=2_000, seed=0, families=None, out=print):
                 if not np.array_equal(getattr(got, c), getattr(cpu, c), equal_nan=True)
             ],
             right=agreement(got, case.verdicts["f32"], "f32").right,
+            others=_other_queries_differ(scene, o, d, ranges, got, cpu),
         )
         rows.append(row)
     out(
@@ -337,7 +384,7 @@ def run_gpu_stress(n_per_family=2_000, seed=0, families=None, out=print):
     def cell(k, r):
         if k == "handed_back":
             return f"{r[k]:,} ({r[k] / max(r['rays'], 1):.1%})"
-        if k == "differ":
+        if k in ("differ", "others"):
             return ", ".join(r[k]) or "none"
         return f"{r[k]:,}" if isinstance(r[k], int) else str(r[k])
 
