@@ -16,9 +16,28 @@ pub const MAX_BATCH: usize = 1 << 20;
 
 /// Rays in a run's first batch (or fewer). A batch's kernel cannot be interrupted: Ctrl-C is
 /// seen between batches. Batches start at this size and grow while the device is quick
-/// ([`next_batch`]), so a slow device (lavapipe walks an exact batch at microseconds a ray)
-/// keeps batches of a fraction of a second and a fast one reaches full batches in a few.
-const FIRST_BATCH: usize = 1 << 16;
+/// ([`next_batch`]), so a fast device reaches full batches in a few. Each batch costs the
+/// device time its timestamps do not hold (about a millisecond on lavapipe, where a batch
+/// of 2^16 exact rays took 0.2 s and a 512² camera's four batches left 19–37 ns a ray of
+/// host time against 18–22 for one batch and its tail), so batches start at 2^18: a slow
+/// device's batch then takes up to about a second, Ctrl-C's wait.
+const FIRST_BATCH: usize = 1 << 18;
+
+/// Rays a run's last batch leaves to one more at least: one chunk of the cast's (`ByChunk`).
+const TAIL: usize = 4096;
+
+/// Rays in the next batch when `left` remain and a batch holds `size`: as many as fit, except
+/// that a last batch of more than 2 [`TAIL`] rays leaves `TAIL` of them to one more batch.
+/// The host answers each batch while the device walks the next, but the last batch's answers
+/// overlap no walk: a small last batch leaves little of them exposed (docs/gpu.md, "Fewer
+/// batches and a small last one").
+pub(crate) fn batch_rays(size: usize, left: usize) -> usize {
+    if left <= size && left > 2 * TAIL {
+        left - TAIL
+    } else {
+        left.min(size)
+    }
+}
 
 /// What a batch's kernel may take (seconds) before batches stop growing.
 const BATCH_SECONDS: f64 = 0.25;
@@ -188,7 +207,11 @@ impl Launch<'_> {
         let mapped = g.mapped_results && !self.batching.copy_results;
         let mut size = batch.min(FIRST_BATCH);
         // A run of one batch needs one set of buffers; a longer one two, to overlap.
-        let sets = if walked > size { 2 } else { 1 };
+        let sets = if batch_rays(size, walked) < walked {
+            2
+        } else {
+            1
+        };
         let mut cache = self.cache.lock().unwrap_or_else(|e| e.into_inner());
         if cache
             .as_ref()
@@ -229,17 +252,18 @@ impl Launch<'_> {
         let mut slot = 0;
         loop {
             let (mut pieces, mut n) = (Vec::new(), 0usize);
+            let limit = batch_rays(size, walked - before);
             if self.camera.is_some() {
-                n = size.min(walked - before);
+                n = limit;
             }
-            while n < size && self.camera.is_none() {
+            while n < limit && self.camera.is_none() {
                 if carry.is_empty() {
                     match rest.next() {
                         Some(p) => carry = p,
                         None => break,
                     }
                 }
-                let take = (size - n).min(carry.len());
+                let take = (limit - n).min(carry.len());
                 pieces.push(&carry[..take]);
                 carry = &carry[take..];
                 n += take;
@@ -575,7 +599,7 @@ impl Launch<'_> {
 
 #[cfg(test)]
 mod tests {
-    use super::{next_batch, BATCH_SECONDS};
+    use super::{batch_rays, next_batch, BATCH_SECONDS, TAIL};
 
     /// Batches grow fourfold while the kernel is quick, up to the cap, and stop growing once
     /// a fourfold batch could pass the time a batch may take (Ctrl-C waits for a batch).
@@ -588,5 +612,43 @@ mod tests {
         assert_eq!(next_batch(1 << 16, BATCH_SECONDS / 4.0, 1 << 20), 1 << 18);
         assert_eq!(next_batch(1 << 16, BATCH_SECONDS / 3.9, 1 << 20), 1 << 16);
         assert_eq!(next_batch(1 << 16, 6.0, 1 << 20), 1 << 16);
+    }
+
+    /// A run's batches take every ray once, none above the batch size; a run whose last batch
+    /// would exceed 2 TAIL rays ends on one of TAIL rays; runs of at most 2 TAIL rays (or a
+    /// batch's) are one batch.
+    #[test]
+    fn the_last_batch_is_small() {
+        for (size, walked) in [
+            (1 << 16, 262_144),
+            (1 << 16, 65_536),
+            (1 << 16, 100_000),
+            (1 << 20, 2_764_800),
+            (1 << 16, 2 * TAIL),
+            (1 << 16, 2 * TAIL + 1),
+            (1 << 16, 17),
+            (1000, 36_384),
+            (100, 250),
+        ] {
+            let (mut left, mut cuts) = (walked, Vec::new());
+            while left > 0 {
+                let n = batch_rays(size, left);
+                assert!(
+                    n > 0 && n <= size && n <= left,
+                    "{size} {walked}: {n} of {left}"
+                );
+                cuts.push(n);
+                left -= n;
+            }
+            let last = *cuts.last().unwrap();
+            if walked <= size.min(2 * TAIL) {
+                assert_eq!(cuts, [walked]);
+            }
+            if size > 2 * TAIL && walked > 2 * TAIL {
+                // The batch before the last was cut: the last holds what it left.
+                let full_last = walked - (walked - 1) / size * size;
+                assert!(last < full_last && last == TAIL, "{cuts:?}");
+            }
+        }
     }
 }
