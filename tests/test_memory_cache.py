@@ -33,7 +33,8 @@ def test_a_casts_freed_columns_are_kept_and_limit_zero_gives_them_back(restore_l
     del first
     gc.collect()
     kept = tetrace.memory_cache()
-    # t, u, v, triangle, tet, steps (n * 4 bytes each), point (n * 12), the normals read above (n * 12).
+    # t, u, v, triangle, tet, steps (n * 4 bytes each), point (n * 12), the normals read
+    # above (n * 12).
     assert kept["blocks"] >= 8
     assert kept["bytes"] >= 6 * 4 * n + 2 * 12 * n
     again = scene.cast(o, d, threads=1)  # takes the kept blocks back
