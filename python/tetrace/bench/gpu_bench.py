@@ -19,6 +19,7 @@ import numpy as np
 
 from ..camera import Camera
 from ..dev.camera import orbit_view, pinhole, random_rays
+from ..hits import HIT
 from .casters import TetraceCaster, gpu_cast_timed, timed
 from .scene_bench import FOV_DEG, _table
 
@@ -280,6 +281,11 @@ STRESS_COLUMNS = [
 ]
 
 
+def _differing(a, b, fields):
+    """The names of ``fields`` whose arrays differ between ``a`` and ``b`` (NaNs equal)."""
+    return [f for f in fields if not np.array_equal(getattr(a, f), getattr(b, f), equal_nan=True)]
+
+
 def _other_queries_differ(scene, o, d, ranges, got, cpu):
     """The GPU's other queries on a stress family's rays, each against the CPU exact walk's
     (``accel="tetwalk"``, float32): ``occluded`` (and against ``got``'s hits, which the
@@ -292,36 +298,32 @@ def _other_queries_differ(scene, o, d, ranges, got, cpu):
     differ = []
     occ, occ_status = scene.occluded(o, d, device="gpu", return_status=True, **ranges)
     want = scene.occluded(o, d, return_status=True, **ranges, **cpu_kw)
-    if not (np.array_equal(occ_status, want[1]) and np.array_equal(occ, got.status == 1)):
+    if not (np.array_equal(occ_status, want[1]) and np.array_equal(occ, got.status == HIT)):
         differ.append("occluded")
     lists = scene.intersections(o, d, device="gpu", **ranges)
     want = scene.intersections(o, d, **ranges, **cpu_kw)
-    fields = ("offsets", "ray", "t", "triangle", "u", "v", "point", "status")
-    if not all(np.array_equal(getattr(lists, f), getattr(want, f), equal_nan=True) for f in fields):
+    if _differing(lists, want, ("offsets", "ray", "t", "triangle", "u", "v", "point", "status")):
         differ.append("intersections")
     count, status = scene.count_intersections(o, d, device="gpu", return_status=True, **ranges)
     if not (np.array_equal(count, np.diff(want.offsets)) and np.array_equal(status, want.status)):
         differ.append("count_intersections")
-    hit = got.status == 1
+    hit = got.status == HIT
     n = np.nan_to_num(got.normal)
     bounce = np.where(hit[:, None], d - 2 * np.sum(d * n, axis=-1, keepdims=True) * n, 1)
     bounce = bounce.astype(np.float32)
-    for name, query in (("start=hits cast", "cast"), ("start=hits occluded", "occluded")):
-        on_gpu = getattr(scene, query)(start=got, directions=bounce, device="gpu")
-        on_cpu = getattr(scene, query)(start=cpu, directions=bounce, **cpu_kw)
-        on_gpu, on_cpu = (
-            [getattr(h, f) for f in ("status", "triangle", "t", "u", "v", "point")]
-            if query == "cast"
-            else [h]
-            for h in (on_gpu, on_cpu)
-        )
-        if not all(np.array_equal(a, b, equal_nan=True) for a, b in zip(on_gpu, on_cpu)):
-            differ.append(name)
-    if scene.is_closed:
-        if not np.array_equal(
-            scene.contains(o, device="gpu"), scene.contains(o.astype(np.float64), mode="parity")
-        ):
-            differ.append("contains")
+    on_gpu = scene.cast(start=got, directions=bounce, device="gpu")
+    on_cpu = scene.cast(start=cpu, directions=bounce, **cpu_kw)
+    if _differing(on_gpu, on_cpu, ("status", "triangle", "t", "u", "v", "point")):
+        differ.append("start=hits cast")
+    if not np.array_equal(
+        scene.occluded(start=got, directions=bounce, device="gpu"),
+        scene.occluded(start=cpu, directions=bounce, **cpu_kw),
+    ):
+        differ.append("start=hits occluded")
+    if scene.is_closed and not np.array_equal(
+        scene.contains(o, device="gpu"), scene.contains(o.astype(np.float64), mode="parity")
+    ):
+        differ.append("contains")
     return differ
 
 
@@ -366,11 +368,7 @@ def run_gpu_stress(n_per_family=2_000, seed=0, families=None, out=print):
             walked=tm["walked"],
             finished=tm["finished"],
             handed_back=tm["deferred"],
-            differ=[
-                c
-                for c in cols
-                if not np.array_equal(getattr(got, c), getattr(cpu, c), equal_nan=True)
-            ],
+            differ=_differing(got, cpu, cols),
             right=agreement(got, case.verdicts["f32"], "f32").right,
             others=_other_queries_differ(scene, o, d, ranges, got, cpu),
         )
