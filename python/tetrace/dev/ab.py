@@ -19,7 +19,9 @@ after checking that every build gives the same ``t`` bits.
 Run each comparison in both orders (``A B``, then ``B A``) and compare the means: the same
 build under two names came out 1-2% faster in the median when listed first (its scene is
 built first; built in the other order, the gap mostly went), which is as much as many
-changes under test (docs/bvh.md, stop 66).
+changes under test (docs/bvh.md, stop 66). Each build's speed against the first build's is
+also printed as the median of the rounds' ratios (each round casts every build once, in
+turn): on a noisy machine that pairs casts made moments apart.
 """
 
 from __future__ import annotations
@@ -81,9 +83,18 @@ def main(argv: list[str]) -> None:
                 start = time.perf_counter()
                 scenes[k].cast(o, d, threads=1)
                 times[k].append(time.perf_counter() - start)
+        first_times = np.array(times[0])
         for site, ts in zip(sites, times):
             best, median = len(o) / min(ts) / 1e6, len(o) / float(np.median(ts)) / 1e6
-            print(f"{site} {kind}: best {best:.3f}  median {median:.3f} Mrays/s")
+            # Each round's casts met the same machine state: the ratio within a round holds
+            # where the machine's speed moves between rounds (stop 71: best and median moved
+            # by 20-40% within one run, the paired ratio's quartiles by a few percent).
+            q25, q50, q75 = np.percentile(first_times / np.array(ts), [25, 50, 75])
+            print(
+                f"{site} {kind}: best {best:.3f}  median {median:.3f} Mrays/s;"
+                f" speed against {sites[0]}, per round: median {q50:.3f}"
+                f" (quartiles {q25:.3f}-{q75:.3f})"
+            )
 
 
 if __name__ == "__main__":
