@@ -165,8 +165,11 @@ MUTANTS_SHARD ?= 0/1
 # which stops at the first failure. `--in-place` mutates this checkout (restored after each
 # mutant): run it in a worktree of its own (git worktree add ../mut) while you work here.
 # The test profile at opt-level 1: a mutant's rebuild takes 1.5 min on 2 cores, against 4 min
-# at the profile's opt-level 2, and the tests still run in about 2 minutes.
-MUTANTS_ARGS ?= --in-place --no-shuffle --test-tool nextest --no-default-features --features fuzz -C --lib --timeout 300
+# at the profile's opt-level 2, and the tests still run in about 2 minutes. The timeout also
+# bounds the unmutated baseline: on a Zen 3 VM, niced beside other work, its 172 tests took
+# 299.5 s and the run stopped at 300 (stop 71); 600 leaves room, and a mutant that loops
+# still ends.
+MUTANTS_ARGS ?= --in-place --no-shuffle --test-tool nextest --no-default-features --features fuzz -C --lib --timeout 600
 # MUTANTS_REACH=1 runs each mutant against only the tests that enter a function of
 # MUTANTS_FILES (python/tetrace/dev/mutants_reach.py finds them first, in the same checkout
 # and build): a mutant in a body no other test runs cannot change their outcome, and for a
