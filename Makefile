@@ -164,22 +164,42 @@ MUTANTS_SHARD ?= 0/1
 # library's tests (src/query/tests/closest_order.rs, the Kuhn-grid order test, among them), by cargo-nextest,
 # which stops at the first failure. `--in-place` mutates this checkout (restored after each
 # mutant): run it in a worktree of its own (git worktree add ../mut) while you work here.
-# The test profile at opt-level 1: a mutant's rebuild takes 1.5 min on 2 cores, against 4 min
-# at the profile's opt-level 2, and the tests still run in about 2 minutes. The timeout also
-# bounds the unmutated baseline: on a Zen 3 VM, niced beside other work, its 172 tests took
-# 299.5 s and the run stopped at 300 (stop 71); 600 leaves room, and a mutant that loops
-# still ends.
-MUTANTS_ARGS ?= --in-place --no-shuffle --test-tool nextest --no-default-features --features fuzz -C --lib --timeout 600
+# The test profile at opt-level 1 without debug info: a mutant's rebuild took 52 s on a 2-core
+# Zen 3 VM (87 s with the profile's full debug info, 4 min at its opt-level 2; stop 72), and
+# the tests still run in about 5 minutes there. The timeout also bounds the unmutated
+# baseline: on that VM, niced beside other work, its 172 tests took 299.5 s and the run
+# stopped at 300 (stop 71); 600 leaves room, and a mutant that loops still ends. nextest
+# stops at the first failure without waiting for the tests still running.
+MUTANTS_ARGS ?= --in-place --no-shuffle --test-tool nextest --no-default-features --features fuzz -C --lib --timeout 600 --cargo-test-arg=--max-fail=1:immediate
 # MUTANTS_REACH=1 runs each mutant against only the tests that enter a function of
 # MUTANTS_FILES (python/tetrace/dev/mutants_reach.py finds them first, in the same checkout
 # and build): a mutant in a body no other test runs cannot change their outcome, and for a
 # file few tests reach the rest of the suite is most of a survivor's time.
 MUTANTS_REACH ?= 0
+# MUTANTS_FAST=1 runs two passes (python/tetrace/dev/mutants_fast.py says why): every mutant
+# with the crate at opt-level 0 (an 8.5 s rebuild there) against the tests that took under
+# MUTANTS_FAST_SECONDS unoptimised, then what that pass did not catch at opt-level 1 against
+# the whole suite (--iterate skips the caught). The two miss exactly what one full run misses.
+# Both run the fastest tests first (a nextest config the script writes), so that a caught
+# mutant's first failure comes sooner.
+MUTANTS_FAST ?= 0
+MUTANTS_FAST_SECONDS ?= 12
+MUTANTS_OPT0 = --cargo-arg=--config --cargo-arg=profile.test.package.tetrace.opt-level=0
 .PHONY: mutants
 mutants: toolchain
 	@$(CARGO) mutants --version >/dev/null 2>&1 || $(CARGO) install --locked cargo-mutants
 	@$(CARGO) nextest --version >/dev/null 2>&1 || $(CARGO) install --locked cargo-nextest
-	export CARGO_PROFILE_TEST_OPT_LEVEL=1 && \
+	export CARGO_PROFILE_TEST_OPT_LEVEL=1 CARGO_PROFILE_TEST_DEBUG=0 && \
 	reach=$$(if [ "$(MUTANTS_REACH)" = 1 ]; then python3 python/tetrace/dev/mutants_reach.py $(foreach f,$(MUTANTS_FILES),'$(f)'); else echo 'all()'; fi) && \
-	$(CARGO) mutants $(MUTANTS_ARGS) $(foreach f,$(MUTANTS_FILES),--file '$(f)') --shard $(MUTANTS_SHARD) \
-	  --cargo-test-arg=-E --cargo-test-arg="$$reach"
+	run() { $(CARGO) mutants $(MUTANTS_ARGS) $(foreach f,$(MUTANTS_FILES),--file '$(f)') --shard $(MUTANTS_SHARD) "$$@"; } && \
+	if [ "$(MUTANTS_FAST)" = 1 ]; then \
+	  order="$(CURDIR)/target/mutants-nextest.toml" && mkdir -p target && \
+	  fast=$$(python3 python/tetrace/dev/mutants_fast.py $(MUTANTS_FAST_SECONDS) "$$order") && \
+	  { run $(MUTANTS_OPT0) --cargo-test-arg=--config-file --cargo-test-arg="$$order" \
+	      --cargo-test-arg=-E --cargo-test-arg="($$reach) & ($$fast)"; \
+	    rc=$$?; [ $$rc = 0 ] || [ $$rc = 2 ] || [ $$rc = 3 ] || exit $$rc; } && \
+	  run --iterate --cargo-test-arg=--config-file --cargo-test-arg="$$order" \
+	    --cargo-test-arg=-E --cargo-test-arg="$$reach"; \
+	else \
+	  run --cargo-test-arg=-E --cargo-test-arg="$$reach"; \
+	fi

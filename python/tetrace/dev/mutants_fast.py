@@ -1,0 +1,103 @@
+"""The library tests that run fast with the crate unoptimised, as a nextest filterset.
+
+A mutation run's time goes mostly to rebuilding the crate for each mutant. With the test
+profile at opt-level 1 and full debug info, one mutant's rebuild took 87 s on a 2-core Zen 3
+VM; with the crate alone at opt-level 0 and no debug info (its dependencies still at
+opt-level 1), 8.5 s. Unoptimised, though, the whole library suite takes 9.4 minutes there,
+and a survivor runs all of it.
+
+So ``make mutants MUTANTS_FAST=1`` runs in two passes (``docs/testing.md``):
+
+1. every mutant at opt-level 0 against the tests this script keeps, those that took less
+   than the given seconds in one unoptimised run (most mutants are caught there, in seconds);
+2. the mutants pass 1 did not catch (missed, timed out, unviable) again, at opt-level 1
+   against the whole suite (cargo-mutants' ``--iterate`` skips the caught ones).
+
+Leaving tests out can only turn a caught mutant into a missed one, never hide a survivor,
+and pass 2 gives every such mutant the whole suite, so the two passes miss exactly what one
+full run misses.
+
+A caught mutant's test phase lasts until its first failing test ends (nextest stops there),
+and nextest runs tests in their names' order: a mutant in ``geom/`` waited about 28 s at
+opt-level 0 for the ``accel::`` tests before ``geom::rounded``'s 0.14 s test failed. So the
+script also writes a nextest config that runs the fastest tests first (nextest's per-test
+``priority``), which both passes use. The order changes when a mutant is caught, never
+whether.
+
+Run it in the crate root, with the environment of pass 1 (so that the build is shared)::
+
+    python3 python/tetrace/dev/mutants_fast.py 12 "$PWD/target/mutants-nextest.toml"
+
+It prints the filterset on stdout (for ``cargo mutants --cargo-test-arg=-E
+--cargo-test-arg=...``), writes the config (for ``--cargo-test-arg=--config-file``) and says
+what it measured on stderr.
+"""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+
+# The crate alone unoptimised: its dependencies keep the profile's level, so the exact
+# arithmetic in them (none) and rayon's pools stay fast, and only tetrace rebuilds.
+OPT0 = ["--config", "profile.test.package.tetrace.opt-level=0"]
+NEXTEST = [
+    "cargo",
+    "nextest",
+    "run",
+    "--no-fail-fast",
+    "--no-default-features",
+    "--features",
+    "fuzz",
+    "--lib",
+    *OPT0,
+]
+DONE = re.compile(r"^\s*PASS \[\s*([0-9.]+)s\].*?tetrace (\S+)\s*$", re.MULTILINE)
+
+
+def main(args: list[str]) -> int:
+    if len(args) != 2:
+        print("usage: mutants_fast.py SECONDS NEXTEST_CONFIG_OUT", file=sys.stderr)
+        return 2
+    limit, config = float(args[0]), args[1]
+    run = subprocess.run(NEXTEST, capture_output=True, text=True)
+    times = {name: float(s) for s, name in DONE.findall(run.stderr)}
+    if run.returncode != 0 or not times:
+        # A failing test here would be counted as catching every mutant: refuse.
+        print(run.stderr[-4000:], file=sys.stderr)
+        print("the unmutated suite did not pass at opt-level 0", file=sys.stderr)
+        return 1
+    slow = sorted(name for name, s in times.items() if s >= limit)
+    fast = sum(s for s in times.values() if s < limit)
+    print(
+        f"{len(times) - len(slow)} of {len(times)} tests under {limit} s "
+        f"({fast:.0f} of {sum(times.values()):.0f} test-seconds); left out: {slow}",
+        file=sys.stderr,
+    )
+    write_order(times, config)
+    if not slow:
+        print("all()")
+    else:
+        print("not (" + " | ".join(f"test(={name})" for name in slow) + ")")
+    return 0
+
+
+def write_order(times: dict[str, float], path: str) -> None:
+    """A nextest config whose overrides run the tests in order of their time, fastest first.
+
+    Priorities run from 100 (first) to -100; tests of equal priority run in name order.
+    """
+    ranked = sorted(times, key=lambda name: (times[name], name))
+    lines = ["# Written by python/tetrace/dev/mutants_fast.py: the fastest tests first.\n"]
+    for rank, name in enumerate(ranked):
+        priority = 100 - (200 * rank) // len(ranked)
+        lines.append(
+            f"[[profile.default.overrides]]\nfilter = 'test(={name})'\npriority = {priority}\n"
+        )
+    with open(path, "w") as out:
+        out.write("\n".join(lines))
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
