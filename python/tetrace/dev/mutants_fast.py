@@ -56,47 +56,57 @@ NEXTEST = [
 DONE = re.compile(r"^\s*PASS \[\s*([0-9.]+)s\].*?tetrace (\S+)\s*$", re.MULTILINE)
 
 
+def durations(log: str) -> dict[str, float]:
+    """Each passed test's seconds, from nextest's output."""
+    return {name: float(s) for s, name in DONE.findall(log)}
+
+
+def left_out(times: dict[str, float], limit: float) -> str:
+    """A filterset of every test but those that took `limit` seconds or more."""
+    slow = sorted(name for name, s in times.items() if s >= limit)
+    if not slow:
+        return "all()"
+    return "not (" + " | ".join(f"test(={name})" for name in slow) + ")"
+
+
+def order_config(times: dict[str, float]) -> str:
+    """A nextest config whose overrides run the tests in order of their time, fastest first.
+
+    Priorities run from 100 (first) down to -99; tests of equal priority (more than 200
+    tests) run in name order.
+    """
+    ranked = sorted(times, key=lambda name: (times[name], name))
+    parts = ["# Written by python/tetrace/dev/mutants_fast.py: the fastest tests first.\n"]
+    for rank, name in enumerate(ranked):
+        priority = 100 - (200 * rank) // len(ranked)
+        parts.append(
+            f"[[profile.default.overrides]]\nfilter = 'test(={name})'\npriority = {priority}\n"
+        )
+    return "\n".join(parts)
+
+
 def main(args: list[str]) -> int:
     if len(args) != 2:
         print("usage: mutants_fast.py SECONDS NEXTEST_CONFIG_OUT", file=sys.stderr)
         return 2
     limit, config = float(args[0]), args[1]
     run = subprocess.run(NEXTEST, capture_output=True, text=True)
-    times = {name: float(s) for s, name in DONE.findall(run.stderr)}
+    times = durations(run.stderr)
     if run.returncode != 0 or not times:
-        # A failing test here would be counted as catching every mutant: refuse.
+        # A test failing here would be counted as catching every mutant: refuse.
         print(run.stderr[-4000:], file=sys.stderr)
         print("the unmutated suite did not pass at opt-level 0", file=sys.stderr)
         return 1
-    slow = sorted(name for name, s in times.items() if s >= limit)
-    fast = sum(s for s in times.values() if s < limit)
+    fast = {name: s for name, s in times.items() if s < limit}
     print(
-        f"{len(times) - len(slow)} of {len(times)} tests under {limit} s "
-        f"({fast:.0f} of {sum(times.values()):.0f} test-seconds); left out: {slow}",
+        f"{len(fast)} of {len(times)} tests under {limit} s ({sum(fast.values()):.0f} of "
+        f"{sum(times.values()):.0f} test-seconds); left out: {sorted(set(times) - set(fast))}",
         file=sys.stderr,
     )
-    write_order(times, config)
-    if not slow:
-        print("all()")
-    else:
-        print("not (" + " | ".join(f"test(={name})" for name in slow) + ")")
+    with open(config, "w") as out:
+        out.write(order_config(times))
+    print(left_out(times, limit))
     return 0
-
-
-def write_order(times: dict[str, float], path: str) -> None:
-    """A nextest config whose overrides run the tests in order of their time, fastest first.
-
-    Priorities run from 100 (first) to -100; tests of equal priority run in name order.
-    """
-    ranked = sorted(times, key=lambda name: (times[name], name))
-    lines = ["# Written by python/tetrace/dev/mutants_fast.py: the fastest tests first.\n"]
-    for rank, name in enumerate(ranked):
-        priority = 100 - (200 * rank) // len(ranked)
-        lines.append(
-            f"[[profile.default.overrides]]\nfilter = 'test(={name})'\npriority = {priority}\n"
-        )
-    with open(path, "w") as out:
-        out.write("\n".join(lines))
 
 
 if __name__ == "__main__":
