@@ -392,6 +392,84 @@ mod tests {
         assert!(zeros > 100, "the cases include exact zeros ({zeros})");
     }
 
+    /// Below `TINY` the float64 products underflow, their roundings are no longer relative,
+    /// and the filter's bound (itself 0 there) says nothing: the sign must come from the exact
+    /// arithmetic. Built so that the float64 determinant has the wrong sign: with the
+    /// smallest subnormal q as every component of d and the minors (9/16, 9/16, -11/8)
+    /// (exact in float64), each product of the determinant rounds to a whole multiple of q:
+    /// q + q - q = q > 0, where the true value is (9/16 + 9/16 - 22/16) q = -q/4.
+    #[test]
+    fn side_is_exact_where_its_products_underflow() {
+        let q = f64::from_bits(1);
+        let d = [q, q, q];
+        let (s, p, r) = ([0.0; 3], [1.0, -1.0, 0.0], [0.0, -1.375, -0.5625]);
+        let exact = |d: V3<f64>, s: V3<f64>, p: V3<f64>, r: V3<f64>| {
+            sign_of(&rdet(
+                &rat3(d),
+                &rsub(&rat3(p), &rat3(s)),
+                &rsub(&rat3(r), &rat3(s)),
+            ))
+        };
+        // The case keeps its teeth: the float64 determinant is positive, its permanent below
+        // TINY and finite, the bound 0, and the true sign negative.
+        let (det, perm) = det_perm(d, p, r);
+        assert!(det > 0.0 && perm.is_finite() && perm < TINY && DET_BOUND * perm == 0.0);
+        assert_eq!(exact(d, s, p, r), -1);
+        assert_eq!(side(d, s, p, r), -1);
+        assert_eq!(side(d, s, r, p), 1);
+        // triangle_sides, whose own filter shares the guard, on a triangle with that edge first.
+        let tri = [p, r, [2.0, 0.5, 1.0]];
+        let sides = triangle_sides(d, s, &tri);
+        assert_eq!(sides[0], -1);
+        for k in 0..3 {
+            let want = exact(d, s, tri[k], tri[(k + 1) % 3]);
+            assert!(sides[k] == want || (k == 2 && sides[0] * sides[1] < 0 && sides[2] == 0));
+        }
+        // The same at random: directions of one to three times q against points on a 1/16
+        // grid near 1, so that each product's rounding (up to q/2) is often as large as the
+        // determinant; every sign judged by rationals.
+        let mut x = 0x6c07_8965_d2b4_1f3bu64;
+        let mut f = move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x
+        };
+        let mut wrong_float_signs = 0;
+        for k in 0..5_000 {
+            let small =
+                |bits: u64| f64::from_bits(bits % 3 + 1) * if bits & 64 == 0 { 1.0 } else { -1.0 };
+            let d = [small(f()), small(f()), small(f())];
+            let near = |bits: u64| ((bits % 33) as f64 - 16.0) / 16.0;
+            let (s, p, r) = (
+                [near(f()), near(f()), near(f())],
+                [near(f()), near(f()), near(f())],
+                [near(f()), near(f()), near(f())],
+            );
+            let want = exact(d, s, p, r);
+            assert_eq!(side(d, s, p, r), want, "case {k}");
+            let (det, _) = det_perm(
+                d,
+                [0, 1, 2].map(|i| p[i] - s[i]),
+                [0, 1, 2].map(|i| r[i] - s[i]),
+            );
+            wrong_float_signs += (det.signum() * want as f64 <= 0.0 && det != 0.0) as usize;
+            let tri = [p, r, s.map(|c| c + 0.5)];
+            let sides = triangle_sides(d, s, &tri);
+            for e in 0..3 {
+                let want = exact(d, s, tri[e], tri[(e + 1) % 3]);
+                let stopped = e == 2 && sides[0] * sides[1] < 0 && sides[2] == 0;
+                assert!(sides[e] == want || stopped, "case {k} edge {e}");
+            }
+        }
+        // Where the float64 sign is wrong, only the guard keeps the filter from answering:
+        // the random cases must include such signs, or they test no more than the one above.
+        assert!(
+            wrong_float_signs > 0,
+            "{wrong_float_signs} float64 signs were wrong"
+        );
+    }
+
     /// `triangle_sides` is `side` on the three edges (up to its early stop), on triangles near
     /// the line and on it, and `cmp_plane_t` orders two planes' crossings as rationals do.
     #[test]
