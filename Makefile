@@ -177,13 +177,14 @@ MUTANTS_ARGS ?= --in-place --no-shuffle --test-tool nextest --no-default-feature
 # file few tests reach the rest of the suite is most of a survivor's time.
 MUTANTS_REACH ?= 0
 # MUTANTS_FAST=1 runs two passes (python/tetrace/dev/mutants_fast.py says why): every mutant
-# with the crate at opt-level 0 (an 8.5 s rebuild there) against the tests that took under
-# MUTANTS_FAST_SECONDS unoptimised, then what that pass did not catch at opt-level 1 against
-# the whole suite (--iterate skips the caught). The two miss exactly what one full run misses.
+# with the crate at opt-level 0 (an 8.5 s rebuild there) against the tests that each took
+# under MUTANTS_FAST_PERCENT of the suite's time unoptimised, then what that pass did not
+# catch at opt-level 1 against the whole suite (--iterate skips the caught). The two miss
+# exactly what one full run misses.
 # Both run the fastest tests first (a nextest config the script writes), so that a caught
 # mutant's first failure comes sooner.
 MUTANTS_FAST ?= 0
-MUTANTS_FAST_SECONDS ?= 12
+MUTANTS_FAST_PERCENT ?= 1
 MUTANTS_OPT0 = --cargo-arg=--config --cargo-arg=profile.test.package.tetrace.opt-level=0
 .PHONY: mutants
 mutants: toolchain
@@ -194,7 +195,7 @@ mutants: toolchain
 	run() { $(CARGO) mutants $(MUTANTS_ARGS) $(foreach f,$(MUTANTS_FILES),--file '$(f)') --shard $(MUTANTS_SHARD) "$$@"; } && \
 	if [ "$(MUTANTS_FAST)" = 1 ]; then \
 	  order="$(CURDIR)/target/mutants-nextest.toml" && mkdir -p target && \
-	  fast=$$(python3 python/tetrace/dev/mutants_fast.py $(MUTANTS_FAST_SECONDS) "$$order") && \
+	  fast=$$(python3 python/tetrace/dev/mutants_fast.py $(MUTANTS_FAST_PERCENT) "$$order") && \
 	  { run $(MUTANTS_OPT0) --cargo-test-arg=--config-file --cargo-test-arg="$$order" \
 	      --cargo-test-arg=-E --cargo-test-arg="($$reach) & ($$fast)"; \
 	    rc=$$?; [ $$rc = 0 ] || [ $$rc = 2 ] || [ $$rc = 3 ] || exit $$rc; } && \
