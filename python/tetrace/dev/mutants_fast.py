@@ -45,20 +45,16 @@ import re
 import subprocess
 import sys
 
+try:
+    from .mutants_reach import NEXTEST as REACH_NEXTEST
+except ImportError:  # run as a script: python3 python/tetrace/dev/mutants_fast.py
+    from mutants_reach import NEXTEST as REACH_NEXTEST  # type: ignore[no-redef]
+
 # The crate alone unoptimised: its dependencies keep the profile's level, so the exact
 # arithmetic in them (none) and rayon's pools stay fast, and only tetrace rebuilds.
 OPT0 = ["--config", "profile.test.package.tetrace.opt-level=0"]
-NEXTEST = [
-    "cargo",
-    "nextest",
-    "run",
-    "--no-fail-fast",
-    "--no-default-features",
-    "--features",
-    "fuzz",
-    "--lib",
-    *OPT0,
-]
+# The reach finder's nextest command (every library test, no stopping), unoptimised.
+NEXTEST = [*REACH_NEXTEST, *OPT0]
 DONE = re.compile(r"^\s*PASS \[\s*([0-9.]+)s\].*?tetrace (\S+)\s*$", re.MULTILINE)
 
 
