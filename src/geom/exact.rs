@@ -417,14 +417,18 @@ mod tests {
         assert_eq!(exact(d, s, p, r), -1);
         assert_eq!(side(d, s, p, r), -1);
         assert_eq!(side(d, s, r, p), 1);
-        // triangle_sides, whose own filter shares the guard, on a triangle with that edge first.
-        let tri = [p, r, [2.0, 0.5, 1.0]];
-        let sides = triangle_sides(d, s, &tri);
-        assert_eq!(sides[0], -1);
-        for k in 0..3 {
-            let want = exact(d, s, tri[k], tri[(k + 1) % 3]);
-            assert!(sides[k] == want || (k == 2 && sides[0] * sides[1] < 0 && sides[2] == 0));
-        }
+        // triangle_sides, whose own filter shares the guard, on a triangle with that edge
+        // first: each edge's sign is the exact one (the third is 0 after an early stop).
+        let sides_are_exact = |d: V3<f64>, s: V3<f64>, tri: &[V3<f64>; 3], case: usize| {
+            let sides = triangle_sides(d, s, tri);
+            for e in 0..3 {
+                let want = exact(d, s, tri[e], tri[(e + 1) % 3]);
+                let stopped = e == 2 && sides[0] * sides[1] < 0 && sides[2] == 0;
+                assert!(sides[e] == want || stopped, "case {case} edge {e}");
+            }
+            sides
+        };
+        assert_eq!(sides_are_exact(d, s, &[p, r, [2.0, 0.5, 1.0]], 0)[0], -1);
         // The same at random: directions of one to three times q against points on a 1/16
         // grid near 1, so that each product's rounding (up to q/2) is often as large as the
         // determinant; every sign judged by rationals.
@@ -454,13 +458,7 @@ mod tests {
                 [0, 1, 2].map(|i| r[i] - s[i]),
             );
             wrong_float_signs += (det.signum() * want as f64 <= 0.0 && det != 0.0) as usize;
-            let tri = [p, r, s.map(|c| c + 0.5)];
-            let sides = triangle_sides(d, s, &tri);
-            for e in 0..3 {
-                let want = exact(d, s, tri[e], tri[(e + 1) % 3]);
-                let stopped = e == 2 && sides[0] * sides[1] < 0 && sides[2] == 0;
-                assert!(sides[e] == want || stopped, "case {k} edge {e}");
-            }
+            sides_are_exact(d, s, &[p, r, s.map(|c| c + 0.5)], k);
         }
         // Where the float64 sign is wrong, only the guard keeps the filter from answering:
         // the random cases must include such signs, or they test no more than the one above.
