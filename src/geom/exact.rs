@@ -216,6 +216,13 @@ pub fn cmp_plane_t_at(
             return Ordering::Greater;
         }
     }
+    if one_flat_plane(tri1, tri2) {
+        // Both in the plane x_k = c, which the line crosses at one point (not parallel to
+        // it): t1 = t2 exactly. Coplanar pieces (a box standing on a floor, a rug on it) tie
+        // wherever a ray meets both, and each tie cost the rationals ~5,000 instructions.
+        return Ordering::Equal;
+    }
+    test_count!(PLANE_T_RATIONALS += 1);
     let (o, d) = (exact3(o), exact3(d));
     let exact_t = |tri: &[V3<f64>; 3]| {
         let [a, b, c] = tri.map(exact3);
@@ -225,6 +232,22 @@ pub fn cmp_plane_t_at(
     };
     let ((n1, d1), (n2, d2)) = (exact_t(tri1), exact_t(tri2));
     cmp_fractions(&n1, &d1, &n2, &d2)
+}
+
+test_count!(
+    /// Orders of two crossings that `cmp_plane_t_at` left to the rationals on this thread.
+    PLANE_T_RATIONALS,
+    plane_t_rationals
+);
+
+/// Whether the six corners share one coordinate exactly (both triangles lie in one plane
+/// x_k = c).
+#[inline]
+fn one_flat_plane(tri1: &[V3<f64>; 3], tri2: &[V3<f64>; 3]) -> bool {
+    (0..3).any(|k| {
+        let c = tri1[0][k];
+        tri1.iter().chain(tri2).all(|p| p[k] == c)
+    })
 }
 
 /// Whether the line o + t d crosses the plane of `tri` (which it meets at one point)
@@ -532,6 +555,71 @@ mod tests {
         assert!(
             zeros > 1000 && ties > 100,
             "{zeros} zero sides, {ties} equal crossings"
+        );
+    }
+
+    /// Two triangles in one plane x_k = c (a box on a floor) tie wherever the line crosses
+    /// them, and `cmp_plane_t` says so without the rationals; lift one corner of the second by
+    /// an ulp and the rationals decide, as they order the crossings. Judged by BigRational.
+    #[test]
+    fn flat_planes_tie_without_rationals() {
+        let mut rng = crate::rng::Rng::new(0xf1a7);
+        let (mut ties, mut lifted, mut rationals_for_lifted) = (0, 0, 0);
+        for i in 0..4000 {
+            let k = rng.below(3);
+            let c = [0.0, -0.0, 548.8, -1e-3, 1e30][rng.below(5)];
+            let corner = |rng: &mut crate::rng::Rng| {
+                let mut p = [0, 1, 2].map(|_| (rng.f() - 0.5) * 1000.0);
+                p[k] = c;
+                p
+            };
+            let tri1 = [corner(&mut rng), corner(&mut rng), corner(&mut rng)];
+            let mut tri2 = [corner(&mut rng), corner(&mut rng), corner(&mut rng)];
+            let lift = i % 2 == 1;
+            if lift {
+                // Off the plane by an ulp: near the shared line the two crossings' intervals
+                // overlap, and only exact arithmetic orders them.
+                let x = tri2[0][k];
+                tri2[0][k] = if x == 0.0 {
+                    1e-300
+                } else {
+                    f64::from_bits(x.to_bits() + 1)
+                };
+            }
+            let o = [0, 1, 2].map(|_| (rng.f() - 0.5) * 4000.0);
+            // Through the line where both planes meet (lifted) or anywhere on the plane.
+            let target = corner(&mut rng);
+            let d = [0, 1, 2].map(|j| target[j] - o[j]);
+            let exact_t = |t: &[V3<f64>; 3]| {
+                let (ro, rd) = (rat3(o), rat3(d));
+                let [a, b, c] = t.map(rat3);
+                let den = rdet(&rd, &rsub(&b, &a), &rsub(&c, &a));
+                (!den.is_zero()).then(|| rdet(&rsub(&a, &ro), &rsub(&b, &ro), &rsub(&c, &ro)) / den)
+            };
+            let (Some(t1), Some(t2)) = (exact_t(&tri1), exact_t(&tri2)) else {
+                continue;
+            };
+            let before = plane_t_rationals();
+            assert_eq!(
+                cmp_plane_t(o, d, &tri1, &tri2),
+                t1.cmp(&t2),
+                "case {i}: {tri1:?} {tri2:?} {o:?} {d:?}"
+            );
+            let used = plane_t_rationals() - before;
+            if lift {
+                lifted += 1;
+                rationals_for_lifted += used;
+            } else {
+                assert_eq!(t1, t2, "case {i}: one plane, one crossing");
+                assert_eq!(used, 0, "case {i}: a flat tie went to the rationals");
+                ties += 1;
+            }
+        }
+        // Ties on every constant, and lifted pairs that the float intervals could not order
+        // (the ones that tell an exact tie from a near one).
+        assert!(
+            ties > 1500 && rationals_for_lifted > 100,
+            "{ties} ties, {rationals_for_lifted} of {lifted} lifted pairs ordered exactly"
         );
     }
 

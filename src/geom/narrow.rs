@@ -42,6 +42,15 @@ fn settled(x: f64, r: f64) -> Option<f32> {
     (lo.to_bits() == hi.to_bits() && lo != 0.0 && lo.is_finite()).then_some(lo)
 }
 
+/// The point's coordinate where the triangle's three corners share it (`a`): exact, so its
+/// float32 is the rounding of a_k itself, a zero as +0 (as the exact path rounds one); None
+/// where that overflows.
+#[inline(always)]
+fn flat_coordinate(a: f64) -> Option<f32> {
+    let x = (a + 0.0) as f32;
+    x.is_finite().then_some(x)
+}
+
 /// The hit of the line `o + t d` on the plane of `tri` (which the caller knows it meets at
 /// one point), rounded to float32 as the slow path's values round (see the module docs), or
 /// None where the float64 evaluation cannot show it.
@@ -86,6 +95,14 @@ pub fn triangle_hit32(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3]) -> Option<Hit3
     let (mu, mv) = (u.abs() + u_err, v.abs() + v_err);
     let mut point = [0f32; 3];
     for k in 0..3 {
+        if e1[k] == 0.0 && e2[k] == 0.0 {
+            // The triangle lies in the plane x_k = a_k (a floor, a wall): the coordinate is
+            // a_k exactly, zero included, which `settled` refuses for its sign. The slow
+            // path's sum a_k + u·0 + v·0 is a_k too, and +0 for a zero wherever this answers
+            // (u, v > 0: zeros decline).
+            point[k] = flat_coordinate(a[k])?;
+            continue;
+        }
         let p = a[k] + u * e1[k] + v * e2[k];
         let (s1, s2) = (e1[k].abs(), e2[k].abs());
         let err = u_err * s1 + v_err * s2 + 8.0 * EPS * (a[k].abs() + mu * s1 + mv * s2);
@@ -224,10 +241,18 @@ unsafe fn triangle_hit32_avx2(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3]) -> Opt
             ),
         ),
     );
+    // Coordinates where the triangle is flat (e1 and e2 zero there): a_k + 0 exactly, as
+    // the portable code's `flat_coordinate`.
+    let zero = _mm256_setzero_pd();
+    let flat = _mm256_and_pd(
+        _mm256_cmp_pd::<_CMP_EQ_OQ>(e1v, zero),
+        _mm256_cmp_pd::<_CMP_EQ_OQ>(e2v, zero),
+    );
+    let point = _mm256_blendv_pd(point, add(av, zero), flat);
     // `settled` on four lanes: the float32s of x ∓ (r + SLACK |x|), equal bits, nonzero and
-    // finite.
-    let settled4 = |x: __m256d, r: __m256d| {
-        let r = add(r, mul(_mm256_set1_pd(SLACK), abs(x)));
+    // finite; in the lanes of `exact` (x is the exact value) the float32 of x, finite.
+    let settled4 = |x: __m256d, r: __m256d, exact: __m256d| {
+        let r = _mm256_andnot_pd(exact, add(r, mul(_mm256_set1_pd(SLACK), abs(x))));
         let (lo, hi) = (_mm256_cvtpd_ps(sub(x, r)), _mm256_cvtpd_ps(add(x, r)));
         let same = _mm_castsi128_ps(_mm_cmpeq_epi32(_mm_castps_si128(lo), _mm_castps_si128(hi)));
         let nonzero = _mm_cmpneq_ps(lo, _mm_setzero_ps());
@@ -235,13 +260,14 @@ unsafe fn triangle_hit32_avx2(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3]) -> Opt
             _mm_andnot_ps(_mm_set1_ps(-0.0), lo),
             _mm_set1_ps(f32::INFINITY),
         );
-        let ok = _mm_and_ps(same, _mm_and_ps(nonzero, finite));
+        let ok = _mm_movemask_ps(_mm_and_ps(same, _mm_and_ps(nonzero, finite)))
+            | (_mm256_movemask_pd(exact) & _mm_movemask_ps(finite));
         let mut out = [0f32; 4];
         _mm_storeu_ps(out.as_mut_ptr(), lo);
-        (_mm_movemask_ps(ok) & 0b111 == 0b111, out)
+        (ok & 0b111 == 0b111, out)
     };
-    let (ok_tuv, tuv) = settled4(q, err);
-    let (ok_p, p) = settled4(point, point_err);
+    let (ok_tuv, tuv) = settled4(q, err, zero);
+    let (ok_p, p) = settled4(point, point_err, flat);
     (ok_tuv && ok_p).then_some(Hit32 {
         t: tuv[0],
         u: tuv[1],

@@ -8,13 +8,14 @@ machine state, so their ratio holds where separate runs do not (``docs/performan
 
 Usage::
 
-    python -m tetrace.dev.ab camera|random|away ROUNDS SITE [SITE ...]
+    python -m tetrace.dev.ab [--scene FILE] [--distance R] camera|random|away ROUNDS SITE [SITE ...]
 
 Each SITE is a folder holding an installed ``tetrace`` (``pip install --no-deps --target
 SITE wheel``). ``away`` casts the camera's rays with their directions negated, so that
 every ray misses the scene's box: the per-ray setup and answer alone. Prints the best and
-median Mrays/s of one-thread casts of bunny (``TETRACE_SCENES`` or ``../shared/scenes``),
-after checking that every build gives the same ``t`` bits.
+median Mrays/s of one-thread casts of ``FILE`` (default bunny.obj, in ``TETRACE_SCENES`` or
+``../shared/scenes``; the camera ``R`` bounding radii from the centre, default 1.6, as the
+bench's ``--distance``), after checking that every build gives the same ``t`` bits.
 
 Run each comparison in both orders (``A B``, then ``B A``) and compare the means: the same
 build under two names came out 1-2% faster in the median when listed first (its scene is
@@ -50,26 +51,33 @@ def load_builds(sites: list[str], into: Path) -> list:
     return [importlib.import_module(name) for name in modules]
 
 
-def rays_for(kind: str, vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def rays_for(
+    kind: str, vertices: np.ndarray, distance: float = 1.6
+) -> tuple[np.ndarray, np.ndarray]:
     """The bench's 1024² camera (``away``: reversed) or 1M random rays, float32."""
     box = np.array([vertices.min(0), vertices.max(0)])
     if kind == "random":
         return random_rays(box, 1 << 20, 0, dtype=np.float32)
-    eye, target, up = orbit_view(box, 30.0, 25.0, 1.6)
+    eye, target, up = orbit_view(box, 30.0, 25.0, distance)
     o, d = pinhole(eye, target, up, fov_deg=40.0, width=1024, height=1024, dtype=np.float32)
     o, d = np.ascontiguousarray(o.reshape(-1, 3)), np.ascontiguousarray(d.reshape(-1, 3))
     return (o, -d) if kind == "away" else (o, d)
 
 
 def main(argv: list[str]) -> None:
+    options = {"--scene": "bunny.obj", "--distance": "1.6"}
+    while argv and argv[0] in options:
+        if len(argv) < 2:
+            raise SystemExit(__doc__)
+        options[argv[0]], argv = argv[1], argv[2:]
     if len(argv) < 3 or argv[0] not in ("camera", "random", "away"):
         raise SystemExit(__doc__)
     kind, rounds, sites = argv[0], int(argv[1]), argv[2:]
     scenes_dir = Path(os.environ.get("TETRACE_SCENES", "../shared/scenes"))
     with tempfile.TemporaryDirectory() as tmp:
         builds = load_builds(sites, Path(tmp))
-        scenes = [b.Scene.from_mesh(str(scenes_dir / "bunny.obj")) for b in builds]
-        o, d = rays_for(kind, scenes[0].vertices)
+        scenes = [b.Scene.from_mesh(str(scenes_dir / options["--scene"])) for b in builds]
+        o, d = rays_for(kind, scenes[0].vertices, float(options["--distance"]))
         first = scenes[0].cast(o, d, threads=1).t
         for site, scene in zip(sites, scenes):
             t = scene.cast(o, d, threads=1).t
