@@ -642,6 +642,80 @@ mod tests {
         assert_eq!((h.u, h.v, h.point), (0.25, 0.25, [1.0, 0.25, 0.25]));
     }
 
+    /// `plane_t`'s bound is relative to its permanents, and below `TINY` their products may
+    /// have underflowed: its guard then gives no bound (an infinite one), and `cmp_t` decides
+    /// with rationals. Three families where the float64 t is off by far more than the
+    /// unguarded formula would claim: a triangle 2^-530 across seen from 1 away (both
+    /// permanents below TINY), the same seen from 2^300 away (only the denominator's), and an
+    /// ordinary triangle whose corner a is a few subnormals from the origin (only the
+    /// numerator's). Each t is compared with points just either side of the float64 one,
+    /// judged by BigRational.
+    #[test]
+    fn plane_t_is_exact_where_its_products_underflow() {
+        let mut rng = crate::rng::Rng::new(0x0f10_0d5);
+        let mut misleading = [0usize; 3];
+        for case in 0..6000 {
+            let family = case % 3;
+            let unit = |rng: &mut crate::rng::Rng| [0, 1, 2].map(|_| 1.0 + rng.f());
+            let d = unit(&mut rng).map(|x| if rng.chance(0.5) { x } else { -x } * 0.75);
+            let tiny =
+                |rng: &mut crate::rng::Rng| [0, 1, 2].map(|_| (rng.f() - 0.5) * 2f64.powi(-528));
+            let far = if family == 1 { 2f64.powi(300) } else { 1.0 };
+            let o = if family == 2 {
+                [0.0; 3]
+            } else {
+                [0, 1, 2].map(|_| (rng.f() - 0.5) * far)
+            };
+            let tri = if family < 2 {
+                // Near 0, seen from o.
+                [tiny(&mut rng), tiny(&mut rng), tiny(&mut rng)]
+            } else {
+                // a a few subnormals off the origin (at 0), b and c ordinary.
+                let off = |rng: &mut crate::rng::Rng| {
+                    f64::from_bits(rng.below(6) as u64) * if rng.chance(0.5) { 1.0 } else { -1.0 }
+                };
+                let a = [0, 1, 2].map(|k| o[k] + off(&mut rng));
+                let (b, c) = (unit(&mut rng), unit(&mut rng).map(|x| -x));
+                [a, b, c]
+            };
+            let (ro, rd) = (rat3(o), rat3(d));
+            let [ra, rb, rc] = tri.map(rat3);
+            let den = rdet(&rd, &rsub(&rb, &ra), &rsub(&rc, &ra));
+            if den.is_zero() {
+                continue;
+            }
+            let exact_t = rdet(&rsub(&ra, &ro), &rsub(&rb, &ra), &rsub(&rc, &ra)) / &den;
+            let (t, _) = plane_t(o, d, &tri);
+            // What the bound would be without the guard: the formula, evaluated anyway.
+            let w = [0, 1, 2].map(|k| tri[0][k] - o[k]);
+            let e1 = [0, 1, 2].map(|k| tri[1][k] - tri[0][k]);
+            let e2 = [0, 1, 2].map(|k| tri[2][k] - tri[0][k]);
+            let ((_, pnum), (den_f, pden)) = (det_perm(w, e1, e2), det_perm(d, e1, e2));
+            let unguarded =
+                (DET_BOUND * pnum + t.abs() * DET_BOUND * pden) / den_f.abs() + 4.0 * EPS * t.abs();
+            if t.is_finite() && (rat(t) - &exact_t).abs() > rat(unguarded) {
+                misleading[family] += 1;
+            }
+            for k in [2, 6, 12, 24, 40] {
+                for x in [t * (1.0 + 2f64.powi(-k)), t * (1.0 - 2f64.powi(-k)), t] {
+                    if x == 0.0 || !x.is_finite() {
+                        continue;
+                    }
+                    assert_eq!(
+                        cmp_t(o, d, &tri, x),
+                        exact_t.cmp(&rat(x)),
+                        "family {family}, case {case}: t {t:e} against {x:e}"
+                    );
+                }
+            }
+        }
+        // Every family has cases where the unguarded bound would have been wrong.
+        assert!(
+            misleading.iter().all(|&m| m > 100),
+            "cases whose float t lies outside the unguarded bound: {misleading:?}"
+        );
+    }
+
     /// `cmp_t` against 0 (its predicate path) and `beyond` agree with rationals where the
     /// origin lies on the plane, near it, or the line is parallel to the plane left.
     #[test]
