@@ -658,7 +658,7 @@ mod tests {
             let family = case % 4;
             let s = 2f64.powi(rng.below(81) as i32 - 40);
             let off = [0, 1, 2].map(|_| (rng.f() - 0.5) * 1000.0 * s);
-            let mut p = |rng: &mut crate::rng::Rng| [0, 1, 2].map(|k| off[k] + (rng.f() - 0.5) * s);
+            let p = |rng: &mut crate::rng::Rng| [0, 1, 2].map(|k| off[k] + (rng.f() - 0.5) * s);
             let tri = [p(&mut rng), p(&mut rng), p(&mut rng)];
             let e1 = [0, 1, 2].map(|k| tri[1][k] - tri[0][k]);
             let e2 = [0, 1, 2].map(|k| tri[2][k] - tri[0][k]);
