@@ -541,8 +541,9 @@ fn float32_rounding_boundaries_are_left_to_the_slow_path() {
 /// A triangle flat in coordinate k (a floor at y = 0, a wall at x = c): the hit's coordinate
 /// k is c exactly, and both paths store it as c (+0 for either zero), the float32 path
 /// without declining, whatever c's float32 rounding (a float32 midpoint included: c itself,
-/// not an interval around it, is rounded). `check` judges every value by rationals and the
-/// float32 answer against the slow path's bits.
+/// not an interval around it, is rounded). Beside them, triangles with one edge in such a
+/// plane, which are not flat. `check` judges every value by rationals and the float32
+/// answer against the slow path's bits.
 #[test]
 fn flat_triangles_answer_in_float32() {
     let mut rng = Rng::new(0xf1a7);
@@ -552,7 +553,10 @@ fn flat_triangles_answer_in_float32() {
         let k = rng.below(3);
         let c = [0.0, -0.0, 548.8, midpoint, -3.25e-20][rng.below(5)];
         let mut tri = random_triangle(&mut rng, [0.0; 3], 1.0);
-        for p in &mut tri {
+        // One case in four has only an edge in the plane (two corners share c, the third
+        // does not): not flat, and no coordinate of its hits is c.
+        let flat = i % 4 != 0;
+        for p in &mut tri[..if flat { 3 } else { 2 }] {
             p[k] = c;
         }
         // Inside, on an edge, at a vertex (u or v zero: the float32 path declines there,
@@ -564,9 +568,13 @@ fn flat_triangles_answer_in_float32() {
         let Some(h) = check(o, d, &tri, &what) else {
             continue;
         };
+        let answered = hit32_at_every_level(o, d, &tri, &what);
+        if !flat {
+            continue;
+        }
         hits += 1;
         assert_eq!(h.point[k].to_bits(), (c + 0.0).to_bits(), "{what}");
-        if let Some(n) = hit32_at_every_level(o, d, &tri, &what) {
+        if let Some(n) = answered {
             fast += 1;
             assert_eq!(n.point[k].to_bits(), (c as f32 + 0.0).to_bits(), "{what}");
         }
@@ -574,7 +582,7 @@ fn flat_triangles_answer_in_float32() {
     // Only u or v at zero (two thirds of the aims: edges, vertices) and t, u or v near a
     // float32 boundary decline; the flat coordinate never does.
     assert!(
-        hits > 2500 && fast * 100 >= hits * 33,
+        hits > 2000 && fast * 100 >= hits * 33,
         "{fast} of {hits} hits answered in float32"
     );
 }
