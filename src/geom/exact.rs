@@ -587,7 +587,8 @@ mod tests {
                 };
             }
             let o = [0, 1, 2].map(|_| (rng.f() - 0.5) * 4000.0);
-            // Through the line where both planes meet (lifted) or anywhere on the plane.
+            // Through a point of the plane x_k = c: where a lifted plane lies within an ulp of
+            // it, so the float crossings cannot be told apart.
             let target = corner(&mut rng);
             let d = [0, 1, 2].map(|j| target[j] - o[j]);
             let exact_t = |t: &[V3<f64>; 3]| {
