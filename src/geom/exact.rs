@@ -370,6 +370,15 @@ mod tests {
             + &a[2] * (&b[0] * &c[1] - &b[1] * &c[0])
     }
 
+    /// The exact t where the line o + t d crosses the plane of `tri`; None where d is
+    /// parallel to it.
+    fn exact_plane_t(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3]) -> Option<BigRational> {
+        let (ro, rd) = (rat3(o), rat3(d));
+        let [a, b, c] = tri.map(rat3);
+        let den = rdet(&rd, &rsub(&b, &a), &rsub(&c, &a));
+        (!den.is_zero()).then(|| rdet(&rsub(&a, &ro), &rsub(&b, &a), &rsub(&c, &a)) / den)
+    }
+
     fn sign_of(x: &BigRational) -> i8 {
         if x.is_zero() {
             0
@@ -542,12 +551,7 @@ mod tests {
             if parallel(&tri) || parallel(&tri2) {
                 continue;
             }
-            let exact_t = |t: &[V3<f64>; 3]| {
-                let (ro, rd) = (rat3(o), rat3(d));
-                let [a, b, c] = t.map(rat3);
-                rdet(&rsub(&a, &ro), &rsub(&b, &ro), &rsub(&c, &ro))
-                    / rdet(&rd, &rsub(&b, &a), &rsub(&c, &a))
-            };
+            let exact_t = |t: &[V3<f64>; 3]| exact_plane_t(o, d, t).expect("not parallel");
             let order = exact_t(&tri).cmp(&exact_t(&tri2));
             ties += order.is_eq() as usize;
             assert_eq!(cmp_plane_t(o, d, &tri, &tri2), order, "case {k}");
@@ -591,13 +595,8 @@ mod tests {
             // it, so the float crossings cannot be told apart.
             let target = corner(&mut rng);
             let d = [0, 1, 2].map(|j| target[j] - o[j]);
-            let exact_t = |t: &[V3<f64>; 3]| {
-                let (ro, rd) = (rat3(o), rat3(d));
-                let [a, b, c] = t.map(rat3);
-                let den = rdet(&rd, &rsub(&b, &a), &rsub(&c, &a));
-                (!den.is_zero()).then(|| rdet(&rsub(&a, &ro), &rsub(&b, &ro), &rsub(&c, &ro)) / den)
-            };
-            let (Some(t1), Some(t2)) = (exact_t(&tri1), exact_t(&tri2)) else {
+            let (Some(t1), Some(t2)) = (exact_plane_t(o, d, &tri1), exact_plane_t(o, d, &tri2))
+            else {
                 continue;
             };
             let before = plane_t_rationals();
@@ -695,14 +694,8 @@ mod tests {
             if !err.is_finite() {
                 continue;
             }
-            let (ro, rd) = (rat3(o), rat3(d));
-            let [ra, rb, rc] = tri.map(rat3);
-            let den = rdet(&rd, &rsub(&rb, &ra), &rsub(&rc, &ra));
-            assert!(
-                !den.is_zero(),
-                "case {case}: a finite bound on a parallel plane"
-            );
-            let exact = rdet(&rsub(&ra, &ro), &rsub(&rb, &ra), &rsub(&rc, &ra)) / den;
+            let exact = exact_plane_t(o, d, &tri)
+                .unwrap_or_else(|| panic!("case {case}: a finite bound on a parallel plane"));
             let error = (rat(t) - &exact).abs();
             assert!(
                 error <= rat(err),
@@ -725,7 +718,7 @@ mod tests {
     /// `plane_t`'s bound is relative to its permanents, and below `TINY` their products may
     /// have underflowed: its guard then gives no bound (an infinite one), and `cmp_t` decides
     /// with rationals. Three families where the float64 t is off by far more than the
-    /// unguarded formula would claim: a triangle 2^-530 across seen from 1 away (both
+    /// unguarded formula would claim: a triangle 2^-528 across seen from 1 away (both
     /// permanents below TINY), the same seen from 2^300 away (only the denominator's), and an
     /// ordinary triangle whose corner a is a few subnormals from the origin (only the
     /// numerator's). Each t is compared with points just either side of the float64 one,
@@ -758,13 +751,9 @@ mod tests {
                 let (b, c) = (unit(&mut rng), unit(&mut rng).map(|x| -x));
                 [a, b, c]
             };
-            let (ro, rd) = (rat3(o), rat3(d));
-            let [ra, rb, rc] = tri.map(rat3);
-            let den = rdet(&rd, &rsub(&rb, &ra), &rsub(&rc, &ra));
-            if den.is_zero() {
+            let Some(exact_t) = exact_plane_t(o, d, &tri) else {
                 continue;
-            }
-            let exact_t = rdet(&rsub(&ra, &ro), &rsub(&rb, &ra), &rsub(&rc, &ra)) / &den;
+            };
             let (t, _) = plane_t(o, d, &tri);
             // What the bound would be without the guard: the formula, evaluated anyway.
             let w = [0, 1, 2].map(|k| tri[0][k] - o[k]);
@@ -807,12 +796,6 @@ mod tests {
             x ^= x << 17;
             ((x >> 11) as f64 / (1u64 << 53) as f64 * 8.0).round() / 8.0 - 0.5
         };
-        let exact_t = |o: V3<f64>, d: V3<f64>, t: &[V3<f64>; 3]| {
-            let (ro, rd) = (rat3(o), rat3(d));
-            let [a, b, c] = t.map(rat3);
-            let den = rdet(&rd, &rsub(&b, &a), &rsub(&c, &a));
-            (!den.is_zero()).then(|| rdet(&rsub(&a, &ro), &rsub(&b, &ro), &rsub(&c, &ro)) / den)
-        };
         let (mut on_plane, mut parallel) = (0, 0);
         for k in 0..20_000 {
             // Powers of two keep every relation exact; the tiny and huge scales are where the
@@ -838,11 +821,11 @@ mod tests {
             if d == [0.0; 3] {
                 continue;
             }
-            let Some(t_other) = exact_t(o, d, &other) else {
+            let Some(t_other) = exact_plane_t(o, d, &other) else {
                 continue;
             };
             let zero = BigRational::zero();
-            if let Some(t) = exact_t(o, d, &tri) {
+            if let Some(t) = exact_plane_t(o, d, &tri) {
                 on_plane += t.is_zero() as usize;
                 assert_eq!(cmp_t(o, d, &tri, 0.0), t.cmp(&zero), "case {k}");
                 assert_eq!(beyond(o, d, d, &tri, &other), t_other > t, "case {k}");
