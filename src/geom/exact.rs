@@ -715,6 +715,55 @@ mod tests {
         );
     }
 
+    /// A crossing just below float64's largest t, with a tiny direction: `plane_t` finds t
+    /// on the direction scaled to unit size and scales it back, where a float64 t a few ulps
+    /// above the exact one can overflow to ∞ while its bound stays finite. Against x = MAX
+    /// (a ray's tmax), `cmp_t` must then decide exactly (the exact t is below x); read as a
+    /// number, the overflowed t would put the crossing beyond x. Rays from 0 along d 2^-1022
+    /// to a point 4 d (1 − j 2^-54) of a random triangle's plane, judged by BigRational;
+    /// cases where the float t overflowed and the exact one did not are counted.
+    #[test]
+    fn crossings_whose_float_t_overflows_are_compared_exactly() {
+        let mut rng = crate::rng::Rng::new(0x7a11_0f10);
+        let (mut overflowed, mut below_max) = (0, 0);
+        for case in 0..20_000 {
+            let unit = [0, 1, 2].map(|_| (rng.f() - 0.5) * 2.0);
+            let m = unit.iter().fold(0f64, |m, x| m.max(x.abs()));
+            if m == 0.0 {
+                continue;
+            }
+            // Largest component in [1, 2), as plane_t scales it (exactly: a power of two).
+            let d = unit.map(|x| x * 2f64.powi(-crate::geom::real::exponent(m)));
+            let j = 1 + rng.below(16) as i32;
+            let p = d.map(|x| 4.0 * x * (1.0 - j as f64 * 2f64.powi(-54)));
+            let spread = |rng: &mut crate::rng::Rng| [0, 1, 2].map(|k| p[k] + rng.f() - 0.5);
+            let (b, c) = (spread(&mut rng), spread(&mut rng));
+            // The triangle has p as a corner, so the exact t is p's: about 4 (1 − j 2^-54)
+            // along d, 2^1022 times that along the tiny direction.
+            let tri = [p, b, c];
+            let tiny = d.map(|x| x * 2f64.powi(-1022));
+            let o = [0.0; 3];
+            let Some(exact) = exact_plane_t(o, tiny, &tri) else {
+                continue;
+            };
+            let (t, err) = plane_t(o, tiny, &tri);
+            let max = rat(f64::MAX);
+            if t == f64::INFINITY && err.is_finite() && exact < max {
+                overflowed += 1;
+            }
+            below_max += usize::from(exact < max);
+            assert_eq!(
+                cmp_t(o, tiny, &tri, f64::MAX),
+                exact.cmp(&max),
+                "case {case}: float t {t:e}, bound {err:e}"
+            );
+        }
+        assert!(
+            overflowed > 0 && below_max > 1000,
+            "{overflowed} float t overflowed below MAX, {below_max} exact t below MAX"
+        );
+    }
+
     /// `plane_t`'s bound is relative to its permanents, and below `TINY` their products may
     /// have underflowed: its guard then gives no bound (an infinite one), and `cmp_t` decides
     /// with rationals. Three families where the float64 t is off by far more than the
