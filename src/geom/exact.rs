@@ -643,7 +643,8 @@ mod tests {
     }
 
     /// `plane_t`'s error bound holds, judged by BigRational: |t − t*| ≤ err wherever err is
-    /// finite, where its two terms are largest: the origin a hair off the plane far from the
+    /// finite (and `cmp_t` orders t* against points within it exactly), where its two terms
+    /// are largest: the origin a hair off the plane far from the
     /// triangle (num cancels), directions that graze the plane (den cancels), both, and
     /// ordinary rays, at scales from 2^-40 to 2^40 with the triangle away from the origin
     /// (every difference rounds). Cases whose error reaches a sixteenth of the bound are
@@ -702,6 +703,14 @@ mod tests {
                 "family {family}, case {case}: t {t:e} is {} from the exact t, bound {err:e}",
                 error
             );
+            // Within the bound the filter cannot answer: cmp_t must take the exact path.
+            for x in [t - err / 2.0, t, t + err / 2.0] {
+                assert_eq!(
+                    cmp_t(o, d, &tri, x),
+                    exact.cmp(&rat(x)),
+                    "family {family}, case {case}: t {t:e} ± {err:e} against {x:e}"
+                );
+            }
             checked += 1;
             if err > 0.0 {
                 let share = (&error / rat(err)).to_f64().unwrap_or(0.0);
