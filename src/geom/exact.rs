@@ -644,10 +644,9 @@ mod tests {
 
     /// `plane_t`'s error bound holds, judged by BigRational: |t − t*| ≤ err wherever err is
     /// finite (and `cmp_t` orders t* against points within it exactly), where its two terms
-    /// are largest: the origin a hair off the plane far from the
-    /// triangle (num cancels), directions that graze the plane (den cancels), both, and
-    /// ordinary rays, at scales from 2^-40 to 2^40 with the triangle away from the origin
-    /// (every difference rounds). Cases whose error reaches a sixteenth of the bound are
+    /// are largest: the origin a hair off the plane far from the triangle (num cancels),
+    /// directions that graze the plane (den cancels), both, and ordinary rays, at scales from
+    /// 2^-40 to 2^40 with the triangle away from the origin (every difference rounds). Cases whose error reaches a sixteenth of the bound are
     /// counted, and some must be: a bound cut by that much (a term dropped, a sign flipped)
     /// fails there, and one grown past 16 times the errors it bounds (a term replaced by a
     /// constant, a permanent added instead of multiplied) no longer filters.
@@ -801,7 +800,7 @@ mod tests {
                 // Near 0, seen from o.
                 [tiny(&mut rng), tiny(&mut rng), tiny(&mut rng)]
             } else {
-                // a a few subnormals off the origin (at 0), b and c ordinary.
+                // Corner a a few subnormals from the origin (at 0); b and c ordinary.
                 let off = |rng: &mut crate::rng::Rng| {
                     f64::from_bits(rng.below(6) as u64) * if rng.chance(0.5) { 1.0 } else { -1.0 }
                 };

@@ -554,7 +554,7 @@ fn flat_triangles_answer_in_float32() {
         let c = [0.0, -0.0, 548.8, midpoint, -3.25e-20][rng.below(5)];
         let mut tri = random_triangle(&mut rng, [0.0; 3], 1.0);
         // One case in four has only an edge in the plane (two corners share c, the third
-        // does not): not flat, and no coordinate of its hits is c.
+        // does not): not flat, and its hits' coordinate k is c only on that edge.
         let flat = i % 4 != 0;
         for p in &mut tri[..if flat { 3 } else { 2 }] {
             p[k] = c;
