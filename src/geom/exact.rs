@@ -15,6 +15,8 @@ pub(super) const EPS: f64 = f64::EPSILON * 0.5;
 /// Shewchuk's bound for a 3×3 determinant whose rows are differences of inputs, relative to
 /// its permanent: (7 + 56ε)ε. Rounded up.
 pub(crate) const DET_BOUND: f64 = 8.0 * EPS;
+/// `plane_t`'s bound on t relative to (pnum + |t| pden) / |den| (derived there).
+const T_BOUND: f64 = 9.0 * EPS;
 /// Below this permanent, products may underflow and the bound no longer holds: exact.
 pub(crate) const TINY: f64 = 1e-250;
 
@@ -136,20 +138,25 @@ fn plane_t_scaled(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3]) -> (f64, f64) {
     let (num, pnum) = det_perm(w, e1, e2);
     let (den, pden) = det_perm(d, e1, e2);
     let t = num / den;
-    // The exact t* = num* / den* is within (|num − num*| + |t*| |den − den*|) / |den*| of
-    // num / den, a divisor the bound below can only have as the computed |den|. Asking
-    // |den − den*| ≤ DET_BOUND · pden ≤ |den| / 8, as `narrow::triangle_hit32` asks, keeps
-    // |den*| ≥ (1 − 1/8 · 7/8) |den|, a factor inside DET_BOUND's margin over Shewchuk's
-    // (7 + 56ε)ε. Without it, a line grazing the plane (den a few ε of its permanent: a
-    // direction computed to lie along the plane, a ray leaving a hit along its surface) had
-    // its t off by a hundred times the bound.
-    let den_err = DET_BOUND * pden;
-    if !(pnum > TINY && pden > TINY && 8.0 * den_err <= den.abs()) {
+    // The bound, derived (ε = 2^-53; num*, den*, t* the exact values; q = num / den before
+    // its rounding to t). Shewchuk's bound gives |num − num*| ≤ δ pnum and |den − den*| ≤
+    // δ pden with δ = (7 + 56ε)ε. Then q − t* = (num − num*) / den − t* (den − den*) / den, so
+    // |q − t*| (1 − δ pden / |den|) ≤ δ (pnum + |q| pden) / |den|. Asking 64ε pden ≤ |den|
+    // (as `narrow::triangle_hit32` asks) keeps δ pden / |den| ≤ 7/64 + O(ε), so |q − t*| ≤
+    // 7.86ε (pnum + |q| pden) / |den|. The division's rounding, |t − q| ≤ ε|q|, is at most
+    // 0.5ε (pnum + |q| pden) / |den| (a permanent is at least its determinant: the sum is at
+    // least 2|q| |den|), so |t − t*| ≤ 8.4ε (pnum + |t| pden) / |den| (|q| ≤ |t| (1 + ε)).
+    // `T_BOUND` is 9ε, and the bound's own four roundings (ε each) stay within that margin,
+    // so no term is added for them: every part of the formula is needed for it to hold.
+    // Without the ask, a line grazing the plane (den a few ε of its permanent: a direction
+    // computed to lie along the plane, a ray leaving a hit along its surface) had its t off by
+    // up to 53 times the bound then used.
+    if !(pnum > TINY && pden > TINY && 8.0 * DET_BOUND * pden <= den.abs()) {
         // Products may have underflowed (or the origin sits on a vertex), or den is too
         // uncertain to divide by: no bound holds.
         return (t, f64::INFINITY);
     }
-    let err = (DET_BOUND * pnum + t.abs() * den_err) / den.abs() + 4.0 * EPS * t.abs();
+    let err = T_BOUND * (pnum + t.abs() * pden) / den.abs();
     (t, err)
 }
 
@@ -899,8 +906,7 @@ mod tests {
             let e1 = [0, 1, 2].map(|k| tri[1][k] - tri[0][k]);
             let e2 = [0, 1, 2].map(|k| tri[2][k] - tri[0][k]);
             let ((_, pnum), (den_f, pden)) = (det_perm(w, e1, e2), det_perm(d, e1, e2));
-            let unguarded =
-                (DET_BOUND * pnum + t.abs() * DET_BOUND * pden) / den_f.abs() + 4.0 * EPS * t.abs();
+            let unguarded = T_BOUND * (pnum + t.abs() * pden) / den_f.abs();
             if t.is_finite() && (rat(t) - &exact_t).abs() > rat(unguarded) {
                 misleading[family] += 1;
             }
