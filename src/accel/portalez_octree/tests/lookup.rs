@@ -78,7 +78,8 @@ fn tables_agree_with_exit_distances() {
     assert!(checked > 15_000);
 }
 
-/// The exact 2×2 sign against rationals near zero, at many scales.
+/// The exact 2×2 sign against rationals near zero, at many scales, and where both products
+/// underflow an ulp apart, and where differences that round feed products that nearly cancel.
 #[test]
 fn sign2_is_exact() {
     let mut rng = Rng::xorshift(11);
@@ -110,4 +111,80 @@ fn sign2_is_exact() {
         let got = sign2(a, b, m, c, e, n).cmp(&0);
         assert_eq!(got, want, "{a} {b} {m} {c} {e} {n}");
     }
+    // Products that underflow near a midpoint of the subnormal grid, (k + 1/2) 2^-1074, one
+    // on each side, from differences that round (a, b, c, e near 1e-300): the two round to
+    // neighbouring subnormals, one ulp apart, while the exact (a − b) m − (c − e) n, within
+    // a rounding of each difference, may have the other sign. The float filter's bound (2ε of
+    // a permanent that has underflowed too) cannot see that; below DET2_TINY it must not be
+    // used (a filter used there gave the wrong sign on 393 of 9,918 such cases).
+    let mut one_ulp = 0;
+    for _ in 0..20_000 {
+        let x = |rng: &mut Rng, s: f64| (rng.f() * 2.0 - 1.0) * s;
+        let (a, b) = (x(&mut rng, 1e-300), x(&mut rng, 3e-301));
+        let (c, e) = (x(&mut rng, 1e-300), x(&mut rng, 3e-301));
+        let (ab, ce) = (a - b, c - e);
+        if ab == 0.0 || ce == 0.0 {
+            continue;
+        }
+        // m ≈ (2k + 1) 2^-1075 / ab (no overflow: |ab| > 1e-302, 2k + 1 < 2^11), scaled in
+        // two exact steps; then nudged by an ulp or two either way.
+        let odd = (2 * rng.below(1000) + 1) as f64;
+        let toward = |v: f64, rng: &mut Rng| {
+            let mut v = v * 2f64.powi(-1000) * 2f64.powi(-75);
+            for _ in 0..rng.below(3) {
+                v = if rng.below(2) == 0 {
+                    v.next_up()
+                } else {
+                    v.next_down()
+                };
+            }
+            v
+        };
+        let (m, n) = (toward(odd / ab, &mut rng), toward(odd / ce, &mut rng));
+        let (p, q) = (ab * m, ce * n);
+        one_ulp += usize::from((p - q).abs() == f64::from_bits(1));
+        let r = |v: f64| BigRational::from_float(v).unwrap();
+        let want = ((r(a) - r(b)) * r(m) - (r(c) - r(e)) * r(n)).cmp(&BigRational::zero());
+        assert_eq!(
+            sign2(a, b, m, c, e, n).cmp(&0),
+            want,
+            "{a:e} {b:e} {m:e} {c:e} {e:e} {n:e}"
+        );
+    }
+    assert!(one_ulp > 2_000, "{one_ulp} products an ulp apart");
+    // Products below 1/2 that nearly cancel, from differences that round (the loop above's
+    // numbers at scale 1 are multiples of 2^-53 in (−1/2, 1/2): their differences are
+    // exact). There the computed products can be an ulp apart the wrong way, and only a bound
+    // on the sum of the products' magnitudes sees it (a bound on their product, smaller
+    // below 1, let the filter answer 914 of 31,399 such cases wrongly).
+    let mut inexact = 0;
+    for _ in 0..20_000 {
+        let x = |rng: &mut Rng| {
+            let sign = if rng.below(2) == 0 { 1.0 } else { -1.0 };
+            sign * rng.f() * 2f64.powi(-(rng.below(7) as i32))
+        };
+        let (a, b, c, e) = (x(&mut rng), x(&mut rng), x(&mut rng), x(&mut rng));
+        let (ab, ce) = (a - b, c - e);
+        if ce == 0.0 {
+            continue;
+        }
+        let m = (rng.f() * 2.0 - 1.0) * 10f64.powf(-6.0 * rng.f());
+        let mut n = ab * m / ce;
+        for _ in 0..rng.below(4) {
+            n = if rng.below(2) == 0 {
+                n.next_up()
+            } else {
+                n.next_down()
+            };
+        }
+        let r = |v: f64| BigRational::from_float(v).unwrap();
+        inexact += usize::from(r(ab) != r(a) - r(b) || r(ce) != r(c) - r(e));
+        let want = ((r(a) - r(b)) * r(m) - (r(c) - r(e)) * r(n)).cmp(&BigRational::zero());
+        assert_eq!(
+            sign2(a, b, m, c, e, n).cmp(&0),
+            want,
+            "{a:e} {b:e} {m:e} {c:e} {e:e} {n:e}"
+        );
+    }
+    assert!(inexact > 5_000, "{inexact} cases whose differences round");
 }
