@@ -82,6 +82,13 @@ fn tables_agree_with_exit_distances() {
 /// underflow an ulp apart, and where differences that round feed products that nearly cancel.
 #[test]
 fn sign2_is_exact() {
+    let r = |v: f64| BigRational::from_float(v).unwrap();
+    // sign2 against the exact (a − b) m − (c − e) n.
+    let check = |a: f64, b: f64, m: f64, c: f64, e: f64, n: f64| {
+        let want = ((r(a) - r(b)) * r(m) - (r(c) - r(e)) * r(n)).cmp(&BigRational::zero());
+        let got = sign2(a, b, m, c, e, n).cmp(&0);
+        assert_eq!(got, want, "{a:e} {b:e} {m:e} {c:e} {e:e} {n:e}");
+    };
     let mut rng = Rng::xorshift(11);
     for k in 0..20_000 {
         let sc = [1.0, 1e-200, 1e200, 1e-310][k % 4];
@@ -106,10 +113,7 @@ fn sign2_is_exact() {
         if !n.is_finite() {
             continue;
         }
-        let r = |v: f64| BigRational::from_float(v).unwrap();
-        let want = ((r(a) - r(b)) * r(m) - (r(c) - r(e)) * r(n)).cmp(&BigRational::zero());
-        let got = sign2(a, b, m, c, e, n).cmp(&0);
-        assert_eq!(got, want, "{a} {b} {m} {c} {e} {n}");
+        check(a, b, m, c, e, n);
     }
     // Products that underflow near a midpoint of the subnormal grid, (k + 1/2) 2^-1074, one
     // on each side, from differences that round (a, b, c, e near 1e-300): the two round to
@@ -143,13 +147,7 @@ fn sign2_is_exact() {
         let (m, n) = (toward(odd / ab, &mut rng), toward(odd / ce, &mut rng));
         let (p, q) = (ab * m, ce * n);
         one_ulp += usize::from((p - q).abs() == f64::from_bits(1));
-        let r = |v: f64| BigRational::from_float(v).unwrap();
-        let want = ((r(a) - r(b)) * r(m) - (r(c) - r(e)) * r(n)).cmp(&BigRational::zero());
-        assert_eq!(
-            sign2(a, b, m, c, e, n).cmp(&0),
-            want,
-            "{a:e} {b:e} {m:e} {c:e} {e:e} {n:e}"
-        );
+        check(a, b, m, c, e, n);
     }
     assert!(one_ulp > 2_000, "{one_ulp} products an ulp apart");
     // Products below 1/2 that nearly cancel, from differences that round (the loop above's
@@ -177,14 +175,8 @@ fn sign2_is_exact() {
                 n.next_down()
             };
         }
-        let r = |v: f64| BigRational::from_float(v).unwrap();
         inexact += usize::from(r(ab) != r(a) - r(b) || r(ce) != r(c) - r(e));
-        let want = ((r(a) - r(b)) * r(m) - (r(c) - r(e)) * r(n)).cmp(&BigRational::zero());
-        assert_eq!(
-            sign2(a, b, m, c, e, n).cmp(&0),
-            want,
-            "{a:e} {b:e} {m:e} {c:e} {e:e} {n:e}"
-        );
+        check(a, b, m, c, e, n);
     }
     assert!(inexact > 5_000, "{inexact} cases whose differences round");
 }
