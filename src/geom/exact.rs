@@ -395,6 +395,19 @@ mod tests {
         (!den.is_zero()).then(|| rdet(&rsub(&a, &ro), &rsub(&b, &a), &rsub(&c, &a)) / den)
     }
 
+    /// A triangle's edges from its first corner, e1 and e2, and their cross product (its
+    /// normal, not of unit length), each rounded as written.
+    fn edges_and_normal(tri: &[V3<f64>; 3]) -> (V3<f64>, V3<f64>, V3<f64>) {
+        let e1 = [0, 1, 2].map(|k| tri[1][k] - tri[0][k]);
+        let e2 = [0, 1, 2].map(|k| tri[2][k] - tri[0][k]);
+        let n = [
+            e1[1] * e2[2] - e1[2] * e2[1],
+            e1[2] * e2[0] - e1[0] * e2[2],
+            e1[0] * e2[1] - e1[1] * e2[0],
+        ];
+        (e1, e2, n)
+    }
+
     fn sign_of(x: &BigRational) -> i8 {
         if x.is_zero() {
             0
@@ -676,13 +689,7 @@ mod tests {
             let off = [0, 1, 2].map(|_| (rng.f() - 0.5) * 1000.0 * s);
             let p = |rng: &mut crate::rng::Rng| [0, 1, 2].map(|k| off[k] + (rng.f() - 0.5) * s);
             let tri = [p(&mut rng), p(&mut rng), p(&mut rng)];
-            let e1 = [0, 1, 2].map(|k| tri[1][k] - tri[0][k]);
-            let e2 = [0, 1, 2].map(|k| tri[2][k] - tri[0][k]);
-            let n = [
-                e1[1] * e2[2] - e1[2] * e2[1],
-                e1[2] * e2[0] - e1[0] * e2[2],
-                e1[0] * e2[1] - e1[1] * e2[0],
-            ];
+            let (e1, e2, n) = edges_and_normal(&tri);
             let len = n.iter().map(|x| x * x).sum::<f64>().sqrt();
             if len == 0.0 {
                 continue;
@@ -756,13 +763,7 @@ mod tests {
             let mut p = || [0, 1, 2].map(|_| rng.f() * 2.0 - 1.0);
             let tri = [p(), p(), p()];
             let [a, b, c] = tri;
-            let e1 = [0, 1, 2].map(|k| b[k] - a[k]);
-            let e2 = [0, 1, 2].map(|k| c[k] - a[k]);
-            let n = [
-                e1[1] * e2[2] - e1[2] * e2[1],
-                e1[2] * e2[0] - e1[0] * e2[2],
-                e1[0] * e2[1] - e1[1] * e2[0],
-            ];
+            let (e1, e2, n) = edges_and_normal(&tri);
             let nn: f64 = n.iter().map(|x| x * x).sum();
             if nn == 0.0 {
                 continue;
