@@ -186,10 +186,24 @@ MUTANTS_REACH ?= 0
 MUTANTS_FAST ?= 0
 MUTANTS_FAST_PERCENT ?= 1
 MUTANTS_OPT0 = --cargo-arg=--config --cargo-arg=profile.test.package.tetrace.opt-level=0
+# MUTANTS_COVER=1 runs each mutant against the tests that executed a line of it, by
+# source-based coverage (python/tetrace/dev/mutants_cover.py says how and why), in the same two
+# passes, resumably: MUTANTS_COVER_OUT keeps each mutant's outcome, and a mutant with one is
+# not run again. MUTANTS_COVER_ARGS passes cargo-mutants' filters on (`--exclude-re RE`,
+# `--re RE`) and `--limit N` (stop after N mutants). MUTANTS_ARGS and MUTANTS_SHARD do not apply.
+MUTANTS_COVER ?= 0
+MUTANTS_COVER_DIR ?= target/mutants-cover
+MUTANTS_COVER_OUT ?= mutants-cover.out
+MUTANTS_COVER_ARGS ?=
 .PHONY: mutants
 mutants: toolchain
 	@$(CARGO) mutants --version >/dev/null 2>&1 || $(CARGO) install --locked cargo-mutants
 	@$(CARGO) nextest --version >/dev/null 2>&1 || $(CARGO) install --locked cargo-nextest
+ifeq ($(MUTANTS_COVER),1)
+	rustup component add llvm-tools >/dev/null && \
+	python3 python/tetrace/dev/mutants_cover.py run $(MUTANTS_COVER_DIR) $(MUTANTS_COVER_OUT) \
+	  $(foreach f,$(MUTANTS_FILES),--file '$(f)') $(MUTANTS_COVER_ARGS)
+else
 	export CARGO_PROFILE_TEST_OPT_LEVEL=1 CARGO_PROFILE_TEST_DEBUG=0 && \
 	reach=$$(if [ "$(MUTANTS_REACH)" = 1 ]; then python3 python/tetrace/dev/mutants_reach.py $(foreach f,$(MUTANTS_FILES),'$(f)'); else echo 'all()'; fi) && \
 	run() { $(CARGO) mutants $(MUTANTS_ARGS) $(foreach f,$(MUTANTS_FILES),--file '$(f)') --shard $(MUTANTS_SHARD) "$$@"; } && \
@@ -204,3 +218,4 @@ mutants: toolchain
 	else \
 	  run --cargo-test-arg=-E --cargo-test-arg="$$reach"; \
 	fi
+endif
