@@ -114,6 +114,18 @@ def _exact_dist2(p, tri):
     return best
 
 
+def _check_against_brute_force(r, p, tris):
+    """Each distance is the exact minimum over ``tris`` within the derived bound, and the
+    triangle named is one whose exact distance is that minimum within the bound."""
+    for i, q in enumerate(p):
+        exact = [_exact_dist2(q, t) for t in tris]
+        d_min = np.sqrt(float(min(exact)))
+        bound = max(_bound(t, d_min) for t in tris)
+        assert abs(r.distance[i] - d_min) <= bound, (i, r.distance[i], d_min, bound)
+        named = np.sqrt(float(exact[r.triangle[i]]))
+        assert named - d_min <= 2 * bound, (i, r.triangle[i], named, d_min)
+
+
 def test_icosphere_matches_the_exact_brute_force():
     """Points inside, near and far from an icosphere: the distance is the exact minimum
     over all triangles within the derived bound; the triangle named is one whose exact
@@ -125,14 +137,7 @@ def test_icosphere_matches_the_exact_brute_force():
     p = np.round(rng.uniform(-1.6, 1.6, (150, 3)) * 256) / 256
     p = np.vstack([p, v[:10], v[f[:10]].mean(axis=1)])  # on vertices and on faces
     r = scene.closest_points(p)
-    tris = v[f]
-    for i, q in enumerate(p):
-        exact = [_exact_dist2(q, t) for t in tris]
-        d_min = np.sqrt(float(min(exact)))
-        bound = max(_bound(t, d_min) for t in tris)
-        assert abs(r.distance[i] - d_min) <= bound, (i, r.distance[i], d_min, bound)
-        named = np.sqrt(float(exact[r.triangle[i]]))
-        assert named - d_min <= 2 * bound, (i, r.triangle[i], named, d_min)
+    _check_against_brute_force(r, p, v[f])
     inside = scene.contains(p)
     s = scene.signed_distance(p)
     np.testing.assert_array_equal(np.abs(s), r.distance)
@@ -140,10 +145,41 @@ def test_icosphere_matches_the_exact_brute_force():
     # Analytic: inside the inscribed sphere is inside, outside the unit sphere is outside.
     radius = np.linalg.norm(p, axis=1)
     inscribed = np.abs(
-        np.einsum("fk,fk->f", trimesh.creation.icosphere(1).face_normals, tris[:, 0])
+        np.einsum("fk,fk->f", trimesh.creation.icosphere(1).face_normals, v[f][:, 0])
     ).min()
     assert inside[radius < inscribed].all() and not inside[radius > 1].any()
     assert (radius < inscribed).sum() > 10 and (radius > 1).sum() > 10
+
+
+def test_triangles_without_area_are_as_near_as_their_segments():
+    """Zero-area triangles beside an icosphere (two corners at one point, in each of the three
+    places; three on a line; three at one point), points around them: the brute force
+    measures each as its segment (or point). With two corners at one point the distance
+    query skipped the triangle (Ericson's edge region divided 0 by 0) and named a farther
+    one, the icosphere's."""
+    m = trimesh.creation.icosphere(1)
+    v, f = np.asarray(m.vertices, np.float64), np.asarray(m.faces)
+    flat = np.array(
+        [
+            [[2, 0, 0], [2, 0, 0], [3, 0.5, 0]],
+            [[0, 2, 0], [0, 3, 0.5], [0, 2, 0]],
+            [[0.5, 0, 3], [0, 0, 2], [0, 0, 2]],
+            [[-2, 0, 0], [-2.5, 0.25, 0], [-3, 0.5, 0]],
+            [[0, -2.5, 0]] * 3,
+        ],
+        np.float64,
+    )
+    vertices = np.vstack([v, flat.reshape(-1, 3)])
+    faces = np.vstack([f, len(v) + np.arange(len(flat) * 3).reshape(-1, 3)])
+    scene = tetrace.Scene.from_mesh((vertices, faces))
+    rng = np.random.default_rng(17)
+    # Points around each flat triangle, a few beyond its ends.
+    p = np.vstack([t.mean(axis=0) + rng.uniform(-1.0, 1.0, (30, 3)) for t in flat])
+    p = np.round(p * 256) / 256
+    r = scene.closest_points(p)
+    _check_against_brute_force(r, p, vertices[faces])
+    near_flat = (r.triangle >= len(f)).sum()
+    assert near_flat > 100, near_flat
 
 
 def test_shapes_meshes_and_refusals():

@@ -41,7 +41,7 @@ fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
 
 /// The point of triangle `tri` nearest `p` as barycentrics (u, v) of b and c (Ericson's
 /// Voronoi-region test). A triangle without area (its face region empty) gives the nearest
-/// point of its three edges.
+/// point of its three edges, an edge of no length skipped.
 pub fn closest_on_triangle(p: [f64; 3], tri: &Tri) -> (f64, f64) {
     let [a, b, c] = *tri;
     let (ab, ac, ap) = (sub(b, a), sub(c, a), sub(p, a));
@@ -54,8 +54,11 @@ pub fn closest_on_triangle(p: [f64; 3], tri: &Tri) -> (f64, f64) {
     if d3 >= 0.0 && d4 <= d3 {
         return (1.0, 0.0); // vertex b
     }
+    // Each edge region's quotient divides by a difference the region's signs keep at or
+    // above zero; it is zero only where the edge has no length (two corners at one point:
+    // 0/0, NaN, made the triangle lose to every other), and then the region is skipped.
     let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 && d1 - d3 > 0.0 {
         return (d1 / (d1 - d3), 0.0); // edge ab
     }
     let cp = sub(p, c);
@@ -64,11 +67,11 @@ pub fn closest_on_triangle(p: [f64; 3], tri: &Tri) -> (f64, f64) {
         return (0.0, 1.0); // vertex c
     }
     let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 && d2 - d6 > 0.0 {
         return (0.0, d2 / (d2 - d6)); // edge ac
     }
     let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 && (d4 - d3) + (d5 - d6) > 0.0 {
         let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
         return (1.0 - w, w); // edge bc
     }
@@ -249,5 +252,62 @@ mod tests {
             point_at(&flat, closest_on_triangle([3.0, 1.0, 0.0], &flat)),
             [2.0, 0.0, 0.0]
         );
+    }
+
+    /// Triangles without area, two corners at one point (in each of the three places) or
+    /// three on a line or at one point, on each axis: the nearest point is the analytic
+    /// nearest point of the segment they span (its coordinate along the axis clamped to the
+    /// segment; every number dyadic and every edge a power of two long, so each step is exact), and the BVH finds that triangle
+    /// before a farther one. With two corners at one point, Ericson's edge region divided 0
+    /// by 0 there, and the BVH answered the farther triangle.
+    #[test]
+    fn triangles_without_area_give_their_segments_nearest_point() {
+        let far: Tri = [[50.0, 50.0, 50.0], [51.0, 50.0, 50.0], [50.0, 51.0, 50.0]];
+        let mut stack = Vec::new();
+        let mut rng = Rng::xorshift(5);
+        let mut checked = 0;
+        for axis in 0..3 {
+            // Points along `axis` at s (the rest of the coordinates 0).
+            let at =
+                |s: f64| -> [f64; 3] { std::array::from_fn(|k| if k == axis { s } else { 0.0 }) };
+            // Corners at -1, 1 and 3: every edge a power of two long, so the quotients are exact.
+            let (lo, mid, hi) = (-1.0, 1.0, 3.0);
+            let shapes: [[f64; 3]; 7] = [
+                [lo, lo, hi],
+                [lo, hi, lo],
+                [hi, lo, lo],
+                [lo, mid, hi],
+                [hi, lo, mid],
+                [mid, hi, lo],
+                [mid, mid, mid],
+            ];
+            for shape in shapes {
+                let tri: Tri = shape.map(at);
+                let (lo, hi) = (
+                    shape.iter().copied().fold(f64::INFINITY, f64::min),
+                    shape.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+                );
+                let bvh = ReshetovBvh::build(&[tri, far], BvhParams::default()).unwrap();
+                for _ in 0..200 {
+                    // Dyadic points within a few units: along the axis before, on and past the
+                    // segment, off it by up to 3 on the other axes.
+                    let p: [f64; 3] = std::array::from_fn(|_| (rng.f() * 64.0).floor() / 8.0 - 3.0);
+                    let want: [f64; 3] =
+                        std::array::from_fn(|k| if k == axis { p[k].clamp(lo, hi) } else { 0.0 });
+                    let uv = closest_on_triangle(p, &tri);
+                    assert_eq!(point_at(&tri, uv), want, "{tri:?}, point {p:?}: {uv:?}");
+                    let got = bvh.nearest(p, &mut stack);
+                    let d2: f64 = (0..3).map(|k| (p[k] - want[k]) * (p[k] - want[k])).sum();
+                    assert_eq!(got.triangle, 0, "{tri:?}, point {p:?}: {got:?}");
+                    assert_eq!(
+                        (got.point, got.distance),
+                        (want, d2.sqrt()),
+                        "{tri:?}, {p:?}"
+                    );
+                    checked += 1;
+                }
+            }
+        }
+        assert_eq!(checked, 3 * 7 * 200);
     }
 }
