@@ -6,7 +6,14 @@ the regex that names one mutant."""
 
 import re
 
-from tetrace.dev.mutants_cover import escape, executed_lines, line_sets, ranges, reach
+from tetrace.dev.mutants_cover import (
+    escape,
+    executed_lines,
+    line_sets,
+    own_tests,
+    ranges,
+    reach,
+)
 
 # llvm-cov export's segments for one file: [line, col, count, has_count, entry, gap]. A
 # function over lines 10-16 entered 5 times, whose branch on lines 12:9-13:6 never ran, a gap
@@ -110,3 +117,14 @@ def test_the_regex_names_one_mutant_and_no_other():
         assert [n for n in names if re.search(pattern, n)] == [name]
     # '.' matches itself alone.
     assert not re.search("^" + escape("a.rs") + "$", "axrs")
+
+
+def test_a_files_own_tests_are_its_modules_and_its_parents_tests():
+    assert own_tests("src/geom/exact.rs") == ("geom::exact::", "geom::tests::")
+    assert own_tests("src/accel/exact_bvh/fan.rs") == (
+        "accel::exact_bvh::fan::",
+        "accel::exact_bvh::tests::",
+    )
+    assert own_tests("src/query/mod.rs") == ("query::",)
+    names = ["geom::exact::tests::a", "geom::tests::b", "geom::exactly::c", "geom::rounded::d"]
+    assert [n for n in names if n.startswith(own_tests("src/geom/exact.rs"))] == names[:2]

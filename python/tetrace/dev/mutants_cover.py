@@ -26,7 +26,7 @@ cargo-mutants on each group with those tests alone, in the two passes of ``make 
 MUTANTS_FAST=1``:
 
 1. the crate at opt-level 0 against the group's tests that took under 1% of the suite's
-   test-seconds (fastest first);
+   test-seconds, and its file's own tests however slow (fastest first);
 2. what pass 1 did not catch at opt-level 1 against all of the group's tests.
 
 Outcomes go to ``OUTDIR/outcomes.json`` (one entry per mutant, kept across runs: a mutant
@@ -280,6 +280,20 @@ def filterset(tests: list[str]) -> str:
     return " | ".join(f"test(={t})" for t in tests)
 
 
+def own_tests(file: str) -> tuple[str, ...]:
+    """Name prefixes of the tests written for a source file: those of its module, and of its
+    parent module's `tests` (src/geom/exact.rs: `geom::exact::`; src/accel/exact_bvh/fan.rs:
+    `accel::exact_bvh::fan::` and `accel::exact_bvh::tests::`). Pass 1 keeps them even when
+    slow: they are the likeliest to catch the file's mutants, which pass 2 would otherwise
+    reach only after a rebuild at opt-level 1 and the rest of the tests."""
+    parts = Path(file).with_suffix("").parts[1:]
+    if parts and parts[-1] == "mod":
+        parts = parts[:-1]
+    own = "::".join(parts) + "::"
+    parent = "::".join(parts[:-1])
+    return (own, parent + "::tests::") if parent else (own,)
+
+
 def run_group(
     names: list[str], files: list[str], tests: list[str], opt0: bool, out: Path, config: Path
 ) -> dict[str, str]:
@@ -385,7 +399,8 @@ def run(args: list[str]) -> int:
             continue
         left = names
         if passes in ("1", "both"):
-            kept = [t for t in tests if t in fast]
+            own = own_tests(f)
+            kept = [t for t in tests if t in fast or t.startswith(own)]
             if kept:
                 got = run_group(left, [f], kept, True, base.with_suffix(".1"), config)
                 for n in left:
