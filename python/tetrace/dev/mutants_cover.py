@@ -145,6 +145,8 @@ def collect(covdir: Path) -> int:
         **ENV,
         "RUSTFLAGS": "-C instrument-coverage",
         "CARGO_TARGET_DIR": str(target),
+        # The build scripts are instrumented too: their profiles go here, not into the crate.
+        "LLVM_PROFILE_FILE": str(raw / "build-%p.profraw"),
     }
     build = subprocess.run(
         ["cargo", "test", "--no-run", "--message-format=json", *FEATURES, *OPT0],
@@ -406,6 +408,9 @@ def run(args: list[str]) -> int:
                 for n in left:
                     if got.get(n) in ("CaughtMutant", "Unviable"):
                         state[n] = {"outcome": got[n], "pass": 1, "tests": len(kept)}
+                        state[n]["why"] = next(m["why"] for m in ms if m["name"] == n)
+                # Kept now: a run stopped in pass 2 starts again after what pass 1 caught.
+                state_path.write_text(json.dumps(state, indent=1))
                 left = [n for n in left if n not in state]
         if left and passes in ("2", "both"):
             got = run_group(left, [f], list(tests), False, base.with_suffix(".2"), config)
