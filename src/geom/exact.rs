@@ -986,4 +986,48 @@ mod tests {
             "{on_plane} on the plane, {parallel} parallel"
         );
     }
+
+    /// `sign2` where both factors of a product are small (below `FAR_FROM_UNDERFLOW`): the
+    /// product lands among the subnormals, and its rounding error, below half of 2^-1074, is
+    /// lost too, so the fused product's zero error no longer proves the product exact. Two
+    /// products that differ only below the subnormal grid round to one value; the sign must
+    /// come from rationals. Differences exact (integers times 2^-520), factors near 2^-530,
+    /// products near 2^-1030, the second made to cancel the first and nudged an ulp or two.
+    #[test]
+    fn sign2_is_exact_where_both_factors_are_tiny() {
+        let mut x = 0x2545_f491_4f6c_dd1du64;
+        let mut f = move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let grid =
+            |f: &mut dyn FnMut() -> f64| ((f() - 0.5) * 2f64.powi(21)).round() * 2f64.powi(-520);
+        let mut lost = 0;
+        for _ in 0..20_000 {
+            let (a, b, c, e) = (grid(&mut f), grid(&mut f), grid(&mut f), grid(&mut f));
+            let (ab, ce) = (a - b, c - e);
+            if ce == 0.0 {
+                continue;
+            }
+            let m = (f() + 0.5) * 2f64.powi(-530);
+            let mut n = ab * 2f64.powi(500) * m / ce * 2f64.powi(-500);
+            for _ in 0..(f() * 3.0) as usize {
+                n = if f() < 0.5 {
+                    n.next_up()
+                } else {
+                    n.next_down()
+                };
+            }
+            let exact = sign_of(&((rat(a) - rat(b)) * rat(m) - (rat(c) - rat(e)) * rat(n)));
+            lost += usize::from(ab * m == ce * n && exact != 0);
+            assert_eq!(
+                sign2(a, b, m, c, e, n),
+                i32::from(exact),
+                "{a:e} {b:e} {m:e} {c:e} {e:e} {n:e}"
+            );
+        }
+        assert!(lost > 1000, "{lost} products equal as floats, not exactly");
+    }
 }
