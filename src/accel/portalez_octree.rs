@@ -183,16 +183,6 @@ impl PortalezOctree {
         )
     }
 
-    /// The closed box of a hierarchy node.
-    pub fn node_box(&self, k: usize) -> ([f64; 3], [f64; 3]) {
-        let n = self.nodes[k];
-        let s = 1u32 << (self.params.max_depth - n.level);
-        (
-            [0, 1, 2].map(|a| self.grid[a][n.at[a] as usize]),
-            [0, 1, 2].map(|a| self.grid[a][(n.at[a] + s) as usize]),
-        )
-    }
-
     /// The record of the leaf at word offset `addr`: (tCount, tOffset, leafIndex, nCount).
     #[inline]
     pub fn record(&self, addr: usize) -> [u32; 4] {
