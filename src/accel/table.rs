@@ -378,3 +378,102 @@ impl AccelKind {
             .ok_or_else(|| Error::unknown("accel", name, ACCELS))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::{BvhParams, ExactBvhParams, OctreeParams};
+    use crate::testing::{random_scene, Rng};
+
+    /// `memory` names every structure, with 0 bytes until it is built and then the bytes the
+    /// structure itself reports; `build` keeps the parameters given; `fields` and `defaults`
+    /// list each parameter under the name Python sets it by, with its value.
+    #[test]
+    fn the_table_reports_each_structure_and_its_parameters() {
+        let (_, tris) = random_scene(&mut Rng::xorshift(3), 3, 0.3);
+        let s = Structures::default();
+        let none: Vec<(String, usize)> = STRUCTURES.iter().map(|n| (n.to_string(), 0)).collect();
+        assert_eq!(s.memory(), none);
+        let bvh = s.get::<ReshetovBvh>(&tris).unwrap();
+        let octree = s.get::<PortalezOctree>(&tris).unwrap();
+        let exact = s.get::<ExactBvh>(&tris).unwrap();
+        let built = [
+            ("bvh", bvh.memory()),
+            ("octree", octree.memory().total),
+            ("exact_bvh", exact.memory()),
+        ];
+        assert!(built.iter().all(|&(_, bytes)| bytes > 0), "{built:?}");
+        let built: Vec<(String, usize)> = built.iter().map(|&(n, b)| (n.to_string(), b)).collect();
+        assert_eq!(s.memory(), built);
+
+        let bvh_params = BvhParams {
+            cost_ratio: 2.5,
+            max_leaf: 7,
+            bins: 9,
+            aperture: !BvhParams::default().aperture,
+        };
+        let octree_params = OctreeParams {
+            max_depth: 5,
+            leaf_size: 3,
+            balance: !OctreeParams::default().balance,
+        };
+        let exact_params = ExactBvhParams {
+            cost_ratio: 0.5,
+            max_leaf: 6,
+            bins: 11,
+            leaf_size: 2,
+        };
+        assert_eq!(
+            s.build::<ReshetovBvh>(&tris, bvh_params).unwrap().params(),
+            bvh_params
+        );
+        assert_eq!(
+            s.build::<PortalezOctree>(&tris, octree_params)
+                .unwrap()
+                .params(),
+            octree_params
+        );
+        assert_eq!(
+            s.build::<ExactBvh>(&tris, exact_params).unwrap().params(),
+            exact_params
+        );
+        use Param::{Bool, F64, U32};
+        let bvh_fields = |p: BvhParams| {
+            vec![
+                ("cost_ratio", F64(p.cost_ratio)),
+                ("max_leaf", U32(p.max_leaf)),
+                ("bins", U32(p.bins)),
+                ("aperture", Bool(p.aperture)),
+            ]
+        };
+        let octree_fields = |p: OctreeParams| {
+            vec![
+                ("max_depth", U32(p.max_depth)),
+                ("leaf_size", U32(p.leaf_size)),
+                ("balance", Bool(p.balance)),
+            ]
+        };
+        let exact_fields = |p: ExactBvhParams| {
+            vec![
+                ("cost_ratio", F64(p.cost_ratio)),
+                ("max_leaf", U32(p.max_leaf)),
+                ("bins", U32(p.bins)),
+                ("leaf_size", U32(p.leaf_size)),
+            ]
+        };
+        assert_eq!(ReshetovBvh::fields(&bvh_params), bvh_fields(bvh_params));
+        assert_eq!(
+            PortalezOctree::fields(&octree_params),
+            octree_fields(octree_params)
+        );
+        assert_eq!(ExactBvh::fields(&exact_params), exact_fields(exact_params));
+        assert_eq!(
+            Structures::defaults(),
+            vec![
+                ("bvh", bvh_fields(BvhParams::default())),
+                ("octree", octree_fields(OctreeParams::default())),
+                ("exact_bvh", exact_fields(ExactBvhParams::default())),
+            ]
+        );
+    }
+}

@@ -189,3 +189,78 @@ impl BoundaryLocator {
         None
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::{grid_scene, Rng};
+
+    /// Each side's grid as the GPU reads it (`side_grid`): its cells span the box's side
+    /// (lower corner, cells per unit length), it lists exactly the boundary faces that lie on
+    /// that side, each in the cell of its centroid (found from the exported numbers), and
+    /// `bytes` counts the starts and the entries.
+    #[test]
+    fn side_grids_list_the_boundary_faces_of_their_cells() {
+        let g = grid_scene(&mut Rng::xorshift(7), 4, 0.3, 0.2);
+        let mesh = &g.scene.mesh;
+        let locator = BoundaryLocator::build(mesh);
+        let [lo, hi] = mesh.bounds;
+        let mut bytes = 0;
+        for k in 0..6 {
+            let (axis, plane) = (k / 2, if k % 2 == 1 { hi[k / 2] } else { lo[k / 2] });
+            let axes = [(axis + 1) % 3, (axis + 2) % 3];
+            let side = locator.side_grid(k);
+            assert_eq!(side.lo, axes.map(|a| lo[a]), "side {k}");
+            assert_eq!(
+                side.start.len(),
+                side.dims[0] * side.dims[1] + 1,
+                "side {k}"
+            );
+            assert!(
+                side.dims[0] > 1 && side.dims[1] > 1,
+                "side {k}: {:?}",
+                side.dims
+            );
+            for j in 0..2 {
+                // inv_cell = dims / extent, one rounding.
+                let spanned = side.inv_cell[j] * (hi[axes[j]] - lo[axes[j]]);
+                let cells = side.dims[j] as f64;
+                assert!(
+                    (spanned - cells).abs() <= 4.0 * f64::EPSILON * cells,
+                    "side {k}"
+                );
+            }
+            let mut on_side = Vec::new();
+            for (t, tet) in mesh.tets.iter().enumerate() {
+                for (i, f) in OUTWARD_FACES.iter().enumerate() {
+                    let p = f.map(|v| mesh.points[tet[v] as usize]);
+                    if mesh.links[t][i] == BOUNDARY && p.iter().all(|q| q[axis] == plane) {
+                        on_side.push(((t as u32, i as u8), p));
+                    }
+                }
+            }
+            assert!(on_side.len() > 4, "side {k}: {} faces", on_side.len());
+            let mut listed = side.faces.clone();
+            listed.sort();
+            listed.dedup();
+            let mut want: Vec<(u32, u8)> = on_side.iter().map(|&(f, _)| f).collect();
+            want.sort();
+            assert_eq!(listed, want, "side {k}");
+            for (face, p) in on_side {
+                let centre = [0, 1].map(|j| (p[0][axes[j]] + p[1][axes[j]] + p[2][axes[j]]) / 3.0);
+                let [cx, cy] = [0, 1].map(|j| {
+                    (((centre[j] - side.lo[j]) * side.inv_cell[j]) as usize).min(side.dims[j] - 1)
+                });
+                let c = cx + side.dims[0] * cy;
+                let cell = &side.faces[side.start[c] as usize..side.start[c + 1] as usize];
+                assert!(
+                    cell.contains(&face),
+                    "side {k}: {face:?} not in its centre's cell"
+                );
+            }
+            bytes += side.start.len() * 4
+                + side.faces.len() * std::mem::size_of::<(u32, u8, [[f64; 2]; 3])>();
+        }
+        assert_eq!(locator.bytes(), bytes);
+    }
+}

@@ -186,3 +186,48 @@ impl GridLocator {
             .map_or(Located::Outside, Located::Inside)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::{grid_scene, Rng};
+
+    /// The grid as the GPU reads it (`parts`): its lower corner is the domain's, its cells
+    /// span the domain (cells per unit length times the extent is the cell count), one seed per
+    /// cell, and a cell holding a tet's centroid (found from the exported numbers) is seeded
+    /// with a tet whose centroid lies in that cell too.
+    #[test]
+    fn exported_grid_seeds_each_cell_with_a_tet_of_that_cell() {
+        let g = grid_scene(&mut Rng::xorshift(5), 6, 0.3, 0.2);
+        let mesh = &g.scene.mesh;
+        let grid = GridLocator::build(mesh);
+        let (lo, inv_cell, dims, seeds) = grid.parts();
+        let [mlo, mhi] = mesh.bounds;
+        assert_eq!(lo, mlo);
+        assert!(dims.iter().all(|&d| (2..=128).contains(&d)), "{dims:?}");
+        assert_eq!(seeds.len(), dims[0] * dims[1] * dims[2]);
+        for a in 0..3 {
+            let spanned = inv_cell[a] * (mhi[a] - mlo[a]);
+            let cells = dims[a] as f64;
+            assert!(
+                (spanned - cells).abs() <= 4.0 * f64::EPSILON * cells,
+                "axis {a}"
+            );
+        }
+        let cell_of = |t: usize| {
+            let mut c = [0.0; 3];
+            for &v in &mesh.tets[t] {
+                for (ca, p) in c.iter_mut().zip(mesh.points[v as usize]) {
+                    *ca += 0.25 * p;
+                }
+            }
+            let i = [0, 1, 2].map(|a| (((c[a] - lo[a]) * inv_cell[a]) as usize).min(dims[a] - 1));
+            i[0] + dims[0] * (i[1] + dims[1] * i[2])
+        };
+        assert!(seeds.iter().all(|&s| (s as usize) < mesh.len()));
+        for t in 0..mesh.len() {
+            let c = cell_of(t);
+            assert_eq!(cell_of(seeds[c] as usize), c, "tet {t}'s cell {c}");
+        }
+    }
+}

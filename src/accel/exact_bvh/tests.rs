@@ -15,6 +15,7 @@ use crate::traverse::Method;
 /// Every triangle sits in exactly one leaf, of at most max_leaf triangles, and the box of the
 /// slot naming the leaf holds its corners; every inner node's slot box holds its children's
 /// boxes; unused slots have the empty box; for several parameter sets, and for no triangles.
+/// `shape` and `memory` report what this walk over the nodes counts and the buffers hold.
 #[test]
 fn wide_tree_holds_every_triangle_once() {
     let tris = triangle_soup(&mut Rng::xorshift(5));
@@ -38,17 +39,21 @@ fn wide_tree_holds_every_triangle_once() {
         let inside = |p: [f64; 3], node: &Node8, s: usize| {
             (0..3).all(|k| node.bounds[k][s] as f64 <= p[k] && p[k] <= node.bounds[3 + k][s] as f64)
         };
-        let (mut inner, mut stack) = (0, vec![0usize]);
-        while let Some(k) = stack.pop() {
+        let (mut inner, mut stack) = (0, vec![(0usize, 1usize)]);
+        let (mut leaves, mut children, mut deepest) = (0, 0, 0);
+        while let Some((k, depth)) = stack.pop() {
             inner += 1;
             let node = &bvh.nodes[k];
             for s in 0..WIDTH {
+                children += usize::from(node.child[s] != EMPTY);
                 match Child::of(node.child[s]) {
                     Child::Empty => {
                         assert_eq!(node.bounds[0][s], f32::MAX, "node {k} slot {s}");
                         assert_eq!(node.bounds[3][s], -f32::MAX, "node {k} slot {s}");
                     }
                     Child::Leaf { first, count } => {
+                        leaves += 1;
+                        deepest = deepest.max(depth);
                         let most = params.max_leaf.max(params.leaf_size);
                         assert!(count <= most, "{params:?}: leaf of {count}");
                         for j in first as usize..(first + count) as usize {
@@ -71,12 +76,27 @@ fn wide_tree_holds_every_triangle_once() {
                             let hi = [0, 1, 2].map(|a| child.bounds[3 + a][cs] as f64);
                             assert!(inside(lo, node, s) && inside(hi, node, s));
                         }
-                        stack.push(c as usize);
+                        stack.push((c as usize, depth + 1));
                     }
                 }
             }
         }
         assert_eq!(inner, bvh.nodes.len(), "every node reached once");
+        let mean = children as f64 / inner as f64;
+        assert_eq!(bvh.shape(), (leaves, mean, deepest), "{params:?}");
+        assert!(
+            leaves
+                >= tris
+                    .len()
+                    .div_ceil(params.max_leaf.max(params.leaf_size) as usize)
+        );
+        assert_eq!(
+            bvh.memory(),
+            std::mem::size_of_val(&bvh.nodes[..])
+                + std::mem::size_of_val(&bvh.order[..])
+                + std::mem::size_of_val(&bvh.triangles[..]),
+            "{params:?}"
+        );
         assert!(
             seen.iter().all(|&n| n == 1),
             "{params:?}: a triangle not in one leaf"
@@ -90,6 +110,8 @@ fn wide_tree_holds_every_triangle_once() {
     let empty = ExactBvh::build(&[], ExactBvhParams::default()).unwrap();
     assert_eq!(empty.nodes.len(), 1);
     assert!(empty.nodes[0].child.iter().all(|&c| c == EMPTY));
+    assert_eq!(empty.shape(), (0, 0.0, 0));
+    assert_eq!(empty.memory(), std::mem::size_of::<Node8>());
     let too_big = ExactBvhParams {
         max_leaf: MAX_LEAF + 1,
         ..Default::default()

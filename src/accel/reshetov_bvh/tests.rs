@@ -233,7 +233,8 @@ fn far_from_float32(what: &str, build: &Builds) {
 
 /// Every triangle sits in exactly one leaf, whose float32 box holds its corners; every inner
 /// node's box holds its children's; leaves are no larger than max_leaf; for several
-/// parameter sets, degenerate triangles included.
+/// parameter sets, degenerate triangles included. `shape` and `memory` report what this walk
+/// over the nodes counts and the buffers hold.
 #[test]
 fn bvh_tree_holds_every_triangle_once() {
     // Zero-area triangles, a point, and many copies of one triangle (centres all equal).
@@ -258,10 +259,13 @@ fn bvh_tree_holds_every_triangle_once() {
         let inside = |p: [f64; 3], n: &BvhNode| {
             (0..3).all(|k| n.lo[k] as f64 <= p[k] && p[k] <= n.hi[k] as f64)
         };
-        let mut stack = vec![0usize];
-        while let Some(k) = stack.pop() {
+        let mut stack = vec![(0usize, 1usize)];
+        let (mut leaves, mut deepest) = (0, 0);
+        while let Some((k, depth)) = stack.pop() {
             let node = bvh.nodes[k];
+            deepest = deepest.max(depth);
             if node.count > 0 {
+                leaves += 1;
                 // 40 copies of one triangle share a centre: a leaf may exceed max_leaf only there.
                 let range = node.first as usize..(node.first + node.count) as usize;
                 for j in range {
@@ -285,7 +289,7 @@ fn bvh_tree_holds_every_triangle_once() {
                         inside(child.lo.map(|x| x as f64), &node)
                             && inside(child.hi.map(|x| x as f64), &node)
                     );
-                    stack.push(c);
+                    stack.push((c, depth + 1));
                 }
             }
         }
@@ -293,10 +297,17 @@ fn bvh_tree_holds_every_triangle_once() {
             seen.iter().all(|&s| s == 1),
             "{params:?}: every triangle once"
         );
-        let (leaves, depth) = bvh.shape();
+        assert_eq!(bvh.shape(), (leaves, deepest), "{params:?}");
         assert!(
-            leaves * params.max_leaf as usize >= tris.len() && depth < 64,
-            "{leaves} leaves, depth {depth}"
+            leaves * params.max_leaf as usize >= tris.len() && deepest < 64,
+            "{leaves} leaves, depth {deepest}"
+        );
+        assert_eq!(
+            bvh.memory(),
+            std::mem::size_of_val(&bvh.nodes[..])
+                + std::mem::size_of_val(&bvh.order[..])
+                + std::mem::size_of_val(&bvh.triangles[..]),
+            "{params:?}"
         );
     }
     // The empty scene: a root that no ray enters.

@@ -322,7 +322,20 @@ fn parity_is_that_of_the_fewest_crossings() {
         let dist = fewest_crossings(mesh);
         for (t, &d) in dist.iter().enumerate() {
             assert_eq!(parity.odd(t as u32), d % 2 == 1, "tet {t}: {d} crossings");
+            // The GPU's 32-bit words: tet t is bit t % 32 of word t / 32.
+            let bit = parity.word32(t / 32) >> (t % 32) & 1;
+            assert_eq!(bit, u32::from(d % 2 == 1), "tet {t}: word32");
         }
+        // Bits past the last tet are clear, words past the last are 0; one u64 per 64 tets.
+        let words = dist.len().div_ceil(32);
+        for t in dist.len()..words * 32 + 64 {
+            assert_eq!(
+                parity.word32(t / 32) >> (t % 32) & 1,
+                0,
+                "tet {t} past the end"
+            );
+        }
+        assert_eq!(parity.bytes(), dist.len().div_ceil(64) * 8);
     }
 }
 
