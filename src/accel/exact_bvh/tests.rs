@@ -809,8 +809,8 @@ fn two_rays_walked_in_turn_answer_as_one_ray_walks() {
 /// plane an axis or diagonal plane: rays through vertices, along edges, in faces' planes,
 /// exactly), from origins inside (on a vertex, an edge, a face), outside and far from the
 /// box, towards every grid point and eight dyadic offsets of it, some directions scaled by
-/// 1e-30 and 1e30, with and without windows; closest hits in both precisions, any hits and
-/// all hits. The default (packets on) takes the fan wherever it builds; the batches are sized
+/// 1e-30 and 1e30, with and without windows; and from inside, rays whose directions all lie
+/// in one plane or are one direction; closest hits in both precisions, any hits and all hits. The default (packets on) takes the fan wherever it builds; the batches are sized
 /// so that it is offered.
 #[test]
 fn the_fan_answers_as_one_ray_walks() {
@@ -848,18 +848,36 @@ fn the_fan_answers_as_one_ray_walks() {
         [e, e, e],
         [-e / 2.0, e / 4.0, 3.0 * e / 8.0],
     ];
-    let (mut built, mut always, mut hits) = (0, 0, 0);
-    for o in origins {
-        let mut rays = Vec::new();
-        for q in &g.pts {
-            for off in offsets {
-                let d = [0, 1, 2].map(|k| q[k] + off[k] - o[k]);
-                let scale = [1.0, 1e-30, 1.0, 1e30, 1.0][rays.len() % 5];
-                if d != [0.0; 3] {
-                    rays.push((o, d.map(|x| x * scale)));
+    let mut sets: Vec<([f64; 3], Vec<([f64; 3], [f64; 3])>)> = origins
+        .into_iter()
+        .map(|o| {
+            let mut rays = Vec::new();
+            for q in &g.pts {
+                for off in offsets {
+                    let d = [0, 1, 2].map(|k| q[k] + off[k] - o[k]);
+                    let scale = [1.0, 1e-30, 1.0, 1e30, 1.0][rays.len() % 5];
+                    if d != [0.0; 3] {
+                        rays.push((o, d.map(|x| x * scale)));
+                    }
                 }
             }
-        }
+            (o, rays)
+        })
+        .collect();
+    // Directions that span no area on a side of the fan's cube (`Fan::side`'s cells along
+    // one axis or none): all in the plane z = 0.5 through the origin (on the x and y sides a
+    // segment, along u on one and v on the other), and one direction repeated (a point).
+    let o = [0.375, 0.625, 0.5];
+    let flat = (0..1600)
+        .map(|k| {
+            let a = k as f64 * 0.0039;
+            (o, [a.cos(), a.sin(), 0.0])
+        })
+        .collect();
+    sets.push((o, flat));
+    sets.push((o, vec![(o, [0.3125, -0.25, 0.125]); 1600]));
+    let (mut built, mut always, mut hits) = (0, 0, 0);
+    for (o, rays) in sets {
         let n = rays.len();
         assert!(
             n >= FAN_MIN_RAYS && 2 * n >= bvh.triangles.len(),
