@@ -230,4 +230,38 @@ mod tests {
             assert_eq!(cell_of(seeds[c] as usize), c, "tet {t}'s cell {c}");
         }
     }
+
+    /// The last resort after the walk's guard, `scan`: a tet's centroid lies in that tet
+    /// alone, a mesh vertex only in tets it is a corner of (found on their faces, where
+    /// `orient` is 0), and a point beyond the domain box in none.
+    #[test]
+    fn the_scan_finds_the_tet_holding_a_point() {
+        let g = grid_scene(&mut Rng::xorshift(9), 3, 0.3, 0.2);
+        let mesh = &g.scene.mesh;
+        let grid = GridLocator::build(mesh);
+        for t in 0..mesh.len() {
+            let v = mesh.tet_points(t as u32);
+            let c = [0, 1, 2].map(|a| (v[0][a] + v[1][a] + v[2][a] + v[3][a]) / 4.0);
+            assert_eq!(
+                grid.scan(mesh, c),
+                Located::Inside(t as u32),
+                "centroid of tet {t}"
+            );
+        }
+        for (k, &p) in mesh.points.iter().enumerate() {
+            let Located::Inside(t) = grid.scan(mesh, p) else {
+                panic!("vertex {k} not found");
+            };
+            assert!(
+                mesh.tets[t as usize].contains(&(k as u32)),
+                "vertex {k} in tet {t}"
+            );
+        }
+        let [lo, hi] = mesh.bounds;
+        for a in 0..3 {
+            let mut p = [0, 1, 2].map(|b| (lo[b] + hi[b]) / 2.0);
+            p[a] = hi[a] + (hi[a] - lo[a]);
+            assert_eq!(grid.scan(mesh, p), Located::Outside, "beyond axis {a}");
+        }
+    }
 }
