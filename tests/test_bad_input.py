@@ -116,6 +116,10 @@ ERRORS = [
     ("threads-occluded", lambda s, o, d: s.occluded(o, d, threads=10**9), ValueError, "threads"),
     ("threads-contains", lambda s, o, d: s.contains(o, threads="2"), TypeError, "threads"),
     ("threads-closest", lambda s, o, d: s.closest_points(o, threads=0), ValueError, "threads"),
+    # Beyond the mesh's coordinate limit, squared distances overflow (answered -1 and inf).
+    ("closest-huge", lambda s, o, d: s.closest_points([[0, 0, 2e100]]), ValueError, "beyond"),
+    ("distance-huge", lambda s, o, d: s.distance([[0, 0, -1e200]]), ValueError, "beyond"),
+    ("signed-huge", lambda s, o, d: s.signed_distance([[1e300, 0, 0]]), ValueError, "beyond"),
     (
         "threads-native",
         lambda s, o, d: tetrace._native.RayRequest(

@@ -151,6 +151,26 @@ def test_icosphere_matches_the_exact_brute_force():
     assert (radius < inscribed).sum() > 10 and (radius > 1).sum() > 10
 
 
+@pytest.mark.parametrize("power", [-300, -200, 200, 300])
+def test_distances_hold_at_every_scale_a_mesh_may_have(power):
+    """The icosphere and its points scaled by 2^power (exactly: the brute force is the same
+    up to that factor), as large as 2e90 and as small as 5e-91, inside the coordinates a mesh
+    may have (``io.MAX_COORDINATE``). Ericson's region tests multiply four coordinate
+    differences: from about 1e77 on they overflowed, and a point over a face was given the
+    nearest point of an edge (1.03 times the distance at 1e80); below about 1e-77 they
+    underflowed."""
+    m = trimesh.creation.icosphere(1)
+    s = 2.0**power
+    v, f = np.asarray(m.vertices, np.float64) * s, np.asarray(m.faces)
+    scene = tetrace.Scene.from_mesh((v, f))
+    rng = np.random.default_rng(18)
+    p = np.round(rng.uniform(-1.6, 1.6, (60, 3)) * 256) / 256 * s
+    p = np.vstack([p, v[f[:10]].mean(axis=1) * 1.25])  # over faces, where it failed
+    r = scene.closest_points(p)
+    _check_against_brute_force(r, p, v[f])
+    assert np.isfinite(r.distance).all() and (r.triangle >= 0).all()
+
+
 def test_triangles_without_area_are_as_near_as_their_segments():
     """Zero-area triangles beside an icosphere (two corners at one point, in each of the three
     places; three on a line; three at one point), points around them: the brute force

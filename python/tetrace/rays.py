@@ -219,9 +219,10 @@ def _check_threads(threads):
     _native.check_threads(threads)
 
 
-def _query_points(points):
+def _query_points(points, *, bounded=False):
     """Query points as a flat ``(N, 3)`` float64 array and their leading shape; a clear
-    error for anything else or for a NaN/inf coordinate."""
+    error for anything else or for a NaN/inf coordinate, and with ``bounded`` for a
+    coordinate beyond ``io.MAX_COORDINATE`` (squared distances from there overflow)."""
     p = np.asarray(points)
     if p.dtype.kind not in "biuf":
         raise TypeError(f"points must be real numbers, got dtype {p.dtype}")
@@ -235,6 +236,17 @@ def _query_points(points):
             f"{int(bad.sum())} of {len(flat)} points have a NaN/inf coordinate "
             f"(first: point {k}, {flat[k].tolist()})"
         )
+    if bounded:
+        from .io import MAX_COORDINATE
+
+        big = (np.abs(flat) > MAX_COORDINATE).any(axis=1)
+        if big.any():
+            k = int(np.argmax(big))
+            raise ValueError(
+                f"{int(big.sum())} of {len(flat)} points have coordinates beyond "
+                f"+-{MAX_COORDINATE:g} (first: point {k}, {flat[k].tolist()}): their squared "
+                f"distances would overflow float64; rescale the scene and the points"
+            )
     return flat, p.shape[:-1]
 
 

@@ -662,9 +662,10 @@ class Scene:
         Raises
         ------
         ValueError
-            A point has a NaN or infinite coordinate, or ``points`` is not ``(..., 3)``.
+            A point has a NaN or infinite coordinate or one beyond
+            ``tetrace.io.MAX_COORDINATE`` (as the mesh's), or ``points`` is not ``(..., 3)``.
         """
-        flat, shape = _query_points(points)
+        flat, shape = _query_points(points, bounded=True)
         _check_threads(threads)
         return point_queries.closest_points(self, flat, shape, threads)
 
@@ -710,10 +711,10 @@ class Scene:
         Raises
         ------
         ValueError
-            ``mode`` is not one of the above, a point has a NaN or infinite coordinate, or
-            ``points`` is not ``(..., 3)``.
+            ``mode`` is not one of the above, a point has a NaN or infinite coordinate or
+            one beyond ``tetrace.io.MAX_COORDINATE``, or ``points`` is not ``(..., 3)``.
         """
-        flat, shape = _query_points(points)
+        flat, shape = _query_points(points, bounded=True)
         _check_threads(threads)
         mode = point_queries.contains_mode(self, mode)
         d = self.distance(flat, threads=threads).reshape(shape)

@@ -6,6 +6,7 @@
 //! triangles as near as rounding can tell apart: the smaller id).
 
 use super::{BvhNode, ReshetovBvh};
+use crate::geom::real::{exponent, times_pow2};
 use crate::query::gather::Tri;
 
 /// The nearest point of the scene to a query point.
@@ -39,17 +40,35 @@ fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
+/// Largest components of the edges and of the offsets that [`closest_on_triangle`] takes as
+/// they are, 2^-200 to 2^200: its products of four (2^±800, times a few) neither overflow
+/// nor leave the normal numbers.
+const IN_RANGE: std::ops::RangeInclusive<f64> =
+    f64::from_bits((1023 - 200) << 52)..=f64::from_bits((1023 + 200) << 52);
+
 /// The point of triangle `tri` nearest `p` as barycentrics (u, v) of b and c (Ericson's
 /// Voronoi-region test). A triangle without area (its face region empty) gives the nearest
 /// point of its three edges, an edge of no length skipped.
 pub fn closest_on_triangle(p: [f64; 3], tri: &Tri) -> (f64, f64) {
     let [a, b, c] = *tri;
-    let (ab, ac, ap) = (sub(b, a), sub(c, a), sub(p, a));
+    // The region tests multiply two products of an edge and a point's offset (v = d d), the
+    // fourth power of the scale: from about 1e77 on they overflowed (inf − inf, NaN), and a
+    // point over a face of a mesh that large was given the nearest point of an edge. Every
+    // d is an edge times an offset, so scaling the edges by one power of two and the offsets
+    // by another (exactly) scales all d alike and leaves every test and quotient unchanged.
+    let (mut ab, mut ac) = (sub(b, a), sub(c, a));
+    let (mut ap, mut bp, mut cp) = (sub(p, a), sub(p, b), sub(p, c));
+    let largest = |vs: &[[f64; 3]]| vs.iter().flatten().fold(0f64, |m, x| m.max(x.abs()));
+    let (edges, offsets) = (largest(&[ab, ac]), largest(&[ap, bp, cp]));
+    if !(IN_RANGE.contains(&edges) && IN_RANGE.contains(&offsets)) {
+        let e = [edges, offsets].map(|m| if m > 0.0 { exponent(m) } else { 0 });
+        [ab, ac] = [ab, ac].map(|v| v.map(|x| times_pow2(x, -e[0])));
+        [ap, bp, cp] = [ap, bp, cp].map(|v| v.map(|x| times_pow2(x, -e[1])));
+    }
     let (d1, d2) = (dot(ab, ap), dot(ac, ap));
     if d1 <= 0.0 && d2 <= 0.0 {
         return (0.0, 0.0); // vertex a
     }
-    let bp = sub(p, b);
     let (d3, d4) = (dot(ab, bp), dot(ac, bp));
     if d3 >= 0.0 && d4 <= d3 {
         return (1.0, 0.0); // vertex b
@@ -61,7 +80,6 @@ pub fn closest_on_triangle(p: [f64; 3], tri: &Tri) -> (f64, f64) {
     if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 && d1 - d3 > 0.0 {
         return (d1 / (d1 - d3), 0.0); // edge ab
     }
-    let cp = sub(p, c);
     let (d5, d6) = (dot(ab, cp), dot(ac, cp));
     if d6 >= 0.0 && d5 <= d6 {
         return (0.0, 1.0); // vertex c
@@ -79,7 +97,10 @@ pub fn closest_on_triangle(p: [f64; 3], tri: &Tri) -> (f64, f64) {
     if denom > 0.0 && denom.is_finite() {
         return (vb / denom, vc / denom); // inside the face
     }
-    // No area (or a region test that rounding left undecided): the nearest of the edges.
+    // No area (or a region test that rounding left undecided): the nearest of the edges, in
+    // the caller's coordinates (each quotient below is of one scale's squares).
+    let (ab, ac, bp) = (sub(b, a), sub(c, a), sub(p, b));
+    let (d1, d2) = (dot(ab, sub(p, a)), dot(ac, sub(p, a)));
     let seg = |s: f64| s.clamp(0.0, 1.0);
     let on_ab = seg(if dot(ab, ab) > 0.0 {
         d1 / dot(ab, ab)
@@ -225,7 +246,10 @@ mod tests {
     }
 
     /// On a right triangle with dyadic corners the regions are exact: each vertex, each edge
-    /// and the face region give the analytic nearest point.
+    /// and the face region give the analytic nearest point, at every scale a mesh may have
+    /// (powers of two from 2^-500 to 2^300 ≈ 2e90, so the scaled answer is exact too; from
+    /// about 1e77 on the region tests' products overflowed, and below about 1e-77 they
+    /// underflowed), on the triangle alone and found by the BVH beside a farther one.
     #[test]
     fn closest_point_regions_are_the_analytic_ones() {
         let tri = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
@@ -238,9 +262,19 @@ mod tests {
             ([1.0, 1.0, 2.0], [0.5, 0.5, 0.0]),
             ([0.25, 0.5, -4.0], [0.25, 0.5, 0.0]),
         ];
-        for (p, want) in cases {
-            let uv = closest_on_triangle(p, &tri);
-            assert_eq!(point_at(&tri, uv), want, "{p:?}");
+        let mut stack = Vec::new();
+        for e in [-500, -300, -200, -100, 0, 100, 200, 260, 300] {
+            let s = |v: [f64; 3]| v.map(|x| times_pow2(x, e));
+            let tri = tri.map(s);
+            let far = [[8.0, 8.0, 8.0], [9.0, 8.0, 8.0], [8.0, 9.0, 8.0]].map(s);
+            let bvh = ReshetovBvh::build(&[tri, far], BvhParams::default()).unwrap();
+            for (p, want) in cases {
+                let (p, want) = (s(p), s(want));
+                let uv = closest_on_triangle(p, &tri);
+                assert_eq!(point_at(&tri, uv), want, "2^{e}: {p:?}");
+                let got = bvh.nearest(p, &mut stack);
+                assert_eq!((got.triangle, got.point), (0, want), "2^{e}: {p:?}");
+            }
         }
         // Zero area: the nearest point of its edges (a segment from 0 to (2, 0, 0)).
         let flat = [[0.0; 3], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]];
