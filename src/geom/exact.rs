@@ -1030,4 +1030,71 @@ mod tests {
         }
         assert!(lost > 1000, "{lost} products equal as floats, not exactly");
     }
+
+    /// `sign2`'s stage between the filter and rationals: where both differences and both
+    /// products are exact, the sign is the products' order. Products a few units apart out
+    /// of 2^51 to 2^53 (the filter, 2ε of their sum, cannot tell them apart), at scales moved
+    /// by powers of two; and differences that round, whose exact sign is only that of the
+    /// rounding error ((a − b)·1 against fl(a − b)·1: equal as floats), which only TwoSum's
+    /// error tells from an exact difference.
+    #[test]
+    fn sign2_is_exact_where_the_float_products_are_close() {
+        let mut x = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move |n: u64| {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x % n
+        };
+        let exact = |a: f64, b: f64, m: f64, c: f64, e: f64, n: f64| {
+            sign_of(&((rat(a) - rat(b)) * rat(m) - (rat(c) - rat(e)) * rat(n))) as i32
+        };
+        let (mut close, mut rounded) = (0, 0);
+        for k in 0..20_000 {
+            // X Y against X Y + d, d in -4..=4, each a float (checked exactly).
+            let (big, y) = ((1u64 << 25) + next(1 << 25), (1u64 << 26) + next(1 << 26));
+            let d = next(9) as i64 - 4;
+            let prod = (big * y) as i64 + d;
+            let (s, t) = (next(60) as i32 - 30, next(60) as i32 - 30);
+            let scaled = |v: f64, e: i32| v * 2f64.powi(e);
+            let (a, b, m) = (scaled(big as f64, s), scaled(0.0, s), scaled(y as f64, t));
+            let (c, e, n) = (scaled(prod as f64, s), scaled(0.0, s), scaled(1.0, t));
+            if prod as f64 as i64 != prod {
+                continue;
+            }
+            let (a, b, m, c, e, n) = if k % 2 == 0 {
+                (a, b, m, c, e, n)
+            } else {
+                (c, e, n, a, b, m)
+            };
+            let want = exact(a, b, m, c, e, n);
+            close += usize::from(want != 0);
+            assert_eq!(
+                sign2(a, b, m, c, e, n),
+                want,
+                "{a:e} {b:e} {m:e} {c:e} {e:e} {n:e}"
+            );
+            assert_eq!(sign2(-a, -b, m, -c, -e, n), -want, "negated, case {k}");
+        }
+        for k in 0..20_000 {
+            // a with bits down to 2^-22, b with bits below a's last: a − b rounds.
+            let a =
+                ((1u64 << 30) + next(1 << 30)) as f64 + next(1 << 22) as f64 / (1u64 << 22) as f64;
+            let b = (next(1 << 40) as f64 + 1.0) / (1u64 << 62) as f64 * [1.0, -1.0][k % 2];
+            let ab = a - b;
+            let (m, c, e, n) = (1.0, ab, 0.0, 1.0);
+            let want = exact(a, b, m, c, e, n);
+            rounded += usize::from(want != 0);
+            assert_eq!(
+                sign2(a, b, m, c, e, n),
+                want,
+                "{a:e} {b:e} {m:e} {c:e} {e:e} {n:e}"
+            );
+            assert_eq!(sign2(c, e, n, a, b, m), -want, "swapped, case {k}");
+        }
+        assert!(
+            close > 5_000 && rounded > 10_000,
+            "{close} close, {rounded} rounded"
+        );
+    }
 }
