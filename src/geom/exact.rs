@@ -1076,11 +1076,38 @@ mod tests {
             );
             assert_eq!(sign2(-a, -b, m, -c, -e, n), -want, "negated, case {k}");
         }
-        for k in 0..20_000 {
-            // a with bits down to 2^-22, b with bits below a's last: a − b rounds.
-            let a =
-                ((1u64 << 30) + next(1 << 30)) as f64 + next(1 << 22) as f64 / (1u64 << 22) as f64;
-            let b = (next(1 << 40) as f64 + 1.0) / (1u64 << 62) as f64 * [1.0, -1.0][k % 2];
+        for k in 0..30_000 {
+            // a with bits down to 2^-22, b with bits below a's last: a − b rounds. Every third
+            // a − b lies halfway between two floats (a = 2^j − its ulp, b = −2 ulps: rounded
+            // to even, 2^j, with each of TwoSum's terms a half-ulp); every third b ≈ a/(1 − a),
+            // so that fl(a − b)/fl(fl(a − b) − a) comes back near a. A planted `s + bv` for
+            // `s − bv` (and `/`) made TwoSum's error 0 there (found by an exhaustive search
+            // of 8-bit floats, then built in float64).
+            let (a, b) = match k % 3 {
+                0 => {
+                    let a = ((1u64 << 30) + next(1 << 30)) as f64
+                        + next(1 << 22) as f64 / (1u64 << 22) as f64;
+                    let b = (next(1 << 40) as f64 + 1.0) / (1u64 << 62) as f64;
+                    (a, b * [1.0, -1.0][k % 2])
+                }
+                1 => {
+                    let j = next(40) as i32 - 20;
+                    let ulp = 2f64.powi(j - 53);
+                    (2f64.powi(j) - ulp, -2.0 * ulp)
+                }
+                _ => {
+                    let a = 0.05 + 0.9 * next(1 << 53) as f64 / (1u64 << 53) as f64;
+                    let mut b = a / (1.0 - a);
+                    for _ in 0..next(7) {
+                        b = if next(2) == 0 {
+                            b.next_up()
+                        } else {
+                            b.next_down()
+                        };
+                    }
+                    (a, b)
+                }
+            };
             let ab = a - b;
             let (m, c, e, n) = (1.0, ab, 0.0, 1.0);
             let want = exact(a, b, m, c, e, n);
@@ -1091,9 +1118,17 @@ mod tests {
                 "{a:e} {b:e} {m:e} {c:e} {e:e} {n:e}"
             );
             assert_eq!(sign2(c, e, n, a, b, m), -want, "swapped, case {k}");
+            // The same against (1/2 − 1)·(−2 fl(a − b)): a difference of two numbers whose
+            // TwoSum steps divide without remainder too (a planted `s / bv` takes the first
+            // for exact as well, where fl(a − b) − 0 gave up dividing by 0).
+            assert_eq!(
+                sign2(a, b, m, 0.5, 1.0, -2.0 * ab),
+                want,
+                "halves, case {k}"
+            );
         }
         assert!(
-            close > 5_000 && rounded > 10_000,
+            close > 5_000 && rounded > 15_000,
             "{close} close, {rounded} rounded"
         );
     }
