@@ -848,7 +848,7 @@ fn the_fan_answers_as_one_ray_walks() {
         [e, e, e],
         [-e / 2.0, e / 4.0, 3.0 * e / 8.0],
     ];
-    let mut sets: Vec<([f64; 3], Vec<([f64; 3], [f64; 3])>)> = origins
+    let mut sets: Vec<([f64; 3], Vec<crate::testing::Ray6>)> = origins
         .into_iter()
         .map(|o| {
             let mut rays = Vec::new();
