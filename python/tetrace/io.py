@@ -316,6 +316,20 @@ def unreadable_reason(path) -> str | None:
 MAX_COORDINATE = 1e100
 
 
+def beyond_max_coordinate(rows: np.ndarray, nouns: str, noun: str) -> str | None:
+    """Where ``(N, 3)`` float64 ``rows`` have a coordinate beyond :data:`MAX_COORDINATE`,
+    how many and the first ("3 of 4 vertices have coordinates beyond +-1e+100, first at
+    vertex 1 [...]"); None where none has."""
+    big = (np.abs(rows) > MAX_COORDINATE).any(axis=1)
+    if not big.any():
+        return None
+    i = int(np.argmax(big))
+    return (
+        f"{int(big.sum())} of {len(rows)} {nouns} have coordinates beyond "
+        f"+-{MAX_COORDINATE:g}, first at {noun} {i} {rows[i].tolist()}"
+    )
+
+
 def _validate(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
     """Check ``(vertices, faces)`` arrays (see :func:`load_triangles`) and convert them."""
     vertices = np.asarray(vertices)
@@ -337,14 +351,11 @@ def _validate(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
             f"{int(bad.sum())} of {len(vertices)} vertices have non-finite "
             f"coordinates (NaN or inf), first at vertex {int(np.argmax(bad))}"
         )
-    big = (np.abs(vertices) > MAX_COORDINATE).any(axis=1)
-    if big.any():
-        i = int(np.argmax(big))
+    big = beyond_max_coordinate(vertices, "vertices", "vertex")
+    if big:
         raise MeshingError(
-            f"{int(big.sum())} of {len(vertices)} vertices have coordinates beyond "
-            f"+-{MAX_COORDINATE:g}, first at vertex {i} {vertices[i].tolist()}: exact "
-            f"orientation tests multiply three coordinates, which would overflow float64; "
-            f"rescale the mesh"
+            f"{big}: exact orientation tests multiply three coordinates, which would "
+            f"overflow float64; rescale the mesh"
         )
     # Compare before converting: a huge uint64 would wrap to a negative int64.
     if faces.dtype.kind == "i" and faces.min() < 0:

@@ -237,15 +237,13 @@ def _query_points(points, *, bounded=False):
             f"(first: point {k}, {flat[k].tolist()})"
         )
     if bounded:
-        from .io import MAX_COORDINATE
+        from .io import beyond_max_coordinate
 
-        big = (np.abs(flat) > MAX_COORDINATE).any(axis=1)
-        if big.any():
-            k = int(np.argmax(big))
+        big = beyond_max_coordinate(flat, "points", "point")
+        if big:
             raise ValueError(
-                f"{int(big.sum())} of {len(flat)} points have coordinates beyond "
-                f"+-{MAX_COORDINATE:g} (first: point {k}, {flat[k].tolist()}): their squared "
-                f"distances would overflow float64; rescale the scene and the points"
+                f"{big}: their squared distances would overflow float64; rescale the scene "
+                f"and the points"
             )
     return flat, p.shape[:-1]
 
