@@ -128,6 +128,7 @@ def test_import_tetrace_loads_only_the_library():
         "tetrace.errors",
         "tetrace.gpu",
         "tetrace.hits",
+        "tetrace.io",
         "tetrace.memory",
         "tetrace.names",
         "tetrace.point_queries",
@@ -136,6 +137,21 @@ def test_import_tetrace_loads_only_the_library():
     }
     assert loaded <= allowed, f"import tetrace also loads {sorted(loaded - allowed)}"
     assert "tetrace.scene" in loaded
+
+
+def test_the_documented_submodules_need_no_import_of_their_own():
+    # The docs name tetrace.io.load_triangles, tetrace.io.MAX_COORDINATE, tetrace.gpu.info and
+    # tetrace.camera; after a bare ``import tetrace`` (a fresh process, so that no other test
+    # has imported them first) each must be there.
+    code = (
+        "import tetrace\n"
+        "print(tetrace.io.MAX_COORDINATE, callable(tetrace.io.load_triangles), "
+        "callable(tetrace.gpu.info), tetrace.camera.Camera is tetrace.Camera)"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    ).stdout.split()
+    assert out == ["1e+100", "True", "True", "True"], out
 
 
 def test_snapshot_compare_fails_on_any_difference(tmp_path, monkeypatch, capsys):

@@ -13,6 +13,7 @@ from . import (
     _native,
     camera,  # noqa: F401  (tetrace.camera is part of the API)
     gpu,  # noqa: F401  (tetrace.gpu.info() is part of the API)
+    io,  # noqa: F401  (tetrace.io.load_triangles and MAX_COORDINATE are part of the API)
 )
 from .camera import Camera
 from .conveniences import cast, default_scene
@@ -68,4 +69,5 @@ __all__ = [
     "GpuError",
     "gpu",
     "camera",
+    "io",
 ]
