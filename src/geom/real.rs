@@ -227,6 +227,26 @@ mod tests {
         assert!(fast > 10_000 && slow > 10_000, "{fast} exact, {slow} not");
     }
 
+    /// `exponent` of 2^k, of 1.5 · 2^k and of the float just below 2^(k+1) is k, for every k
+    /// float64 has (the subnormals' too, whose exponent field reads 0): built from bits.
+    #[test]
+    fn exponent_is_that_of_every_binade() {
+        for k in -1074..=1023 {
+            // 2^k, 1.5 · 2^k (2^k itself for the least subnormal) and next_down(2^(k+1)).
+            let (low, mid, high) = if k >= -1022 {
+                let b = ((k + 1023) as u64) << 52;
+                (b, b | 1 << 51, b | ((1 << 52) - 1))
+            } else {
+                let b = 1u64 << (k + 1074);
+                (b, b | b >> 1, 2 * b - 1)
+            };
+            for bits in [low, mid, high] {
+                let x = f64::from_bits(bits);
+                assert_eq!(exponent(x), k, "{x:e} ({bits:#x})");
+            }
+        }
+    }
+
     /// x · 2^e rounded to nearest (ties to even), from x's integer significand and exponent,
     /// and whether it is exact (`None`: beyond float64's range).
     fn scaled_exactly(x: f64, e: i32) -> Option<(f64, bool)> {
@@ -303,5 +323,30 @@ mod tests {
             exact > 100_000 && rounded > 1_000,
             "{exact} exact, {rounded} rounded"
         );
+    }
+
+    /// Where x · 2^e falls below the normal numbers from a subnormal or tiny x, two products
+    /// (2^(e/2), then the rest) would round twice: 5 · 2^-1074 · 2^-3 is 0.625 ulp, which
+    /// rounds to 1 ulp, but 2.5 ulp rounds to 2 and then 0.5 ulp to 0. For every e with 2^e
+    /// normal, `times_pow2` rounds once: checked over the first 4096 subnormals and tiny normal
+    /// significands, against integer arithmetic.
+    #[test]
+    fn times_pow2_rounds_an_underflow_once() {
+        let (mut checked, mut twice_differs) = (0, 0);
+        for k in 1..4096u64 {
+            for base in [0u64, 1 << 52] {
+                let x = f64::from_bits(base | k);
+                for e in -80..0 {
+                    let (want, _) = scaled_exactly(x, e).unwrap();
+                    let got = times_pow2(x, e);
+                    assert_eq!(got.to_bits(), want.to_bits(), "{x:e} · 2^{e}");
+                    let h = e / 2;
+                    twice_differs += (x * 2f64.powi(h) * 2f64.powi(e - h) != want) as u32;
+                    checked += 1;
+                }
+            }
+        }
+        // The sweep holds inputs on which rounding twice goes wrong (else it tests nothing).
+        assert!(twice_differs > 1_000, "{twice_differs} of {checked}");
     }
 }
