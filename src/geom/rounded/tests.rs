@@ -234,6 +234,80 @@ fn float32_hits_are_the_same_at_every_simd_level() {
     );
 }
 
+/// Hits whose permanents lie around `TINY`, where one of the four alone is at or below it
+/// (below TINY products may have underflowed and the float32 path's bound no longer holds:
+/// every level must decline). The triangle lies in the plane z = 0, so each term of each
+/// permanent has exactly one factor from the z column (the origin's height or the
+/// direction's z): scaling z by 2^-k scales all four permanents by 2^-k exactly and leaves
+/// t, u, v and the point as they were (float32 numbers still). The triangle's stretch, the
+/// origin's offset and the direction's length, each over 2^±5, spread the four apart; k
+/// puts the least at or below TINY (one time in four just above it). `check` judges each hit
+/// by rationals and compares every SIMD level with the portable code, which must decline
+/// alike. The counts (from `det_perm`) show that each permanent alone below TINY occurs.
+#[test]
+fn float32_hits_at_the_permanents_floor_decline_at_every_level_alike() {
+    use crate::geom::exact::{det_perm, TINY};
+    let mut rng = Rng::new(0x71e4);
+    let pow2 = |k: i32| f64::from_bits(((1023 + k) as u64) << 52);
+    let perms = |o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3]| {
+        let [a, b, c] = *tri;
+        let w = [0, 1, 2].map(|k| a[k] - o[k]);
+        let e1 = [0, 1, 2].map(|k| b[k] - a[k]);
+        let e2 = [0, 1, 2].map(|k| c[k] - a[k]);
+        [
+            det_perm(w, e1, e2).1,
+            det_perm(d, e1, e2).1,
+            det_perm(d, e2, w).1,
+            det_perm(d, w, e1).1,
+        ]
+    };
+    let (mut alone_below, mut all_above) = ([0u32; 4], 0);
+    for i in 0..4000u64 {
+        let mut tri = random_triangle(&mut rng, [0.0; 3], 1.0);
+        let stretch = pow2(rng.below(11) as i32 - 5);
+        tri[2] = [0, 1, 2].map(|k| tri[0][k] + (tri[2][k] - tri[0][k]) * stretch);
+        for p in &mut tri {
+            p[2] = 0.0;
+        }
+        let target = aim(&mut rng, &tri, i);
+        let off = pow2(rng.below(11) as i32 - 5);
+        let o = [
+            target[0] + off * (2.0 * rng.f() - 1.0),
+            target[1] + off * (2.0 * rng.f() - 1.0),
+            1.0 + rng.f(),
+        ];
+        let long = pow2(rng.below(11) as i32 - 5);
+        let d = [0, 1, 2].map(|k| (target[k] - o[k]) * long);
+        // 2^-k on z scales every permanent by 2^-k: the least k putting the least at or
+        // below TINY.
+        let least = perms(o, d, &tri).into_iter().fold(f64::INFINITY, f64::min);
+        if least <= 0.0 {
+            continue;
+        }
+        let mut k = (least / TINY).log2().floor() as i32;
+        while least * pow2(-k) > TINY {
+            k += 1;
+        }
+        if rng.chance(0.25) {
+            k -= 1;
+        }
+        let low = |p: V3<f64>| [p[0], p[1], p[2] * pow2(-k)];
+        let (o, d) = (low(o), low(d));
+        check(o, d, &tri, &format!("case {i}"));
+        let p = perms(o, d, &tri);
+        let below: Vec<usize> = (0..4).filter(|&j| p[j] <= TINY).collect();
+        match below[..] {
+            [] => all_above += 1,
+            [j] => alone_below[j] += 1,
+            _ => {}
+        }
+    }
+    assert!(
+        alone_below.iter().all(|&n| n >= 50) && all_above >= 500,
+        "alone below TINY (t, den, u, v): {alone_below:?}; all above: {all_above}"
+    );
+}
+
 fn unit(rng: &mut Rng) -> V3<f64> {
     loop {
         let v = [0, 1, 2].map(|_| 2.0 * rng.f() - 1.0);
