@@ -404,6 +404,13 @@ struct ExactValues {
     e2: [Dyadic; 3],
 }
 
+test_count!(
+    /// Hits on this thread whose exact (dyadic) values were computed: tests learn that the
+    /// double-double filter answered (its answers and the exact path's are alike within an ulp).
+    EXACT_HITS,
+    exact_hits
+);
+
 fn exact_det(a: &[Dyadic; 3], b: &[Dyadic; 3], c: &[Dyadic; 3]) -> Dyadic {
     super::dyadic::rdet(a, b, c)
 }
@@ -420,6 +427,7 @@ impl Exact {
 
     fn values(&mut self) -> &ExactValues {
         self.e.get_or_insert_with(|| {
+            test_count!(EXACT_HITS += 1);
             let x = |v: V3<f64>| v.map(Dyadic::from_f64);
             let sub = |p: &[Dyadic; 3], q: &[Dyadic; 3]| [0, 1, 2].map(|k| &p[k] - &q[k]);
             let (o, d) = (x(self.o), x(self.d));

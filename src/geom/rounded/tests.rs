@@ -660,3 +660,75 @@ fn flat_triangles_answer_in_float32() {
         "{fast} of {hits} hits answered in float32"
     );
 }
+
+/// The permanent `Σ |x_i| (|y_j z_k| + |y_k z_j|)` of `det(x, y, z)`, exactly.
+fn permanent(x: &[Q; 3], y: &[Q; 3], z: &[Q; 3]) -> Q {
+    (0..3)
+        .map(|i| {
+            let (j, k) = ((i + 1) % 3, (i + 2) % 3);
+            x[i].abs() * ((&y[j] * &z[k]).abs() + (&y[k] * &z[j]).abs())
+        })
+        .fold(Q::zero(), |s, x| s + x)
+}
+
+/// Hits whose values are far from cancelling take no exact value: the double-double filter
+/// answers them all. Where each determinant is at least 2^-20 of its permanent P, the filter's
+/// bound K ε² P is at most 2^(10 − 106 + 20) = 2^-76 of the value, so a quotient's bound
+/// (both operands' bounds carried through, plus the remainder's roundings of order ε²) stays
+/// below 2^-74 of it; the point's coordinates lie in [4, 6] (corners there, weights at
+/// least 0.05), its terms are at most 2 beside them and their roundings of order ε², so its
+/// bound is as small. The rounding itself is at most half an ulp, and `faithful` accepts
+/// up to a whole one (half, below a power of two: such a value is counted, not judged).
+/// So every case kept must answer without the exact values; `check` judges each answer.
+#[test]
+fn well_conditioned_hits_never_take_the_exact_path() {
+    let mut rng = Rng::new(0x0c0d);
+    let (mut kept, mut powers) = (0, 0);
+    for i in 0..3000u64 {
+        let tri = random_triangle(&mut rng, [5.0; 3], 1.0);
+        let (mut wb, mut wc) = (0.05 + 0.9 * rng.f(), 0.05 + 0.9 * rng.f());
+        if wb + wc > 0.95 {
+            (wb, wc) = (1.0 - wb, 1.0 - wc);
+        }
+        let [a, b, c] = tri;
+        let target = [0, 1, 2].map(|k| a[k] + wb * (b[k] - a[k]) + wc * (c[k] - a[k]));
+        let o = unit(&mut rng).map(|x| x * (2.0 + 100.0 * rng.f()));
+        let o = [0, 1, 2].map(|k| target[k] + o[k]);
+        // Scaled, so that t (near 1 / s) is not 1.
+        let s = 0.3 + 3.0 * rng.f();
+        let d = [0, 1, 2].map(|k| (target[k] - o[k]) * s);
+        // The condition of the four determinants, by rationals.
+        let rational = |v: V3<f64>| v.map(q);
+        let sub = |p: &[Q; 3], r: &[Q; 3]| [0, 1, 2].map(|k| &p[k] - &r[k]);
+        let (oq, dq) = (rational(o), rational(d));
+        let [aq, bq, cq] = tri.map(rational);
+        let (w, e1, e2) = (sub(&aq, &oq), sub(&bq, &aq), sub(&cq, &aq));
+        let bound = q(2f64.powi(-20));
+        let conditioned = [
+            (&w, &e1, &e2),
+            (&dq, &e1, &e2),
+            (&dq, &e2, &w),
+            (&dq, &w, &e1),
+        ]
+        .iter()
+        .all(|(x, y, z)| det(x, y, z).abs() >= &bound * permanent(x, y, z));
+        if !conditioned {
+            continue;
+        }
+        let before = exact_hits();
+        let h = check(o, d, &tri, &format!("case {i}")).expect("aimed inside the triangle");
+        let took = exact_hits() - before;
+        // `check` also runs the Dekker variant: both must answer without the exact values.
+        let values = [h.t, h.u, h.v, h.point[0], h.point[1], h.point[2]];
+        if values.iter().any(|x| x.to_bits() & ((1 << 52) - 1) == 0) {
+            powers += 1;
+            continue;
+        }
+        kept += 1;
+        assert_eq!(took, 0, "case {i}: the exact values were computed");
+    }
+    assert!(
+        kept >= 2900,
+        "{kept} cases kept ({powers} with a power of two)"
+    );
+}
