@@ -227,6 +227,43 @@ mod tests {
         assert!(fast > 10_000 && slow > 10_000, "{fast} exact, {slow} not");
     }
 
+    /// `unit_direction` scales a finite nonzero d by 2^-e to a largest component in [1, 2)
+    /// (multiplying back gives that component again), and returns a zero or non-finite d as
+    /// it is with e = 0, as its docs say: zeros of either sign, infinities, NaN beside zeros
+    /// and beside finite components.
+    #[test]
+    fn unit_direction_scales_finite_directions_and_leaves_the_rest() {
+        let mut rng = Rng::new(0x0d1e);
+        for _ in 0..20_000 {
+            let d: V3<f64> = [0, 1, 2].map(|_| {
+                let x = times_pow2(1.0 + rng.f(), rng.below(2098) as i32 - 1075);
+                [0.0, -x, x][rng.below(3)]
+            });
+            let (s, e) = unit_direction(d);
+            let k = (0..3)
+                .max_by(|&i, &j| d[i].abs().total_cmp(&d[j].abs()))
+                .unwrap();
+            if d[k] == 0.0 {
+                assert_eq!((s.map(f64::to_bits), e), (d.map(f64::to_bits), 0), "{d:?}");
+                continue;
+            }
+            assert!((1.0..2.0).contains(&s[k].abs()), "{d:?}: {s:?}");
+            assert_eq!(times_pow2(s[k], e), d[k], "{d:?}: {s:?} · 2^{e}");
+        }
+        let (inf, nan) = (f64::INFINITY, f64::NAN);
+        for d in [
+            [0.0, -0.0, 0.0],
+            [inf, 1.0, 0.0],
+            [0.5, -inf, 3.0],
+            [nan, 0.0, 0.0],
+            [nan, nan, nan],
+            [nan, inf, 1.0],
+        ] {
+            let (s, e) = unit_direction(d);
+            assert_eq!((s.map(f64::to_bits), e), (d.map(f64::to_bits), 0), "{d:?}");
+        }
+    }
+
     /// `exponent` of 2^k, of 1.5 · 2^k and of the float just below 2^(k+1) is k, for every k
     /// float64 has (the subnormals' too, whose exponent field reads 0): built from bits.
     #[test]
