@@ -732,3 +732,101 @@ fn well_conditioned_hits_never_take_the_exact_path() {
         "{kept} cases kept ({powers} with a power of two)"
     );
 }
+
+/// The filter's own claims, each judged by rationals: every double-double determinant
+/// (`hi + lo`) is within its bound `K ε² P` of the exact one, and every quotient `q + c` within
+/// its `err` of the exact ratio, for both ways of splitting products. The families: grid
+/// points (exact zeros and cancellations), random scales from 2^-20 to 2^20, far origins,
+/// and grazing rays (a denominator far below its permanent).
+#[test]
+fn the_filters_bounds_hold() {
+    fn family<const FMA: bool>(rng: &mut Rng, i: u64) -> usize {
+        let mut v = |grid: bool, rng: &mut Rng| {
+            if grid {
+                (rng.f() * 8.0).floor() / 4.0 - 1.0
+            } else {
+                (2.0 * rng.f() - 1.0) * 2f64.powi((rng.u64() % 40) as i32 - 20)
+            }
+        };
+        let grid = i % 4 == 0;
+        let mut tri = [0, 1, 2].map(|_| [0, 1, 2].map(|_| v(grid, rng)));
+        let mut o = [0, 1, 2].map(|_| v(grid, rng));
+        let mut d = [0, 1, 2].map(|_| v(grid, rng));
+        match i % 4 {
+            // Far origins aimed at the triangle.
+            2 => {
+                tri = random_triangle(rng, [0.0; 3], 1.0);
+                let target = aim(rng, &tri, i / 4);
+                let r = 2f64.powi(rng.below(30) as i32);
+                o = unit(rng).map(|x| x * r);
+                d = [0, 1, 2].map(|k| target[k] - o[k]);
+            }
+            // Grazing: the direction in the plane of the triangle, tilted by 2^-k.
+            3 => {
+                tri = random_triangle(rng, [0.0; 3], 1.0);
+                let [a, b, c] = tri;
+                let tilt = 2f64.powi(-(rng.below(50) as i32));
+                d = [0, 1, 2].map(|k| (b[k] - a[k]) + tilt * (c[k] - a[k]) * rng.f());
+                o = [0, 1, 2].map(|k| a[k] - d[k] + 1e-3 * (c[k] - a[k]));
+            }
+            _ => {}
+        }
+        let Some(f) = Filtered::<FMA>::new(o, d, &tri) else {
+            return 0;
+        };
+        let ds = d.map(|x| times_pow2(x, -f.scale));
+        let rational = |p: V3<f64>| p.map(q);
+        let sub = |p: &[Q; 3], r: &[Q; 3]| [0, 1, 2].map(|k| &p[k] - &r[k]);
+        let (oq, dq) = (rational(o), rational(ds));
+        let [a, b, c] = tri.map(rational);
+        let (w, e1, e2) = (sub(&a, &oq), sub(&b, &a), sub(&c, &a));
+        let want = [
+            det(&w, &e1, &e2),
+            det(&dq, &e2, &w),
+            det(&dq, &w, &e1),
+            det(&dq, &e1, &e2),
+        ];
+        let got = [
+            (f.num, f.num_err),
+            (f.num_u, f.num_u_err),
+            (f.num_v, f.num_v_err),
+            (f.den, f.den_err),
+        ];
+        let what = ["N", "N_u", "N_v", "D"];
+        for ((x, err), (want, what)) in got.iter().zip(want.iter().zip(what)) {
+            let off = (q(x.hi) + q(x.lo) - want).abs();
+            assert!(
+                off <= q(*err),
+                "case {i} FMA {FMA}: {what} = {} + {} is {off} off, bound {err}",
+                x.hi,
+                x.lo
+            );
+        }
+        let mut quotients = 0;
+        for (n, n_err, want_n) in [
+            (f.num, f.num_err, &want[0]),
+            (f.num_u, f.num_u_err, &want[1]),
+            (f.num_v, f.num_v_err, &want[2]),
+        ] {
+            if let Some((qv, cv, err)) = f.quotient(n, n_err) {
+                let off = (q(qv) + q(cv) - want_n / &want[3]).abs();
+                assert!(
+                    off <= q(err),
+                    "case {i} FMA {FMA}: quotient {qv} + {cv} is {off} off, bound {err}"
+                );
+                quotients += 1;
+            }
+        }
+        quotients
+    }
+    let mut quotients = [0; 4];
+    for i in 0..4000u64 {
+        // The same case for both splittings.
+        quotients[(i % 4) as usize] += family::<true>(&mut Rng::new(0xb0b0 + i), i);
+        family::<false>(&mut Rng::new(0xb0b0 + i), i);
+    }
+    assert!(
+        quotients.iter().all(|&n| n >= 1000),
+        "quotients checked per family: {quotients:?}"
+    );
+}
