@@ -61,8 +61,14 @@ fn ulp_of(x: &Q) -> Q {
         p = &p * &two;
         e += 1;
     }
-    // 2^e ≤ |x| < 2^(e+1)
-    q(2f64.powi(e.max(-1022) - 52))
+    // 2^e ≤ |x| < 2^(e+1); the spacing 2^(e − 52), from its bits (`powi` of a power
+    // below 2^-1022 may compute 1 / 2^-k = 1 / inf = 0 where it is not folded).
+    let k = e.max(-1022) - 52;
+    q(if k >= -1022 {
+        f64::from_bits(((k + 1023) as u64) << 52)
+    } else {
+        f64::from_bits(1 << (k + 1074))
+    })
 }
 
 /// |x − x*| ≤ ulp(x*), exactly.
@@ -411,6 +417,18 @@ fn degenerate_and_extreme_inputs_are_exact() {
         &floor,
         "denormal direction",
     );
+    // A direction of 2^1000 from 1e-9 above the floor: t ≈ 2^-1030 is subnormal, so the
+    // filter's t (for the direction scaled to [1, 2)) would be rounded a second time going
+    // back: the exact path answers, and `t_err` bounds that rounding.
+    let big = 2f64.powi(1000);
+    let h = check(
+        [0.3, 0.7, 1e-9],
+        [0.1 * big, 0.2 * big, -big],
+        &floor,
+        "subnormal t",
+    )
+    .unwrap();
+    assert!(h.t > 0.0 && !h.t.is_normal(), "{}", h.t);
     // The origin on the plane: t = 0 exactly.
     let h = check([0.5, 0.5, 0.0], [0.0, 1.0, 1.0], &floor, "origin on plane").unwrap();
     assert_eq!(h.t, 0.0);
