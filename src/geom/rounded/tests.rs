@@ -693,11 +693,12 @@ fn permanent(x: &[Q; 3], y: &[Q; 3], z: &[Q; 3]) -> Q {
 /// answers them all. Where each determinant is at least 2^-20 of its permanent P, the filter's
 /// bound K ε² P is at most 2^(10 − 106 + 20) = 2^-76 of the value, so a quotient's bound
 /// (both operands' bounds carried through, plus the remainder's roundings of order ε²) stays
-/// below 2^-74 of it; the point's coordinates lie in [4, 6] (corners there, weights at
-/// least 0.05), its terms are at most 2 beside them and their roundings of order ε², so its
-/// bound is as small. The rounding itself is at most half an ulp, and `faithful` accepts
-/// up to a whole one (half, below a power of two: such a value is counted, not judged).
-/// So every case kept must answer without the exact values; `check` judges each answer.
+/// below 2^-74 of it. The point's coordinates lie in [4, 6] times the case's scale (corners
+/// there, weights at least 0.05), its terms are at most 2 beside them and their roundings of
+/// order ε², so its bound is as small. The rounding itself is at most half an ulp, and
+/// `faithful` accepts up to a whole one (half, below a power of two: such a value is counted,
+/// not judged). So every case kept must answer without the exact values; `check` judges each
+/// answer. The scales, 2^-60 to 2^60, leave every value's bound relative to it.
 #[test]
 fn well_conditioned_hits_never_take_the_exact_path() {
     let mut rng = Rng::new(0x0c0d);
@@ -715,6 +716,14 @@ fn well_conditioned_hits_never_take_the_exact_path() {
         // Scaled, so that t (near 1 / s) is not 1.
         let s = 0.3 + 3.0 * rng.f();
         let d = [0, 1, 2].map(|k| (target[k] - o[k]) * s);
+        // The whole case scaled by 2^j, exactly (every value scales with it, t, u and v not
+        // at all): the bounds are relative, so a bound that adds an absolute term shows.
+        let j = rng.below(121) as i32 - 60;
+        let (tri, o, d) = (
+            tri.map(|p| p.map(|x| x * 2f64.powi(j))),
+            o.map(|x| x * 2f64.powi(j)),
+            d.map(|x| x * 2f64.powi(j)),
+        );
         // The condition of the four determinants, by rationals.
         let rational = |v: V3<f64>| v.map(q);
         let sub = |p: &[Q; 3], r: &[Q; 3]| [0, 1, 2].map(|k| &p[k] - &r[k]);
