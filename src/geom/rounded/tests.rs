@@ -768,7 +768,7 @@ fn well_conditioned_hits_never_take_the_exact_path() {
 #[test]
 fn the_filters_bounds_hold() {
     fn family<const FMA: bool>(rng: &mut Rng, i: u64) -> usize {
-        let mut v = |grid: bool, rng: &mut Rng| {
+        let v = |grid: bool, rng: &mut Rng| {
             if grid {
                 (rng.f() * 8.0).floor() / 4.0 - 1.0
             } else {
