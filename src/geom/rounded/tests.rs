@@ -775,7 +775,7 @@ fn the_filters_bounds_hold() {
                 (2.0 * rng.f() - 1.0) * 2f64.powi((rng.u64() % 40) as i32 - 20)
             }
         };
-        let grid = i % 4 == 0;
+        let grid = i.is_multiple_of(4);
         let mut tri = [0, 1, 2].map(|_| [0, 1, 2].map(|_| v(grid, rng)));
         let mut o = [0, 1, 2].map(|_| v(grid, rng));
         let mut d = [0, 1, 2].map(|_| v(grid, rng));
