@@ -22,13 +22,18 @@ fn det(a: &[Q; 3], b: &[Q; 3], c: &[Q; 3]) -> Q {
         + &a[2] * (&b[0] * &c[1] - &b[1] * &c[0])
 }
 
+/// The ray and triangle as rationals: `[o, d, a, w = a − o, e1 = b − a, e2 = c − a]`.
+fn frame(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3]) -> [[Q; 3]; 6] {
+    let sub = |p: &[Q; 3], r: &[Q; 3]| [0, 1, 2].map(|k| &p[k] - &r[k]);
+    let [a, b, c] = tri.map(|p| p.map(q));
+    let (o, d) = (o.map(q), d.map(q));
+    let (w, e1, e2) = (sub(&a, &o), sub(&b, &a), sub(&c, &a));
+    [o, d, a, w, e1, e2]
+}
+
 /// The exact t, u, v and point, None when D = 0.
 fn exact(o: V3<f64>, d: V3<f64>, tri: &[V3<f64>; 3]) -> Option<(Q, Q, Q, [Q; 3])> {
-    let x = |v: V3<f64>| v.map(q);
-    let sub = |p: &[Q; 3], r: &[Q; 3]| [0, 1, 2].map(|k| &p[k] - &r[k]);
-    let (o, d) = (x(o), x(d));
-    let [a, b, c] = tri.map(x);
-    let (w, e1, e2) = (sub(&a, &o), sub(&b, &a), sub(&c, &a));
+    let [o, d, a, w, e1, e2] = frame(o, d, tri);
     let den = det(&d, &e1, &e2);
     if den.is_zero() {
         return None;
@@ -725,11 +730,7 @@ fn well_conditioned_hits_never_take_the_exact_path() {
             d.map(|x| x * 2f64.powi(j)),
         );
         // The condition of the four determinants, by rationals.
-        let rational = |v: V3<f64>| v.map(q);
-        let sub = |p: &[Q; 3], r: &[Q; 3]| [0, 1, 2].map(|k| &p[k] - &r[k]);
-        let (oq, dq) = (rational(o), rational(d));
-        let [aq, bq, cq] = tri.map(rational);
-        let (w, e1, e2) = (sub(&aq, &oq), sub(&bq, &aq), sub(&cq, &aq));
+        let [_, dq, _, w, e1, e2] = frame(o, d, &tri);
         let bound = q(2f64.powi(-20));
         let conditioned = [
             (&w, &e1, &e2),
@@ -802,11 +803,7 @@ fn the_filters_bounds_hold() {
             return 0;
         };
         let ds = d.map(|x| times_pow2(x, -f.scale));
-        let rational = |p: V3<f64>| p.map(q);
-        let sub = |p: &[Q; 3], r: &[Q; 3]| [0, 1, 2].map(|k| &p[k] - &r[k]);
-        let (oq, dq) = (rational(o), rational(ds));
-        let [a, b, c] = tri.map(rational);
-        let (w, e1, e2) = (sub(&a, &oq), sub(&b, &a), sub(&c, &a));
+        let [_, dq, _, w, e1, e2] = frame(o, ds, &tri);
         let want = [
             det(&w, &e1, &e2),
             det(&dq, &e2, &w),
