@@ -130,3 +130,30 @@ def test_random_rays_bench_walks_no_tets_and_is_judged(tmp_path, capsys):
     assert res["rays_kind"] == "random" and res["rays"] == 480 and res["tets"] is None
     ours = [r for r in res["runs"] if r["caster"] == "tetrace"]
     assert len(ours) == 1 and ours[0]["right"] == 1.0
+
+
+def test_casts_timed_in_turn_round_by_round_keep_each_best_and_last(monkeypatch):
+    """`timed_in_turn` casts every job once untimed, then each round every job once in the
+    jobs' order; each job gets the least of its own rounds' times and its last cast's result."""
+    from tetrace.bench import casters
+
+    log, clock = [], [0.0]
+    # Each job's cast advances a fake clock by its own durations, one per call.
+    durations = {"a": [9.0, 5.0, 3.0, 4.0], "b": [9.0, 2.0, 6.0, 1.0]}
+
+    class Fake:
+        def __init__(self, name):
+            self.name, self.calls = name, 0
+
+        def cast(self, o, d, k):
+            log.append((self.name, o, d, k))
+            clock[0] += durations[self.name][self.calls]
+            self.calls += 1
+            return (self.name, self.calls)
+
+    a, b = Fake("a"), Fake("b")
+    monkeypatch.setattr(casters.time, "perf_counter", lambda: clock[0])
+    got = casters.timed_in_turn([(a, "oa", "da", 1), (b, "ob", "db", 2)], 3, settle=0.0)
+    assert [name for name, *_ in log] == ["a", "b"] * 4
+    assert all((o, d, k) == (f"o{n}", f"d{n}", {"a": 1, "b": 2}[n]) for n, o, d, k in log)
+    assert got == [(3.0, ("a", 4)), (1.0, ("b", 4))]

@@ -17,7 +17,9 @@ treats every caster alike:
   thread whatever ``k`` is, and their :meth:`schedule` says so; mitsuba's ``llvm_ad_rgb``
   variant runs in Dr.Jit's pool of ``k`` threads (``drjit.set_thread_count(k)``);
 * **the same timing**: one untimed warm-up cast of the same rays on the same threads (lazy
-  BVH commits and layout builds are not timed), then the best of ``repeat`` casts.
+  BVH commits and layout builds are not timed), then the best of ``repeat`` casts
+  (:func:`timed`), or, where a bench compares casters row against row, ``repeat`` rounds
+  that cast each in turn (:func:`timed_in_turn`).
 
 Each caster says exactly what it is (:attr:`label`: the library, its version, the call and
 its flags) and how it was scheduled (:meth:`schedule`); the benchmarks print and store both.
@@ -88,6 +90,47 @@ def timed(caster, origins, directions, threads, repeat):
         raw = caster.cast(origins, directions, threads)
         best = min(best, time.perf_counter() - t0)
     return best, raw
+
+
+def timed_in_turn(jobs, repeat, settle=0.2):
+    """:func:`timed` for several casts at once, in rounds: every job cast once untimed, then
+    ``repeat`` rounds that each cast every job once, in turn; each job's best wall time.
+
+    Timed one caster after the other (:func:`timed`), a ratio of two casters compares casts
+    made tens of seconds apart, and on the 2-core VM the machine's speed moves that much
+    from one spell to the next (other guests, a peer's thread pool). In turn, every caster
+    meets the same spells: on bunny's random rays (Zen 5, one thread) the bench in blocks gave
+    tetrace 0.73-0.92x embreex over six runs, in turn 0.80-0.89x over five (docs/bvh.md,
+    stop 79).
+
+    Parameters
+    ----------
+    jobs : list of tuple
+        ``(caster, origins, directions, threads)``, as :func:`timed` takes them.
+    repeat : int
+        Rounds; the best of each job's casts is kept.
+    settle : float
+        Seconds slept before each timed cast, untimed.
+
+    Returns
+    -------
+    list of tuple
+        ``(seconds, raw)`` per job, in the jobs' order (``raw`` from its last cast).
+    """
+    raws = [caster.cast(o, d, k) for caster, o, d, k in jobs]  # warm-ups, untimed
+    best = [np.inf] * len(jobs)
+    for _ in range(max(int(repeat), 1)):
+        for j, (caster, o, d, k) in enumerate(jobs):
+            # A precaution: the cast before may have left its pool's threads spinning for
+            # work (rayon's and TBB's idle threads spin a while before they sleep), which on
+            # 2 cores would slow this cast; in blocks, the untimed warm-up absorbed that.
+            # Measured on embreex right after tetrace's 2-thread cast, with and without the
+            # pause, the difference was within the noise (stop 79).
+            time.sleep(settle)
+            t0 = time.perf_counter()
+            raws[j] = caster.cast(o, d, k)
+            best[j] = min(best[j], time.perf_counter() - t0)
+    return list(zip(best, raws))
 
 
 def gpu_cast_timed(scene, o, d, repeat, **kw):

@@ -197,7 +197,7 @@ def run_scene_bench(
         is_accel,
         optional_peers,
         rays_for,
-        timed,
+        timed_in_turn,
     )
 
     if rays not in ("camera", "random"):
@@ -270,95 +270,110 @@ def run_scene_bench(
     rows = []
     embree_rate = {}
     judge = _Judge(v, f, o32, d32)
-    for peer in peers:
-        for label in threads:
-            k = thread_counts[label]
-            te, raw = timed(peer, o32, d32, k, repeat)
-            rate = n / te / 1e6
-            hits = peer.hits(raw, o32, d32)
-            if peer is embreex:
-                embree_rate[label] = rate
-            a = judge(hits, peer.arithmetic)
-            shown = "1" if k == 1 else f"all ({ncpu})"
-            rows.append(
-                [
-                    peer.name,
-                    "bvh",
-                    "-",
-                    "f32",
-                    "-",
-                    shown,
-                    f"{rate:.2f}",
-                    f"{rate / embree_rate[label]:.2f}",
-                    "-",
-                    "-",
-                    f"{a.fraction * 100:.3f}%",
-                ]
-            )
-            results["runs"].append(
-                {
-                    "caster": peer.name,
-                    "label": peer.label,
-                    "schedule": peer.schedule(k),
-                    "precision": "f32",
-                    "threads": k,
-                    "mrays_per_s": rate,
-                    "ratio_to_embree": rate / embree_rate[label],
-                    "right": a.fraction,
-                    "leaked": a.leaked,
-                    "late": a.late,
-                    "wrong": a.wrong,
-                }
-            )
+    # Every cast is timed in turn, round by round (timed_in_turn), so that each ratio to
+    # embreex compares casts made moments apart; the rows are then read in this order.
+    peer_runs = [(peer, label) for peer in peers for label in threads]
+    tetrace_runs = [
+        (order, TetraceCaster(scenes[order], method, layout, prec), prec, label)
+        for order in (orders if "cpu" in devices else ())
+        for method, layout, prec, label in configurations(methods, layouts, precisions, threads)
+    ]
+    timings = iter(
+        timed_in_turn(
+            [(peer, o32, d32, thread_counts[label]) for peer, label in peer_runs]
+            + [
+                (caster, *rays_for(prec, o32, d32), thread_counts[label])
+                for _, caster, prec, label in tetrace_runs
+            ],
+            repeat,
+        )
+    )
+    for peer, label in peer_runs:
+        k = thread_counts[label]
+        te, raw = next(timings)
+        rate = n / te / 1e6
+        hits = peer.hits(raw, o32, d32)
+        if peer is embreex:
+            embree_rate[label] = rate
+        a = judge(hits, peer.arithmetic)
+        shown = "1" if k == 1 else f"all ({ncpu})"
+        rows.append(
+            [
+                peer.name,
+                "bvh",
+                "-",
+                "f32",
+                "-",
+                shown,
+                f"{rate:.2f}",
+                f"{rate / embree_rate[label]:.2f}",
+                "-",
+                "-",
+                f"{a.fraction * 100:.3f}%",
+            ]
+        )
+        results["runs"].append(
+            {
+                "caster": peer.name,
+                "label": peer.label,
+                "schedule": peer.schedule(k),
+                "precision": "f32",
+                "threads": k,
+                "mrays_per_s": rate,
+                "ratio_to_embree": rate / embree_rate[label],
+                "right": a.fraction,
+                "leaked": a.leaked,
+                "late": a.late,
+                "wrong": a.wrong,
+            }
+        )
     last32 = None
-    for order in orders if "cpu" in devices else ():
-        sc = scenes[order]
-        for method, layout, prec, label in configurations(methods, layouts, precisions, threads):
-            caster = TetraceCaster(sc, method, layout, prec)
-            k = thread_counts[label]
-            tt, hits = timed(caster, *rays_for(prec, o32, d32), k, repeat)
-            rate = n / tt / 1e6
-            a = judge(hits, caster.arithmetic)
-            shown = "1" if k == 1 else f"all ({ncpu})"
-            rows.append(
-                [
-                    "tetrace",
-                    method,
-                    layout,
-                    prec,
-                    order,
-                    shown,
-                    f"{rate:.2f}",
-                    f"{rate / embree_rate[label]:.2f}",
-                    f"{hits.steps.mean():.1f}",
-                    LAYOUT_BYTES.get(layout, "-"),
-                    f"{a.fraction * 100:.3f}%",
-                ]
-            )
-            results["runs"].append(
-                {
-                    "caster": "tetrace",
-                    "label": caster.label,
-                    "schedule": caster.schedule(k),
-                    "method": method,
-                    "layout": layout,
-                    "precision": prec,
-                    "order": order,
-                    "threads": k,
-                    "mrays_per_s": rate,
-                    "ratio_to_embree": rate / embree_rate[label],
-                    "tets_per_ray": float(hits.steps.mean()),
-                    "bytes_per_tet": LAYOUT_BYTES.get(layout),
-                    "right": a.fraction,
-                    "failed": a.failed,
-                    "leaked": a.leaked,
-                    "late": a.late,
-                    "wrong": a.wrong,
-                    "max_t_ulps": a.max_t_ulps,
-                }
-            )
-            if prec == "f32" and last32 is None:
-                last32 = hits
+    for order, caster, prec, label in tetrace_runs:
+        method, layout = caster.method, caster.layout
+        k = thread_counts[label]
+        tt, hits = next(timings)
+        rate = n / tt / 1e6
+        a = judge(hits, caster.arithmetic)
+        shown = "1" if k == 1 else f"all ({ncpu})"
+        rows.append(
+            [
+                "tetrace",
+                method,
+                layout,
+                prec,
+                order,
+                shown,
+                f"{rate:.2f}",
+                f"{rate / embree_rate[label]:.2f}",
+                f"{hits.steps.mean():.1f}",
+                LAYOUT_BYTES.get(layout, "-"),
+                f"{a.fraction * 100:.3f}%",
+            ]
+        )
+        results["runs"].append(
+            {
+                "caster": "tetrace",
+                "label": caster.label,
+                "schedule": caster.schedule(k),
+                "method": method,
+                "layout": layout,
+                "precision": prec,
+                "order": order,
+                "threads": k,
+                "mrays_per_s": rate,
+                "ratio_to_embree": rate / embree_rate[label],
+                "tets_per_ray": float(hits.steps.mean()),
+                "bytes_per_tet": LAYOUT_BYTES.get(layout),
+                "right": a.fraction,
+                "failed": a.failed,
+                "leaked": a.leaked,
+                "late": a.late,
+                "wrong": a.wrong,
+                "max_t_ulps": a.max_t_ulps,
+            }
+        )
+        if prec == "f32" and last32 is None:
+            last32 = hits
 
     gpu_rows = []
     if "gpu" in devices:
@@ -402,7 +417,8 @@ def run_scene_bench(
     results["simd"] = simd
     out(f"tetrace SIMD level: {simd} (this CPU runs {', '.join(levels)}; TETRACE_SIMD caps it)")
     out(
-        "every caster: the same float32 rays, an untimed warm-up, the best of the timed casts; "
+        "every caster: the same float32 rays, an untimed warm-up, then rounds that cast each "
+        "configuration once in turn, the best of its casts; "
         "at 'all': " + "; ".join(f"{c.name} on {c.schedule(ncpu)}" for c in [ours] + peers)
     )
     out(
