@@ -147,6 +147,20 @@ test-rust:
 test-python:
 	$(PY) -m pytest -n $(PYTEST_WORKERS) -ra tests $(if $(NOTEBOOKS),--nbmake $(NOTEBOOKS)) $(PYTEST_EXTRA)
 
+# The core's Rust tests built for aarch64 and run under qemu's user-mode emulation (not in CI:
+# about 2.5 minutes to build and 9 to run on the 2-core VM). On aarch64 the portable level is
+# the only one (src/simd.rs), so this runs the scalar walks, filters and roundings against the
+# referee as an aarch64 machine would. Needs Debian's qemu-user, gcc-aarch64-linux-gnu and
+# libc6-dev-arm64-cross, and `rustup target add aarch64-unknown-linux-gnu`; no GPU or Python.
+AARCH64 := aarch64-unknown-linux-gnu
+.PHONY: test-aarch64
+test-aarch64: toolchain
+	rustup target add $(AARCH64)
+	CARGO_TARGET_AARCH64_UNKNOWN_LINUX_GNU_LINKER=aarch64-linux-gnu-gcc \
+	CARGO_TARGET_AARCH64_UNKNOWN_LINUX_GNU_RUNNER="qemu-aarch64 -L /usr/aarch64-linux-gnu" \
+	$(CARGO) test --target $(AARCH64) --no-default-features --features fuzz --lib \
+	  --profile $(TEST_PROFILE) --target-dir target/aarch64 -- --test-threads $(PYTEST_WORKERS)
+
 # The GPU bench on the bundled scene, small enough for CI (issue 34's host-time measure: the
 # whole GPU cast less the kernel, 512² camera, best of 3, printed in CI's log on lavapipe; a
 # goal of the bench, not a test: a crash or a ray the referee finds wrong fails it, a time never).

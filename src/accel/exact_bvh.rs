@@ -20,12 +20,16 @@
 //! component in a tree with an infinite box. So every answer is the exact one, as the exact
 //! walk's and Reshetov's BVH's are.
 
-use std::mem::{ManuallyDrop, MaybeUninit};
+#[cfg(target_arch = "x86_64")]
+use std::mem::ManuallyDrop;
+use std::mem::MaybeUninit;
 
 use super::reshetov_bvh::{down32, max32, min32, up32, BvhNode, Slab};
 use super::{trace_each, Accel, BvhParams, ReshetovBvh};
 use crate::error::{Error, Result};
-use crate::geom::ray::{checked_range, valid_range, Ray};
+use crate::geom::ray::Ray;
+#[cfg(target_arch = "x86_64")]
+use crate::geom::ray::{checked_range, valid_range};
 use crate::query::gather::{Gather, Line, Tri};
 use crate::query::{QueryKind, Sink};
 use crate::simd::Simd;
@@ -1158,23 +1162,30 @@ impl BoxTest for Wide64 {
 pub struct State {
     simd: Simd,
     stack: Vec<(u32, f32)>,
+    // Only the two-ray walk, an x86-64 level, reads these (aarch64 walks one ray at a time).
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     second: Vec<(u32, f32)>,
     /// The stack of a ray walked alone while two are walked in turn.
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     alone: Vec<(u32, f32)>,
 }
 
 /// How many rays [`ExactBvhAt::make_ready`] makes ready at once: enough for their setups to
 /// overlap, few enough that they stay in the first-level cache (a few hundred bytes each).
+// Tests size their batches by it on every target.
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
 const READY: usize = 16;
 
 /// Where `make_ready` stands in a chunk: the next ray to read, and the root's box for the
 /// pre-pass ([`outside_avx2`]; None: every ray is made ready).
+#[cfg(target_arch = "x86_64")]
 struct Feed {
     next: usize,
     root: Option<Outside>,
 }
 
 /// A ray being walked beside another ([`ExactBvhAt::trace_two_avx2`]).
+#[cfg(target_arch = "x86_64")]
 struct Slot<G> {
     line: Line,
     gather: G,
@@ -1428,6 +1439,7 @@ impl ExactBvhAt<'_> {
 /// The box of the root's children in float64 (lane 3: all of space, which no ray leaves), and
 /// per axis the larger magnitude of its bounds (lane 3: 0): what [`outside_avx2`] tests a ray
 /// against before making it ready for a walk.
+#[cfg(target_arch = "x86_64")]
 #[derive(Clone, Copy, Debug)]
 struct Outside {
     lo: [f64; 4],
@@ -1439,17 +1451,22 @@ struct Outside {
 /// from 2^-60 to 2^60. Within them every number of the ray's float32 box test ([`RayBoxes`])
 /// is a finite normal float32 (1/d ≤ 2^60, o·(1/d) ≤ 2^120, planes times 1/d ≤ 2^120), so
 /// the walk takes every such ray with that test, and its bound below holds.
+#[cfg(target_arch = "x86_64")]
 const OUTSIDE_BIG: f64 = (1u64 << 60) as f64;
+#[cfg(target_arch = "x86_64")]
 const OUTSIDE_SMALL: f64 = 1.0 / OUTSIDE_BIG;
 /// The pre-pass answers a ray only when the gap between its entry and exit of the root's box
 /// exceeds `OUTSIDE_GAP · S + OUTSIDE_ABS` (see [`outside_avx2`]).
+#[cfg(target_arch = "x86_64")]
 const OUTSIDE_GAP: f64 = 1.0 / (1u64 << 15) as f64;
+#[cfg(target_arch = "x86_64")]
 const OUTSIDE_ABS: f64 = 1e-30;
 
 impl ExactBvh {
     /// The root's box for the pre-pass, or None where it does not apply: an empty tree, a
     /// tree with an infinite bound (its rays may take the float64 test), or bounds past
     /// [`OUTSIDE_BIG`]. Read from the nodes at each chunk, so it follows a refit.
+    #[cfg(target_arch = "x86_64")]
     fn outside_box(&self) -> Option<Outside> {
         if self.infinite {
             return None;

@@ -326,6 +326,8 @@ impl Packet {
         simd: Simd,
     ) {
         debug_assert_eq!(rays.len(), exits.len());
+        // Only x86-64 has a SIMD level to take part of the rays first.
+        #[cfg_attr(not(target_arch = "x86_64"), allow(unused_mut))]
         let mut done = 0;
         #[cfg(target_arch = "x86_64")]
         if simd == Simd::Avx2 {

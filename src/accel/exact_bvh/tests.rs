@@ -4,6 +4,7 @@
 
 use super::packets::packet_box_tests;
 use super::*;
+#[cfg(target_arch = "x86_64")]
 use crate::geom::exact::triangle_sides;
 use crate::layout::LayoutKind;
 use crate::query::gather::Nearest;
@@ -1174,6 +1175,7 @@ fn rays_around(rng: &mut Rng, lo: [f64; 3], hi: [f64; 3]) -> Vec<([f64; 3], [f64
 /// The gap between where the line of `(o, d)` enters the box [lo, hi] (at t ≥ 0) and where
 /// it leaves, over S = max_k (max(|lo_k|, |hi_k|) + |o_k|) / |d_k| (the scale of
 /// [`outside_avx2`]'s margin), in float64: within 2^-49 of the exact ratio.
+#[cfg(target_arch = "x86_64")]
 fn gap_over_scale(o: [f64; 3], d: [f64; 3], lo: [f64; 3], hi: [f64; 3]) -> f64 {
     let (mut entry, mut exit, mut s) = (0.0f64, f64::INFINITY, 0.0f64);
     for k in 0..3 {
