@@ -153,7 +153,16 @@ def test_casts_timed_in_turn_round_by_round_keep_each_best_and_last(monkeypatch)
 
     a, b = Fake("a"), Fake("b")
     monkeypatch.setattr(casters.time, "perf_counter", lambda: clock[0])
-    got = casters.timed_in_turn([(a, "oa", "da", 1), (b, "ob", "db", 2)], 3, settle=0.0)
+    jobs = [(a, "oa", "da", 1), (b, "ob", "db", 2)]
+    got = casters.timed_in_turn(jobs, 3, settle=0.0)
     assert [name for name, *_ in log] == ["a", "b"] * 4
     assert all((o, d, k) == (f"o{n}", f"d{n}", {"a": 1, "b": 2}[n]) for n, o, d, k in log)
     assert got == [(3.0, ("a", 4)), (1.0, ("b", 4))]
+    # A digest sees each job's last cast only, once, and is kept in the raw's place.
+    durations.update(a=[1.0] * 4, b=[1.0] * 4)
+    a.calls = b.calls = 0
+    seen = []
+    digest = lambda j, raw: seen.append((j, raw)) or f"digest {j}"  # noqa: E731
+    got = casters.timed_in_turn(jobs, 3, settle=0.0, digest=digest)
+    assert seen == [(0, ("a", 4)), (1, ("b", 4))]
+    assert got == [(1.0, "digest 0"), (1.0, "digest 1")]

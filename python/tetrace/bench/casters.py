@@ -92,7 +92,7 @@ def timed(caster, origins, directions, threads, repeat):
     return best, raw
 
 
-def timed_in_turn(jobs, repeat, settle=0.2):
+def timed_in_turn(jobs, repeat, settle=0.2, digest=None):
     """:func:`timed` for several casts at once, in rounds: every job cast once untimed, then
     ``repeat`` rounds that each cast every job once, in turn; each job's best wall time.
 
@@ -100,7 +100,7 @@ def timed_in_turn(jobs, repeat, settle=0.2):
     made tens of seconds apart, and on the 2-core VM the machine's speed moves that much
     from one spell to the next (other guests, a peer's thread pool). In turn, every caster
     meets the same spells: on bunny's random rays (Zen 5, one thread) the bench in blocks gave
-    tetrace 0.73-0.92x embreex over six runs, in turn 0.80-0.89x over five (docs/bvh.md,
+    tetrace 0.73-0.92x embreex over six runs, in turn 0.80-0.89x over six (docs/bvh.md,
     stop 79).
 
     Parameters
@@ -111,15 +111,23 @@ def timed_in_turn(jobs, repeat, settle=0.2):
         Rounds; the best of each job's casts is kept.
     settle : float
         Seconds slept before each timed cast, untimed.
+    digest : callable, optional
+        ``digest(j, raw)``, applied to job ``j``'s last cast as it returns; what it returns
+        is kept instead of ``raw``. Every job's result is held until the end, and a bench of
+        every method, layout and precision has hundreds of jobs of a million rays each: a
+        digest (a verdict, a mean) keeps that small.
 
     Returns
     -------
     list of tuple
-        ``(seconds, raw)`` per job, in the jobs' order (``raw`` from its last cast).
+        ``(seconds, raw)`` per job, in the jobs' order (``raw`` from its last cast, or its
+        digest).
     """
-    raws = [caster.cast(o, d, k) for caster, o, d, k in jobs]  # warm-ups, untimed
-    best = [np.inf] * len(jobs)
-    for _ in range(max(int(repeat), 1)):
+    rounds = max(int(repeat), 1)
+    for caster, o, d, k in jobs:
+        caster.cast(o, d, k)  # warm-ups, untimed
+    best, raws = [np.inf] * len(jobs), [None] * len(jobs)
+    for r in range(rounds):
         for j, (caster, o, d, k) in enumerate(jobs):
             # A precaution: the cast before may have left its pool's threads spinning for
             # work (rayon's and TBB's idle threads spin a while before they sleep), which on
@@ -130,6 +138,8 @@ def timed_in_turn(jobs, repeat, settle=0.2):
             t0 = time.perf_counter()
             raws[j] = caster.cast(o, d, k)
             best[j] = min(best[j], time.perf_counter() - t0)
+            if digest is not None and r == rounds - 1:
+                raws[j] = digest(j, raws[j])
     return list(zip(best, raws))
 
 
