@@ -206,6 +206,8 @@ mod tests {
         assert_eq!(lo, mlo);
         assert!(dims.iter().all(|&d| (2..=128).contains(&d)), "{dims:?}");
         assert_eq!(seeds.len(), dims[0] * dims[1] * dims[2]);
+        // What the scene's memory report counts for the grid: a u32 seed per cell.
+        assert_eq!(grid.bytes(), dims[0] * dims[1] * dims[2] * 4);
         for a in 0..3 {
             let spanned = inv_cell[a] * (mhi[a] - mlo[a]);
             let cells = dims[a] as f64;

@@ -23,6 +23,19 @@ mod policies;
 mod reach;
 mod surface_only;
 
+/// A sink says it is empty exactly when it holds no entry (`Sink::is_empty`, the trait's
+/// default, which no cast asks: the trait keeps it beside `len`, as clippy asks of a `len`).
+#[test]
+fn a_sink_is_empty_exactly_when_it_holds_no_entry() {
+    let mut status = [0u8; 3];
+    let all: &mut [u8] = &mut status;
+    assert!(!Sink::<u8>::is_empty(&all));
+    let (none, rest) = Sink::<u8>::split_at(all, 0);
+    assert!(Sink::<u8>::is_empty(&none));
+    let (one, none) = Sink::<u8>::split_at(rest, 3);
+    assert!(!Sink::<u8>::is_empty(&one) && Sink::<u8>::is_empty(&none));
+}
+
 /// A jittered Kuhn grid with a random third of its interior faces constrained.
 fn grid_scene(seed: u64) -> (Scene, Vec<[[f64; 3]; 3]>) {
     random_scene(&mut Rng::xorshift(seed), 4, 0.3)
