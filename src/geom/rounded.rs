@@ -45,7 +45,7 @@ const OPERAND_MIN: f64 = 4.909093465297727e-91; // 2^-300
 const OPERAND_MAX: f64 = 2.037035976334486e90; // 2^300
 /// A quotient's numerator and denominator smaller than this (but nonzero) could underflow in
 /// the remainder `n − q d`: the exact path.
-const QUOTIENT_MIN: f64 = 1.4916681462400413e-154; // 2^-510
+const QUOTIENT_MIN: f64 = f64::from_bits((1023 - 511) << 52); // 2^-511
 
 /// A ray's hit on a triangle, each value within one ulp of the exact one.
 #[derive(Clone, Copy, Debug, PartialEq)]

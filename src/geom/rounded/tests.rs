@@ -854,3 +854,58 @@ fn the_filters_bounds_hold() {
         "quotients checked per family: {quotients:?}"
     );
 }
+
+/// `quotient`'s range, as its docs give it: a numerator or denominator that is nonzero but
+/// below 2^-511 (where the remainder `n − q d` could underflow) is left to the exact path; one
+/// of exactly 2^-511, and a zero numerator, are not, and their quotients are within their
+/// bound of the exact ratio (rationals). Axis-aligned frames, so that each determinant is one
+/// product, exactly: the direction (0, 0, 1), w = (0, 0, z), e1 = (s, 0, 0), e2 = (0, s, 0),
+/// so N = z s², D = s², and N_u = 0.
+#[test]
+fn quotients_below_their_floor_are_left_to_the_exact_path() {
+    /// N's quotient, and the exact N and D.
+    fn case<const FMA: bool>(z: f64, s: f64) -> (Option<(f64, f64, f64)>, Q, Q) {
+        let tri = [[0.0, 0.0, z], [s, 0.0, z], [0.0, s, z]];
+        let (o, d) = ([0.0; 3], [0.0, 0.0, 1.0]);
+        let f = Filtered::<FMA>::new(o, d, &tri).expect("operands within [2^-300, 2^300]");
+        let [_, dq, _, w, e1, e2] = frame(o, d, &tri);
+        let (num, den) = (det(&w, &e1, &e2), det(&dq, &e1, &e2));
+        let (got, ratio) = (f.quotient(f.num, f.num_err), &num / &den);
+        if let Some((qv, cv, err)) = got {
+            assert!(
+                (q(qv) + q(cv) - ratio).abs() <= q(err),
+                "FMA {FMA}: {qv} + {cv}"
+            );
+        }
+        // The zero numerator N_u: taken over a denominator that is (2^-340 here), its quotient
+        // within its bound of 0.
+        assert!(det(&dq, &e2, &w).is_zero());
+        if s == 2f64.powi(-170) {
+            let (qu, cu, err) = f.quotient(f.num_u, f.num_u_err).expect("a zero numerator");
+            assert!(
+                (q(qu) + q(cu)).abs() <= q(err),
+                "FMA {FMA}: N_u = 0 as {qu} + {cu}"
+            );
+        }
+        (got, num, den)
+    }
+    let p = |k: i32| q(2f64.powi(k));
+    for fma in [true, false] {
+        let run = |z: f64, s: f64| {
+            if fma {
+                case::<true>(z, s)
+            } else {
+                case::<false>(z, s)
+            }
+        };
+        let (got, num, den) = run(2f64.powi(-171), 2f64.powi(-170));
+        assert!(num == p(-511) && den == p(-340));
+        assert!(got.is_some(), "FMA {fma}: N at the floor, 2^-511, is taken");
+        let (got, num, den) = run(2f64.powi(-172), 2f64.powi(-170));
+        assert!(num == p(-512) && den == p(-340));
+        assert!(got.is_none(), "FMA {fma}: N below the floor is left");
+        let (got, num, den) = run(2f64.powi(200), 2f64.powi(-256));
+        assert!(num == p(-312) && den == p(-512));
+        assert!(got.is_none(), "FMA {fma}: D below the floor is left");
+    }
+}
