@@ -83,13 +83,7 @@ def timed(caster, origins, directions, threads, repeat):
     raw : object
         What the caster's :meth:`cast` returned; :meth:`hits` turns it into :class:`Hits`.
     """
-    caster.cast(origins, directions, threads)  # warm-up, untimed
-    best, raw = np.inf, None
-    for _ in range(max(int(repeat), 1)):
-        t0 = time.perf_counter()
-        raw = caster.cast(origins, directions, threads)
-        best = min(best, time.perf_counter() - t0)
-    return best, raw
+    return timed_in_turn([(caster, origins, directions, threads)], repeat, settle=0.0)[0]
 
 
 def timed_in_turn(jobs, repeat, settle=0.2, digest=None):

@@ -863,31 +863,28 @@ fn the_filters_bounds_hold() {
 /// so N = z s², D = s², and N_u = 0.
 #[test]
 fn quotients_below_their_floor_are_left_to_the_exact_path() {
-    /// N's quotient, and the exact N and D.
-    fn case<const FMA: bool>(z: f64, s: f64) -> (Option<(f64, f64, f64)>, Q, Q) {
+    /// The quotients of N and of the zero N_u, each checked against the exact ratio where
+    /// it is taken, and the exact N and D.
+    type Quotient = Option<(f64, f64, f64)>;
+    fn case<const FMA: bool>(z: f64, s: f64) -> (Quotient, Quotient, Q, Q) {
         let tri = [[0.0, 0.0, z], [s, 0.0, z], [0.0, s, z]];
         let (o, d) = ([0.0; 3], [0.0, 0.0, 1.0]);
         let f = Filtered::<FMA>::new(o, d, &tri).expect("operands within [2^-300, 2^300]");
         let [_, dq, _, w, e1, e2] = frame(o, d, &tri);
-        let (num, den) = (det(&w, &e1, &e2), det(&dq, &e1, &e2));
-        let (got, ratio) = (f.quotient(f.num, f.num_err), &num / &den);
-        if let Some((qv, cv, err)) = got {
-            assert!(
-                (q(qv) + q(cv) - ratio).abs() <= q(err),
-                "FMA {FMA}: {qv} + {cv}"
-            );
+        let (num, num_u, den) = (det(&w, &e1, &e2), det(&dq, &e2, &w), det(&dq, &e1, &e2));
+        assert!(num_u.is_zero());
+        let got = f.quotient(f.num, f.num_err);
+        let got_u = f.quotient(f.num_u, f.num_u_err);
+        for (g, want) in [(got, &num / &den), (got_u, num_u / &den)] {
+            if let Some((qv, cv, err)) = g {
+                let off = (q(qv) + q(cv) - want).abs();
+                assert!(
+                    off <= q(err),
+                    "FMA {FMA}: {qv} + {cv} is {off} off, bound {err}"
+                );
+            }
         }
-        // The zero numerator N_u: taken over a denominator that is (2^-340 here), its quotient
-        // within its bound of 0.
-        assert!(det(&dq, &e2, &w).is_zero());
-        if s == 2f64.powi(-170) {
-            let (qu, cu, err) = f.quotient(f.num_u, f.num_u_err).expect("a zero numerator");
-            assert!(
-                (q(qu) + q(cu)).abs() <= q(err),
-                "FMA {FMA}: N_u = 0 as {qu} + {cu}"
-            );
-        }
-        (got, num, den)
+        (got, got_u, num, den)
     }
     let p = |k: i32| q(2f64.powi(k));
     for fma in [true, false] {
@@ -898,13 +895,15 @@ fn quotients_below_their_floor_are_left_to_the_exact_path() {
                 case::<false>(z, s)
             }
         };
-        let (got, num, den) = run(2f64.powi(-171), 2f64.powi(-170));
+        let (got, got_u, num, den) = run(2f64.powi(-171), 2f64.powi(-170));
         assert!(num == p(-511) && den == p(-340));
         assert!(got.is_some(), "FMA {fma}: N at the floor, 2^-511, is taken");
-        let (got, num, den) = run(2f64.powi(-172), 2f64.powi(-170));
+        assert!(got_u.is_some(), "FMA {fma}: a zero N_u is taken");
+        let (got, got_u, num, den) = run(2f64.powi(-172), 2f64.powi(-170));
         assert!(num == p(-512) && den == p(-340));
         assert!(got.is_none(), "FMA {fma}: N below the floor is left");
-        let (got, num, den) = run(2f64.powi(200), 2f64.powi(-256));
+        assert!(got_u.is_some(), "FMA {fma}: a zero N_u is taken");
+        let (got, _, num, den) = run(2f64.powi(200), 2f64.powi(-256));
         assert!(num == p(-312) && den == p(-512));
         assert!(got.is_none(), "FMA {fma}: D below the floor is left");
     }
